@@ -1,0 +1,22 @@
+"""drivestyle agents: the stochastic MPC expert that produces demonstrations."""
+
+from agents.chance import chance_margin, risk_quantile
+from agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance, tv_mean_prediction
+from agents.rollout import demo_summary, generate_demonstration, rollout_expert
+from agents.smpc import InfeasibleStartError, SMPCConfig, SMPCExpert, SolveReport
+
+__all__ = [
+    "PAPER_TV_UNCERTAINTY",
+    "InfeasibleStartError",
+    "SMPCConfig",
+    "SMPCExpert",
+    "SolveReport",
+    "TVUncertainty",
+    "chance_margin",
+    "demo_summary",
+    "generate_demonstration",
+    "risk_quantile",
+    "rollout_expert",
+    "tv_covariance",
+    "tv_mean_prediction",
+]

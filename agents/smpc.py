@@ -1,0 +1,427 @@
+"""Stochastic MPC expert (paper §II-A, eq. 1–4; SPEC §3).
+
+At each step the EV solves
+
+    min_u  Σ_{k<N} ‖ξ_k − ξ_k^ref‖²_Q + ‖u_k‖²_R + ‖ξ_N − ξ_N^ref‖²_{Q_N}
+    s.t.   ξ_{k+1} = F(ξ_k, u_k)                      (the env's RK4 map, envs.dynamics)
+           ξ_k ∈ Ξ, u_k ∈ U                           (heading, speed, road, input bounds)
+           g_k(ξ_k) ≥ 0, k = 1 … N                    (tangent chance constraint, agents.chance)
+
+with ξ^ref_k = [x_0 + v_ref t_k, y_ref, 0, v_ref] (the x weight is 1e-6, so x_ref only
+keeps that term bounded). The NLP is built once per geometry with CasADi (exact first and
+second derivatives), its variables ordered by stage ([ξ_0, u_0, ξ_1, …, ξ_N]) so that
+fatrop can exploit the optimal-control structure, and warm-started from the previous
+solution shifted by one step (primal and dual).
+
+On solver failure the expert falls back (documented in :meth:`SMPCExpert.act`) and
+reports it in :attr:`SMPCExpert.last_report`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+from numpy.typing import ArrayLike
+
+from agents.chance import chance_margin, risk_quantile
+from agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
+from envs.dynamics import rk4_step
+from envs.safety import elliptical_index
+from envs.scenario import PAPER, ScenarioConfig
+
+__all__ = ["InfeasibleStartError", "SMPCConfig", "SMPCExpert", "SolveReport"]
+
+NX, NU = 4, 2
+SOLVERS = ("fatrop", "ipopt")
+
+
+class InfeasibleStartError(ValueError):
+    """The EV starts where no admissible plan exists (e.g. inside the safety ellipse)."""
+
+
+def _diag4(name: str, value: tuple[float, ...], n: int) -> None:
+    if len(value) != n or not all(math.isfinite(v) and v >= 0 for v in value):
+        raise ValueError(f"{name} must be {n} finite non-negative numbers, got {value!r}")
+
+
+@dataclass(frozen=True)
+class SMPCConfig:
+    """Parameters of the SMPC expert (defaults: the paper's, SPEC §1)."""
+
+    risk: float = 0.7
+    """p: required probability of staying outside the TV's safety ellipse, in (0, 1)."""
+    horizon: int = 10
+    """N: prediction horizon [steps]."""
+    Q: tuple[float, float, float, float] = (1e-6, 0.2, 50.0, 0.2)
+    """Stage state weights on [x, y, φ, v] errors."""
+    Q_N: tuple[float, float, float, float] = (1e-6, 0.2, 50.0, 0.2)
+    """Terminal state weights."""
+    R: tuple[float, float] = (1.0, 10.0)
+    """Input weights on [a, δ]."""
+    uncertainty: TVUncertainty = field(default_factory=lambda: PAPER_TV_UNCERTAINTY)
+    """TV prediction error model (agents.prediction)."""
+    solver: str = "fatrop"
+    """'fatrop' (structure-exploiting interior point) or 'ipopt'."""
+    max_iter: int = 200
+    """Solver iteration cap."""
+    mu_init: float = 1e-3
+    """Initial barrier parameter (small: the warm start is close to the solution)."""
+    jit: bool = False
+    """Compile the NLP functions with the system C compiler (gcc): ≈2× faster solves after
+    a few seconds of compilation per geometry. Needs a working ``gcc``."""
+    tol: float = 1e-8
+    """Solver convergence tolerance."""
+
+    def __post_init__(self) -> None:
+        risk_quantile(self.risk)  # validates p ∈ (0, 1)
+        if not (isinstance(self.horizon, int) and self.horizon >= 1):
+            raise ValueError(f"horizon must be a positive integer, got {self.horizon!r}")
+        _diag4("Q", self.Q, 4)
+        _diag4("Q_N", self.Q_N, 4)
+        _diag4("R", self.R, 2)
+        if self.solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, got {self.solver!r}")
+        if self.max_iter < 1 or not (self.tol > 0) or not (self.mu_init > 0):
+            raise ValueError("max_iter must be >= 1, tol > 0 and mu_init > 0")
+
+    @property
+    def kappa(self) -> float:
+        """Φ⁻¹(p), the back-off quantile."""
+        return risk_quantile(self.risk)
+
+
+@dataclass(frozen=True)
+class SolveReport:
+    """What happened in one call of :meth:`SMPCExpert.act`."""
+
+    success: bool
+    """The solver reported success."""
+    status: str
+    """Solver return status."""
+    iterations: int
+    """Solver iterations."""
+    solve_ms: float
+    """Wall time of the solver call [ms]."""
+    fallback: str | None
+    """None, 'shifted_plan' or 'brake' (see :meth:`SMPCExpert.act`)."""
+    action: np.ndarray
+    """Applied [a, δ]."""
+    plan: np.ndarray | None
+    """Predicted states ξ_0 … ξ_N, shape (N+1, 4), of the accepted plan."""
+
+
+def _geometry_key(sc: ScenarioConfig) -> tuple:
+    return (sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)
+
+
+def straighten_steer(xi: np.ndarray, sc: ScenarioConfig) -> float:
+    """Steering that brings the heading back to 0 within one step (clipped to the bound).
+
+    Inverts φ̇ = (v/l_r) sin β, β = atan(l_r/(l_f+l_r) tan δ) for φ̇ = −φ/T_s.
+
+    Args:
+        xi: EV state [x, y, φ, v].
+        sc: scenario (geometry, T_s, steering bound).
+
+    Returns:
+        δ [rad].
+    """
+    phi, v = float(xi[2]), max(float(xi[3]), 1e-3)
+    sin_beta = np.clip(-phi * sc.l_r / (v * sc.dt), -0.99, 0.99)
+    delta = np.arctan(np.tan(np.arcsin(sin_beta)) * (sc.l_f + sc.l_r) / sc.l_r)
+    return float(np.clip(delta, -sc.delta_max, sc.delta_max))
+
+
+class SMPCExpert:
+    """SMPC expert acting on ``drivestyle`` env observations.
+
+    Example:
+        >>> expert = SMPCExpert(SMPCConfig(risk=0.7))
+        >>> obs, info = env.reset()
+        >>> action = expert.act(obs)
+
+    The NLP is built once per scenario geometry (dt, l_f, l_r, ellipse); speeds, lanes
+    and gaps are parameters, so random scenarios reuse it. Call :meth:`reset` at the start
+    of each episode (or pass a different scenario) to drop the warm start.
+    """
+
+    def __init__(self, config: SMPCConfig | None = None, scenario: ScenarioConfig = PAPER):
+        self.config = config or SMPCConfig()
+        self.scenario = scenario
+        self._solver: ca.Function | None = None
+        self._key: tuple | None = None
+        self.last_report: SolveReport | None = None
+        self.reset(scenario)
+
+    # ------------------------------------------------------------------ building
+    def _build(self) -> None:
+        cfg, sc = self.config, self.scenario
+        N, T_s = cfg.horizon, sc.dt
+        x_sym = ca.SX.sym("xi", NX)
+        u_sym = ca.SX.sym("u", NU)
+        F = ca.Function("F", [x_sym, u_sym], [rk4_step(x_sym, u_sym, T_s, sc.l_f, sc.l_r)])
+
+        # parameters: ξ0 (4), TV state (4), y_ref, v_ref
+        P = ca.SX.sym("P", NX + 4 + 2)
+        xi0, tv, y_ref, v_ref = P[0:4], P[4:8], P[8], P[9]
+        sigma = tv_covariance(cfg.uncertainty, T_s, N)
+        Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
+
+        xs = [ca.SX.sym(f"x{k}", NX) for k in range(N + 1)]
+        us = [ca.SX.sym(f"u{k}", NU) for k in range(N)]
+
+        def chance(k: int) -> ca.SX:
+            t_k = k * T_s
+            q_x = tv[0] + tv[3] * ca.cos(tv[2]) * t_k
+            q_y = tv[1] + tv[3] * ca.sin(tv[2]) * t_k
+            return chance_margin(
+                xs[k][0] - q_x,
+                xs[k][1] - q_y,
+                sigma[k, 0, 0],
+                sigma[k, 0, 1],
+                sigma[k, 1, 1],
+                sc.l_a,
+                sc.l_b,
+                cfg.kappa,
+            )
+
+        # fatrop's stage layout: per stage k, first the gap-closing ξ_{k+1} − F(ξ_k, u_k),
+        # then the path constraints of stage k (k = 0: ξ_0 = ξ0; k ≥ 1: chance constraint)
+        w, g, eq = [], [], []
+        idx_dyn, idx_chance = [], []
+        J = 0
+        for k in range(N + 1):
+            ref = ca.vertcat(xi0[0] + v_ref * k * T_s, y_ref, 0, v_ref)
+            e = xs[k] - ref
+            w.append(xs[k])
+            if k < N:
+                w.append(us[k])
+                J += ca.mtimes([e.T, Q, e]) + ca.mtimes([us[k].T, R, us[k]])
+                idx_dyn.append(np.arange(len(eq), len(eq) + NX))
+                g.append(xs[k + 1] - F(xs[k], us[k]))
+                eq += [True] * NX
+            else:
+                J += ca.mtimes([e.T, QN, e])
+            if k == 0:
+                idx_init = np.arange(len(eq), len(eq) + NX)
+                g.append(xs[0] - xi0)
+                eq += [True] * NX
+            else:
+                idx_chance.append(len(eq))
+                g.append(chance(k))
+                eq.append(False)
+        self._idx_dyn = np.array(idx_dyn)
+        self._idx_chance = np.array(idx_chance)
+        self._idx_init = idx_init
+        nlp = {"x": ca.vertcat(*w), "f": J, "g": ca.vertcat(*g), "p": P}
+        common: dict = {"expand": True, "print_time": False}
+        if cfg.jit:
+            # compile the NLP's derivative functions with the system C compiler
+            common |= {
+                "jit": True,
+                "compiler": "shell",
+                "jit_options": {"flags": ["-O2"], "verbose": False},
+            }
+        if cfg.solver == "fatrop":
+            opts = common | {
+                "structure_detection": "auto",
+                "equality": eq,
+                "fatrop": {
+                    "print_level": 0,
+                    "max_iter": cfg.max_iter,
+                    "tol": cfg.tol,
+                    "mu_init": cfg.mu_init,
+                },
+            }
+        else:
+            opts = common | {
+                "ipopt": {
+                    "print_level": 0,
+                    "sb": "yes",
+                    "max_iter": cfg.max_iter,
+                    "tol": cfg.tol,
+                    "mu_init": cfg.mu_init,
+                    "warm_start_init_point": "yes",
+                    "warm_start_bound_push": 1e-6,
+                    "warm_start_mult_bound_push": 1e-6,
+                },
+            }
+        self._solver = ca.nlpsol("smpc", cfg.solver, nlp, opts)
+        self._F = F
+        self._eq = np.array(eq)
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        sc, N = self.scenario, self.config.horizon
+        inf = np.inf
+        x_lb = [-inf, sc.y_bounds[0], -sc.phi_max, 0.0]
+        x_ub = [inf, sc.y_bounds[1], sc.phi_max, sc.v_max]
+        u_lb = [sc.a_min, -sc.delta_max]
+        u_ub = [sc.a_max, sc.delta_max]
+        lbw, ubw = [], []
+        for k in range(N + 1):
+            lbw += [-inf] * NX if k == 0 else x_lb
+            ubw += [inf] * NX if k == 0 else x_ub
+            if k < N:
+                lbw += u_lb
+                ubw += u_ub
+        lbg = np.where(self._eq, 0.0, 0.0)
+        ubg = np.where(self._eq, 0.0, inf)
+        return np.array(lbw), np.array(ubw), lbg, ubg
+
+    # ------------------------------------------------------------------ episode
+    def reset(self, scenario: ScenarioConfig | None = None) -> None:
+        """Start a new episode (drops the warm start); rebuilds the NLP if the geometry changed.
+
+        Args:
+            scenario: the episode's scenario; ``None`` keeps the current one.
+        """
+        if scenario is not None:
+            self.scenario = scenario
+        if self._key != _geometry_key(self.scenario):
+            self._build()
+            self._key = _geometry_key(self.scenario)
+        self._lbw, self._ubw, lbg, ubg = self._bounds()
+        self._const_args = {
+            "lbx": ca.DM(self._lbw),
+            "ubx": ca.DM(self._ubw),
+            "lbg": ca.DM(lbg),
+            "ubg": ca.DM(ubg),
+        }
+        self._w0: np.ndarray | None = None
+        self._lam_g: np.ndarray | None = None
+        self._lam_x: np.ndarray | None = None
+        self._plan_u: np.ndarray | None = None
+        self._first = True
+        self.last_report = None
+
+    def _initial_guess(self, xi0: np.ndarray) -> np.ndarray:
+        """Shifted previous solution, or a constant-input rollout from ξ0."""
+        N = self.config.horizon
+        if self._w0 is not None:
+            xs, us = self._unpack(self._w0)
+            xs_new = np.vstack([xs[1:], np.asarray(self._F(xs[-1], us[-1])).ravel()])
+            xs_new[0] = xi0
+            us_new = np.vstack([us[1:], us[-1:]])
+            return self._pack(xs_new, us_new)
+        xs = np.empty((N + 1, NX))
+        us = np.zeros((N, NU))
+        xs[0] = xi0
+        for k in range(N):
+            xs[k + 1] = rk4_step(
+                xs[k], us[k], self.scenario.dt, self.scenario.l_f, self.scenario.l_r
+            )
+        return self._pack(xs, us)
+
+    def _unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        N = self.config.horizon
+        stage = w[: N * (NX + NU)].reshape(N, NX + NU)
+        xs = np.vstack([stage[:, :NX], w[N * (NX + NU) :][None, :]])
+        return xs, stage[:, NX:]
+
+    def _pack(self, xs: np.ndarray, us: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.hstack([xs[:-1], us]).ravel(), xs[-1]])
+
+    def _shifted_duals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Multipliers of the previous solution shifted by one stage (last stage repeated)."""
+        N = self.config.horizon
+        lg, lx = self._lam_g, self._lam_x
+        new_g = lg.copy()
+        nxt = np.minimum(np.arange(N) + 1, N - 1)
+        new_g[self._idx_dyn] = lg[self._idx_dyn[nxt]]
+        new_g[self._idx_chance] = lg[self._idx_chance[nxt]]
+        stage = lx[: N * (NX + NU)].reshape(N, NX + NU)
+        stage = np.vstack([stage[1:], stage[-1:]])
+        return new_g, np.concatenate([stage.ravel(), lx[N * (NX + NU) :]])
+
+    def act(self, obs: ArrayLike) -> np.ndarray:
+        """Solve the SMPC problem for the current observation and return u_0.
+
+        Args:
+            obs: env observation [x, y, φ, v]_EV ++ [x, y, φ, v]_TV, shape (8,).
+
+        Returns:
+            The action [a, δ], shape (2,) [m/s², rad].
+
+        Raises:
+            ValueError: obs has the wrong shape or non-finite entries.
+            InfeasibleStartError: the episode's first state lies inside the safety ellipse.
+
+        Fallback: if the solver does not report success, the expert applies the next
+        input of the last accepted plan (``'shifted_plan'``, still feasible for a TV that
+        follows its prediction) while one remains, else brakes at a_min/2 and steers the
+        heading back to 0 (``'brake'``). :attr:`last_report` records which.
+        """
+        obs = np.asarray(obs, dtype=float)
+        if obs.shape != (8,):
+            raise ValueError(f"observation must have shape (8,), got {obs.shape}")
+        if not np.all(np.isfinite(obs)):
+            raise ValueError(f"observation contains NaN or inf: {obs}")
+        sc, _cfg = self.scenario, self.config
+        xi0, tv = obs[:4], obs[4:]
+        if self._first:
+            s_e = float(elliptical_index(xi0[0] - tv[0], xi0[1] - tv[1], sc.l_a, sc.l_b))
+            if s_e <= 1.0:
+                raise InfeasibleStartError(
+                    f"infeasible start: the EV is inside the TV's safety ellipse (s_e={s_e:.3f}"
+                    " <= 1); no plan can satisfy the chance constraint"
+                )
+            self._first = False
+        p = np.concatenate([xi0, tv, [sc.y_ref, sc.v_ref]])
+        args = self._const_args | {"x0": ca.DM(self._initial_guess(xi0)), "p": ca.DM(p)}
+        if self._lam_g is not None:
+            lam_g, lam_x = self._shifted_duals()
+            args |= {"lam_g0": ca.DM(lam_g), "lam_x0": ca.DM(lam_x)}
+        t0 = time.perf_counter()
+        try:
+            sol = self._solver.call(args)
+            stats = self._solver.stats()
+            ok = bool(stats.get("success", False))
+            status = str(stats.get("return_status", "unknown"))
+            iters = int(stats.get("iter_count", -1))
+        except RuntimeError as exc:  # CasADi raises on NaN evaluations, solver errors, ...
+            sol, ok, status, iters = None, False, f"error: {exc}".splitlines()[0], -1
+        solve_ms = (time.perf_counter() - t0) * 1e3
+
+        if ok:
+            w = sol["x"].full().ravel()
+            g = sol["g"].full().ravel()
+            # a reported success whose point violates constraints is not accepted
+            viol = max(
+                float(np.max(np.abs(g[self._eq]))),
+                float(np.max(np.maximum(-g[~self._eq], 0))),
+                float(np.max(np.maximum(self._lbw - w, 0))),
+                float(np.max(np.maximum(w - self._ubw, 0))),
+            )
+            if not np.isfinite(viol) or viol > 1e-6:
+                ok, status = False, f"{status} (constraint violation {viol:.2e})"
+        if ok:
+            self._w0 = w
+            self._lam_g = sol["lam_g"].full().ravel()
+            self._lam_x = sol["lam_x"].full().ravel()
+            xs, us = self._unpack(w)
+            self._plan_u = us[1:]
+            action, fallback, plan = us[0].copy(), None, xs
+        else:
+            self._w0 = self._lam_g = self._lam_x = None
+            if self._plan_u is not None and len(self._plan_u) > 0:
+                action, fallback = self._plan_u[0].copy(), "shifted_plan"
+                self._plan_u = self._plan_u[1:]
+            else:
+                action, fallback = np.array([sc.a_min / 2, straighten_steer(xi0, sc)]), "brake"
+            plan = None
+        action = np.clip(action, [sc.a_min, -sc.delta_max], [sc.a_max, sc.delta_max])
+        self.last_report = SolveReport(ok, status, iters, solve_ms, fallback, action, plan)
+        return action
+
+    def predict(self, obs: ArrayLike, state=None, episode_start=None, deterministic=True):
+        """stable-baselines3-style alias of :meth:`act` (returns ``(action, None)``)."""
+        return self.act(obs), None
+
+    def with_config(self, **changes) -> SMPCExpert:
+        """A new expert with some config fields replaced."""
+        return SMPCExpert(dataclasses.replace(self.config, **changes), self.scenario)

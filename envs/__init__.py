@@ -1,0 +1,54 @@
+"""drivestyle environments: the paper's three-lane highway with an EV and a scripted TV.
+
+Importing this package registers the Gymnasium ids (idempotently):
+
+- ``drivestyle/LaneChange-v0``: the paper's scenario; keyword arguments override its
+  parameters, e.g. ``gym.make("drivestyle/LaneChange-v0", ev_speed=27, tv_gap=-15)``.
+- ``drivestyle/LaneChangeRandom-v0``: a scenario drawn per reset from
+  :class:`envs.scenario.ScenarioRanges` with the env's seed.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from envs.demonstration import Demonstration, load_demonstration, save_demonstration
+from envs.dynamics import bicycle_ode, rk4_step
+from envs.lane_change import LaneChangeEnv, task_reward
+from envs.safety import ellipse_constraint, elliptical_index
+from envs.scenario import PAPER, SCENARIOS, ScenarioConfig, ScenarioRanges, get_scenario
+
+__all__ = [
+    "ENV_IDS",
+    "PAPER",
+    "SCENARIOS",
+    "Demonstration",
+    "LaneChangeEnv",
+    "ScenarioConfig",
+    "ScenarioRanges",
+    "bicycle_ode",
+    "ellipse_constraint",
+    "elliptical_index",
+    "get_scenario",
+    "load_demonstration",
+    "register_envs",
+    "rk4_step",
+    "save_demonstration",
+    "task_reward",
+]
+
+ENV_IDS = ("drivestyle/LaneChange-v0", "drivestyle/LaneChangeRandom-v0")
+
+
+def register_envs() -> None:
+    """Register the drivestyle ids with Gymnasium (no-op if already registered)."""
+    entry = "envs.lane_change:LaneChangeEnv"
+    if ENV_IDS[0] not in gym.registry:
+        gym.register(id=ENV_IDS[0], entry_point=entry, kwargs={"scenario": "paper"})
+    if ENV_IDS[1] not in gym.registry:
+        gym.register(
+            id=ENV_IDS[1], entry_point=entry, kwargs={"scenario": "paper", "randomize": True}
+        )
+
+
+register_envs()

@@ -1,0 +1,226 @@
+"""The three-lane highway lane-change environment (paper §IV-A).
+
+An ego vehicle (EV) driven by continuous physical inputs [a, δ] changes from ``ev_lane``
+to ``target_lane`` while a scripted target vehicle (TV) drives at constant speed.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from envs.dynamics import rk4_step
+from envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
+from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
+
+__all__ = ["COLLISION_PENALTY", "LaneChangeEnv", "task_reward"]
+
+COLLISION_PENALTY = 10.0
+"""Reward lost on a collision or on leaving the road (the episode then terminates)."""
+
+
+def task_reward(ev: np.ndarray, sc: ScenarioConfig, crashed: bool) -> float:
+    """Default task reward of one step, evaluated at the EV's new state.
+
+    r = −[((y − y_ref)/w_lane)² + ((v − v_ref)/10 m/s)²] − 10·[collision or off-road].
+
+    Args:
+        ev: EV state after the step [x, y, φ, v].
+        sc: the scenario (target lane centre, v_ref, lane width).
+        crashed: the step ended in a collision or off the road.
+
+    Returns:
+        The reward [-].
+    """
+    lane_err = (ev[1] - sc.y_ref) / sc.lane_width
+    speed_err = (ev[3] - sc.v_ref) / 10.0
+    return float(-(lane_err**2 + speed_err**2) - COLLISION_PENALTY * crashed)
+
+
+class LaneChangeEnv(gym.Env):
+    """Gymnasium environment of the paper's lane change with an EV and a scripted TV.
+
+    Observation (``Box(8,)``, float64, SI units): ``[x, y, φ, v]`` of the EV then of the TV
+    [m, m, rad, m/s], road frame (x along the road, y to the left, lane 0 at y = w_lane/2).
+    Action (``Box(2,)``, float64): ``[a, δ]`` within the scenario's bounds [m/s², rad];
+    out-of-range actions are clipped (``info["action_clipped"]``).
+
+    Dynamics: the RK4 kinematic bicycle map of :mod:`envs.dynamics` (shared with the
+    SMPC); speed is kept in [0, v_max]. The TV keeps its speed and heading.
+
+    Episode end: terminated on collision (vehicle rectangles overlap) or when the EV's
+    centre leaves the paved road; truncated after ``scenario.n_steps`` steps (30 for the
+    paper: 31 samples t = 0 … 6 s).
+
+    ``info`` carries ``t`` [s], ``s_e`` (elliptical index, eq. 9), ``d_k`` (s_e − 1,
+    nominal ellipse), ``collision``, ``off_road``, ``lane_index`` (lane of the EV centre)
+    and ``action_clipped``; at reset also ``scenario`` (the :class:`ScenarioConfig`).
+
+    Args:
+        scenario: a name from :data:`envs.scenario.SCENARIOS` or a config.
+        randomize: ``True`` or a :class:`ScenarioRanges` to draw a new scenario at each
+            reset from ``np_random`` (``drivestyle/LaneChangeRandom-v0``).
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+        show_ellipse: draw the safety ellipse (and the λ-scaled one) around the TV.
+        **overrides: scenario fields to replace, e.g. ``ev_speed=27``.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 5}
+
+    def __init__(
+        self,
+        scenario: str | ScenarioConfig = "paper",
+        randomize: bool | ScenarioRanges = False,
+        render_mode: str | None = None,
+        show_ellipse: bool = True,
+        **overrides: Any,
+    ) -> None:
+        base = get_scenario(scenario).with_overrides(**overrides)
+        if randomize is True:
+            randomize = ScenarioRanges(base=base)
+        elif randomize is not False and not isinstance(randomize, ScenarioRanges):
+            raise TypeError(f"randomize must be a bool or ScenarioRanges, got {randomize!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        self.base_scenario = base
+        self.ranges: ScenarioRanges | None = randomize or None
+        self.render_mode = render_mode
+        self.show_ellipse = show_ellipse
+        self.scenario = base
+        self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
+
+        self.action_space = spaces.Box(
+            low=np.array([base.a_min, -base.delta_max]),
+            high=np.array([base.a_max, base.delta_max]),
+            dtype=np.float64,
+        )
+        inf = np.inf
+        self.observation_space = spaces.Box(
+            low=np.array([-inf, -inf, -inf, 0.0, -inf, -inf, -inf, 0.0]),
+            high=np.array([inf, inf, inf, base.v_max, inf, inf, inf, inf]),
+            dtype=np.float64,
+        )
+        self.ev = base.ev_initial_state
+        self.tv = base.tv_initial_state
+        self.k = 0
+        self._renderer = None
+
+    # ------------------------------------------------------------------ helpers
+    def _obs(self) -> np.ndarray:
+        return np.concatenate([self.ev, self.tv])
+
+    def _info(self, **extra: Any) -> dict[str, Any]:
+        sc = self.scenario
+        s_e = float(
+            elliptical_index(self.ev[0] - self.tv[0], self.ev[1] - self.tv[1], sc.l_a, sc.l_b)
+        )
+        lane = int(np.clip(self.ev[1] // sc.lane_width, 0, sc.n_lanes - 1))
+        return {
+            "t": self.k * sc.dt,
+            "s_e": s_e,
+            "d_k": s_e - 1.0,
+            "collision": self._collision(),
+            "off_road": self._off_road(),
+            "lane_index": lane,
+            **extra,
+        }
+
+    def _collision(self) -> bool:
+        sc = self.scenario
+        ev = vehicle_corners(self.ev, sc.vehicle_length, sc.vehicle_width)
+        tv = vehicle_corners(self.tv, sc.vehicle_length, sc.vehicle_width)
+        return rectangles_overlap(ev, tv)
+
+    def _off_road(self) -> bool:
+        return not (0.0 <= self.ev[1] <= self.scenario.road_width)
+
+    # ------------------------------------------------------------------ gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode.
+
+        Args:
+            seed: seeds ``np_random`` (scenario draws of the random family).
+            options: ``{"scenario": ScenarioConfig | name}`` fixes this episode's scenario.
+
+        Returns:
+            Observation and info.
+        """
+        super().reset(seed=seed)
+        options = options or {}
+        unknown = set(options) - {"scenario"}
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; known: ['scenario']")
+        if "scenario" in options:
+            self.scenario = get_scenario(options["scenario"])
+        elif self.ranges is not None:
+            self.scenario = self.ranges.sample(self.np_random)
+        else:
+            self.scenario = self.base_scenario
+        self.ev = self.scenario.ev_initial_state
+        self.tv = self.scenario.tv_initial_state
+        self.k = 0
+        if self.render_mode == "human":
+            self.render()
+        return self._obs(), self._info(scenario=self.scenario, action_clipped=False)
+
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
+        """Advance one sampling period T_s.
+
+        Args:
+            action: [a, δ] [m/s², rad].
+
+        Returns:
+            observation, reward, terminated, truncated, info.
+
+        Raises:
+            ValueError: the action has the wrong shape or is not finite.
+        """
+        u = np.asarray(action, dtype=float).reshape(-1)
+        if u.shape != (2,):
+            raise ValueError(f"action must have shape (2,) = [a, delta], got {np.shape(action)}")
+        if not np.all(np.isfinite(u)):
+            raise ValueError(f"action must be finite, got {u}")
+        sc = self.scenario
+        u_clip = np.clip(u, self.action_space.low, self.action_space.high)
+        ev = rk4_step(self.ev, u_clip, sc.dt, sc.l_f, sc.l_r)
+        ev[3] = np.clip(ev[3], 0.0, sc.v_max)
+        x, y, phi, v = self.tv
+        self.tv = np.array([x + v * np.cos(phi) * sc.dt, y + v * np.sin(phi) * sc.dt, phi, v])
+        self.ev = ev
+        self.k += 1
+        info = self._info(action_clipped=bool(np.any(u_clip != u)))
+        terminated = info["collision"] or info["off_road"]
+        truncated = (not terminated) and self.k >= sc.n_steps
+        reward = task_reward(self.ev, sc, terminated)
+        if self.render_mode == "human":
+            self.render()
+        return self._obs(), reward, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """Draw the scene with highway-env's viewer (RGB array in ``rgb_array`` mode)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode=...")
+            return None
+        if self._renderer is None:
+            from envs.rendering import HighwayRenderer
+
+            self._renderer = HighwayRenderer(self.render_mode)
+        info = self._info()
+        caption = f"t = {info['t']:4.1f} s   v = {self.ev[3]:5.2f} m/s   s_e = {info['s_e']:5.2f}"
+        return self._renderer.draw(self.scenario, self.ev, self.tv, caption, self.show_ellipse)
+
+    def close(self) -> None:
+        """Release the viewer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
