@@ -252,6 +252,16 @@ class SMPCExpert:
                 },
             }
         self._solver = ca.nlpsol("smpc", cfg.solver, nlp, opts)
+        # zero-copy calls: the solver reads and writes these numpy arrays in place, which
+        # saves ≈0.2 ms of numpy↔DM conversion per step
+        solver = self._solver
+        self._in = {n: np.zeros(solver.nnz_in(n)) for n in solver.name_in()}
+        self._out = {n: np.zeros(solver.nnz_out(n)) for n in solver.name_out()}
+        self._buffer, self._evaluate = solver.buffer()
+        for i, n in enumerate(solver.name_in()):
+            self._buffer.set_arg(i, memoryview(self._in[n]))
+        for i, n in enumerate(solver.name_out()):
+            self._buffer.set_res(i, memoryview(self._out[n]))
         self._F = F
         self._eq = np.array(eq)
 
@@ -286,12 +296,8 @@ class SMPCExpert:
             self._build()
             self._key = _geometry_key(self.scenario)
         self._lbw, self._ubw, lbg, ubg = self._bounds()
-        self._const_args = {
-            "lbx": ca.DM(self._lbw),
-            "ubx": ca.DM(self._ubw),
-            "lbg": ca.DM(lbg),
-            "ubg": ca.DM(ubg),
-        }
+        for name, value in (("lbx", self._lbw), ("ubx", self._ubw), ("lbg", lbg), ("ubg", ubg)):
+            self._in[name][:] = value
         self._w0: np.ndarray | None = None
         self._lam_g: np.ndarray | None = None
         self._lam_x: np.ndarray | None = None
@@ -371,25 +377,26 @@ class SMPCExpert:
                     " <= 1); no plan can satisfy the chance constraint"
                 )
             self._first = False
-        p = np.concatenate([xi0, tv, [sc.y_ref, sc.v_ref]])
-        args = self._const_args | {"x0": ca.DM(self._initial_guess(xi0)), "p": ca.DM(p)}
+        self._in["p"][:] = np.concatenate([xi0, tv, [sc.y_ref, sc.v_ref]])
+        self._in["x0"][:] = self._initial_guess(xi0)
         if self._lam_g is not None:
-            lam_g, lam_x = self._shifted_duals()
-            args |= {"lam_g0": ca.DM(lam_g), "lam_x0": ca.DM(lam_x)}
+            self._in["lam_g0"][:], self._in["lam_x0"][:] = self._shifted_duals()
+        else:
+            self._in["lam_g0"][:] = self._in["lam_x0"][:] = 0.0
         t0 = time.perf_counter()
         try:
-            sol = self._solver.call(args)
-            stats = self._solver.stats()
+            self._evaluate()
+            stats = self._buffer.stats()
             ok = bool(stats.get("success", False))
             status = str(stats.get("return_status", "unknown"))
             iters = int(stats.get("iter_count", -1))
         except RuntimeError as exc:  # CasADi raises on NaN evaluations, solver errors, ...
-            sol, ok, status, iters = None, False, f"error: {exc}".splitlines()[0], -1
+            ok, status, iters = False, f"error: {exc}".splitlines()[0], -1
         solve_ms = (time.perf_counter() - t0) * 1e3
 
         if ok:
-            w = sol["x"].full().ravel()
-            g = sol["g"].full().ravel()
+            w = self._out["x"].copy()
+            g = self._out["g"]
             # a reported success whose point violates constraints is not accepted
             viol = max(
                 float(np.max(np.abs(g[self._eq]))),
@@ -401,8 +408,8 @@ class SMPCExpert:
                 ok, status = False, f"{status} (constraint violation {viol:.2e})"
         if ok:
             self._w0 = w
-            self._lam_g = sol["lam_g"].full().ravel()
-            self._lam_x = sol["lam_x"].full().ravel()
+            self._lam_g = self._out["lam_g"].copy()
+            self._lam_x = self._out["lam_x"].copy()
             xs, us = self._unpack(w)
             self._plan_u = us[1:]
             action, fallback, plan = us[0].copy(), None, xs

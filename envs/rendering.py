@@ -42,7 +42,7 @@ class HighwayRenderer:
         self,
         render_mode: str = "rgb_array",
         width: int = 900,
-        height: int = 220,
+        height: int = 180,
         scaling: float = 7.0,
     ) -> None:
         if render_mode == "rgb_array":
@@ -147,6 +147,8 @@ class HighwayRenderer:
             vehicle.heading = -float(state[2])
             vehicle.speed = float(state[3])
         viewer = self.viewer
+        # camera: follow the EV along x, keep the road centred vertically
+        viewer.observer_vehicle = SimpleNamespace(position=np.array([ev[0], sc.road_width / 2]))
         offscreen = viewer.offscreen
         viewer.offscreen = True  # draw first, blit to the window after the overlays
         viewer.display()

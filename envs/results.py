@@ -1,0 +1,52 @@
+"""Writing result files: JSON with the command that produced it."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["command_line", "write_json"]
+
+
+def command_line(argv: list[str] | None = None) -> str:
+    """The invoking command, shell-quoted (``python scripts/x.py --flag …``)."""
+    argv = sys.argv if argv is None else argv
+    return "python " + " ".join(shlex.quote(a) for a in argv)
+
+
+def _default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
+
+
+def write_json(path: str | Path, payload: dict[str, Any], argv: list[str] | None = None) -> Path:
+    """Write ``payload`` as indented JSON, adding ``command`` and ``created_utc``.
+
+    Args:
+        path: output file; parent folders are created.
+        payload: JSON-ready dict (numpy scalars and arrays are converted).
+        argv: command to record (default: ``sys.argv``).
+
+    Returns:
+        The path written.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    out = {
+        **payload,
+        "command": command_line(argv),
+        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+    path.write_text(json.dumps(out, indent=2, default=_default) + "\n")
+    return path

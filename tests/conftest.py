@@ -1,0 +1,12 @@
+import os
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless pygame for every test
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(12345)

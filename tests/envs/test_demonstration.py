@@ -1,0 +1,71 @@
+import json
+
+import numpy as np
+import pytest
+
+from envs.demonstration import (
+    Demonstration,
+    DemonstrationError,
+    load_demonstration,
+    save_demonstration,
+)
+from envs.scenario import PAPER
+
+
+def _arrays(n=5):
+    t = np.arange(n) * 0.2
+    ev = np.column_stack([80 + 25 * t, np.full(n, 2.625), np.zeros(n), np.full(n, 25.0)])
+    tv = np.column_stack([60 + 28 * t, np.full(n, 7.875), np.zeros(n), np.full(n, 28.0)])
+    return {"t": t, "ev": ev, "tv": tv, "u": np.zeros((n - 1, 2))}
+
+
+def test_round_trip(tmp_path):
+    demo = Demonstration(**_arrays(), meta={"scenario": PAPER.to_dict(), "risk": 0.7})
+    path = save_demonstration(demo, tmp_path / "sub" / "demo.npz")
+    back = load_demonstration(path)
+    for k in ("t", "ev", "tv", "u"):
+        np.testing.assert_array_equal(getattr(back, k), getattr(demo, k))
+    assert back.meta == demo.meta and back.scenario == PAPER
+
+
+@pytest.mark.parametrize(
+    ("mutate", "match"),
+    [
+        (lambda a: a.pop("tv"), r"missing array\(s\) \['tv'\]"),
+        (lambda a: a.__setitem__("ev", a["ev"][:, :3]), r"'ev' must have shape \(5, 4\)"),
+        (lambda a: a.__setitem__("u", np.zeros((5, 2))), r"'u' must have shape \(4, 2\)"),
+        (lambda a: a["ev"].__setitem__((2, 1), np.nan), "'ev' contains NaN"),
+        (lambda a: a["t"].__setitem__(3, 0.2), "strictly increasing"),
+    ],
+)
+def test_malformed_files_raise(tmp_path, mutate, match):
+    arrays = _arrays()
+    mutate(arrays)
+    path = tmp_path / "bad.npz"
+    np.savez(path, **arrays)
+    with pytest.raises(DemonstrationError, match=match):
+        load_demonstration(path)
+
+
+def test_too_few_samples_and_unreadable(tmp_path):
+    with pytest.raises(DemonstrationError, match="at least 3 samples"):
+        Demonstration(**_arrays(2))
+    bad = tmp_path / "junk.npz"
+    bad.write_text("not a zip")
+    with pytest.raises(DemonstrationError, match="not a readable"):
+        load_demonstration(bad)
+    with pytest.raises(FileNotFoundError):
+        load_demonstration(tmp_path / "none.npz")
+
+
+def test_missing_scenario_in_meta():
+    demo = Demonstration(**_arrays())
+    with pytest.raises(DemonstrationError, match="no 'scenario'"):
+        _ = demo.scenario
+    assert json.dumps(demo.meta) == "{}"
+
+
+def test_arrays_are_read_only():
+    demo = Demonstration(**_arrays())
+    with pytest.raises(ValueError):
+        demo.ev[0, 0] = 1.0

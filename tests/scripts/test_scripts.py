@@ -1,0 +1,92 @@
+import json
+import runpy
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _main(name):
+    return runpy.run_path(str(ROOT / "scripts" / f"{name}.py"), run_name="not_main")["main"]
+
+
+def test_generate_demo_writes_spec_files(tmp_path):
+    out = tmp_path / "demo"
+    summary = _main("generate_demo")(
+        ["--risk", "0.7", "--scenario", "paper", "--out", str(out), "--plot"]
+    )
+    data = np.load(out / "demo.npz")
+    assert data["t"].shape == (31,) and data["ev"].shape == (31, 4)
+    assert data["tv"].shape == (31, 4) and data["u"].shape == (30, 2)
+    js = json.loads((out / "demo.json").read_text())
+    for key in (
+        "risk",
+        "t_trg_s",
+        "min_s_e",
+        "min_d_k",
+        "collision",
+        "solve_ms_median",
+        "solve_ms_p95",
+        "n_steps",
+        "command",
+    ):
+        assert key in js
+    assert js["risk"] == 0.7 and js["n_steps"] == 30 and js["min_d_k"] >= 0
+    assert not js["collision"] and js["final_lane"] == 1
+    assert (out / "demo.png").stat().st_size > 20_000
+    assert summary["t_trg_s"] == js["t_trg_s"]
+
+
+def test_generate_demo_scenario_flags(tmp_path):
+    _main("generate_demo")(
+        ["--out", str(tmp_path), "--ev-speed", "24", "--tv-gap", "-25", "--horizon-s", "4"]
+    )
+    js = json.loads((tmp_path / "demo.json").read_text())
+    assert js["scenario"]["ev_speed"] == 24 and js["scenario"]["tv_gap"] == -25
+    assert js["n_steps"] == 20
+
+
+def test_generate_demo_bad_input_exits_cleanly(tmp_path):
+    for args in (["--risk", "1.2"], ["--horizon-s", "-1"], ["--tv-lane", "0", "--tv-gap", "-3"]):
+        proc = subprocess.run(
+            [
+                sys.executable,
+                str(ROOT / "scripts" / "generate_demo.py"),
+                "--out",
+                str(tmp_path),
+                *args,
+            ],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+        )
+        assert proc.returncode != 0
+        assert proc.stderr.strip().startswith("error:"), proc.stderr
+        assert "Traceback" not in proc.stderr
+
+
+def test_bench_smpc_json(tmp_path):
+    out = tmp_path / "bench.json"
+    res = _main("bench_smpc")(
+        ["--out", str(out), "--repeats", "1", "--random", "1", "--trials", "1", "--no-jit"]
+    )
+    js = json.loads(out.read_text())
+    for key in ("median_ms", "p95_ms", "n_steps", "solver", "ipopt_median_ms", "speedup_vs_ipopt"):
+        assert key in js
+    assert js["solver"] == "fatrop" and js["n_steps"] == 30 and js["median_ms"] > 0
+    assert res["failures"] == 0
+
+
+@pytest.mark.parametrize("name", ["generate_demo", "bench_smpc"])
+def test_help(name):
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / f"{name}.py"), "--help"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 0 and "--seed" in proc.stdout
