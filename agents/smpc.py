@@ -5,13 +5,23 @@ At each step the EV solves
     min_u  Σ_{k<N} ‖ξ_k − ξ_k^ref‖²_Q + ‖u_k‖²_R + ‖ξ_N − ξ_N^ref‖²_{Q_N}
     s.t.   ξ_{k+1} = F(ξ_k, u_k)                      (the env's RK4 map, envs.dynamics)
            ξ_k ∈ Ξ, u_k ∈ U                           (heading, speed, road, input bounds)
-           g_k(ξ_k) ≥ 0, k = 1 … N                    (tangent chance constraint, agents.chance)
+           g_k(ξ_k) + s_k ≥ 0, s_k ≥ 0, k = 1 … N     (tangent chance constraint, agents.chance)
+           ‖z̄_k‖ − 1 ≥ 0, k = 1 … N                  (nominal ellipse, hard)
 
 with ξ^ref_k = [x_0 + v_ref t_k, y_ref, 0, v_ref] (the x weight is 1e-6, so x_ref only
-keeps that term bounded). The NLP is built once per geometry with CasADi (exact first and
-second derivatives), its variables ordered by stage ([ξ_0, u_0, ξ_1, …, ξ_N]) so that
-fatrop can exploit the optimal-control structure, and warm-started from the previous
-solution shifted by one step (primal and dual).
+keeps that term bounded) and the slack s_k penalised by ρ₁ s_k + ρ₂ s_k² in the cost.
+
+Why the slack: the chance constraint can be infeasible from the current state — a
+growing TV covariance at large p may demand more distance than the road offers — and a
+hard constraint then makes every solve fail. The exact L1 penalty (ρ₁ larger than any
+multiplier the hard problem needs) returns the hard solution whenever one exists and
+otherwise the plan that violates the probabilistic margin least. The nominal ellipse
+(p = 0.5, d_k ≥ 0) stays hard, so the closed loop keeps d_k ≥ 0 whatever p.
+
+The NLP is built once per geometry with CasADi (exact first and second derivatives), its
+variables ordered by stage ([ξ_0, u_0, ξ_1, u_1, s_1, …, ξ_N, s_N]) so that fatrop can
+exploit the optimal-control structure, and warm-started from the previous solution
+shifted by one step (primal and dual).
 
 On solver failure the expert falls back (documented in :meth:`SMPCExpert.act`) and
 reports it in :attr:`SMPCExpert.last_report`.
@@ -19,7 +29,6 @@ reports it in :attr:`SMPCExpert.last_report`.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -76,6 +85,10 @@ class SMPCConfig:
     a few seconds of compilation per geometry. Needs a working ``gcc``."""
     tol: float = 1e-8
     """Solver convergence tolerance."""
+    slack_l1: float = 1e4
+    """ρ₁: linear (exact) penalty on the chance-constraint slack."""
+    slack_l2: float = 1e2
+    """ρ₂: quadratic penalty on the slack (keeps the problem strictly convex in s)."""
 
     def __post_init__(self) -> None:
         risk_quantile(self.risk)  # validates p ∈ (0, 1)
@@ -88,6 +101,8 @@ class SMPCConfig:
             raise ValueError(f"solver must be one of {SOLVERS}, got {self.solver!r}")
         if self.max_iter < 1 or not (self.tol > 0) or not (self.mu_init > 0):
             raise ValueError("max_iter must be >= 1, tol > 0 and mu_init > 0")
+        if not (self.slack_l1 > 0 and self.slack_l2 >= 0):
+            raise ValueError("slack_l1 must be > 0 and slack_l2 >= 0")
 
     @property
     def kappa(self) -> float:
@@ -113,6 +128,9 @@ class SolveReport:
     """Applied [a, δ]."""
     plan: np.ndarray | None
     """Predicted states ξ_0 … ξ_N, shape (N+1, 4), of the accepted plan."""
+    slack: float
+    """Chance-constraint relaxation s_1 at the next state (0: the chance constraint holds
+    there; > 0: only the nominal ellipse does). NaN on fallback."""
 
 
 def _geometry_key(sc: ScenarioConfig) -> tuple:
@@ -162,8 +180,7 @@ class SMPCExpert:
     def _build(self) -> None:
         cfg, sc = self.config, self.scenario
         N, T_s = cfg.horizon, sc.dt
-        x_sym = ca.SX.sym("xi", NX)
-        u_sym = ca.SX.sym("u", NU)
+        x_sym, u_sym = ca.SX.sym("xi", NX), ca.SX.sym("u", NU)
         F = ca.Function("F", [x_sym, u_sym], [rk4_step(x_sym, u_sym, T_s, sc.l_f, sc.l_r)])
 
         # parameters: ξ0 (4), TV state (4), y_ref, v_ref
@@ -171,54 +188,60 @@ class SMPCExpert:
         xi0, tv, y_ref, v_ref = P[0:4], P[4:8], P[8], P[9]
         sigma = tv_covariance(cfg.uncertainty, T_s, N)
         Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
-
         xs = [ca.SX.sym(f"x{k}", NX) for k in range(N + 1)]
         us = [ca.SX.sym(f"u{k}", NU) for k in range(N)]
+        ss = [ca.SX.sym(f"s{k}") for k in range(N + 1)]  # ss[0] unused
 
-        def chance(k: int) -> ca.SX:
+        def margins(k: int) -> tuple[ca.SX, ca.SX]:
             t_k = k * T_s
-            q_x = tv[0] + tv[3] * ca.cos(tv[2]) * t_k
-            q_y = tv[1] + tv[3] * ca.sin(tv[2]) * t_k
-            return chance_margin(
-                xs[k][0] - q_x,
-                xs[k][1] - q_y,
-                sigma[k, 0, 0],
-                sigma[k, 0, 1],
-                sigma[k, 1, 1],
-                sc.l_a,
-                sc.l_b,
-                cfg.kappa,
+            dx = xs[k][0] - (tv[0] + tv[3] * ca.cos(tv[2]) * t_k)
+            dy = xs[k][1] - (tv[1] + tv[3] * ca.sin(tv[2]) * t_k)
+            g = chance_margin(
+                dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], sc.l_a, sc.l_b, cfg.kappa
             )
+            nominal = chance_margin(dx, dy, 0.0, 0.0, 0.0, sc.l_a, sc.l_b, 0.0)
+            return g, nominal
 
-        # fatrop's stage layout: per stage k, first the gap-closing ξ_{k+1} − F(ξ_k, u_k),
-        # then the path constraints of stage k (k = 0: ξ_0 = ξ0; k ≥ 1: chance constraint)
-        w, g, eq = [], [], []
-        idx_dyn, idx_chance = [], []
-        J = 0
+        # fatrop's stage layout: per stage k the variables [ξ_k, u_k, s_k]; in g first the
+        # gap-closing ξ_{k+1} − F(ξ_k, u_k), then the path constraints of stage k
+        # (k = 0: ξ_0 = ξ0; k ≥ 1: softened chance constraint, nominal ellipse)
+        w, g, eq, J = [], [], [], 0
+        ix, iu, i_s, ig_dyn, ig_path = [], [], [], [], []
+
+        def add_var(v: ca.SX) -> np.ndarray:
+            start = sum(int(x.numel()) for x in w)
+            w.append(v)
+            return np.arange(start, start + int(v.numel()))
+
+        def add_con(c: ca.SX, equality: bool) -> np.ndarray:
+            start = len(eq)
+            g.append(c)
+            eq.extend([equality] * int(c.numel()))
+            return np.arange(start, len(eq))
+
         for k in range(N + 1):
-            ref = ca.vertcat(xi0[0] + v_ref * k * T_s, y_ref, 0, v_ref)
-            e = xs[k] - ref
-            w.append(xs[k])
+            e = xs[k] - ca.vertcat(xi0[0] + v_ref * k * T_s, y_ref, 0, v_ref)
+            ix.append(add_var(xs[k]))
             if k < N:
-                w.append(us[k])
+                iu.append(add_var(us[k]))
+            if k > 0:
+                i_s.append(add_var(ss[k])[0])
+                J += cfg.slack_l1 * ss[k] + cfg.slack_l2 * ss[k] ** 2
+            if k < N:
                 J += ca.mtimes([e.T, Q, e]) + ca.mtimes([us[k].T, R, us[k]])
-                idx_dyn.append(np.arange(len(eq), len(eq) + NX))
-                g.append(xs[k + 1] - F(xs[k], us[k]))
-                eq += [True] * NX
+                ig_dyn.append(add_con(xs[k + 1] - F(xs[k], us[k]), True))
             else:
                 J += ca.mtimes([e.T, QN, e])
             if k == 0:
-                idx_init = np.arange(len(eq), len(eq) + NX)
-                g.append(xs[0] - xi0)
-                eq += [True] * NX
+                ig_path.append(add_con(xs[0] - xi0, True))
             else:
-                idx_chance.append(len(eq))
-                g.append(chance(k))
-                eq.append(False)
-        self._idx_dyn = np.array(idx_dyn)
-        self._idx_chance = np.array(idx_chance)
-        self._idx_init = idx_init
+                chance, nominal = margins(k)
+                ig_path.append(add_con(ca.vertcat(chance + ss[k], nominal), False))
         nlp = {"x": ca.vertcat(*w), "f": J, "g": ca.vertcat(*g), "p": P}
+        self._ix, self._iu, self._is = np.array(ix), np.array(iu), np.array(i_s)
+        self._ig_dyn, self._ig_path = np.array(ig_dyn), ig_path
+        self._eq = np.array(eq)
+
         common: dict = {"expand": True, "print_time": False}
         if cfg.jit:
             # compile the NLP's derivative functions with the system C compiler
@@ -251,10 +274,10 @@ class SMPCExpert:
                     "warm_start_mult_bound_push": 1e-6,
                 },
             }
-        self._solver = ca.nlpsol("smpc", cfg.solver, nlp, opts)
+        self._solver = solver = ca.nlpsol("smpc", cfg.solver, nlp, opts)
+        self._F = F
         # zero-copy calls: the solver reads and writes these numpy arrays in place, which
         # saves ≈0.2 ms of numpy↔DM conversion per step
-        solver = self._solver
         self._in = {n: np.zeros(solver.nnz_in(n)) for n in solver.name_in()}
         self._out = {n: np.zeros(solver.nnz_out(n)) for n in solver.name_out()}
         self._buffer, self._evaluate = solver.buffer()
@@ -262,26 +285,19 @@ class SMPCExpert:
             self._buffer.set_arg(i, memoryview(self._in[n]))
         for i, n in enumerate(solver.name_out()):
             self._buffer.set_res(i, memoryview(self._out[n]))
-        self._F = F
-        self._eq = np.array(eq)
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        sc, N = self.scenario, self.config.horizon
-        inf = np.inf
-        x_lb = [-inf, sc.y_bounds[0], -sc.phi_max, 0.0]
-        x_ub = [inf, sc.y_bounds[1], sc.phi_max, sc.v_max]
-        u_lb = [sc.a_min, -sc.delta_max]
-        u_ub = [sc.a_max, sc.delta_max]
-        lbw, ubw = [], []
-        for k in range(N + 1):
-            lbw += [-inf] * NX if k == 0 else x_lb
-            ubw += [inf] * NX if k == 0 else x_ub
-            if k < N:
-                lbw += u_lb
-                ubw += u_ub
-        lbg = np.where(self._eq, 0.0, 0.0)
-        ubg = np.where(self._eq, 0.0, inf)
-        return np.array(lbw), np.array(ubw), lbg, ubg
+        sc = self.scenario
+        nw = self._in["x0"].size
+        lbw, ubw = np.full(nw, -np.inf), np.full(nw, np.inf)
+        lbw[self._ix[1:]] = [-np.inf, sc.y_bounds[0], -sc.phi_max, 0.0]
+        ubw[self._ix[1:]] = [np.inf, sc.y_bounds[1], sc.phi_max, sc.v_max]
+        lbw[self._iu] = [sc.a_min, -sc.delta_max]
+        ubw[self._iu] = [sc.a_max, sc.delta_max]
+        lbw[self._is] = 0.0
+        lbg = np.zeros(self._eq.size)
+        ubg = np.where(self._eq, 0.0, np.inf)
+        return lbw, ubw, lbg, ubg
 
     # ------------------------------------------------------------------ episode
     def reset(self, scenario: ScenarioConfig | None = None) -> None:
@@ -306,43 +322,38 @@ class SMPCExpert:
         self.last_report = None
 
     def _initial_guess(self, xi0: np.ndarray) -> np.ndarray:
-        """Shifted previous solution, or a constant-input rollout from ξ0."""
-        N = self.config.horizon
+        """Previous solution shifted by one stage, or a zero-input rollout from ξ0."""
+        N, sc = self.config.horizon, self.scenario
+        w = np.zeros(self._in["x0"].size)
         if self._w0 is not None:
-            xs, us = self._unpack(self._w0)
-            xs_new = np.vstack([xs[1:], np.asarray(self._F(xs[-1], us[-1])).ravel()])
-            xs_new[0] = xi0
-            us_new = np.vstack([us[1:], us[-1:]])
-            return self._pack(xs_new, us_new)
-        xs = np.empty((N + 1, NX))
-        us = np.zeros((N, NU))
-        xs[0] = xi0
-        for k in range(N):
-            xs[k + 1] = rk4_step(
-                xs[k], us[k], self.scenario.dt, self.scenario.l_f, self.scenario.l_r
-            )
-        return self._pack(xs, us)
-
-    def _unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        N = self.config.horizon
-        stage = w[: N * (NX + NU)].reshape(N, NX + NU)
-        xs = np.vstack([stage[:, :NX], w[N * (NX + NU) :][None, :]])
-        return xs, stage[:, NX:]
-
-    def _pack(self, xs: np.ndarray, us: np.ndarray) -> np.ndarray:
-        return np.concatenate([np.hstack([xs[:-1], us]).ravel(), xs[-1]])
+            xs, us = self._w0[self._ix], self._w0[self._iu]
+            x_tail = np.asarray(self._F(xs[-1], us[-1])).ravel()
+            w[self._ix] = np.vstack([xs[1:], x_tail])
+            w[self._iu] = np.vstack([us[1:], us[-1:]])
+            w[self._is] = np.append(self._w0[self._is][1:], self._w0[self._is][-1])
+        else:
+            xs = np.empty((N + 1, NX))
+            xs[0] = xi0
+            for k in range(N):
+                xs[k + 1] = rk4_step(xs[k], np.zeros(NU), sc.dt, sc.l_f, sc.l_r)
+            w[self._ix] = xs
+        w[self._ix[0]] = xi0
+        return w
 
     def _shifted_duals(self) -> tuple[np.ndarray, np.ndarray]:
         """Multipliers of the previous solution shifted by one stage (last stage repeated)."""
         N = self.config.horizon
         lg, lx = self._lam_g, self._lam_x
-        new_g = lg.copy()
+        new_g, new_x = lg.copy(), lx.copy()
         nxt = np.minimum(np.arange(N) + 1, N - 1)
-        new_g[self._idx_dyn] = lg[self._idx_dyn[nxt]]
-        new_g[self._idx_chance] = lg[self._idx_chance[nxt]]
-        stage = lx[: N * (NX + NU)].reshape(N, NX + NU)
-        stage = np.vstack([stage[1:], stage[-1:]])
-        return new_g, np.concatenate([stage.ravel(), lx[N * (NX + NU) :]])
+        new_g[self._ig_dyn] = lg[self._ig_dyn[nxt]]
+        path = self._ig_path[1:]  # stages 1 … N
+        for k in range(len(path) - 1):
+            new_g[path[k]] = lg[path[k + 1]]
+        new_x[self._ix[1:-1]] = lx[self._ix[2:]]
+        new_x[self._iu] = lx[self._iu[nxt]]
+        new_x[self._is[:-1]] = lx[self._is[1:]]
+        return new_g, new_x
 
     def act(self, obs: ArrayLike) -> np.ndarray:
         """Solve the SMPC problem for the current observation and return u_0.
@@ -357,17 +368,18 @@ class SMPCExpert:
             ValueError: obs has the wrong shape or non-finite entries.
             InfeasibleStartError: the episode's first state lies inside the safety ellipse.
 
-        Fallback: if the solver does not report success, the expert applies the next
-        input of the last accepted plan (``'shifted_plan'``, still feasible for a TV that
-        follows its prediction) while one remains, else brakes at a_min/2 and steers the
-        heading back to 0 (``'brake'``). :attr:`last_report` records which.
+        Fallback: if the solver does not report success (e.g. the nominal ellipse cannot
+        be kept), the expert applies the next input of the last accepted plan
+        (``'shifted_plan'``, still safe for a TV that follows its prediction) while one
+        remains, else brakes at a_min/2 and steers the heading back to 0 (``'brake'``).
+        :attr:`last_report` records which.
         """
         obs = np.asarray(obs, dtype=float)
         if obs.shape != (8,):
             raise ValueError(f"observation must have shape (8,), got {obs.shape}")
         if not np.all(np.isfinite(obs)):
             raise ValueError(f"observation contains NaN or inf: {obs}")
-        sc, _cfg = self.scenario, self.config
+        sc = self.scenario
         xi0, tv = obs[:4], obs[4:]
         if self._first:
             s_e = float(elliptical_index(xi0[0] - tv[0], xi0[1] - tv[1], sc.l_a, sc.l_b))
@@ -410,9 +422,10 @@ class SMPCExpert:
             self._w0 = w
             self._lam_g = self._out["lam_g"].copy()
             self._lam_x = self._out["lam_x"].copy()
-            xs, us = self._unpack(w)
+            us = w[self._iu]
             self._plan_u = us[1:]
-            action, fallback, plan = us[0].copy(), None, xs
+            action, fallback, plan = us[0].copy(), None, w[self._ix]
+            slack = float(max(w[self._is[0]], 0.0))
         else:
             self._w0 = self._lam_g = self._lam_x = None
             if self._plan_u is not None and len(self._plan_u) > 0:
@@ -420,15 +433,11 @@ class SMPCExpert:
                 self._plan_u = self._plan_u[1:]
             else:
                 action, fallback = np.array([sc.a_min / 2, straighten_steer(xi0, sc)]), "brake"
-            plan = None
+            plan, slack = None, float("nan")
         action = np.clip(action, [sc.a_min, -sc.delta_max], [sc.a_max, sc.delta_max])
-        self.last_report = SolveReport(ok, status, iters, solve_ms, fallback, action, plan)
+        self.last_report = SolveReport(ok, status, iters, solve_ms, fallback, action, plan, slack)
         return action
 
     def predict(self, obs: ArrayLike, state=None, episode_start=None, deterministic=True):
         """stable-baselines3-style alias of :meth:`act` (returns ``(action, None)``)."""
         return self.act(obs), None
-
-    def with_config(self, **changes) -> SMPCExpert:
-        """A new expert with some config fields replaced."""
-        return SMPCExpert(dataclasses.replace(self.config, **changes), self.scenario)

@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> dict:
             ax2.plot(demo.ev[:, 0], demo.ev[:, 1], color=c)
         ax1.axhline(PAPER.trigger_lambda, color="k", ls="--", lw=0.8, label="$\\lambda$")
         ax1.set_ylabel("$s_e$")
-        ax1.set_ylim(0, 5)
+        ax1.set_ylim(0, 6)
         ax1.legend(fontsize=8, ncol=4)
         for y in (0, 5.25, 10.5, 15.75):
             ax2.axhline(y, color="0.6", lw=0.8, ls="--")
