@@ -132,6 +132,17 @@ class SolveReport:
     """Chance-constraint relaxation s_1 at the next state (0: the chance constraint holds
     there; > 0: only the nominal ellipse does). NaN on fallback."""
 
+    def info(self) -> dict[str, object]:
+        """JSON-ready summary (no arrays)."""
+        return {
+            "success": self.success,
+            "status": self.status,
+            "iterations": self.iterations,
+            "solve_ms": self.solve_ms,
+            "fallback": self.fallback,
+            "slack": self.slack,
+        }
+
 
 def _geometry_key(sc: ScenarioConfig) -> tuple:
     return (sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)
@@ -355,14 +366,18 @@ class SMPCExpert:
         new_x[self._is[:-1]] = lx[self._is[1:]]
         return new_g, new_x
 
-    def act(self, obs: ArrayLike) -> np.ndarray:
+    def act(
+        self, obs: ArrayLike, return_info: bool = False
+    ) -> np.ndarray | tuple[np.ndarray, dict[str, object]]:
         """Solve the SMPC problem for the current observation and return u_0.
 
         Args:
             obs: env observation [x, y, φ, v]_EV ++ [x, y, φ, v]_TV, shape (8,).
+            return_info: also return the solve's info dict (``success``, ``status``,
+                ``iterations``, ``solve_ms``, ``fallback``, ``slack``).
 
         Returns:
-            The action [a, δ], shape (2,) [m/s², rad].
+            The action [a, δ], shape (2,) [m/s², rad] (and the info dict).
 
         Raises:
             ValueError: obs has the wrong shape or non-finite entries.
@@ -436,6 +451,8 @@ class SMPCExpert:
             plan, slack = None, float("nan")
         action = np.clip(action, [sc.a_min, -sc.delta_max], [sc.a_max, sc.delta_max])
         self.last_report = SolveReport(ok, status, iters, solve_ms, fallback, action, plan, slack)
+        if return_info:
+            return action, self.last_report.info()
         return action
 
     def predict(self, obs: ArrayLike, state=None, episode_start=None, deterministic=True):

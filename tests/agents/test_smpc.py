@@ -121,3 +121,11 @@ def test_straighten_steer_zeroes_heading():
     delta = straighten_steer(xi, PAPER)
     nxt = rk4_step(xi, np.array([0.0, delta]), PAPER.dt, PAPER.l_f, PAPER.l_r)
     assert abs(nxt[2]) < 1e-3
+
+
+def test_act_returns_info():
+    obs = np.concatenate([PAPER.ev_initial_state, PAPER.tv_initial_state])
+    action, info = SMPCExpert().act(obs, return_info=True)
+    assert action.shape == (2,)
+    assert info["success"] and info["fallback"] is None and info["iterations"] > 0
+    assert info["slack"] == pytest.approx(0.0, abs=1e-6) and info["solve_ms"] > 0

@@ -133,3 +133,13 @@ def test_rgb_frames_are_not_blank():
         blue = (colours[:, 2] > 180) & (colours[:, 0] < 90)
         assert red.sum() > 50 and blue.sum() > 50  # EV red and TV blue are drawn
     assert not np.array_equal(frames[0], frames[-1])
+
+
+def test_human_mode_runs_headless():
+    # SDL's dummy driver stands in for a display; the window path must not crash
+    env = gym.make("drivestyle/LaneChange-v0", render_mode="human")
+    env.reset(seed=0)
+    for _ in range(2):
+        env.step(np.zeros(2))
+    assert env.render() is None
+    env.close()
