@@ -1,0 +1,50 @@
+"""drivestyle IRL: quintic-spline trajectories, reaction-aware features and ME-IRL."""
+
+from irl.features import (
+    FEATURE_SETS,
+    FEATURES,
+    EventTimes,
+    FeatureBasis,
+    FeatureConfig,
+    event_times,
+    feature_basis,
+    feature_values,
+    gauss_legendre_nodes,
+)
+from irl.inner import InnerProblem, InnerSolution, InnerSolveError, newton_minimize
+from irl.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta, reproduction_errors
+from irl.spline import (
+    QuinticTrajectory,
+    basis_matrix,
+    demo_control_points,
+    evaluate_quintic,
+    quintic_coefficients,
+    spline_eval,
+)
+
+__all__ = [
+    "FEATURES",
+    "FEATURE_SETS",
+    "EventTimes",
+    "FeatureBasis",
+    "FeatureConfig",
+    "IRLConfig",
+    "InnerProblem",
+    "InnerSolution",
+    "InnerSolveError",
+    "LearningResult",
+    "MaxEntIRL",
+    "QuinticTrajectory",
+    "basis_matrix",
+    "demo_control_points",
+    "evaluate_quintic",
+    "event_times",
+    "feature_basis",
+    "feature_values",
+    "gauss_legendre_nodes",
+    "newton_minimize",
+    "normalise_theta",
+    "quintic_coefficients",
+    "reproduction_errors",
+    "spline_eval",
+]

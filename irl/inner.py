@@ -1,0 +1,251 @@
+"""The inner problem of ME-IRL: r*_θ = argmin_r θᵀ f(r) over c_1 … c_S (§II-C2, SPEC §6).
+
+The features split into a longitudinal group (f_ax, f_v, f_tiv: x spline only) and a
+lateral group (the rest: y spline only), so the inner problem separates into two
+unconstrained problems of 3S variables each. Each is solved by a damped Newton method
+with the exact gradient and Hessian that CasADi derives from :func:`irl.features.feature_values`
+(|·| smoothed), warm-started from the previous solution. The same Hessian H and feature
+Jacobian J give the sensitivity of the optimum used by the learner,
+
+    ∂f(r*_θ)/∂θ = −J H⁻¹ Jᵀ     (implicit function theorem on ∇_c θᵀf = 0).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from envs.demonstration import Demonstration
+from irl.features import (
+    FEATURES,
+    X_FEATURES,
+    FeatureBasis,
+    FeatureConfig,
+    feature_basis,
+    feature_values,
+)
+from irl.spline import demo_control_points
+
+__all__ = ["InnerProblem", "InnerSolution", "InnerSolveError", "newton_minimize"]
+
+
+class InnerSolveError(RuntimeError):
+    """The inner optimisation did not converge."""
+
+
+class _Buffered:
+    """Zero-copy evaluation of a CasADi function with dense inputs and outputs.
+
+    numpy arrays are bound once through ``Function.buffer`` (DM conversion costs ≈0.5 ms).
+    """
+
+    def __init__(self, fn: ca.Function) -> None:
+        self.fn = fn
+        self.inputs = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
+        self.outputs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
+        self.shapes = [fn.size_out(i) for i in range(fn.n_out())]
+        self._buf, self._eval = fn.buffer()
+        for i, a in enumerate(self.inputs):
+            self._buf.set_arg(i, memoryview(a))
+        for i, a in enumerate(self.outputs):
+            self._buf.set_res(i, memoryview(a))
+
+    def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
+        for dst, src in zip(self.inputs, args, strict=True):
+            dst[:] = src
+        self._eval()
+        # CasADi stores column-major; outputs here are vectors or symmetric/Jacobians
+        return [
+            out.reshape(shape[::-1]).T.copy() if shape[1] > 1 else out.copy()
+            for out, shape in zip(self.outputs, self.shapes, strict=True)
+        ]
+
+
+def newton_minimize(
+    fgh, z0: np.ndarray, tol: float = 1e-9, max_iter: int = 100
+) -> tuple[np.ndarray, int, bool]:
+    """Minimise a smooth function by damped Newton steps.
+
+    Levenberg damping makes the Newton matrix positive definite; an Armijo backtracking
+    line search globalises.
+
+    Args:
+        fgh: z ↦ (value, gradient (n,), Hessian (n, n)).
+        z0: starting point, shape (n,).
+        tol: stop when ‖∇‖_∞ ≤ tol · (1 + |value|).
+        max_iter: iteration cap.
+
+    Returns:
+        (minimiser, iterations, converged).
+    """
+    z = np.array(z0, dtype=float)
+    f, g, H = fgh(z)
+    n = z.size
+    eye = np.eye(n)
+    for it in range(max_iter):
+        if not np.isfinite(f) or not np.all(np.isfinite(g)):
+            return z, it, False
+        if np.max(np.abs(g)) <= tol * (1.0 + abs(f)):
+            return z, it, True
+        mu, scale = 0.0, 1e-10 * (1.0 + np.max(np.abs(np.diag(H))))
+        while True:  # smallest damping that makes the Newton matrix positive definite
+            try:
+                np.linalg.cholesky(H + mu * eye)
+                break
+            except np.linalg.LinAlgError:
+                mu = max(4 * mu, scale)
+        p = -np.linalg.solve(H + mu * eye, g)
+        slope = float(g @ p)
+        if -slope <= 1e-13 * (1.0 + abs(f)):  # Newton decrement at round-off level
+            return z, it, True
+        step = 1.0
+        while step > 1e-12:
+            z_new = z + step * p
+            f_new, g_new, H_new = fgh(z_new)
+            if np.isfinite(f_new) and f_new <= f + 1e-4 * step * slope:
+                break
+            step *= 0.5
+        else:
+            return z, it, bool(np.max(np.abs(g)) <= 1e3 * tol * (1.0 + abs(f)))
+        if abs(f - f_new) <= 1e-15 * (1.0 + abs(f)) and step < 1e-6:
+            return z_new, it + 1, True
+        z, f, g, H = z_new, f_new, g_new, H_new
+    return z, max_iter, False
+
+
+@dataclass(frozen=True)
+class InnerSolution:
+    """Result of one inner solve."""
+
+    control_points: np.ndarray
+    """c_0 … c_S of r*_θ, shape (S+1, 6)."""
+    features: np.ndarray
+    """Exact scaled features Ω f(r*_θ) of the active set."""
+    sensitivity: np.ndarray
+    """∂f(r*_θ)/∂θ, shape (m, m) (smoothed features)."""
+    iterations: int
+    """Newton iterations (both groups)."""
+    solve_ms: float
+    """Wall time [ms]."""
+
+
+class InnerProblem:
+    """The inner problem for one demonstration, built once and warm-started.
+
+    Args:
+        demo: the demonstration (knots = its sample times; c_0 from its first sample).
+        config: feature configuration (active set, constants).
+        rule: control-point rule for the demonstration (``irl.spline.demo_control_points``).
+    """
+
+    def __init__(
+        self, demo: Demonstration, config: FeatureConfig | None = None, rule: str = "kinematic"
+    ) -> None:
+        self.demo = demo
+        self.config = config or FeatureConfig()
+        self.rule = rule
+        self.basis: FeatureBasis = feature_basis(demo, self.config)
+        self.C_demo = demo_control_points(demo, rule)
+        self.names = self.config.names
+        self.S = demo.n - 1
+        self.groups = {
+            "x": [n for n in self.names if n in X_FEATURES],
+            "y": [n for n in self.names if n not in X_FEATURES],
+        }
+        self.f_demo = self.features_of(self.C_demo)
+        self._build()
+        self.reset()
+
+    def _build(self) -> None:
+        n = 3 * self.S
+        c0 = self.C_demo[0]
+        self._fns = {}
+        for axis, names in self.groups.items():
+            z = ca.SX.sym(f"z{axis}", n)
+            th = ca.SX.sym("theta", len(names))
+            full = ca.vertcat(ca.DM(c0[:3] if axis == "x" else c0[3:]), z)
+            cx, cy = (
+                (full, ca.DM.zeros(3 * (self.S + 1)))
+                if axis == "x"
+                else (ca.DM.zeros(3 * (self.S + 1)), full)
+            )
+            f = feature_values(cx, cy, self.basis, smooth=True, names=names)
+            obj = ca.dot(th, f)
+            H, grad = ca.hessian(obj, z)
+            fgh = ca.Function(f"fgh_{axis}", [z, th], [obj, grad, ca.densify(H)])
+            fj = ca.Function(f"fJ_{axis}", [z], [f, ca.densify(ca.jacobian(f, z))])
+            self._fns[axis] = (_Buffered(fgh), _Buffered(fj))
+
+    def reset(self) -> None:
+        """Warm start from the demonstration's own control points."""
+        self._z = {"x": self.C_demo[1:, :3].ravel().copy(), "y": self.C_demo[1:, 3:].ravel().copy()}
+
+    @property
+    def warm_start(self) -> dict[str, np.ndarray]:
+        """The current warm start (copy), to restore after a rejected trial θ."""
+        return {k: v.copy() for k, v in self._z.items()}
+
+    @warm_start.setter
+    def warm_start(self, state: dict[str, np.ndarray]) -> None:
+        self._z = {k: v.copy() for k, v in state.items()}
+
+    def features_of(self, C: np.ndarray) -> np.ndarray:
+        """Exact scaled features of the active set for control points C (S+1, 6)."""
+        return feature_values(C[:, :3].ravel(), C[:, 3:].ravel(), self.basis, names=self.names)
+
+    def solve(self, theta: np.ndarray, tol: float = 1e-9, max_iter: int = 100) -> InnerSolution:
+        """r*_θ, its features and their sensitivity to θ.
+
+        Args:
+            theta: weights of the active features (positive), shape (m,).
+            tol: Newton tolerance.
+            max_iter: Newton iteration cap per group.
+
+        Returns:
+            The solution.
+
+        Raises:
+            InnerSolveError: Newton did not converge (the message names the group and θ).
+        """
+        theta = np.asarray(theta, float)
+        m = len(self.names)
+        if theta.shape != (m,) or not np.all(np.isfinite(theta)) or np.any(theta <= 0):
+            raise ValueError(f"theta must be {m} positive finite weights, got {theta}")
+        t0 = time.perf_counter()
+        sens = np.zeros((m, m))
+        iters = 0
+        C = self.C_demo.copy()
+        for axis, names in self.groups.items():
+            if not names:
+                continue
+            idx = [self.names.index(n) for n in names]
+            th = theta[idx]
+            fgh_fn, fj_fn = self._fns[axis]
+
+            def fgh(z, fn=fgh_fn, th=th):
+                o, g, H = fn(z, th)
+                return float(o[0]), g, H
+
+            z, it, ok = newton_minimize(fgh, self._z[axis], tol, max_iter)
+            iters += it
+            if not ok:
+                raise InnerSolveError(
+                    f"inner problem ({axis} group: {names}) did not converge in {it} Newton "
+                    f"iterations for theta={np.round(th, 6).tolist()}"
+                )
+            self._z[axis] = z
+            _, _, H = fgh(z)
+            _, J = fj_fn(z)
+            sens[np.ix_(idx, idx)] = -J @ np.linalg.solve(H, J.T)
+            cols = slice(0, 3) if axis == "x" else slice(3, 6)
+            C[1:, cols] = z.reshape(self.S, 3)
+        features = self.features_of(C)
+        return InnerSolution(C, features, sens, iters, (time.perf_counter() - t0) * 1e3)
+
+    @property
+    def feature_index(self) -> np.ndarray:
+        """Indices of the active features in :data:`irl.features.FEATURES`."""
+        return np.array([FEATURES.index(n) for n in self.names])
