@@ -1,0 +1,155 @@
+"""Figures of the learning study (the paper's Figs. 3 and 4)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from envs.demonstration import Demonstration
+from irl.learner import LearningResult
+from irl.spline import spline_eval
+
+__all__ = ["plot_lateral", "plot_reproductions", "select_iterations"]
+
+PAPER_ITERATIONS = (1, 11, 21)
+
+
+def select_iterations(
+    result: LearningResult, wanted: Sequence[int] = PAPER_ITERATIONS
+) -> list[int]:
+    """The paper's iterations 1, 11, 21 that exist, plus the last one."""
+    n = len(result.history)
+    its = [i for i in wanted if i <= n]
+    if n not in its:
+        its.append(n)
+    return its
+
+
+def _fine(C: np.ndarray, t: np.ndarray, derivative: int) -> tuple[np.ndarray, np.ndarray]:
+    tt = np.linspace(t[0], t[-1], 20 * (t.size - 1) + 1)
+    return tt, spline_eval(C, t, tt, derivative)
+
+
+def plot_reproductions(
+    demo: Demonstration,
+    results: dict[str, LearningResult],
+    demo_C: np.ndarray,
+    path: str | Path,
+    react_window=None,
+) -> Path:
+    """Reproduced x–y paths at iterations 1, 11, 21 and the last (Fig. 3).
+
+    One panel per feature set (base on top, reactive below), the demonstration overlaid.
+
+    Args:
+        demo: the demonstration.
+        results: feature-set name → learning result (history with control points).
+        demo_C: the demonstration's control points (for its spline).
+        path: output PNG.
+        react_window: (x_start, x_end) of the reaction to shade, or None.
+
+    Returns:
+        The path written.
+    """
+    sc = demo.scenario
+    fig, axes = plt.subplots(
+        len(results), 1, figsize=(9, 3.2 * len(results)), sharex=True, squeeze=False
+    )
+    cmap = plt.get_cmap("viridis")
+    for ax, (name, res) in zip(axes[:, 0], results.items(), strict=True):
+        for i in range(sc.n_lanes + 1):
+            ax.axhline(
+                i * sc.lane_width, color="0.6", lw=0.8, ls="-" if i in (0, sc.n_lanes) else "--"
+            )
+        if react_window is not None:
+            ax.axvspan(*react_window, color="orange", alpha=0.12, label="reaction window")
+        its = select_iterations(res)
+        for k, it in enumerate(its):
+            C = res.history[it - 1]["control_points"][0]
+            _, xy = _fine(C, demo.t, 0)
+            ax.plot(
+                xy[:, 0],
+                xy[:, 1],
+                color=cmap(k / max(len(its) - 1, 1)),
+                lw=1.3,
+                label=f"iteration {it}" + (" (last)" if it == len(res.history) else ""),
+            )
+        _, xy = _fine(demo_C, demo.t, 0)
+        ax.plot(xy[:, 0], xy[:, 1], "r--", lw=2, label="demonstration")
+        err = res.errors[0]
+        ax.set_title(
+            f"{name} features ({len(res.names)}): rmse_y = {err['rmse_y_m']:.3f} m"
+            + (
+                f", reaction window {err['rmse_y_reaction_m']:.3f} m"
+                if err["rmse_y_reaction_m"] is not None
+                else ""
+            ),
+            fontsize=10,
+        )
+        ax.set_ylabel("y [m]")
+        ax.set_ylim(0, sc.road_width)
+        ax.legend(fontsize=7, ncol=3, loc="upper left")
+    axes[-1, 0].set_xlabel("x [m]")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def plot_lateral(
+    demo: Demonstration,
+    result: LearningResult,
+    demo_C: np.ndarray,
+    path: str | Path,
+    title: str = "",
+) -> Path:
+    """Lateral velocity and acceleration at iterations 1, 11, 21 and the last (Fig. 4).
+
+    The demonstration's are overlaid.
+
+    Args:
+        demo: the demonstration.
+        result: learning result with history.
+        demo_C: the demonstration's control points.
+        path: output PNG.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    cmap = plt.get_cmap("viridis")
+    its = select_iterations(result)
+    for k, it in enumerate(its):
+        C = result.history[it - 1]["control_points"][0]
+        c = cmap(k / max(len(its) - 1, 1))
+        tt, v = _fine(C, demo.t, 1)
+        _, a = _fine(C, demo.t, 2)
+        a1.plot(tt, v[:, 1], color=c, label=f"iteration {it}")
+        a2.plot(tt, a[:, 1], color=c)
+    tt, v = _fine(demo_C, demo.t, 1)
+    _, a = _fine(demo_C, demo.t, 2)
+    a1.plot(tt, v[:, 1], "r--", lw=2, label="demonstration")
+    a2.plot(tt, a[:, 1], "r--", lw=2)
+    a1.set_ylabel("lateral velocity [m/s]")
+    a2.set_ylabel("lateral acceleration [m/s²]")
+    a2.set_xlabel("t [s]")
+    a1.legend(fontsize=8, ncol=3)
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path

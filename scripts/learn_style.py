@@ -1,0 +1,111 @@
+"""Learn a driving style (feature weights θ) from one or more demonstrations by ME-IRL.
+
+Writes ``OUT/style.json`` (SPEC §7: features, theta, iterations, converged,
+learning_error, rmse_y_m, rmse_xy_m, rmse_y_reaction_m, wall_time_s,
+inner_solve_ms_median, t_trg_s, t_rct_s, omega, feature values, history, reproduced) and,
+with ``--plot``, ``OUT/reproduction.png`` and ``OUT/lateral.png``.
+
+Example:
+    python scripts/learn_style.py runs/demo/demo.npz --features reactive --out runs/style
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from envs import load_demonstration
+from envs.demonstration import DemonstrationError
+from envs.results import write_json
+from irl import FEATURE_SETS, FeatureConfig, IRLConfig
+from irl.inner import InnerSolveError
+from irl.plotting import plot_lateral, plot_reproductions
+from irl.spline import AY_RULES, demo_control_points
+from irl.style import fit_style
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
+    p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s)")
+    p.add_argument("--features", default="reactive", choices=sorted(FEATURE_SETS))
+    p.add_argument("--out", type=Path, default=Path("runs/style"))
+    p.add_argument(
+        "--method",
+        default="lm",
+        choices=("lm", "paper"),
+        help="outer update: Levenberg-Marquardt in log theta, or the paper's rule",
+    )
+    p.add_argument(
+        "--rule",
+        default="kinematic",
+        choices=AY_RULES,
+        help="how demo velocities/accelerations are computed (SPEC §4)",
+    )
+    p.add_argument("--t-rct", type=float, default=2.0, help="reaction window T_rct [s]")
+    p.add_argument("--max-iter", type=int, help="outer iterations (default 60 lm, 400 paper)")
+    p.add_argument("--alpha", type=float, default=3e-4, help="learning rate of the paper rule")
+    p.add_argument("--plot", action="store_true", help="write reproduction figures")
+    p.add_argument("--seed", type=int, default=0, help="unused: learning is deterministic")
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the script; returns the style payload."""
+    args = parse_args(argv)
+    try:
+        demos = [load_demonstration(p) for p in args.demos]
+        features = FeatureConfig(feature_set=args.features, t_rct=args.t_rct)
+        max_iter = args.max_iter or (400 if args.method == "paper" else 60)
+        config = IRLConfig(method=args.method, max_iter=max_iter, alpha=args.alpha)
+    except (FileNotFoundError, DemonstrationError, ValueError) as exc:
+        sys.exit(f"error: {exc}")
+    bar = tqdm(total=max_iter, desc=f"ME-IRL ({args.features})", leave=False)
+
+    def progress(entry: dict) -> None:
+        bar.update(1)
+        bar.set_postfix(eps=f"{entry['epsilon']:.3f}", rmse_y=f"{entry['rmse_y_m']:.3f}")
+
+    try:
+        result, _, payload = fit_style(
+            demos, features, config, args.rule, [str(p) for p in args.demos], progress
+        )
+    except (InnerSolveError, ValueError) as exc:
+        sys.exit(f"error: learning failed: {exc}")
+    finally:
+        bar.close()
+    write_json(args.out / "style.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    if args.plot:
+        demo = demos[0]
+        C = demo_control_points(demo, args.rule)
+        plot_reproductions(demo, {args.features: result}, C, args.out / "reproduction.png")
+        plot_lateral(
+            demo,
+            result,
+            C,
+            args.out / "lateral.png",
+            title=f"lateral motion, {args.features} features",
+        )
+    if not payload["trigger_fired"]:
+        print(
+            "note: the trigger never fired in the (first) demonstration: "
+            "the reactive features f_sd, f_ed, f_id are inactive"
+        )
+    react = payload["rmse_y_reaction_m"]
+    print(
+        f"wrote {args.out / 'style.json'}: {payload['iterations']} iterations "
+        f"({'converged' if payload['converged'] else 'NOT converged'}), learning error "
+        f"{payload['learning_error']:.3f}, rmse_y {payload['rmse_y_m']:.3f} m"
+        + (f" (reaction window {react:.3f} m)" if react is not None else "")
+        + f", {payload['wall_time_s']:.2f} s"
+    )
+    return payload
+
+
+if __name__ == "__main__":
+    main()
