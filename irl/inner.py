@@ -139,16 +139,30 @@ class InnerProblem:
         demo: the demonstration (knots = its sample times; c_0 from its first sample).
         config: feature configuration (active set, constants).
         rule: control-point rule for the demonstration (``irl.spline.demo_control_points``).
+        control_points: the demonstration's control points, shape (n, 6), instead of
+            deriving them by ``rule`` (e.g. a trajectory that is itself a spline).
     """
 
     def __init__(
-        self, demo: Demonstration, config: FeatureConfig | None = None, rule: str = "kinematic"
+        self,
+        demo: Demonstration,
+        config: FeatureConfig | None = None,
+        rule: str = "kinematic",
+        control_points: np.ndarray | None = None,
     ) -> None:
         self.demo = demo
         self.config = config or FeatureConfig()
         self.rule = rule
         self.basis: FeatureBasis = feature_basis(demo, self.config)
-        self.C_demo = demo_control_points(demo, rule)
+        if control_points is None:
+            self.C_demo = demo_control_points(demo, rule)
+        else:
+            C = np.asarray(control_points, dtype=float)
+            if C.shape != (demo.n, 6) or not np.all(np.isfinite(C)):
+                raise ValueError(
+                    f"control_points must be finite with shape ({demo.n}, 6), got {C.shape}"
+                )
+            self.C_demo = C.copy()
         self.names = self.config.names
         self.S = demo.n - 1
         self.groups = {

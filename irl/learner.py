@@ -146,6 +146,7 @@ class MaxEntIRL:
         features: feature configuration (active set and constants).
         config: outer-loop settings.
         rule: control-point rule for the demonstrations (``irl.spline``).
+        control_points: per demonstration, control points to use instead of ``rule``.
     """
 
     def __init__(
@@ -154,13 +155,19 @@ class MaxEntIRL:
         features: FeatureConfig | None = None,
         config: IRLConfig | None = None,
         rule: str = "kinematic",
+        control_points: Sequence[np.ndarray] | None = None,
     ) -> None:
         demos = [demos] if isinstance(demos, Demonstration) else list(demos)
         if not demos:
             raise ValueError("need at least one demonstration")
+        if control_points is not None and len(control_points) != len(demos):
+            raise ValueError("control_points needs one array per demonstration")
         self.features = features or FeatureConfig()
         self.config = config or IRLConfig()
-        self.problems = [InnerProblem(d, self.features, rule) for d in demos]
+        cps = list(control_points) if control_points is not None else [None] * len(demos)
+        self.problems = [
+            InnerProblem(d, self.features, rule, c) for d, c in zip(demos, cps, strict=True)
+        ]
         self.names = self.features.names
         self.f_demo = np.mean([p.f_demo for p in self.problems], axis=0)
 

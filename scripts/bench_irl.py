@@ -1,0 +1,97 @@
+"""Benchmark ME-IRL on the paper demonstration: whole learning runs and inner solves.
+
+For each feature set (base, reactive) it times ``MaxEntIRL.learn`` (``learn_wall_s``:
+the outer loop including every inner solve, excluding interpreter start-up and the
+one-off CasADi build, which is reported separately as ``build_s``) and the median inner
+solve, over ``--repeats`` runs; the median over runs is reported.
+
+Example:
+    python scripts/bench_irl.py --out runs/bench_irl.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from agents import generate_demonstration
+from envs import load_demonstration
+from envs.results import write_json
+from irl import FeatureConfig, IRLConfig, MaxEntIRL
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
+    p.add_argument("--out", type=Path, default=Path("runs/bench_irl.json"))
+    p.add_argument("--demo", type=Path, help="demonstration (default: generate the paper's)")
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--seed", type=int, default=0)
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the benchmark; returns the JSON payload."""
+    args = parse_args(argv)
+    demo = load_demonstration(args.demo) if args.demo else generate_demonstration(0.7)[0]
+    result = {
+        "repeats": args.repeats,
+        "goal": {"inner_solve_ms_median": 5.0, "learn_wall_s": 1.0},
+        "machine": {
+            "cpus": os.cpu_count(),
+            "platform": platform.platform(),
+            "python": platform.python_version(),
+        },
+    }
+    for name in ("base", "reactive"):
+        walls, inner, builds, iters = [], [], [], []
+        for _ in tqdm(range(args.repeats), desc=name, leave=False):
+            t0 = time.perf_counter()
+            learner = MaxEntIRL(demo, FeatureConfig(feature_set=name), IRLConfig())
+            builds.append(time.perf_counter() - t0)
+            res = learner.learn()
+            walls.append(res.wall_time_s)
+            inner += res.inner_solve_ms
+            iters.append(res.iterations)
+        result[name] = {
+            "learn_wall_s": float(np.median(walls)),
+            "build_s": float(np.median(builds)),
+            "inner_solve_ms_median": float(np.median(inner)),
+            "inner_solve_ms_p95": float(np.percentile(inner, 95)),
+            "n_inner_solves": len(inner) // args.repeats,
+            "iterations": int(np.median(iters)),
+        }
+    result["meets_goal"] = all(
+        result[n]["inner_solve_ms_median"] <= 5.0 and result[n]["learn_wall_s"] <= 1.0
+        for n in ("base", "reactive")
+    )
+    write_json(args.out, result, [sys.argv[0], *(argv or sys.argv[1:])])
+    print(
+        f"{'features':9s} {'learn s':>8s} {'build s':>8s} {'inner med ms':>13s} "
+        f"{'inner p95 ms':>13s} {'solves':>7s} {'iters':>6s}"
+    )
+    for name in ("base", "reactive"):
+        r = result[name]
+        print(
+            f"{name:9s} {r['learn_wall_s']:8.3f} {r['build_s']:8.3f} "
+            f"{r['inner_solve_ms_median']:13.2f} {r['inner_solve_ms_p95']:13.2f} "
+            f"{r['n_inner_solves']:7d} {r['iterations']:6d}"
+        )
+    print(
+        f"goal (inner median <= 5 ms, learning <= 1 s) "
+        f"{'met' if result['meets_goal'] else 'NOT met'}; wrote {args.out}"
+    )
+    return result
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,132 @@
+import json
+import runpy
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from envs import save_demonstration
+
+ROOT = Path(__file__).resolve().parents[2]
+SPEC_KEYS = (
+    "features",
+    "theta",
+    "iterations",
+    "converged",
+    "learning_error",
+    "rmse_y_m",
+    "rmse_xy_m",
+    "rmse_y_reaction_m",
+    "wall_time_s",
+    "inner_solve_ms_median",
+    "t_trg_s",
+    "t_rct_s",
+    "omega",
+    "feature_values_demo",
+    "feature_values_reproduced",
+    "history",
+    "reproduced",
+)
+
+
+def _main(name):
+    return runpy.run_path(str(ROOT / "scripts" / f"{name}.py"), run_name="not_main")["main"]
+
+
+def _run(name, *args):
+    return subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / f"{name}.py"), *args],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+
+
+@pytest.fixture(scope="module")
+def demo_file(tmp_path_factory, request):
+    from agents import generate_demonstration
+
+    path = tmp_path_factory.mktemp("demo") / "demo.npz"
+    save_demonstration(generate_demonstration(0.7, "paper")[0], path)
+    return path
+
+
+def test_learn_style_writes_spec_fields(tmp_path, demo_file):
+    out = tmp_path / "style"
+    _main("learn_style")([str(demo_file), "--features", "reactive", "--out", str(out), "--plot"])
+    js = json.loads((out / "style.json").read_text())
+    for key in SPEC_KEYS:
+        assert key in js, key
+    assert len(js["features"]) == len(js["theta"]) == len(js["omega"]) == 10
+    assert set(js["reproduced"]) == {"t", "x", "y", "vx", "vy", "ax", "ay"}
+    assert len(js["reproduced"]["t"]) == 31
+    assert js["history"][0]["iteration"] == 1 and "epsilon" in js["history"][-1]
+    assert js["t_trg_s"] == pytest.approx(3.0) and js["converged"]
+    assert (out / "reproduction.png").exists() and (out / "lateral.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda a: a.pop("ev"), "missing array"),
+        (lambda a: a.__setitem__("tv", a["tv"][:-1]), "'tv' must have shape"),
+        (lambda a: a["ev"].__setitem__((3, 1), np.nan), "NaN"),
+        (lambda a: a["t"].__setitem__(5, 0.0), "strictly increasing"),
+        (
+            lambda a: (
+                [a.__setitem__(k, a[k][:2]) for k in ("t", "ev", "tv")]
+                or a.__setitem__("u", a["u"][:1])
+            ),
+            "at least 3 samples",
+        ),
+    ],
+)
+def test_learn_style_bad_demo_file(tmp_path, demo_file, mutate, message):
+    with np.load(demo_file) as data:
+        arrays = {k: data[k].copy() for k in data.files}
+    mutate(arrays)
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **arrays)
+    proc = _run("learn_style", str(bad), "--out", str(tmp_path / "o"))
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr
+    assert proc.stderr.startswith("error:") and message in proc.stderr, proc.stderr
+
+
+def test_reproduce_paper(tmp_path):
+    out = tmp_path / "paper"
+    res = _main("reproduce_paper")(["--out", str(out)])
+    for f in (
+        "demo/demo.npz",
+        "demo/demo.png",
+        "base/style.json",
+        "reactive/style.json",
+        "fig3_reproductions.png",
+        "fig4_lateral.png",
+        "results.json",
+        "results.md",
+    ):
+        assert (out / f).exists(), f
+    js = json.loads((out / "results.json").read_text())
+    assert js["demo"]["t_trg_s"] == pytest.approx(3.0)
+    for fs in ("base", "reactive"):
+        for key in ("iterations", "learning_error", "rmse_y_m", "rmse_y_reaction_m", "wall_time_s"):
+            assert key in js["learning"][fs]
+    assert js["reactive_closer_in_reaction_window"] and res["reactive_closer_overall"]
+    assert "paper_rule" in js and "control_point_rule" in js
+    assert "| reactive |" in (out / "results.md").read_text()
+
+
+def test_bench_irl(tmp_path, demo_file):
+    out = tmp_path / "bench.json"
+    _main("bench_irl")(["--out", str(out), "--demo", str(demo_file), "--repeats", "1"])
+    js = json.loads(out.read_text())
+    for fs in ("base", "reactive"):
+        assert js[fs]["learn_wall_s"] > 0 and js[fs]["inner_solve_ms_median"] > 0
+
+
+@pytest.mark.parametrize("name", ["learn_style", "reproduce_paper", "bench_irl"])
+def test_help(name):
+    proc = _run(name, "--help")
+    assert proc.returncode == 0 and "--seed" in proc.stdout
