@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 from envs.demonstration import Demonstration
 from irl.features import (
@@ -93,11 +94,11 @@ def newton_minimize(
         mu, scale = 0.0, 1e-10 * (1.0 + np.max(np.abs(np.diag(H))))
         while True:  # smallest damping that makes the Newton matrix positive definite
             try:
-                np.linalg.cholesky(H + mu * eye)
+                factor = cho_factor(H + mu * eye if mu else H, check_finite=False)
                 break
-            except np.linalg.LinAlgError:
+            except LinAlgError:
                 mu = max(4 * mu, scale)
-        p = -np.linalg.solve(H + mu * eye, g)
+        p = -cho_solve(factor, g, check_finite=False)
         slope = float(g @ p)
         if -slope <= 1e-13 * (1.0 + abs(f)):  # Newton decrement at round-off level
             return z, it, True
@@ -253,7 +254,11 @@ class InnerProblem:
             self._z[axis] = z
             _, _, H = fgh(z)
             _, J = fj_fn(z)
-            sens[np.ix_(idx, idx)] = -J @ np.linalg.solve(H, J.T)
+            try:
+                HinvJt = cho_solve(cho_factor(H, check_finite=False), J.T)
+            except LinAlgError:  # singular or indefinite at a degenerate optimum
+                HinvJt = np.linalg.lstsq(H, J.T, rcond=None)[0]
+            sens[np.ix_(idx, idx)] = -J @ HinvJt
             cols = slice(0, 3) if axis == "x" else slice(3, 6)
             C[1:, cols] = z.reshape(self.S, 3)
         features = self.features_of(C)
