@@ -65,6 +65,9 @@ class LaneChangeEnv(gym.Env):
             reset from ``np_random`` (``drivestyle/LaneChangeRandom-v0``).
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         show_ellipse: draw the safety ellipse (and the λ-scaled one) around the TV.
+        style: a learned style (``style.json`` path or :class:`irl.style.Style`): the reward
+            becomes its negative cost (:mod:`envs.style_reward`); the task reward moves to
+            ``info["original_env_rew"]``.
         **overrides: scenario fields to replace, e.g. ``ev_speed=27``.
     """
 
@@ -76,9 +79,15 @@ class LaneChangeEnv(gym.Env):
         randomize: bool | ScenarioRanges = False,
         render_mode: str | None = None,
         show_ellipse: bool = True,
+        style: Any = None,
         **overrides: Any,
     ) -> None:
         base = get_scenario(scenario).with_overrides(**overrides)
+        self._style_reward = None
+        if style is not None:
+            from envs.style_reward import StyleReward
+
+            self._style_reward = StyleReward(style)
         if randomize is True:
             randomize = ScenarioRanges(base=base)
         elif randomize is not False and not isinstance(randomize, ScenarioRanges):
@@ -167,6 +176,8 @@ class LaneChangeEnv(gym.Env):
         self.ev = self.scenario.ev_initial_state
         self.tv = self.scenario.tv_initial_state
         self.k = 0
+        if self._style_reward is not None:
+            self._style_reward.reset(self.scenario, self.ev, self.tv)
         if self.render_mode == "human":
             self.render()
         return self._obs(), self._info(scenario=self.scenario, action_clipped=False)
@@ -198,10 +209,17 @@ class LaneChangeEnv(gym.Env):
         self.tv = np.array([x + v * np.cos(phi) * sc.dt, y + v * np.sin(phi) * sc.dt, phi, v])
         self.ev = ev
         self.k += 1
-        info = self._info(action_clipped=bool(np.any(u_clip != u)))
+        info = self._info(action_clipped=bool(np.any(u_clip != u)), action=u_clip)
         terminated = info["collision"] or info["off_road"]
         truncated = (not terminated) and self.k >= sc.n_steps
         reward = task_reward(self.ev, sc, terminated)
+        if self._style_reward is not None:
+            info["original_env_rew"] = reward
+            reward, info["style_feature_increment"] = self._style_reward.step(
+                u_clip, self.ev, self.tv, sc.dt
+            )
+            if terminated:
+                reward -= self._style_reward.crash_penalty
         if self.render_mode == "human":
             self.render()
         return self._obs(), reward, terminated, truncated, info

@@ -24,6 +24,7 @@ singular; and inside the optimiser only, |z| is smoothed to sqrt(z² + ε²) −
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -135,6 +136,11 @@ class EventTimes:
         return self.t_trg is not None
 
 
+@functools.lru_cache(maxsize=32)
+def _leggauss(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.polynomial.legendre.leggauss(n)
+
+
 def gauss_legendre_nodes(
     t_knots: np.ndarray, a: float, b: float, n: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -151,7 +157,7 @@ def gauss_legendre_nodes(
     """
     if b <= a:
         return np.zeros(0), np.zeros(0)
-    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = _leggauss(n)
     cuts = np.concatenate([[a], t_knots[(t_knots > a) & (t_knots < b)], [b]])
     nodes, weights = [], []
     for lo, hi in itertools.pairwise(cuts):
@@ -409,3 +415,83 @@ def feature_values(cx, cy, basis: FeatureBasis, smooth: bool = False, names=FEAT
             out["id"] = 0.0
     scale = {n: basis.omega[FEATURES.index(n)] for n in names}
     return stack(*[scale[n] * out[n] for n in names])
+
+
+INTEGRAL_FEATURES = ("ax", "ay", "v", "l", "il", "tiv", "id")
+
+
+@functools.lru_cache(maxsize=4096)
+def _segment_basis(T: float, tau: tuple[float, ...], d: int) -> np.ndarray:
+    """Basis rows of one segment of duration T at local times τ (cached: segments repeat)."""
+    return basis_matrix(np.array([0.0, T]), np.array(tau), d)
+
+
+"""Features that are integrals over time and so add up segment by segment."""
+
+
+def segment_integrals(
+    cx: np.ndarray,
+    cy: np.ndarray,
+    tv_cx: np.ndarray,
+    t0: float,
+    t1: float,
+    basis_like: FeatureBasis | dict,
+    t_turn: float,
+    window: tuple[float, float, float] | None,
+    first: bool,
+) -> dict[str, float]:
+    """Unscaled contributions of the integral features over one spline segment [t0, t1].
+
+    Summed over all segments (plus f_el, f_sd, f_ed, see :func:`instant_features`) they
+    give :func:`feature_values` exactly: the same Gauss–Legendre nodes, split at the
+    window ends. Used to compute features incrementally along a growing trajectory.
+
+    Args:
+        cx: EV x control points [r, v, a] at t0 and t1, shape (6,).
+        cy: EV y control points at t0 and t1, shape (6,).
+        tv_cx: TV x control points at t0 and t1, shape (6,).
+        t0: segment start [s].
+        t1: segment end [s].
+        basis_like: constants (v_des, v_lane, l_des, l_initial, config) — a
+            :class:`FeatureBasis` or a dict with those keys.
+        t_turn: end of f_il [s].
+        window: (t_trg, t_rct_end, y_EV(t_trg)) of f_id, or None if inactive.
+        first: this is the first segment (f_ay weighting).
+
+    Returns:
+        Feature name → contribution (unscaled).
+    """
+    get = (
+        (lambda k: getattr(basis_like, k))
+        if not isinstance(basis_like, dict)
+        else basis_like.__getitem__
+    )
+    config: FeatureConfig = get("config")
+    knots = np.array([t0, t1])
+    n = config.n_gauss
+
+    def part(a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+        return gauss_legendre_nodes(knots, max(a, t0), min(b, t1), n)
+
+    T = t1 - t0
+
+    def seg_basis(nodes: np.ndarray, d: int = 0) -> np.ndarray:
+        return _segment_basis(T, tuple(np.round(nodes - t0, 12)), d)
+
+    tn, w = part(t0, t1)
+    B0, B1, B2 = (seg_basis(tn, d) for d in (0, 1, 2))
+    out = {
+        "ax": float(w @ (B2 @ cx) ** 2),
+        "ay": float(w @ (B2 @ cy) ** 2) * (config.ay_first_segment_weight if first else 1.0),
+        "v": float(w @ (get("v_des") - B1 @ cx) ** 2),
+        "l": float(w @ np.abs(get("l_des") - B0 @ cy)),
+        "tiv": float(w @ (get("v_lane") / np.sqrt((B0 @ tv_cx - B0 @ cx) ** 2 + config.tiv_d0**2))),
+    }
+    ti, wi = part(t0, t_turn)
+    out["il"] = float(wi @ np.abs(get("l_initial") - seg_basis(ti) @ cy)) if ti.size else 0.0
+    out["id"] = 0.0
+    if window is not None:
+        td, wd = part(window[0], window[1])
+        if td.size:
+            out["id"] = float(wd @ np.abs(seg_basis(td) @ cy - window[2]))
+    return out

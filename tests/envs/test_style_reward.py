@@ -1,0 +1,82 @@
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from envs import LaneChangeEnv, LearnedStyleReward
+from irl import FeatureConfig, IRLConfig, feature_basis, feature_values
+from irl.spline import demo_control_points
+from irl.style import fit_style, load_style
+
+
+@pytest.fixture(scope="module")
+def styles(tmp_path_factory, paper_demo):
+    from envs.results import write_json
+
+    out = {}
+    for fs in ("base", "reactive"):
+        _, _, payload = fit_style(paper_demo, FeatureConfig(feature_set=fs), IRLConfig())
+        path = write_json(tmp_path_factory.mktemp(fs) / "style.json", payload)
+        out[fs] = path
+    return out
+
+
+@pytest.mark.parametrize("fs", ["base", "reactive"])
+def test_replayed_demo_sums_to_learned_cost(styles, paper_demo, fs):
+    style = load_style(styles[fs])
+    env = LearnedStyleReward(LaneChangeEnv(), style)
+    env.reset(seed=0)
+    total, originals = 0.0, 0.0
+    for u in paper_demo.u:
+        _, r, term, trunc, info = env.step(u)
+        total += r
+        originals += info["original_env_rew"]
+    assert trunc and not term
+    C = demo_control_points(paper_demo, style.control_point_rule)
+    f = feature_values(
+        C[:, :3].ravel(),
+        C[:, 3:].ravel(),
+        feature_basis(paper_demo, style.features),
+        names=style.names,
+    )
+    # the increments telescope: equal up to round-off (documented tolerance 1e-8 relative)
+    assert total == pytest.approx(-style.theta @ f, rel=1e-8)
+    assert originals < 0  # the task reward is still reported
+
+
+def test_kwarg_path_equals_wrapper(styles, paper_demo):
+    a = gym.make("drivestyle/LaneChange-v0", style=str(styles["reactive"]))
+    b = LearnedStyleReward(gym.make("drivestyle/LaneChange-v0"), styles["reactive"])
+    a.reset(seed=0)
+    b.reset(seed=0)
+    for u in paper_demo.u[:10]:
+        ra, rb = a.step(u)[1], b.step(u)[1]
+        assert ra == pytest.approx(rb, rel=1e-12)
+
+
+def test_check_env_with_learned_reward(styles):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(gym.make("drivestyle/LaneChange-v0", style=str(styles["base"])).unwrapped)
+        check_env(LearnedStyleReward(LaneChangeEnv(randomize=True), styles["reactive"]))
+
+
+def test_crash_costs_the_penalty(styles):
+    env = LearnedStyleReward(
+        LaneChangeEnv(tv_lane=0, tv_speed=60.0, ev_speed=20.0),
+        styles["reactive"],
+        crash_penalty=500.0,
+    )
+    env.reset(seed=0)
+    for _ in range(10):
+        _, r, term, _, info = env.step(np.zeros(2))
+        if term:
+            break
+    assert term and info["collision"] and r < -400
+
+
+def test_bad_style_path():
+    with pytest.raises(FileNotFoundError):
+        LearnedStyleReward(LaneChangeEnv(), "no/such/style.json")
