@@ -1,0 +1,319 @@
+"""Compare ways of driving a learned style.
+
+The three: the SMPC demonstration it came from, the spline-optimised reproduction r*_θ,
+and an RL policy trained on the learned reward.
+
+All trajectories are scored the same way: control points at the demonstration's sample
+times (by the style's control-point rule for sampled states, the spline's own for r*_θ)
+and the features evaluated with the demonstration's event times and TV, so θᵀf, the
+feature error and the trajectory errors are directly comparable.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from envs.demonstration import Demonstration
+from envs.lane_change import LaneChangeEnv
+from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
+from irl.features import feature_basis, feature_values
+from irl.inner import InnerProblem
+from irl.learner import reproduction_errors
+from irl.spline import demo_control_points, spline_eval
+from irl.style import Style
+
+__all__ = [
+    "LABELS",
+    "compare_methods",
+    "comparison_markdown",
+    "fmt",
+    "plot_comparison",
+    "policy_frames",
+    "rollout_policy",
+    "trajectory_metrics",
+]
+
+LABELS = {"smpc": "SMPC demonstration", "spline": "spline reproduction r*_θ", "sb3": "SB3 policy"}
+
+
+def fmt(v: Any, d: int = 3) -> str:
+    """Number for tables ('—' for None)."""
+    if v is None:
+        return "—"
+    return f"{v:.{d}f}" if isinstance(v, float) else str(v)
+
+
+def comparison_markdown(methods: dict[str, dict[str, Any]], command: str) -> str:
+    """compare.md: one row per method."""
+    lines = [
+        "# SMPC vs spline reproduction vs SB3 on the learned reward",
+        "",
+        f"Command: `{command}`",
+        "",
+        "| method | learned cost θᵀf | feature error | rmse_y [m] | rmse_xy [m] | "
+        "rmse_y reaction [m] | min d_k | collision | compute | time [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, m in methods.items():
+        lines.append(
+            f"| {LABELS.get(name, name)} | {fmt(m['learned_cost'])} | "
+            f"{fmt(m['feature_error'])} | {fmt(m['rmse_y_m'])} | {fmt(m['rmse_xy_m'])} | "
+            f"{fmt(m['rmse_y_reaction_m'])} | {m['min_d_k']:.3f} | {m['collision']} | "
+            f"{m['compute']} | {fmt(m['compute_time_s'], 2)} |"
+        )
+    lines += ["", "Figure: `compare.png`.", ""]
+    return "\n".join(lines)
+
+
+def policy_frames(
+    kind: str,
+    scenario: Any,
+    risk: float = 0.7,
+    style: Style | None = None,
+    demo: Demonstration | None = None,
+    model: str | Path | None = None,
+    seed: int = 0,
+) -> list[np.ndarray]:
+    """Rendered frames of one episode driven by the expert, the spline or an SB3 policy.
+
+    The spline reproduction is replayed state by state.
+
+    Args:
+        kind: 'expert', 'spline' or 'sb3'.
+        scenario: scenario of the episode.
+        risk: SMPC risk (expert).
+        style: learned style (spline).
+        demo: the style's demonstration (spline).
+        model: train_baseline output folder (sb3).
+        seed: reset seed.
+
+    Returns:
+        RGB frames (reset frame first).
+    """
+    from envs.video import record_policy, record_states
+
+    env = LaneChangeEnv(scenario=scenario, render_mode="rgb_array")
+    try:
+        if kind == "expert":
+            from agents.smpc import SMPCConfig, SMPCExpert
+
+            expert = SMPCExpert(SMPCConfig(risk=risk), env.scenario)
+            return record_policy(env, lambda e, o: expert.act(o), seed)[0]
+        if kind == "sb3":
+            if model is None:
+                raise ValueError("the sb3 policy needs a model folder")
+            from agents.sb3_baseline import SB3Policy
+
+            return record_policy(env, SB3Policy(model).act, seed)[0]
+        if kind == "spline":
+            if style is None or demo is None:
+                raise ValueError("the spline reproduction needs a style and its demonstration")
+            C = (
+                InnerProblem(demo, style.features, style.control_point_rule)
+                .solve(style.theta)
+                .control_points
+            )
+            vel = spline_eval(C, demo.t, demo.t, 1)
+            ev = np.column_stack(
+                [C[:, 0], C[:, 3], np.arctan2(vel[:, 1], vel[:, 0]), np.hypot(vel[:, 0], vel[:, 1])]
+            )
+            return record_states(env, ev, demo.tv)
+        raise ValueError(f"unknown policy kind {kind!r}; choose expert, spline or sb3")
+    finally:
+        env.close()
+
+
+def rollout_policy(
+    policy: Callable[[Any, np.ndarray], np.ndarray], demo: Demonstration
+) -> tuple[Demonstration, float]:
+    """Roll a policy out in the demonstration's scenario.
+
+    Args:
+        policy: (env, raw observation) → [a, δ].
+        demo: the reference demonstration (its scenario and horizon).
+
+    Returns:
+        The rollout as a demonstration (possibly shorter on a crash) and its wall time [s].
+    """
+    env = LaneChangeEnv(scenario=demo.scenario)
+    obs, _ = env.reset(seed=0)
+    states, inputs = [obs.copy()], []
+    t0 = time.perf_counter()
+    for _ in range(demo.scenario.n_steps):
+        u = np.asarray(policy(env, obs), float)
+        obs, _, term, trunc, info = env.step(u)
+        states.append(obs.copy())
+        inputs.append(info["action"])
+        if term or trunc:
+            break
+    wall = time.perf_counter() - t0
+    states = np.array(states)
+    if len(states) < 3:  # crashed at once: pad so the (flagged) rollout stays representable
+        states = np.vstack([states, np.repeat(states[-1:], 3 - len(states), axis=0)])
+        inputs += [inputs[-1]] * (len(states) - 1 - len(inputs))
+    out = Demonstration(
+        t=np.arange(len(states)) * demo.scenario.dt,
+        ev=states[:, :4],
+        tv=states[:, 4:],
+        u=np.array(inputs),
+        meta=dict(demo.meta),
+    )
+    return out, wall
+
+
+def trajectory_metrics(
+    C: np.ndarray, demo: Demonstration, style: Style, C_demo: np.ndarray
+) -> dict[str, Any]:
+    """Learned cost, feature error, trajectory errors and safety of one trajectory.
+
+    Args:
+        C: control points at the demonstration's samples, shape (n, 6) (n may be shorter
+            after a crash; costs are then not comparable and reported as None).
+        demo: the reference demonstration.
+        style: the learned style.
+        C_demo: the demonstration's control points.
+
+    Returns:
+        JSON-ready metrics.
+    """
+    sc = demo.scenario
+    n = C.shape[0]
+    complete = n == demo.n
+    out: dict[str, Any] = {"complete": complete, "n_samples": n}
+    if complete:
+        basis = feature_basis(demo, style.features)
+        f = feature_values(C[:, :3].ravel(), C[:, 3:].ravel(), basis, names=style.names)
+        f_d = feature_values(C_demo[:, :3].ravel(), C_demo[:, 3:].ravel(), basis, names=style.names)
+        out |= {
+            "learned_cost": float(style.theta @ f),
+            "feature_error": float(np.linalg.norm(f - f_d)),
+            "features": f.tolist(),
+        }
+        ev = basis.events
+        out |= reproduction_errors(C, demo, ev.t_trg, ev.t_rct_end)
+        out["fde_m"] = float(np.hypot(C[-1, 0] - demo.ev[-1, 0], C[-1, 3] - demo.ev[-1, 1]))
+    else:
+        out |= {
+            "learned_cost": None,
+            "feature_error": None,
+            "rmse_y_m": None,
+            "rmse_xy_m": None,
+            "rmse_y_reaction_m": None,
+            "fde_m": None,
+        }
+    tv = demo.tv[:n]
+    d_k = ellipse_constraint(C[:, 0] - tv[:, 0], C[:, 3] - tv[:, 1], sc.l_a, sc.l_b)
+    heading = np.arctan2(C[:, 4], C[:, 1])
+    crash = any(
+        rectangles_overlap(
+            vehicle_corners([C[i, 0], C[i, 3], heading[i]], sc.vehicle_length, sc.vehicle_width),
+            vehicle_corners(tv[i], sc.vehicle_length, sc.vehicle_width),
+        )
+        for i in range(n)
+    )
+    off_road = bool(np.any((C[:, 3] < 0) | (C[:, 3] > sc.road_width)))
+    out |= {"min_d_k": float(d_k.min()), "collision": bool(crash), "off_road": off_road}
+    return out
+
+
+def compare_methods(
+    style: Style,
+    demo: Demonstration,
+    smpc_solve_s: float | None = None,
+    sb3_folder: str | Path | None = None,
+) -> dict[str, Any]:
+    """Score the SMPC demonstration, the spline reproduction and (optionally) an SB3 policy.
+
+    Args:
+        style: the learned style.
+        demo: its demonstration (the SMPC's closed loop).
+        smpc_solve_s: total SMPC solve time of that closed loop [s], if known.
+        sb3_folder: a :func:`agents.sb3_baseline.train_baseline` output folder.
+
+    Returns:
+        ``{"methods": {name: metrics}, "trajectories": {name: control points}}``.
+    """
+    C_demo = demo_control_points(demo, style.control_point_rule)
+    methods: dict[str, Any] = {}
+    trajectories: dict[str, np.ndarray] = {"smpc": C_demo}
+    methods["smpc"] = trajectory_metrics(C_demo, demo, style, C_demo) | {
+        "compute": "SMPC closed loop (solver time)",
+        "compute_time_s": smpc_solve_s,
+    }
+
+    t0 = time.perf_counter()
+    inner = InnerProblem(demo, style.features, style.control_point_rule)
+    build_s = time.perf_counter() - t0
+    sol = inner.solve(style.theta)
+    trajectories["spline"] = sol.control_points
+    methods["spline"] = trajectory_metrics(sol.control_points, demo, style, C_demo) | {
+        "compute": "inner problem (build + solve)",
+        "compute_time_s": build_s + sol.solve_ms / 1e3,
+        "solve_ms": sol.solve_ms,
+    }
+
+    if sb3_folder is not None:
+        from agents.sb3_baseline import SB3Policy
+
+        policy = SB3Policy(sb3_folder)
+        rollout, wall = rollout_policy(policy.act, demo)
+        C = demo_control_points(replace(rollout, meta=dict(demo.meta)), style.control_point_rule)
+        trajectories["sb3"] = C
+        methods["sb3"] = trajectory_metrics(C, demo, style, C_demo) | {
+            "compute": f"{policy.summary['algo'].upper()} training "
+            f"({policy.summary['timesteps']} steps)",
+            "compute_time_s": policy.summary["train_time_s"],
+            "rollout_s": wall,
+            "algo": policy.summary["algo"],
+            "timesteps": policy.summary["timesteps"],
+        }
+    return {"methods": methods, "trajectories": trajectories}
+
+
+def plot_comparison(
+    demo: Demonstration, trajectories: dict[str, np.ndarray], path: str | Path, title: str = ""
+) -> Path:
+    """x–y paths and lateral velocity of the compared trajectories."""
+    styles = {
+        "smpc": ("r--", "SMPC demonstration"),
+        "spline": ("b-", "spline reproduction r*_θ"),
+        "sb3": ("g-", "SB3 policy on the learned reward"),
+    }
+    sc = demo.scenario
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6))
+    for i in range(sc.n_lanes + 1):
+        a1.axhline(i * sc.lane_width, color="0.6", lw=0.8, ls="-" if i in (0, sc.n_lanes) else "--")
+    a1.plot(demo.tv[:, 0], demo.tv[:, 1], color="0.3", lw=1, label="TV")
+    for name, C in trajectories.items():
+        fmt, label = styles.get(name, ("k-", name))
+        t = demo.t[: C.shape[0]]
+        tt = np.linspace(t[0], t[-1], 10 * (t.size - 1) + 1)
+        pos = spline_eval(C, t, tt, 0)
+        vel = spline_eval(C, t, tt, 1)
+        a1.plot(pos[:, 0], pos[:, 1], fmt, lw=1.6, label=label)
+        a2.plot(tt, vel[:, 1], fmt, lw=1.6, label=label)
+    a1.set_xlabel("x [m]")
+    a1.set_ylabel("y [m]")
+    a1.set_ylim(0, sc.road_width)
+    a1.legend(fontsize=8, loc="upper left", ncol=2)
+    a2.set_xlabel("t [s]")
+    a2.set_ylabel("lateral velocity [m/s]")
+    a2.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -1,0 +1,224 @@
+"""A stable-baselines3 policy trained on a learned style's reward (the RL baseline).
+
+Needs the ``rl`` extra (stable-baselines3, torch). The training env is
+:func:`envs.rl.make_rl_env` (learned reward, translation-invariant observation, actions in
+[−1, 1]) inside SB3's ``VecNormalize`` (observations normalised, rewards left as the
+learned cost so that returns stay comparable with θᵀf).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from envs.rl import make_rl_env
+from envs.scenario import ScenarioConfig
+
+__all__ = ["ALGOS", "SB3Policy", "TrainConfig", "train_baseline"]
+
+ALGOS = ("sac", "ppo")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Training settings of the SB3 baseline."""
+
+    algo: str = "sac"
+    """'sac' or 'ppo'."""
+    timesteps: int = 20_000
+    """Environment steps (the default budget finishes in a few minutes on 2 cores)."""
+    seed: int = 0
+    """Seeds SB3, torch, numpy and the envs."""
+    eval_freq: int = 2_000
+    """Evaluate every this many steps."""
+    n_eval_episodes: int = 1
+    """Episodes per evaluation (the paper scenario is deterministic: one suffices)."""
+    randomize: bool = False
+    """Train on the random scenario family instead of the fixed scenario."""
+
+    def __post_init__(self) -> None:
+        if self.algo not in ALGOS:
+            raise ValueError(f"algo must be one of {ALGOS}, got {self.algo!r}")
+        for name in ("timesteps", "eval_freq", "n_eval_episodes"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+
+
+def _vec_env(style: Any, scenario: Any, seed: int, monitor: Path | None, randomize: bool):
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    def make():
+        env = make_rl_env(style, scenario, randomize=randomize, monitor_file=monitor)
+        env.reset(seed=seed)
+        env.action_space.seed(seed)
+        return env
+
+    return DummyVecEnv([make])
+
+
+def train_baseline(
+    style: Any,
+    out: str | Path,
+    config: TrainConfig | None = None,
+    scenario: str | ScenarioConfig = "paper",
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Train an SB3 policy on the learned reward and save it.
+
+    Writes ``OUT/model.zip``, ``OUT/vecnormalize.pkl``, ``OUT/monitor.csv`` (training
+    episodes), ``OUT/evaluations.npz`` (EvalCallback) and returns a summary.
+
+    Args:
+        style: ``style.json`` path or loaded style.
+        out: output folder.
+        config: training settings.
+        scenario: scenario name or config.
+        progress: show a progress bar.
+
+    Returns:
+        Summary: algorithm, timesteps, training time, final evaluation return, paths.
+    """
+    import torch
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecNormalize
+    from tqdm import tqdm
+
+    cfg = config or TrainConfig()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(1)  # small networks: threads cost more than they give
+    set_random_seed(cfg.seed)
+    train_env = VecNormalize(
+        _vec_env(style, scenario, cfg.seed, out / "monitor.csv", cfg.randomize),
+        norm_obs=True,
+        norm_reward=False,
+    )
+    eval_env = VecNormalize(
+        _vec_env(style, scenario, cfg.seed + 1, None, cfg.randomize),
+        norm_obs=True,
+        norm_reward=False,
+        training=False,
+    )
+
+    class Progress(BaseCallback):
+        def _on_training_start(self) -> None:
+            self.bar = tqdm(
+                total=cfg.timesteps, desc=f"{cfg.algo.upper()} training", disable=not progress
+            )
+
+        def _on_step(self) -> bool:
+            self.bar.update(1)
+            return True
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+    eval_cb = EvalCallback(
+        eval_env,
+        eval_freq=cfg.eval_freq,
+        n_eval_episodes=cfg.n_eval_episodes,
+        log_path=str(out),
+        best_model_save_path=None,
+        deterministic=True,
+        verbose=0,
+    )
+    if cfg.algo == "sac":
+        model = SAC(
+            "MlpPolicy",
+            train_env,
+            seed=cfg.seed,
+            verbose=0,
+            learning_starts=500,
+            batch_size=256,
+            gamma=0.99,
+            policy_kwargs={"net_arch": [128, 128]},
+        )
+    else:
+        model = PPO(
+            "MlpPolicy",
+            train_env,
+            seed=cfg.seed,
+            verbose=0,
+            n_steps=512,
+            batch_size=128,
+            gamma=0.99,
+            policy_kwargs={"net_arch": [128, 128]},
+        )
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=cfg.timesteps, callback=[Progress(), eval_cb])
+    train_s = time.perf_counter() - t0
+    model.save(out / "model.zip")
+    train_env.save(str(out / "vecnormalize.pkl"))
+    summary = {
+        "algo": cfg.algo,
+        "timesteps": cfg.timesteps,
+        "seed": cfg.seed,
+        "train_time_s": train_s,
+        "randomize": cfg.randomize,
+        "final_eval_return": (
+            float(eval_cb.last_mean_reward) if np.isfinite(eval_cb.last_mean_reward) else None
+        ),
+        "model": str(out / "model.zip"),
+        "vecnormalize": str(out / "vecnormalize.pkl"),
+    }
+    (out / "train_summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+class SB3Policy:
+    """A trained baseline acting on the *raw* drivestyle observation in physical units.
+
+    Args:
+        folder: output folder of :func:`train_baseline` (model.zip, vecnormalize.pkl,
+            train_summary.json).
+    """
+
+    def __init__(self, folder: str | Path) -> None:
+        from stable_baselines3 import PPO, SAC
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        folder = Path(folder)
+        if folder.suffix == ".zip":
+            folder = folder.parent
+        summary_path = folder / "train_summary.json"
+        if not (folder / "model.zip").is_file() or not summary_path.is_file():
+            raise FileNotFoundError(
+                f"no trained baseline in {folder} (model.zip and "
+                "train_summary.json expected; run train_baseline.py)"
+            )
+        self.summary = json.loads(summary_path.read_text())
+        algo = {"sac": SAC, "ppo": PPO}[self.summary["algo"]]
+        self.model = algo.load(folder / "model.zip", device="cpu")
+        with open(folder / "vecnormalize.pkl", "rb") as fh:
+            import pickle
+
+            self.norm: VecNormalize = pickle.load(fh)
+        self.norm.training = False
+
+    def act(self, env: Any, obs: np.ndarray) -> np.ndarray:
+        """Deterministic action [a, δ] in physical units for the env's raw observation.
+
+        Args:
+            env: the drivestyle env (its unwrapped state gives time and bounds).
+            obs: raw observation, shape (8,).
+
+        Returns:
+            [a, δ] [m/s², rad].
+        """
+        base = env.unwrapped
+        ev, tv = obs[:4], obs[4:]
+        progress = min(base.k / base.scenario.n_steps, 1.0)
+        o = np.array(
+            [[ev[1], ev[2], ev[3], tv[0] - ev[0], tv[1], tv[3], progress]], dtype=np.float32
+        )
+        a, _ = self.model.predict(self.norm.normalize_obs(o), deterministic=True)
+        low, high = base.action_space.low, base.action_space.high
+        return low + (np.clip(a[0], -1, 1) + 1.0) * 0.5 * (high - low)

@@ -1,0 +1,90 @@
+"""Headless rollout videos (mp4 through imageio-ffmpeg, or gif)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from envs.lane_change import LaneChangeEnv
+
+__all__ = ["record_policy", "record_states", "write_video"]
+
+
+def write_video(frames: list[np.ndarray], path: str | Path, fps: int = 5) -> Path:
+    """Write RGB frames as ``.mp4`` (H.264) or ``.gif`` (by the path's suffix).
+
+    Args:
+        frames: (H, W, 3) uint8 frames.
+        path: output file.
+        fps: frames per second (5 = real time at T_s = 0.2 s).
+
+    Returns:
+        The path written.
+    """
+    import imageio.v2 as imageio
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix.lower() == ".gif":
+        imageio.mimsave(path, frames, duration=1000 / fps, loop=0)
+    elif path.suffix.lower() == ".mp4":
+        with imageio.get_writer(
+            path, fps=fps, codec="libx264", macro_block_size=1, ffmpeg_log_level="error"
+        ) as writer:
+            for f in frames:
+                writer.append_data(f)
+    else:
+        raise ValueError(f"video must end in .mp4 or .gif, got {path.name}")
+    return path
+
+
+def record_policy(
+    env: LaneChangeEnv,
+    policy: Callable[[Any, np.ndarray], np.ndarray],
+    seed: int = 0,
+    options: dict | None = None,
+) -> tuple[list[np.ndarray], list]:
+    """Run a policy for one episode and collect the rendered frames (env in rgb_array mode).
+
+    Args:
+        env: the env, created with ``render_mode="rgb_array"``.
+        policy: (env, raw observation) → [a, δ].
+        seed: reset seed.
+        options: reset options.
+
+    Returns:
+        (frames: reset frame + one per step, infos per step).
+    """
+    obs, _ = env.reset(seed=seed, options=options)
+    frames, infos = [env.render()], []
+    for _ in range(env.scenario.n_steps):
+        obs, _, term, trunc, info = env.step(policy(env, obs))
+        frames.append(env.render())
+        infos.append(info)
+        if term or trunc:
+            break
+    return frames, infos
+
+
+def record_states(
+    env: LaneChangeEnv, ev_states: np.ndarray, tv_states: np.ndarray
+) -> list[np.ndarray]:
+    """Replay given EV and TV states exactly (e.g. a spline reproduction) and render them.
+
+    Args:
+        env: the env in ``rgb_array`` mode (supplies scenario and drawing).
+        ev_states: EV states [x, y, φ, v] per sample, shape (n, 4).
+        tv_states: TV states per sample, shape (n, 4).
+
+    Returns:
+        One frame per sample.
+    """
+    env.reset(seed=0)
+    frames = []
+    for k, (ev, tv) in enumerate(zip(ev_states, tv_states, strict=True)):
+        env.ev, env.tv, env.k = np.asarray(ev, float), np.asarray(tv, float), k
+        frames.append(env.render())
+    return frames

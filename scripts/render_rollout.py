@@ -1,0 +1,79 @@
+"""Render a rollout of the SMPC expert, the spline reproduction or an SB3 policy to video.
+
+Headless (pygame off-screen surfaces through highway-env's viewer): EV red, TV blue,
+safety ellipse and λ-scaled ellipse, a caption with t, v and s_e. The spline reproduction
+r*_θ is replayed by setting the env to its states at every sample (position, heading
+atan2(ṙ^y, ṙ^x), speed |ṙ|).
+
+Example:
+    python scripts/render_rollout.py --policy expert --video runs/videos/expert.mp4
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from agents.compare import policy_frames
+from envs import load_demonstration
+from envs.results import write_json
+from envs.video import write_video
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
+    p.add_argument("--policy", required=True, choices=("expert", "spline", "sb3"))
+    p.add_argument("--style", type=Path, help="style.json (spline)")
+    p.add_argument("--model", type=Path, help="train_baseline.py output folder (sb3)")
+    p.add_argument(
+        "--demo",
+        type=Path,
+        help="demonstration whose scenario to use "
+        "(default: the style's own demonstration, else the paper scenario)",
+    )
+    p.add_argument("--risk", type=float, default=0.7, help="SMPC risk p (expert)")
+    p.add_argument("--video", type=Path, required=True, help="output .mp4 or .gif")
+    p.add_argument("--fps", type=int, default=5)
+    p.add_argument("--seed", type=int, default=0)
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Render; returns a small summary (also written next to the video as JSON)."""
+    args = parse_args(argv)
+    if args.video.suffix.lower() not in (".mp4", ".gif"):
+        sys.exit(f"error: --video must end in .mp4 or .gif, got {args.video.name}")
+    try:
+        style = None
+        if args.style is not None:
+            from irl.style import load_style
+
+            style = load_style(args.style)
+        demo_path = args.demo or (Path(style.raw["demos"][0]["path"]) if style else None)
+        demo = load_demonstration(demo_path) if demo_path else None
+    except (FileNotFoundError, ValueError, KeyError) as exc:
+        sys.exit(f"error: {exc}")
+    scenario = demo.scenario if demo is not None else "paper"
+    try:
+        frames = policy_frames(args.policy, scenario, args.risk, style, demo, args.model, args.seed)
+    except (ValueError, FileNotFoundError, ImportError) as exc:
+        sys.exit(f"error: {exc}")
+    write_video(frames, args.video, args.fps)
+    summary = {
+        "policy": args.policy,
+        "video": str(args.video),
+        "frames": len(frames),
+        "fps": args.fps,
+        "frame_shape": list(frames[0].shape),
+    }
+    write_json(args.video.with_suffix(".json"), summary, [sys.argv[0], *(argv or sys.argv[1:])])
+    print(f"wrote {args.video} ({len(frames)} frames at {args.fps} fps)")
+    return summary
+
+
+if __name__ == "__main__":
+    main()
