@@ -47,6 +47,19 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--risk", type=float, default=0.7)
     p.add_argument("--t-rct", type=float, default=2.0, help="reaction window T_rct [s]")
     p.add_argument(
+        "--with-baseline",
+        action="store_true",
+        help="also train an SB3 policy on the reactive style, compare it with the spline "
+        "reproduction and the SMPC demo, and render videos (needs the rl and video extras)",
+    )
+    p.add_argument("--baseline-algo", default="sac", choices=("sac", "ppo"))
+    p.add_argument(
+        "--baseline-timesteps",
+        type=int,
+        default=20_000,
+        help="SB3 budget (20 000 SAC steps take about 5 min on 2 cores)",
+    )
+    p.add_argument(
         "--skip-ablations",
         action="store_true",
         help="skip the paper-rule and control-point-rule comparisons",
@@ -151,6 +164,57 @@ def write_markdown(path: Path, res: dict) -> None:
     path.write_text("\n".join(lines))
 
 
+def run_baseline(args: argparse.Namespace, demo, out: Path, argv_full: list[str]) -> dict:
+    """Train the SB3 baseline, compare it, render videos (the ``--with-baseline`` step)."""
+    import json
+
+    try:
+        from agents.compare import (
+            compare_methods,
+            comparison_markdown,
+            plot_comparison,
+            policy_frames,
+        )
+        from agents.sb3_baseline import TrainConfig, train_baseline
+    except ImportError as exc:
+        sys.exit(
+            f"error: {exc}; --with-baseline needs: pip install -c constraints-cpu.txt "
+            "-e '.[rl,video]'"
+        )
+    from envs.video import write_video
+    from irl.style import load_style
+
+    style = load_style(out / "reactive" / "style.json")
+    train = train_baseline(
+        style,
+        out / "baseline",
+        TrainConfig(algo=args.baseline_algo, timesteps=args.baseline_timesteps, seed=args.seed),
+    )
+    res = compare_methods(style, demo, None, out / "baseline")
+    plot_comparison(
+        demo,
+        res["trajectories"],
+        out / "compare" / "compare.png",
+        title="driving the learned reactive style",
+    )
+    path = write_json(out / "compare" / "compare.json", {"methods": res["methods"]}, argv_full)
+    (out / "compare" / "compare.md").write_text(
+        comparison_markdown(res["methods"], json.loads(path.read_text())["command"])
+    )
+    videos = {}
+    for kind in ("expert", "spline", "sb3"):
+        frames = policy_frames(
+            kind, demo.scenario, args.risk, style, demo, out / "baseline", args.seed
+        )
+        videos[kind] = str(write_video(frames, out / "videos" / f"{kind}.mp4"))
+    videos["expert_gif"] = str(
+        write_video(
+            policy_frames("expert", demo.scenario, args.risk), out / "videos" / "expert.gif"
+        )
+    )
+    return {"train": train, "compare": res["methods"], "videos": videos}
+
+
 def main(argv: list[str] | None = None) -> dict:
     """Run the study; returns the results payload."""
     args = parse_args(argv)
@@ -253,6 +317,8 @@ def main(argv: list[str] | None = None) -> dict:
             payload["control_point_rule"][label] = entry
         steps.update(1)
     steps.close()
+    if args.with_baseline:
+        payload["baseline"] = run_baseline(args, demo, out, argv_full)
     payload["wall_time_total_s"] = time.perf_counter() - t_start
     path = write_json(out / "results.json", payload, argv_full)
     import json
