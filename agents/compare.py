@@ -25,6 +25,7 @@ import numpy as np
 
 from envs.demonstration import Demonstration
 from envs.lane_change import LaneChangeEnv
+from envs.plotting import draw_lanes, save_figure
 from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
 from irl.features import feature_basis, feature_values
 from irl.inner import InnerProblem
@@ -291,8 +292,7 @@ def plot_comparison(
     }
     sc = demo.scenario
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6))
-    for i in range(sc.n_lanes + 1):
-        a1.axhline(i * sc.lane_width, color="0.6", lw=0.8, ls="-" if i in (0, sc.n_lanes) else "--")
+    draw_lanes(a1, sc)
     a1.plot(demo.tv[:, 0], demo.tv[:, 1], color="0.3", lw=1, label="TV")
     for name, C in trajectories.items():
         fmt, label = styles.get(name, ("k-", name))
@@ -309,11 +309,4 @@ def plot_comparison(
     a2.set_xlabel("t [s]")
     a2.set_ylabel("lateral velocity [m/s]")
     a2.grid(alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title, dpi=120)

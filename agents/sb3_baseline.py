@@ -96,10 +96,12 @@ def train_baseline(
     out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)  # small networks: threads cost more than they give
     set_random_seed(cfg.seed)
+    # rewards are normalised for learning only; evaluation reports the raw learned cost
     train_env = VecNormalize(
         _vec_env(style, scenario, cfg.seed, out / "monitor.csv", cfg.randomize),
         norm_obs=True,
-        norm_reward=False,
+        norm_reward=True,
+        gamma=0.99,
     )
     eval_env = VecNormalize(
         _vec_env(style, scenario, cfg.seed + 1, None, cfg.randomize),

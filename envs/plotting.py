@@ -14,24 +14,38 @@ from matplotlib.patches import Ellipse, Polygon
 from envs.demonstration import Demonstration
 from envs.safety import elliptical_index, trigger_time, vehicle_corners
 
-__all__ = ["plot_demonstration"]
+__all__ = ["draw_lanes", "plot_demonstration", "save_figure"]
 
 EV_RED = "#d62828"
 TV_BLUE = "#1d4ed8"
 SCALED_ORANGE = "#f59e0b"
 
 
-def _road(ax: plt.Axes, sc, x_range: tuple[float, float]) -> None:
+def draw_lanes(ax: plt.Axes, sc) -> None:
+    """Road edges (solid) and lane lines (dashed) of a scenario as horizontal lines."""
     for i in range(sc.n_lanes + 1):
         edge = i in (0, sc.n_lanes)
-        ax.plot(
-            x_range,
-            [i * sc.lane_width] * 2,
+        ax.axhline(
+            i * sc.lane_width,
             color="0.3" if edge else "0.6",
             lw=1.4 if edge else 0.8,
             ls="-" if edge else "--",
             zorder=0,
         )
+
+
+def save_figure(
+    fig: plt.Figure, path: str | Path, title: str | None = None, dpi: int = 130
+) -> Path:
+    """Title, tighten, write (creating folders) and close a figure; returns the path."""
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
 
 
 def plot_demonstration(
@@ -91,7 +105,7 @@ def plot_demonstration(
 
     x_lo = min(ev[:, 0].min(), tv[:, 0].min()) - sc.l_a * 1.5
     x_hi = max(ev[:, 0].max(), tv[:, 0].max()) + sc.l_a * 1.5
-    _road(ax2, sc, (x_lo, x_hi))
+    draw_lanes(ax2, sc)
     ax2.plot(ev[:, 0], ev[:, 1], "-", color=EV_RED, lw=1.5, label="EV")
     ax2.plot(tv[:, 0], tv[:, 1], "-", color=TV_BLUE, lw=1.5, label="TV")
     r = np.sqrt(sc.trigger_lambda)
@@ -130,11 +144,4 @@ def plot_demonstration(
     ax2.set_ylabel("y [m]")
     ax2.legend(loc="upper left", fontsize=8, ncol=4)
     ax1.set_xlim(x_lo, x_hi)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from envs.demonstration import Demonstration
+from envs.plotting import draw_lanes, save_figure
 from irl.learner import LearningResult
 from irl.spline import spline_eval
 
@@ -63,10 +64,7 @@ def plot_reproductions(
     )
     cmap = plt.get_cmap("viridis")
     for ax, (name, res) in zip(axes[:, 0], results.items(), strict=True):
-        for i in range(sc.n_lanes + 1):
-            ax.axhline(
-                i * sc.lane_width, color="0.6", lw=0.8, ls="-" if i in (0, sc.n_lanes) else "--"
-            )
+        draw_lanes(ax, sc)
         if react_window is not None:
             ax.axvspan(*react_window, color="orange", alpha=0.12, label="reaction window")
         its = select_iterations(res)
@@ -96,12 +94,7 @@ def plot_reproductions(
         ax.set_ylim(0, sc.road_width)
         ax.legend(fontsize=7, ncol=3, loc="upper left")
     axes[-1, 0].set_xlabel("x [m]")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_lateral(
@@ -145,11 +138,4 @@ def plot_lateral(
     a1.legend(fontsize=8, ncol=3)
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)

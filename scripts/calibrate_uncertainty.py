@@ -24,6 +24,7 @@ from tqdm import tqdm
 
 from agents import PAPER_TV_UNCERTAINTY, SMPCConfig, generate_demonstration
 from envs import PAPER
+from envs.plotting import draw_lanes, save_figure
 from envs.results import write_json
 from envs.safety import elliptical_index
 
@@ -106,14 +107,15 @@ def main(argv: list[str] | None = None) -> dict:
         ax1.set_ylabel("$s_e$")
         ax1.set_ylim(0, 6)
         ax1.legend(fontsize=8, ncol=4)
-        for y in (0, 5.25, 10.5, 15.75):
-            ax2.axhline(y, color="0.6", lw=0.8, ls="--")
+        draw_lanes(ax2, PAPER)
         ax2.set_xlabel("EV x [m]")
         ax2.set_ylabel("EV y [m]")
-        fig.suptitle("SMPC demonstrations on the paper scenario by risk p")
-        fig.tight_layout()
-        fig.savefig(args.out / "risk_sweep.png", dpi=120)
-        plt.close(fig)
+        save_figure(
+            fig,
+            args.out / "risk_sweep.png",
+            "SMPC demonstrations on the paper scenario by risk p",
+            dpi=120,
+        )
     return payload
 
 

@@ -24,6 +24,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from envs.plotting import save_figure
 from envs.results import write_json
 
 
@@ -64,11 +65,7 @@ def plot_learning_curve(out: Path, title: str) -> Path:
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    path = out / "learning_curve.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, out / "learning_curve.png", dpi=120)
 
 
 def main(argv: list[str] | None = None) -> dict:

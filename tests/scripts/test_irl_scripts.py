@@ -134,11 +134,28 @@ def test_help(name):
 
 def test_reproduce_paper_with_baseline(tmp_path):
     out = tmp_path / "paper"
-    res = _main("reproduce_paper")(["--out", str(out), "--skip-ablations", "--with-baseline",
-                                    "--baseline-algo", "ppo", "--baseline-timesteps", "256"])
-    for f in ("baseline/model.zip", "compare/compare.json", "compare/compare.md",
-              "compare/compare.png", "videos/expert.mp4", "videos/spline.mp4",
-              "videos/sb3.mp4", "videos/expert.gif"):
+    res = _main("reproduce_paper")(
+        [
+            "--out",
+            str(out),
+            "--skip-ablations",
+            "--with-baseline",
+            "--baseline-algo",
+            "ppo",
+            "--baseline-timesteps",
+            "256",
+        ]
+    )
+    for f in (
+        "baseline/model.zip",
+        "compare/compare.json",
+        "compare/compare.md",
+        "compare/compare.png",
+        "videos/expert.mp4",
+        "videos/spline.mp4",
+        "videos/sb3.mp4",
+        "videos/expert.gif",
+    ):
         assert (out / f).is_file(), f
     assert set(res["baseline"]["compare"]) == {"smpc", "spline", "sb3"}
     assert "baseline" in json.loads((out / "results.json").read_text())
