@@ -53,6 +53,7 @@ def make_rl_env(
     randomize: bool = False,
     monitor_file: str | Path | None = None,
     render_mode: str | None = None,
+    crash_penalty: float | None = None,
     **overrides: Any,
 ) -> gym.Env:
     """The RL training env: learned reward, RL observation, actions in [−1, 1].
@@ -64,6 +65,7 @@ def make_rl_env(
         monitor_file: write SB3 ``Monitor`` episode statistics to this CSV (the Monitor
             wrapper is always added when stable-baselines3 is installed).
         render_mode: passed to the env.
+        crash_penalty: see :class:`envs.style_reward.StyleReward`.
         **overrides: scenario overrides.
 
     Returns:
@@ -72,7 +74,7 @@ def make_rl_env(
     env: gym.Env = LaneChangeEnv(
         scenario=scenario, randomize=randomize, render_mode=render_mode, **overrides
     )
-    env = LearnedStyleReward(env, style)
+    env = LearnedStyleReward(env, style, crash_penalty)
     try:
         from stable_baselines3.common.monitor import Monitor
     except ImportError:  # the rl extra is optional for everything but training

@@ -17,8 +17,9 @@ samples only, so "online" and "offline" agree. Before t_turn is reached the pref
 runs to its end, exactly as for a demonstration that never turns.
 
 Collisions and leaving the road end the episode early; since the remaining cost would
-then be saved, a crash costs ``crash_penalty`` (default: twice the style's cost of its own
-demonstration, θᵀ f(r_D)).
+then be saved, a crash costs ``crash_penalty`` (default: ten times the style's cost of its
+own demonstration, θᵀ f(r_D) — large enough that rushing into the target lane and being
+hit there never pays; with 2× an RL policy learned exactly that).
 """
 
 from __future__ import annotations
@@ -32,7 +33,10 @@ import numpy as np
 from envs.safety import elliptical_index
 from envs.scenario import ScenarioConfig
 
-__all__ = ["LearnedStyleReward", "StyleReward"]
+__all__ = ["CRASH_FACTOR", "LearnedStyleReward", "StyleReward"]
+
+CRASH_FACTOR = 10.0
+"""Default crash penalty as a multiple of the style's cost of its demonstration."""
 
 
 def _velocities(states: np.ndarray, delta: np.ndarray, rule: str, ratio: float) -> np.ndarray:
@@ -69,7 +73,7 @@ class StyleReward:
 
     Args:
         style: a loaded :class:`irl.style.Style` or the path of a ``style.json``.
-        crash_penalty: cost of a collision or leaving the road; None: 2·θᵀ f(r_D).
+        crash_penalty: cost of a collision or leaving the road; None: CRASH_FACTOR·θᵀ f(r_D).
     """
 
     # control points settle two samples late (central differences of velocities that
@@ -90,7 +94,9 @@ class StyleReward:
         self.rule = self.style.control_point_rule
         f_demo = self.style.raw.get("feature_values_demo")
         ref_cost = float(self.theta @ np.asarray(f_demo)) if f_demo is not None else 100.0
-        self.crash_penalty = 2.0 * abs(ref_cost) if crash_penalty is None else crash_penalty
+        self.crash_penalty = (
+            CRASH_FACTOR * abs(ref_cost) if crash_penalty is None else float(crash_penalty)
+        )
         if not (np.isfinite(self.crash_penalty) and self.crash_penalty >= 0):
             raise ValueError(f"crash_penalty must be finite and >= 0, got {crash_penalty}")
 

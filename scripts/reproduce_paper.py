@@ -52,12 +52,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="also train an SB3 policy on the reactive style, compare it with the spline "
         "reproduction and the SMPC demo, and render videos (needs the rl and video extras)",
     )
-    p.add_argument("--baseline-algo", default="sac", choices=("sac", "ppo"))
+    p.add_argument("--baseline-algo", default="ppo", choices=("ppo", "sac"))
     p.add_argument(
         "--baseline-timesteps",
         type=int,
-        default=20_000,
-        help="SB3 budget (20 000 SAC steps take about 5 min on 2 cores)",
+        default=60_000,
+        help="SB3 budget (60 000 PPO steps take about 4 min on 2 cores)",
     )
     p.add_argument(
         "--skip-ablations",
