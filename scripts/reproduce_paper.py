@@ -164,7 +164,9 @@ def write_markdown(path: Path, res: dict) -> None:
     path.write_text("\n".join(lines))
 
 
-def run_baseline(args: argparse.Namespace, demo, out: Path, argv_full: list[str]) -> dict:
+def run_baseline(
+    args: argparse.Namespace, demo, smpc_solve_s: float, out: Path, argv_full: list[str]
+) -> dict:
     """Train the SB3 baseline, compare it, render videos (the ``--with-baseline`` step)."""
     import json
 
@@ -190,7 +192,7 @@ def run_baseline(args: argparse.Namespace, demo, out: Path, argv_full: list[str]
         out / "baseline",
         TrainConfig(algo=args.baseline_algo, timesteps=args.baseline_timesteps, seed=args.seed),
     )
-    res = compare_methods(style, demo, None, out / "baseline")
+    res = compare_methods(style, demo, smpc_solve_s, out / "baseline")
     plot_comparison(
         demo,
         res["trajectories"],
@@ -318,7 +320,9 @@ def main(argv: list[str] | None = None) -> dict:
         steps.update(1)
     steps.close()
     if args.with_baseline:
-        payload["baseline"] = run_baseline(args, demo, out, argv_full)
+        payload["baseline"] = run_baseline(
+            args, demo, summary["solve_ms_total"] / 1e3, out, argv_full
+        )
     payload["wall_time_total_s"] = time.perf_counter() - t_start
     path = write_json(out / "results.json", payload, argv_full)
     import json
