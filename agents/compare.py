@@ -26,6 +26,7 @@ import numpy as np
 from envs.demonstration import Demonstration
 from envs.lane_change import LaneChangeEnv
 from envs.plotting import draw_lanes, save_figure
+from envs.results import fmt
 from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
 from irl.features import feature_basis, feature_values
 from irl.inner import InnerProblem
@@ -37,7 +38,6 @@ __all__ = [
     "LABELS",
     "compare_methods",
     "comparison_markdown",
-    "fmt",
     "plot_comparison",
     "policy_frames",
     "rollout_policy",
@@ -45,13 +45,6 @@ __all__ = [
 ]
 
 LABELS = {"smpc": "SMPC demonstration", "spline": "spline reproduction r*_θ", "sb3": "SB3 policy"}
-
-
-def fmt(v: Any, d: int = 3) -> str:
-    """Number for tables ('—' for None)."""
-    if v is None:
-        return "—"
-    return f"{v:.{d}f}" if isinstance(v, float) else str(v)
 
 
 def comparison_markdown(methods: dict[str, dict[str, Any]], command: str) -> str:

@@ -145,28 +145,20 @@ def train_baseline(
         deterministic=True,
         verbose=0,
     )
-    if cfg.algo == "sac":
-        model = SAC(
-            "MlpPolicy",
-            train_env,
-            seed=cfg.seed,
-            verbose=0,
-            learning_starts=500,
-            batch_size=256,
-            gamma=0.99,
-            policy_kwargs={"net_arch": [128, 128]},
-        )
-    else:
-        model = PPO(
-            "MlpPolicy",
-            train_env,
-            seed=cfg.seed,
-            verbose=0,
-            n_steps=512,
-            batch_size=128,
-            gamma=0.99,
-            policy_kwargs={"net_arch": [128, 128]},
-        )
+    algo, extra = (
+        (SAC, {"learning_starts": 500, "batch_size": 256})
+        if cfg.algo == "sac"
+        else (PPO, {"n_steps": 512, "batch_size": 128})
+    )
+    model = algo(
+        "MlpPolicy",
+        train_env,
+        seed=cfg.seed,
+        verbose=0,
+        gamma=0.99,
+        policy_kwargs={"net_arch": [128, 128]},
+        **extra,
+    )
     t0 = time.perf_counter()
     model.learn(total_timesteps=cfg.timesteps, callback=[Progress(), eval_cb])
     train_s = time.perf_counter() - t0

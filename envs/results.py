@@ -11,7 +11,14 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["command_line", "write_json"]
+__all__ = ["command_line", "fmt", "write_json"]
+
+
+def fmt(value: Any, digits: int = 3) -> str:
+    """A number for a Markdown table ('—' for None)."""
+    if value is None:
+        return "—"
+    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
 
 
 def command_line(argv: list[str] | None = None) -> str:

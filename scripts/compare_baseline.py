@@ -18,10 +18,10 @@ import sys
 from pathlib import Path
 
 from agents import SMPCConfig, generate_demonstration
-from agents.compare import LABELS, compare_methods, comparison_markdown, fmt, plot_comparison
+from agents.compare import LABELS, compare_methods, comparison_markdown, plot_comparison
 from envs import load_demonstration
 from envs.demonstration import DemonstrationError
-from envs.results import write_json
+from envs.results import fmt, write_json
 from irl.style import StyleError, load_style
 
 

@@ -24,7 +24,7 @@ from tqdm import tqdm
 from agents import SMPCConfig, generate_demonstration
 from envs import save_demonstration
 from envs.plotting import plot_demonstration
-from envs.results import write_json
+from envs.results import fmt, write_json
 from irl import FeatureConfig, IRLConfig
 from irl.features import feature_basis, feature_values
 from irl.plotting import plot_lateral, plot_reproductions
@@ -91,10 +91,6 @@ def _summary(payload: dict) -> dict:
     return {k: payload[k] for k in keys} | {"theta_normalised": payload["theta_normalised"]}
 
 
-def _fmt(v, digits=3) -> str:
-    return "—" if v is None else (f"{v:.{digits}f}" if isinstance(v, float) else str(v))
-
-
 def write_markdown(path: Path, res: dict) -> None:
     """results.md: the comparison table."""
     lm, paper_rule = res["learning"], res.get("paper_rule", {})
@@ -105,7 +101,7 @@ def write_markdown(path: Path, res: dict) -> None:
         "",
         "## Demonstration (p = 0.7)",
         "",
-        f"t_trg = {_fmt(res['demo']['t_trg_s'], 1)} s (paper: 3.0 s); min s_e = "
+        f"t_trg = {fmt(res['demo']['t_trg_s'], 1)} s (paper: 3.0 s); min s_e = "
         f"{res['demo']['min_s_e']:.2f} at x = {res['demo']['x_at_min_s_e']:.0f} m; min d_k = "
         f"{res['demo']['min_d_k']:.2f}; collision: {res['demo']['collision']}.",
         "",
@@ -119,7 +115,7 @@ def write_markdown(path: Path, res: dict) -> None:
         s = lm[name]
         lines.append(
             f"| {name} | {s['iterations']} ({PAPER['iterations'][name]}) | {s['converged']} | "
-            f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | {_fmt(s['rmse_y_reaction_m'])} | "
+            f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | {fmt(s['rmse_y_reaction_m'])} | "
             f"{s['rmse_xy_m']:.3f} | {s['wall_time_s']:.2f} | {s['inner_solve_ms_median']:.2f} |"
         )
     if paper_rule:
@@ -137,7 +133,7 @@ def write_markdown(path: Path, res: dict) -> None:
             lines.append(
                 f"| {name} | {s['iterations']} | {s['converged']} | "
                 f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | "
-                f"{_fmt(s['rmse_y_reaction_m'])} | {s['wall_time_s']:.2f} |"
+                f"{fmt(s['rmse_y_reaction_m'])} | {s['wall_time_s']:.2f} |"
             )
     if "control_point_rule" in res:
         cp = res["control_point_rule"]
@@ -153,7 +149,7 @@ def write_markdown(path: Path, res: dict) -> None:
             lines.append(
                 f"| {rule} | {s['ay_first_segment_share']:.0%} | "
                 f"{s['base']['rmse_y_m']:.3f} | {s['reactive']['rmse_y_m']:.3f} | "
-                f"{_fmt(s['reactive']['rmse_y_reaction_m'])} |"
+                f"{fmt(s['reactive']['rmse_y_reaction_m'])} |"
             )
     lines += [
         "",
@@ -337,7 +333,7 @@ def main(argv: list[str] | None = None) -> dict:
         s = lm[name]
         print(
             f"  {name:8s}: {s['iterations']:3d} iterations, rmse_y {s['rmse_y_m']:.3f} m, "
-            f"reaction window {_fmt(s['rmse_y_reaction_m'])} m, {s['wall_time_s']:.2f} s"
+            f"reaction window {fmt(s['rmse_y_reaction_m'])} m, {s['wall_time_s']:.2f} s"
         )
     return payload
 
