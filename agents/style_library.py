@@ -158,7 +158,7 @@ def evaluate_library(
     scenarios: Sequence[ScenarioConfig],
     grid_risks: Sequence[float],
     between_risks: Sequence[float],
-    progress: Callable[[], None] | None = None,
+    progress: Callable[[int], Any] | None = None,
 ) -> dict[str, Any]:
     """Identification on held-out scenarios, for grid and between-grid risks.
 
@@ -189,7 +189,7 @@ def evaluate_library(
                 }
             )
             if progress:
-                progress()
+                progress(1)
     summary: dict[str, Any] = {}
     for s in SCORERS:
         grid = [r for r in records if r["grid"]]

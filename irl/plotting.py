@@ -139,3 +139,50 @@ def plot_lateral(
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
     return save_figure(fig, path, title)
+
+
+def plot_theta_vs_risk(libraries: dict, path: str | Path) -> Path:
+    """Normalised θ (per feature group) against the risk p, one panel per library."""
+    fig, axes = plt.subplots(1, len(libraries), figsize=(6 * len(libraries), 4), squeeze=False)
+    for ax, (name, lib) in zip(axes[0], libraries.items(), strict=True):
+        from irl.learner import normalise_theta
+
+        th = np.array([normalise_theta(np.asarray(t), lib.features.names) for t in lib.thetas])
+        for j, n in enumerate(lib.features.names):
+            ax.plot(lib.risks, th[:, j], "o-", label=n)
+        ax.set_xlabel("SMPC risk p")
+        ax.set_ylabel("θ / Σθ of its group")
+        ax.set_title(f"{name} features")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+    return save_figure(fig, path, dpi=120)
+
+
+def plot_confusion(
+    records: list[dict], grid: Sequence[float], scorer: str, path: str | Path, title: str = ""
+) -> Path:
+    """Confusion matrix of true vs estimated grid risk."""
+    grid = list(grid)
+    M = np.zeros((len(grid), len(grid)))
+    for r in records:
+        if r["grid"]:
+            M[grid.index(r["risk"]), grid.index(r[f"{scorer}_estimate"])] += 1
+    fig, ax = plt.subplots(figsize=(5, 4.2))
+    im = ax.imshow(M, cmap="Blues")
+    for i in range(len(grid)):
+        for j in range(len(grid)):
+            if M[i, j]:
+                ax.text(
+                    j,
+                    i,
+                    int(M[i, j]),
+                    ha="center",
+                    va="center",
+                    color="white" if M[i, j] > M.max() / 2 else "black",
+                )
+    ax.set_xticks(range(len(grid)), [f"{p:g}" for p in grid])
+    ax.set_yticks(range(len(grid)), [f"{p:g}" for p in grid])
+    ax.set_xlabel("estimated p")
+    ax.set_ylabel("true p")
+    fig.colorbar(im, ax=ax, shrink=0.8)
+    return save_figure(fig, path, title, dpi=120)
