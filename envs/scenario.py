@@ -95,11 +95,16 @@ class ScenarioConfig:
     """Semi-minor axis of the safety ellipse around the TV [m]."""
     trigger_lambda: float = 1.82
     """λ: threshold of the elliptical index that triggers the reactive features (§III-B)."""
+    check_start: bool = True
+    """Reject starts inside the safety ellipse (recorded traffic disables the check)."""
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if f.type in ("int",):
+            if f.type == "bool":
+                if not isinstance(value, bool):
+                    raise TypeError(f"{f.name} must be a bool, got {value!r}")
+            elif f.type in ("int",):
                 if not isinstance(value, (int, np.integer)) or isinstance(value, bool):
                     raise TypeError(f"{f.name} must be an integer, got {value!r}")
             else:
@@ -140,7 +145,7 @@ class ScenarioConfig:
         )
         s_e0 = self.initial_elliptical_index
         _require(
-            s_e0 > 1.0,
+            s_e0 > 1.0 or not self.check_start,
             "infeasible start: the EV starts inside the TV's safety ellipse "
             f"(s_e = {s_e0:.3f} <= 1; tv_gap={self.tv_gap} m, ev_lane={self.ev_lane}, "
             f"tv_lane={self.tv_lane}, l_a={self.l_a} m, l_b={self.l_b} m)",

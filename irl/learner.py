@@ -143,7 +143,8 @@ class MaxEntIRL:
 
     Args:
         demos: the demonstrations (each with ``meta["scenario"]``).
-        features: feature configuration (active set and constants).
+        features: feature configuration (active set and constants), or one per
+            demonstration (same active set; e.g. recorded episodes with their own lanes).
         config: outer-loop settings.
         rule: control-point rule for the demonstrations (``irl.spline``).
         control_points: per demonstration, control points to use instead of ``rule``.
@@ -152,7 +153,7 @@ class MaxEntIRL:
     def __init__(
         self,
         demos: Demonstration | Sequence[Demonstration],
-        features: FeatureConfig | None = None,
+        features: FeatureConfig | Sequence[FeatureConfig] | None = None,
         config: IRLConfig | None = None,
         rule: str = "kinematic",
         control_points: Sequence[np.ndarray] | None = None,
@@ -162,11 +163,19 @@ class MaxEntIRL:
             raise ValueError("need at least one demonstration")
         if control_points is not None and len(control_points) != len(demos):
             raise ValueError("control_points needs one array per demonstration")
-        self.features = features or FeatureConfig()
+        if isinstance(features, (list, tuple)):  # one configuration per demonstration
+            per_demo = list(features)
+            if len(per_demo) != len(demos):
+                raise ValueError("features needs one FeatureConfig per demonstration")
+            if len({f.names for f in per_demo}) != 1:
+                raise ValueError("all per-demonstration feature configs need the same set")
+        else:
+            per_demo = [features or FeatureConfig()] * len(demos)
+        self.features = per_demo[0]
         self.config = config or IRLConfig()
         cps = list(control_points) if control_points is not None else [None] * len(demos)
         self.problems = [
-            InnerProblem(d, self.features, rule, c) for d, c in zip(demos, cps, strict=True)
+            InnerProblem(d, f, rule, c) for d, f, c in zip(demos, per_demo, cps, strict=True)
         ]
         self.names = self.features.names
         self.f_demo = np.mean([p.f_demo for p in self.problems], axis=0)
