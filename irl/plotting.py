@@ -186,3 +186,36 @@ def plot_confusion(
     ax.set_ylabel("true p")
     fig.colorbar(im, ax=ax, shrink=0.8)
     return save_figure(fig, path, title, dpi=120)
+
+
+def plot_episode(
+    demo: Demonstration, paths: dict[str, np.ndarray], path: str | Path, title: str = ""
+) -> Path:
+    """Recorded vs reproduced lateral path (over x) and lateral speed (over t).
+
+    Args:
+        demo: the recorded episode.
+        paths: method name → positions at the samples, shape (n, 2).
+        path: output PNG.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5))
+    a1.plot(demo.ev[:, 0], demo.ev[:, 1], "k-", lw=2.2, label="recorded")
+    a2.plot(demo.t, np.gradient(demo.ev[:, 1], demo.t), "k-", lw=2.2, label="recorded")
+    if np.abs(demo.tv[:, 0] - demo.ev[:, 0]).min() < 500:
+        a1.plot(demo.tv[:, 0], demo.tv[:, 1], color="0.6", lw=1, label="target vehicle")
+    for name, xy in paths.items():
+        a1.plot(xy[:, 0], xy[:, 1], lw=1.4, label=name)
+        a2.plot(demo.t, np.gradient(xy[:, 1], demo.t), lw=1.4, label=name)
+    draw_lanes(a1, demo.scenario)
+    a1.set_ylim(-0.5, 2.5 * demo.scenario.lane_width)
+    a1.set_xlabel("x [m]")
+    a1.set_ylabel("y [m] (lane change to +y)")
+    a2.set_xlabel("t [s]")
+    a2.set_ylabel("lateral speed [m/s]")
+    a1.legend(fontsize=7, ncol=3)
+    a2.grid(alpha=0.3)
+    return save_figure(fig, path, title, dpi=110)

@@ -12,7 +12,8 @@ error (fde). Feature constants adapt to each episode: the scenario's lane width,
 and ellipse come from :func:`envs.real_data.scenario_from_episode`; l_initial and l_des are
 the EV's own mean lateral positions over the window's first and last second (drivers keep
 their own line, not the painted lane centre, and a constant offset would otherwise be
-charged as lane deviation).
+charged as lane deviation), and v_des = v_lane is its mean speed over the last second (the
+speed it settles at, rather than the scenario's v_ref).
 """
 
 from __future__ import annotations
@@ -53,10 +54,13 @@ def episode_feature_config(
         The feature configuration.
     """
     k = max(1, round(settle_s / float(demo.t[1] - demo.t[0])))
+    v_end = float(demo.ev[-k:, 3].mean())
     return FeatureConfig(
         feature_set=feature_set,
         l_initial=float(demo.ev[:k, 1].mean()),
         l_des=float(demo.ev[-k:, 1].mean()),
+        v_des=v_end,
+        v_lane=v_end,
     )
 
 
