@@ -131,10 +131,20 @@ def _grid(t_rel: np.ndarray, dt: float) -> np.ndarray:
     return np.round(np.arange(start, stop + dt / 2, dt), 9)
 
 
+def clean_rows(df) -> tuple[Any, int]:
+    """Drop rows with non-finite t/x/y/v or repeated times; returns (rows, dropped count)."""
+    cols = ["t_rel_s", "x_m", "y_m", "v_mps"]
+    ok = np.isfinite(df[cols].to_numpy(dtype=float)).all(axis=1)
+    kept = df[ok].sort_values("t_rel_s").drop_duplicates("t_rel_s")
+    return kept, int(len(df) - len(kept))
+
+
 def _build(
     ep_id: str, ego, tgt, mirror: bool, y_origin_lower: float, lane_width: float, dt: float
 ) -> Demonstration:
-    """Demonstration of one episode in the road frame."""
+    """Demonstration of one episode in the road frame (rows already cleaned)."""
+    if len(ego) < 4:
+        raise ValueError(f"only {len(ego)} valid ego rows")
     t_new = _grid(ego.t_rel_s.to_numpy(), dt)
     if t_new.size < 3:
         raise ValueError("fewer than 3 samples at T_s")
@@ -208,8 +218,8 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
     widths = {r: _lane_width_ngsim(all_tracks, r) for r in episodes.recording.unique()}
     for row in episodes.itertuples():
         rows = tracks[tracks.episode_id == row.episode_id]
-        ego = rows[rows.role == "ego"].sort_values("t_rel_s")
-        tgt = rows[rows.role == "target"].sort_values("t_rel_s")
+        ego, dropped_ego = clean_rows(rows[rows.role == "ego"])
+        tgt, dropped_tgt = clean_rows(rows[rows.role == "target"])
         reasons = []
         if not row.complete_window:
             reasons.append("incomplete_window")
@@ -235,6 +245,7 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
             "interpolated_target": bool(tgt.interpolated.any()) if len(tgt) else None,
             "no_target": len(tgt) == 0,
             "recording": row.recording,
+            "dropped_rows": dropped_ego + dropped_tgt,
         }
         try:
             demo = _build(row.episode_id, ego, tgt, mirror, y_b - w, w, dt)
@@ -278,8 +289,8 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
     out = []
     for row in episodes.itertuples():
         rows = tracks[tracks.episode_id == row.episode_id]
-        ego = rows[rows.role == "ego"].sort_values("t_rel_s")
-        tgt = rows[rows.role == "target"].sort_values("t_rel_s")
+        ego, dropped_ego = clean_rows(rows[rows.role == "ego"])
+        tgt, dropped_tgt = clean_rows(rows[rows.role == "target"])
         reasons = [] if row.leg == "experiment" else ["return_leg"]
         qf = str(row.quality_flags) if isinstance(row.quality_flags, str) else ""
         mirror = row.lc_direction == "right"
@@ -295,6 +306,7 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
             "no_target": len(tgt) == 0,
             "lane_width_m": w,
             "rate_hz": 10.0,
+            "dropped_rows": dropped_ego + dropped_tgt,
         }
         try:
             demo = _build(

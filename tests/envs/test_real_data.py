@@ -71,3 +71,21 @@ def test_lane_width_and_units(ngsim, cats):
 def test_missing_folder_is_a_clear_error(tmp_path):
     with pytest.raises(FileNotFoundError, match=r"episodes\.csv not found"):
         load_ngsim(tmp_path)
+
+
+def test_bad_rows_are_dropped_and_counted(tmp_path):
+    import shutil
+
+    import pandas as pd
+
+    for f in ("episodes.csv", "tracks.csv.gz"):
+        shutil.copy(DATA / "ngsim" / f, tmp_path / f)
+    tracks = pd.read_csv(DATA / "ngsim" / "episode_tracks.csv.gz")
+    first = "us101_scene_ego320_v323_t16.7"
+    idx = tracks.index[(tracks.episode_id == first) & (tracks.role == "ego")][10]
+    tracks.loc[idx, "y_m"] = np.nan
+    tracks.to_csv(tmp_path / "episode_tracks.csv.gz", index=False)
+    episodes = {e.episode_id: e for e in load_ngsim(tmp_path)}
+    assert episodes[first].flags["dropped_rows"] == 1
+    assert episodes[first].used and np.all(np.isfinite(episodes[first].demo.ev))
+    assert all(e.flags["dropped_rows"] == 0 for k, e in episodes.items() if k != first)
