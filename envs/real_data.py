@@ -189,6 +189,22 @@ def _build(
     )
 
 
+def _episode(
+    dataset: str, reasons: list[str], flags: dict[str, Any], episode_id: str, *build_args: Any
+) -> RecordedEpisode:
+    """Build one episode with ``_build(episode_id, *build_args)``.
+
+    An unusable episode is kept, marked unused, with the reason.
+    """
+    try:
+        demo = _build(episode_id, *build_args)
+    except ValueError as exc:
+        return RecordedEpisode(
+            episode_id, dataset, False, (*reasons, f"unusable: {exc}"), None, flags
+        )
+    return RecordedEpisode(episode_id, dataset, not reasons, tuple(reasons), demo, flags)
+
+
 def _lane_width_ngsim(tracks, recording: str) -> float:
     """Median spacing of the recording's mainline lane centres (lanes 1–5) [m]."""
     g = tracks[(tracks.recording == recording) & (tracks.lane_id.between(1, 5))]
@@ -247,17 +263,8 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
             "recording": row.recording,
             "dropped_rows": dropped_ego + dropped_tgt,
         }
-        try:
-            demo = _build(row.episode_id, ego, tgt, mirror, y_b - w, w, dt)
-        except ValueError as exc:
-            out.append(
-                RecordedEpisode(
-                    row.episode_id, "ngsim", False, (*reasons, f"unusable: {exc}"), None, flags
-                )
-            )
-            continue
         out.append(
-            RecordedEpisode(row.episode_id, "ngsim", not reasons, tuple(reasons), demo, flags)
+            _episode("ngsim", reasons, flags, row.episode_id, ego, tgt, mirror, y_b - w, w, dt)
         )
     return out
 
@@ -308,18 +315,18 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
             "rate_hz": 10.0,
             "dropped_rows": dropped_ego + dropped_tgt,
         }
-        try:
-            demo = _build(
-                row.episode_id, ego, tgt if len(tgt) else None, mirror, y_origin_lower, w, dt
-            )
-        except ValueError as exc:
-            out.append(
-                RecordedEpisode(
-                    row.episode_id, "cats", False, (*reasons, f"unusable: {exc}"), None, flags
-                )
-            )
-            continue
         out.append(
-            RecordedEpisode(row.episode_id, "cats", not reasons, tuple(reasons), demo, flags)
+            _episode(
+                "cats",
+                reasons,
+                flags,
+                row.episode_id,
+                ego,
+                tgt if len(tgt) else None,
+                mirror,
+                y_origin_lower,
+                w,
+                dt,
+            )
         )
     return out

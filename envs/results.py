@@ -11,7 +11,36 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["command_line", "fmt", "write_json"]
+__all__ = ["command_line", "fmt", "read_json", "write_json"]
+
+
+def read_json(
+    path: str | Path, default_name: str, error: type[Exception], what: str
+) -> tuple[Path, dict[str, Any]]:
+    """Read a JSON result file (or ``default_name`` inside a folder) with clear errors.
+
+    Args:
+        path: the file or its folder.
+        default_name: file name to look for inside a folder.
+        error: exception class for malformed content.
+        what: what the file is, for messages ("style library", …).
+
+    Returns:
+        (resolved path, parsed object).
+
+    Raises:
+        FileNotFoundError: no such file.
+        error: the file is not valid JSON.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / default_name
+    if not path.is_file():
+        raise FileNotFoundError(f"{what} not found: {path}")
+    try:
+        return path, json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise error(f"{path}: not valid JSON ({exc})") from None
 
 
 def fmt(value: Any, digits: int = 3) -> str:

@@ -28,6 +28,7 @@ import functools
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -103,6 +104,11 @@ class FeatureConfig:
             raise ValueError(f"n_gauss must be an integer in [1, 20], got {self.n_gauss}")
         if not 0 <= self.ay_first_segment_weight <= 1:
             raise ValueError("ay_first_segment_weight must lie in [0, 1]")
+
+    @classmethod
+    def from_dict(cls, raw: dict[str, Any]) -> FeatureConfig:
+        """From its JSON form (``omega`` as a list), validated."""
+        return cls(**{**raw, "omega": tuple(raw["omega"])})
 
     @property
     def names(self) -> tuple[str, ...]:

@@ -24,7 +24,6 @@ different demonstrations are comparable. The risk estimate is the best-scoring s
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -34,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from envs.demonstration import Demonstration
+from envs.results import read_json
 from irl.features import FEATURES, FeatureConfig
 from irl.inner import InnerProblem, InnerSolveError
 from irl.learner import reproduction_errors
@@ -94,19 +94,9 @@ def load_library(path: str | Path) -> StyleLibrary:
         FileNotFoundError: no such file.
         LibraryError: malformed, empty or inconsistent library.
     """
-    path = Path(path)
-    if path.is_dir():
-        path = path / "library.json"
-    if not path.is_file():
-        raise FileNotFoundError(f"style library not found: {path}")
+    path, raw = read_json(path, "library.json", LibraryError, "style library")
     try:
-        raw = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise LibraryError(f"{path}: not valid JSON ({exc})") from None
-    try:
-        cfg = dict(raw["feature_config"])
-        cfg["omega"] = tuple(cfg["omega"])
-        features = FeatureConfig(**cfg)
+        features = FeatureConfig.from_dict(raw["feature_config"])
         risks = tuple(float(p) for p in raw["risks"])
         thetas = tuple(tuple(float(v) for v in raw["theta"][str(p)]) for p in raw["risks"])
     except (KeyError, TypeError, ValueError) as exc:

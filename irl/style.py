@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from envs.results import read_json
 from irl.features import FEATURES, FeatureConfig
 from irl.learner import LearningResult, MaxEntIRL
 from irl.spline import spline_eval
@@ -143,15 +143,7 @@ def load_style(path: str | Path) -> Style:
         FileNotFoundError: no such file.
         StyleError: malformed JSON, missing keys, or θ inconsistent with the features.
     """
-    path = Path(path)
-    if path.is_dir():
-        path = path / "style.json"
-    if not path.is_file():
-        raise FileNotFoundError(f"style file not found: {path}")
-    try:
-        raw = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise StyleError(f"{path}: not valid JSON ({exc})") from None
+    path, raw = read_json(path, "style.json", StyleError, "style file")
     for key in ("features", "theta", "feature_config"):
         if key not in raw:
             raise StyleError(f"{path}: missing key {key!r}")
@@ -160,9 +152,7 @@ def load_style(path: str | Path) -> Style:
     if theta.shape != (len(names),) or not all(math.isfinite(v) and v > 0 for v in theta):
         raise StyleError(f"{path}: theta must be {len(names)} positive numbers, got {raw['theta']}")
     try:
-        cfg = dict(raw["feature_config"])
-        cfg["omega"] = tuple(cfg["omega"])
-        features = FeatureConfig(**cfg)
+        features = FeatureConfig.from_dict(raw["feature_config"])
     except (TypeError, ValueError) as exc:
         raise StyleError(f"{path}: invalid feature_config ({exc})") from None
     if features.names != names:
