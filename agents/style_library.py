@@ -78,6 +78,11 @@ def _learn_risk(
     t_demo = time.perf_counter() - t0
     learner = MaxEntIRL(demos, FeatureConfig(feature_set=feature_set), IRLConfig())
     result = learner.learn()
+    # one style per demonstration too: identification takes the median over them
+    members = [
+        MaxEntIRL(d, FeatureConfig(feature_set=feature_set), IRLConfig()).learn().theta.tolist()
+        for d in demos
+    ]
     per_demo = [
         {
             "rmse_y_m": e["rmse_y_m"],
@@ -89,6 +94,7 @@ def _learn_risk(
     return {
         "risk": risk,
         "theta": result.theta.tolist(),
+        "members": members,
         "theta_normalised": result.theta_normalised.tolist(),
         "iterations": result.iterations,
         "converged": result.converged,
@@ -142,11 +148,13 @@ def build_library(
         feature_set=feature_set,
         risks=tuple(risks),
         thetas=tuple(tuple(records[p]["theta"]) for p in risks),
+        members=tuple(tuple(tuple(t) for t in records[p]["members"]) for p in risks),
         features=FeatureConfig(feature_set=feature_set),
         meta={
             "training_scenarios": raw,
             "per_risk": {
-                str(p): {k: v for k, v in records[p].items() if k != "theta"} for p in risks
+                str(p): {k: v for k, v in records[p].items() if k not in ("theta", "members")}
+                for p in risks
             },
             "uncertainty": asdict(SMPCConfig().uncertainty),
         },
