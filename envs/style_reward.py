@@ -39,35 +39,6 @@ CRASH_FACTOR = 10.0
 """Default crash penalty as a multiple of the style's cost of its demonstration."""
 
 
-def _velocities(states: np.ndarray, delta: np.ndarray, rule: str, ratio: float) -> np.ndarray:
-    """Velocity components [v^x, v^y] at the samples by the control-point rule."""
-    phi, v = states[:, 2], states[:, 3]
-    beta = np.arctan(ratio * np.tan(delta)) if rule == "kinematic" else 0.0
-    return np.column_stack([v * np.cos(phi + beta), v * np.sin(phi + beta)])
-
-
-def _control_points(
-    t: np.ndarray, states: np.ndarray, delta: np.ndarray, rule: str, ratio: float
-) -> np.ndarray:
-    """Control points (n, 6) as :func:`irl.spline.demo_control_points` makes them."""
-    vel = _velocities(states, delta, rule, ratio)
-    if t.size < 2:
-        acc = np.zeros_like(vel)
-    elif rule == "kinematic":
-        acc = np.gradient(vel, t, axis=0, edge_order=1)
-    else:
-        dv = np.gradient(states[:, 3], t, edge_order=1)
-        acc = np.column_stack([dv * np.cos(states[:, 2]), dv * np.sin(states[:, 2])])
-    return np.column_stack([states[:, 0], vel[:, 0], acc[:, 0], states[:, 1], vel[:, 1], acc[:, 1]])
-
-
-def _tv_control_points(t: np.ndarray, states: np.ndarray) -> np.ndarray:
-    """TV control points as :func:`irl.features.tv_control_points` makes them."""
-    vel = _velocities(states, np.zeros(len(t)), "paper", 0.0)
-    acc = np.gradient(vel, t, axis=0, edge_order=1)
-    return np.column_stack([states[:, 0], vel[:, 0], acc[:, 0], states[:, 1], vel[:, 1], acc[:, 1]])
-
-
 class StyleReward:
     """Incremental learned cost of a growing trajectory (module docstring).
 
@@ -151,7 +122,7 @@ class StyleReward:
     def features(self) -> np.ndarray:
         """Scaled features Ω f of the trajectory so far, all ten (FEATURES order)."""
         from irl.features import FEATURES, segment_integrals
-        from irl.spline import spline_eval
+        from irl.spline import spline_eval, state_control_points
 
         n = len(self.t)
         if n < 2:
@@ -159,8 +130,8 @@ class StyleReward:
         t = np.asarray(self.t)
         ev, tv = np.asarray(self.ev), np.asarray(self.tv)
         delta = np.asarray([*self.delta, self.delta[-1]])
-        C = _control_points(t, ev, delta, self.rule, self.ratio)
-        T = _tv_control_points(t, tv)
+        C = state_control_points(t, ev, delta, self.rule, self.ratio)
+        T = state_control_points(t, tv, np.zeros(n), "kinematic", 0.5)  # as tv_control_points
         t_rct = self.config.t_rct
         window = None
         if self.t_trg is not None:

@@ -35,7 +35,7 @@ import numpy as np
 
 from envs.demonstration import Demonstration
 from envs.safety import elliptical_index, trigger_time
-from irl.spline import basis_matrix
+from irl.spline import basis_matrix, state_control_points
 
 __all__ = [
     "FEATURES",
@@ -177,10 +177,8 @@ def tv_control_points(demo: Demonstration) -> np.ndarray:
 
     Velocities v·[cos φ, sin φ]; accelerations by central differences.
     """
-    x, y, phi, v = demo.tv.T
-    vx, vy = v * np.cos(phi), v * np.sin(phi)
-    ax, ay = np.gradient(vx, demo.t), np.gradient(vy, demo.t)
-    return np.column_stack([x, vx, ax, y, vy, ay])
+    # the kinematic rule without steering: velocity along φ, differenced accelerations
+    return state_control_points(demo.t, demo.tv, np.zeros(demo.n), "kinematic", 0.5)
 
 
 def _crossing_time(t: np.ndarray, y: np.ndarray, boundary: float, upward: bool) -> float | None:
@@ -421,9 +419,6 @@ def feature_values(cx, cy, basis: FeatureBasis, smooth: bool = False, names=FEAT
             out["id"] = 0.0
     scale = {n: basis.omega[FEATURES.index(n)] for n in names}
     return stack(*[scale[n] * out[n] for n in names])
-
-
-INTEGRAL_FEATURES = ("ax", "ay", "v", "l", "il", "tiv", "id")
 
 
 @functools.lru_cache(maxsize=4096)

@@ -34,7 +34,7 @@ import numpy as np
 
 from envs.demonstration import Demonstration
 from envs.results import read_json
-from irl.features import FEATURES, FeatureConfig
+from irl.features import FeatureConfig
 from irl.inner import InnerProblem, InnerSolveError
 from irl.learner import reproduction_errors
 
@@ -273,8 +273,3 @@ def identify_all(
         scores = np.array([first["all_scores"][s][str(p)] for p in risks])
         out[s] = _summarise(risks, scores, s, first["all_scores"], first["n_demos"])
     return out
-
-
-def feature_names(library: StyleLibrary) -> tuple[str, ...]:
-    """The library's active feature names (FEATURES order)."""
-    return tuple(n for n in FEATURES if n in library.features.names)

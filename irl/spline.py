@@ -26,6 +26,7 @@ __all__ = [
     "evaluate_quintic",
     "quintic_coefficients",
     "spline_eval",
+    "state_control_points",
 ]
 
 AY_RULES = ("kinematic", "paper")
@@ -172,20 +173,39 @@ def demo_control_points(demo: Demonstration, rule: str = "kinematic") -> np.ndar
     """
     if rule not in AY_RULES:
         raise ValueError(f"unknown control-point rule {rule!r}; choose from {AY_RULES}")
-    t, ev = demo.t, demo.ev
-    x, y, phi, v = ev.T
+    try:
+        sc = demo.scenario
+        ratio = sc.l_r / (sc.l_f + sc.l_r)
+    except ValueError:
+        ratio = 0.5
+    delta = np.append(demo.u[:, 1], demo.u[-1, 1])
+    return state_control_points(demo.t, demo.ev, delta, rule, ratio)
+
+
+def state_control_points(
+    t: np.ndarray, states: np.ndarray, delta: np.ndarray, rule: str, ratio: float
+) -> np.ndarray:
+    """Control points from sampled states by a rule of :func:`demo_control_points`.
+
+    Args:
+        t: sample times, shape (n,) [s] (n ≥ 2).
+        states: [x, y, φ, v] per sample, shape (n, 4).
+        delta: steering applied from each sample (the last one repeated), shape (n,) [rad].
+        rule: ``"kinematic"`` or ``"paper"``.
+        ratio: l_r/(l_f + l_r) of the side-slip β (kinematic rule).
+
+    Returns:
+        Control points, shape (n, 6).
+    """
+    if rule not in AY_RULES:
+        raise ValueError(f"unknown control-point rule {rule!r}; choose from {AY_RULES}")
+    x, y, phi, v = np.asarray(states, float).T
     if rule == "paper":
         dv = _central_diff(v, t)
         vx, vy = v * np.cos(phi), v * np.sin(phi)
         ax, ay = dv * np.cos(phi), dv * np.sin(phi)
     else:
-        try:
-            sc = demo.scenario
-            ratio = sc.l_r / (sc.l_f + sc.l_r)
-        except ValueError:
-            ratio = 0.5
-        delta = np.append(demo.u[:, 1], demo.u[-1, 1])
-        beta = np.arctan(ratio * np.tan(delta))
+        beta = np.arctan(ratio * np.tan(np.asarray(delta, float)))
         vx, vy = v * np.cos(phi + beta), v * np.sin(phi + beta)
         ax, ay = _central_diff(vx, t), _central_diff(vy, t)
     return np.column_stack([x, vx, ax, y, vy, ay])
