@@ -1,11 +1,11 @@
-"""Chance-constrained collision avoidance: the tangent back-off (SPEC §3).
+"""Chance-constrained collision avoidance: the tangent back-off (docs/DESIGN.md §3).
 
 Pr(d_k ≥ 0) ≥ p with d_k = Δx²/l_a² + Δy²/l_b² − 1 and a Gaussian TV position
 q ~ N(q̄, Σ) is replaced by the deterministic, conservative condition of Zhu &
 Alonso-Mora (RA-L 2019): with Ω = diag(1/l_a², 1/l_b²), z̄ = Ω^½(p_EV − q̄),
 n = z̄/‖z̄‖ and S = Ω^½ Σ Ω^½,
 
-    g = ‖z̄‖ − 1 − Φ⁻¹(p) · sqrt(nᵀ S n) ≥ 0.                                  (SPEC §3)
+    g = ‖z̄‖ − 1 − Φ⁻¹(p) · sqrt(nᵀ S n) ≥ 0.                                  (DESIGN §3)
 
 The collision ellipse lies inside the half-space nᵀz ≤ 1 tangent to it, and the
 half-space constraint holds with probability exactly p when g = 0, so Pr(d ≥ 0) ≥ p for

@@ -12,7 +12,6 @@ feature error and the trajectory errors are directly comparable.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -24,13 +23,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from envs.demonstration import Demonstration
+from envs.io import fmt
 from envs.lane_change import LaneChangeEnv
 from envs.plotting import draw_lanes, save_figure
-from envs.results import fmt
+from envs.rollout import Policy, run_episode
 from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
 from irl.features import feature_basis, feature_values
 from irl.inner import InnerProblem
-from irl.learner import reproduction_errors
+from irl.metrics import trajectory_errors
 from irl.spline import demo_control_points, spline_eval
 from irl.style import Style
 
@@ -127,10 +127,8 @@ def policy_frames(
         env.close()
 
 
-def rollout_policy(
-    policy: Callable[[Any, np.ndarray], np.ndarray], demo: Demonstration
-) -> tuple[Demonstration, float]:
-    """Roll a policy out in the demonstration's scenario.
+def rollout_policy(policy: Policy, demo: Demonstration) -> tuple[Demonstration, float]:
+    """Roll a policy out in the demonstration's scenario (:func:`envs.rollout.run_episode`).
 
     Args:
         policy: (env, raw observation) → [a, δ].
@@ -140,26 +138,19 @@ def rollout_policy(
         The rollout as a demonstration (possibly shorter on a crash) and its wall time [s].
     """
     env = LaneChangeEnv(scenario=demo.scenario)
-    obs, _ = env.reset(seed=0)
-    states, inputs = [obs.copy()], []
     t0 = time.perf_counter()
-    for _ in range(demo.scenario.n_steps):
-        u = np.asarray(policy(env, obs), float)
-        obs, _, term, trunc, info = env.step(u)
-        states.append(obs.copy())
-        inputs.append(info["action"])
-        if term or trunc:
-            break
+    episode = run_episode(env, policy, seed=0)
     wall = time.perf_counter() - t0
-    states = np.array(states)
-    if len(states) < 3:  # crashed at once: pad so the (flagged) rollout stays representable
-        states = np.vstack([states, np.repeat(states[-1:], 3 - len(states), axis=0)])
-        inputs += [inputs[-1]] * (len(states) - 1 - len(inputs))
+    obs, inputs = episode.observations, episode.inputs
+    if len(obs) < 3:  # crashed at once: pad so the (flagged) rollout stays representable
+        pad = 3 - len(obs)
+        obs = np.vstack([obs, np.repeat(obs[-1:], pad, axis=0)])
+        inputs = np.vstack([inputs, np.repeat(inputs[-1:], pad, axis=0)])
     out = Demonstration(
-        t=np.arange(len(states)) * demo.scenario.dt,
-        ev=states[:, :4],
-        tv=states[:, 4:],
-        u=np.array(inputs),
+        t=np.arange(len(obs)) * demo.scenario.dt,
+        ev=obs[:, :4],
+        tv=obs[:, 4:8],
+        u=inputs,
         meta=dict(demo.meta),
     )
     return out, wall
@@ -193,9 +184,8 @@ def trajectory_metrics(
             "feature_error": float(np.linalg.norm(f - f_d)),
             "features": f.tolist(),
         }
-        ev = basis.events
-        out |= reproduction_errors(C, demo, ev.t_trg, ev.t_rct_end)
-        out["fde_m"] = float(np.hypot(C[-1, 0] - demo.ev[-1, 0], C[-1, 3] - demo.ev[-1, 1]))
+        events = basis.events
+        out |= trajectory_errors(C[:, [0, 3]], demo, events.t_trg, events.t_rct_end)
     else:
         out |= {
             "learned_cost": None,

@@ -1,4 +1,4 @@
-"""Gaussian prediction of the target vehicle for the SMPC (paper §II-A, SPEC §3).
+"""Gaussian prediction of the target vehicle for the SMPC (paper §II-A, docs/DESIGN.md §3).
 
 Mean: constant velocity along the TV's heading. Covariance: the TV's current position
 and velocity are each known up to independent zero-mean Gaussian errors, per road axis,
@@ -55,7 +55,7 @@ class TVUncertainty:
 
 
 PAPER_TV_UNCERTAINTY = TVUncertainty()
-"""Calibrated default for the paper scenario (SPEC §3): 1.5 × (0.5 m, 4 m/s, 0.5 m, 2.5 m/s).
+"""Calibrated default for the paper scenario (DESIGN §3): 1.5 × (0.5 m, 4 m/s, 0.5 m, 2.5 m/s).
 
 These are behavioural, not physical, numbers: they make the chance constraint bind early
 enough that p = 0.7 triggers at t_trg = 3.0 s (paper: 3.0 s) with min s_e = 1.70 near

@@ -1,22 +1,36 @@
-"""Closed-loop rollouts of the SMPC expert in the env: demonstrations and their summary."""
+"""Closed-loop rollouts of the SMPC expert in the env: demonstrations and their summary.
+
+Also the scenario draws and the (parallel) demonstration batches that style libraries
+are learned from: a scenario of the ``LaneChangeRandom`` family is *interactive* when the
+SMPC at the probe risk (default: the lowest p) enters the λ-ellipse, i.e. the trigger
+fires. The same interactive scenarios serve every risk level, so styles differ only by p.
+"""
 
 from __future__ import annotations
 
 import platform
-from dataclasses import asdict
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, replace
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from tqdm import tqdm
 
 from agents.smpc import SMPCConfig, SMPCExpert
 from envs.demonstration import Demonstration
 from envs.lane_change import LaneChangeEnv
+from envs.rollout import run_episode
 from envs.safety import ellipse_constraint, elliptical_index, trigger_time
-from envs.scenario import ScenarioConfig, get_scenario
+from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
-__all__ = ["demo_summary", "generate_demonstration", "rollout_expert"]
+__all__ = [
+    "demo_summary",
+    "draw_interactive_scenarios",
+    "generate_demonstration",
+    "generate_demonstrations",
+    "rollout_expert",
+]
 
 
 def rollout_expert(
@@ -26,7 +40,7 @@ def rollout_expert(
     options: dict[str, Any] | None = None,
     progress: bool = False,
 ) -> tuple[Demonstration, list[dict[str, Any]]]:
-    """Run the expert in closed loop on ``env`` for one episode.
+    """Run the expert in closed loop on ``env`` for one episode (:func:`envs.rollout.run_episode`).
 
     Args:
         env: a drivestyle env (possibly wrapped).
@@ -39,34 +53,27 @@ def rollout_expert(
         The demonstration (states from the observations, inputs as applied) and one
         record per step with the solver report and the env's info.
     """
-    obs, info = env.reset(seed=seed, options=options)
-    scenario: ScenarioConfig = info["scenario"]
-    expert.reset(scenario)
-    states, inputs, steps = [obs.copy()], [], []
-    for _ in tqdm(
-        range(scenario.n_steps), desc="SMPC closed loop", disable=not progress, leave=False
-    ):
+    solves: list[dict[str, Any]] = []
+
+    def policy(_env: gym.Env, obs: np.ndarray) -> np.ndarray:
         action, solve = expert.act(obs, return_info=True)
-        obs, _, terminated, truncated, info = env.step(action)
-        states.append(obs.copy())
-        inputs.append(action)
-        steps.append(
-            {**solve, "collision": bool(info["collision"]), "off_road": bool(info["off_road"])}
-        )
-        if terminated or truncated:
-            break
-    states = np.array(states)
-    n = len(states)
-    demo = Demonstration(
-        t=np.arange(n) * scenario.dt,
-        ev=states[:, :4],
-        tv=states[:, 4:],
-        u=np.array(inputs).reshape(n - 1, 2),
-        meta={
-            "scenario": scenario.to_dict(),
-            "risk": expert.config.risk,
-            "smpc": _config_dict(expert.config),
-        },
+        solves.append(solve)
+        return action
+
+    episode = run_episode(
+        env,
+        policy,
+        seed,
+        options,
+        on_reset=lambda info: expert.reset(info["scenario"]),
+        progress="SMPC closed loop" if progress else None,
+    )
+    steps = [
+        {**solve, "collision": bool(info["collision"]), "off_road": bool(info["off_road"])}
+        for solve, info in zip(solves, episode.infos, strict=True)
+    ]
+    demo = episode.to_demonstration(
+        {"risk": expert.config.risk, "smpc": _config_dict(expert.config)}
     )
     return demo, steps
 
@@ -78,7 +85,7 @@ def _config_dict(cfg: SMPCConfig) -> dict[str, Any]:
 
 
 def demo_summary(demo: Demonstration, steps: list[dict[str, Any]]) -> dict[str, Any]:
-    """Summary numbers of a demonstration (the ``demo.json`` fields of SPEC §7).
+    """Summary numbers of a demonstration (the ``demo.json`` fields, docs/DESIGN.md §7).
 
     Args:
         demo: the demonstration (with ``meta["scenario"]``).
@@ -144,8 +151,6 @@ def generate_demonstration(
     Returns:
         The demonstration and its :func:`demo_summary`.
     """
-    from dataclasses import replace
-
     sc = get_scenario(scenario)
     cfg = replace(smpc or SMPCConfig(), risk=risk)
     env = LaneChangeEnv(scenario=sc)
@@ -154,3 +159,88 @@ def generate_demonstration(
     finally:
         env.close()
     return demo, demo_summary(demo, steps)
+
+
+def draw_interactive_scenarios(
+    k: int,
+    seed: int,
+    probe_risk: float = 0.5,
+    ranges: ScenarioRanges | None = None,
+    max_draws: int = 500,
+) -> list[ScenarioConfig]:
+    """K scenarios of the random family in which the SMPC at ``probe_risk`` triggers.
+
+    Args:
+        k: how many (≥ 1).
+        seed: seed of the draws (use disjoint seeds for training and evaluation).
+        probe_risk: risk of the probing SMPC.
+        ranges: the family (default ranges).
+        max_draws: give up after this many draws.
+
+    Returns:
+        The scenarios.
+
+    Raises:
+        ValueError: k < 1.
+        RuntimeError: fewer than k interactive scenarios in ``max_draws`` draws.
+    """
+    if k < 1:
+        raise ValueError(f"the number of scenarios must be >= 1, got {k}")
+    ranges = ranges or ScenarioRanges()
+    rng = np.random.default_rng(seed)
+    out: list[ScenarioConfig] = []
+    for _ in range(max_draws):
+        sc = ranges.sample(rng)
+        _, summary = generate_demonstration(probe_risk, sc, SMPCConfig(risk=probe_risk))
+        if summary["trigger_fired"] and not summary["collision"]:
+            out.append(sc)
+            if len(out) == k:
+                return out
+    raise RuntimeError(f"only {len(out)} interactive scenarios in {max_draws} draws")
+
+
+def _demos_of_risk(risk: float, scenarios: list[dict[str, Any]]) -> list[Demonstration]:
+    """Worker: the SMPC(risk) demonstration in each scenario (solver built once)."""
+    demos = []
+    for i, raw in enumerate(scenarios):
+        demo, _ = generate_demonstration(risk, ScenarioConfig(**raw), SMPCConfig(risk=risk))
+        demos.append(replace(demo, meta={**demo.meta, "scenario_index": i}))
+    return demos
+
+
+def generate_demonstrations(
+    risks: Sequence[float],
+    scenarios: Sequence[ScenarioConfig],
+    workers: int = 2,
+    progress: Callable[[float], None] | None = None,
+) -> dict[float, list[Demonstration]]:
+    """SMPC demonstrations of every risk in every scenario, one process per risk at a time.
+
+    Args:
+        risks: risk levels p.
+        scenarios: the scenarios (shared by every risk).
+        workers: processes (1: in this process).
+        progress: called with each finished risk.
+
+    Returns:
+        risk → its demonstrations, in scenario order (``meta["scenario_index"]`` set).
+    """
+    raw = [sc.to_dict() for sc in scenarios]
+    out: dict[float, list[Demonstration]] = {}
+    if workers <= 1:
+        for p in risks:
+            out[float(p)] = _demos_of_risk(float(p), raw)
+            if progress:
+                progress(float(p))
+        return out
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(_demos_of_risk, float(p), raw): float(p) for p in risks}
+        try:
+            for fut in as_completed(futures):
+                out[futures[fut]] = fut.result()
+                if progress:
+                    progress(futures[fut])
+        except BaseException:  # Ctrl-C: drop queued work instead of finishing it
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+    return {float(p): out[float(p)] for p in risks}

@@ -1,7 +1,7 @@
 """A stable-baselines3 policy trained on a learned style's reward (the RL baseline).
 
 Needs the ``rl`` extra (stable-baselines3, torch). The training env is
-:func:`envs.rl.make_rl_env` (learned reward, translation-invariant observation, actions in
+:func:`make_rl_env` (learned reward, translation-invariant observation, actions in
 [−1, 1]) inside SB3's ``VecNormalize`` (observations normalised, rewards left as the
 learned cost so that returns stay comparable with θᵀf).
 """
@@ -14,12 +14,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
-from envs.rl import make_rl_env
+from envs.lane_change import LaneChangeEnv
+from envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from envs.scenario import ScenarioConfig
+from irl.reward import LearnedStyleReward
+from irl.style import Style
 
-__all__ = ["ALGOS", "SB3Policy", "TrainConfig", "train_baseline"]
+__all__ = ["ALGOS", "SB3Policy", "TrainConfig", "make_rl_env", "train_baseline"]
 
 ALGOS = ("sac", "ppo")
 
@@ -41,7 +45,7 @@ class TrainConfig:
     randomize: bool = False
     """Train on the random scenario family instead of the fixed scenario."""
     crash_penalty: float | None = None
-    """Cost of a crash (None: the reward's default, see envs.style_reward)."""
+    """Cost of a crash (None: the reward's default, see irl.reward)."""
     norm_reward: bool = False
     """Normalise rewards during training (VecNormalize); evaluations stay raw."""
 
@@ -52,6 +56,43 @@ class TrainConfig:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+
+
+def make_rl_env(
+    style: Style | str | Path,
+    scenario: str | ScenarioConfig = "paper",
+    randomize: bool = False,
+    monitor_file: str | Path | None = None,
+    render_mode: str | None = None,
+    crash_penalty: float | None = None,
+    **overrides: Any,
+) -> gym.Env:
+    """The RL training env: learned reward, RL observation, actions in [−1, 1].
+
+    Args:
+        style: ``style.json`` path or loaded :class:`irl.style.Style`.
+        scenario: scenario name or config.
+        randomize: draw scenarios per reset (``LaneChangeRandom``).
+        monitor_file: write SB3 ``Monitor`` episode statistics to this CSV.
+        render_mode: passed to the env.
+        crash_penalty: see :class:`irl.reward.StyleReward`.
+        **overrides: scenario overrides.
+
+    Returns:
+        The wrapped env.
+    """
+    from stable_baselines3.common.monitor import Monitor
+
+    env: gym.Env = LaneChangeEnv(
+        scenario=scenario, randomize=randomize, render_mode=render_mode, **overrides
+    )
+    env = LearnedStyleReward(env, style, crash_penalty)
+    env = Monitor(
+        env,
+        None if monitor_file is None else str(monitor_file),
+        info_keywords=("collision", "off_road"),
+    )
+    return NormalisedAction(RLObservation(env))
 
 
 def _vec_env(
@@ -221,11 +262,6 @@ class SB3Policy:
             [a, δ] [m/s², rad].
         """
         base = env.unwrapped
-        ev, tv = obs[:4], obs[4:]
-        progress = min(base.k / base.scenario.n_steps, 1.0)
-        o = np.array(
-            [[ev[1], ev[2], ev[3], tv[0] - ev[0], tv[1], tv[3], progress]], dtype=np.float32
-        )
+        o = rl_observation(obs, base.k, base.scenario.n_steps)[None, :]
         a, _ = self.model.predict(self.norm.normalize_obs(o), deterministic=True)
-        low, high = base.action_space.low, base.action_space.high
-        return low + (np.clip(a[0], -1, 1) + 1.0) * 0.5 * (high - low)
+        return physical_action(a[0], base.action_space.low, base.action_space.high)

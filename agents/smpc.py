@@ -1,4 +1,4 @@
-"""Stochastic MPC expert (paper §II-A, eq. 1–4; SPEC §3).
+"""Stochastic MPC expert (paper §II-A, eq. 1–4; docs/DESIGN.md §3).
 
 At each step the EV solves
 
@@ -60,7 +60,7 @@ def _diag4(name: str, value: tuple[float, ...], n: int) -> None:
 
 @dataclass(frozen=True)
 class SMPCConfig:
-    """Parameters of the SMPC expert (defaults: the paper's, SPEC §1)."""
+    """Parameters of the SMPC expert (defaults: the paper's, DESIGN §1)."""
 
     risk: float = 0.7
     """p: required probability of staying outside the TV's safety ellipse, in (0, 1)."""

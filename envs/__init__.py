@@ -17,7 +17,6 @@ from envs.dynamics import bicycle_ode, rk4_step
 from envs.lane_change import LaneChangeEnv, task_reward
 from envs.safety import ellipse_constraint, elliptical_index
 from envs.scenario import PAPER, SCENARIOS, ScenarioConfig, ScenarioRanges, get_scenario
-from envs.style_reward import LearnedStyleReward, StyleReward
 
 __all__ = [
     "ENV_IDS",
@@ -25,10 +24,8 @@ __all__ = [
     "SCENARIOS",
     "Demonstration",
     "LaneChangeEnv",
-    "LearnedStyleReward",
     "ScenarioConfig",
     "ScenarioRanges",
-    "StyleReward",
     "bicycle_ode",
     "ellipse_constraint",
     "elliptical_index",

@@ -1,4 +1,4 @@
-"""The demonstration type: sampled EV and TV trajectories of one episode (SPEC §7).
+"""The demonstration type: sampled EV and TV trajectories of one episode (docs/DESIGN.md §7).
 
 On disk a demonstration is an ``.npz`` with arrays ``t`` (n,), ``ev`` (n, 4), ``tv``
 (n, 4) as [x, y, φ, v] in SI units, ``u`` (n−1, 2) as [a, δ], and ``meta``: a JSON string

@@ -1,4 +1,4 @@
-"""Kinematic bicycle model (SPEC §2) and the one discrete map shared by env and SMPC.
+"""Kinematic bicycle model (docs/DESIGN.md §2) and the one discrete map shared by env and SMPC.
 
 The same Python functions evaluate on numpy arrays (the environment) and on CasADi
 symbols (the SMPC's prediction model), so a noise-free closed loop follows the

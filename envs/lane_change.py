@@ -6,7 +6,8 @@ to ``target_lane`` while a scripted target vehicle (TV) drives at constant speed
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, SupportsFloat
+from importlib.metadata import entry_points
+from typing import Any, ClassVar, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -16,10 +17,67 @@ from envs.dynamics import rk4_step
 from envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
-__all__ = ["COLLISION_PENALTY", "LaneChangeEnv", "task_reward"]
+__all__ = ["COLLISION_PENALTY", "REWARD_PLUGINS", "LaneChangeEnv", "RewardModel", "task_reward"]
 
 COLLISION_PENALTY = 10.0
 """Reward lost on a collision or on leaving the road (the episode then terminates)."""
+
+
+REWARD_PLUGINS = "drivestyle.rewards"
+"""Entry-point group of reward models that ``style=`` resolves (the ``style`` entry)."""
+
+
+class RewardModel(Protocol):
+    """A reward computed from the growing trajectory (e.g. a learned style's cost).
+
+    The env calls ``reset`` at every reset and ``step`` after every step; on a crash it
+    also subtracts ``crash_penalty``.
+    """
+
+    crash_penalty: float
+
+    def reset(self, scenario: ScenarioConfig, ev: np.ndarray, tv: np.ndarray) -> None:
+        """Start a trajectory at the episode's first sample."""
+
+    def step(
+        self, u: np.ndarray, ev: np.ndarray, tv: np.ndarray, dt: float
+    ) -> tuple[float, np.ndarray]:
+        """Add a sample; return (reward, per-feature increment)."""
+
+
+def style_reward_model(style: Any) -> RewardModel:
+    """The reward model of a learned style, through the ``drivestyle.rewards`` plugin.
+
+    The env package does not import the learning package (layering ``envs ← irl``); the
+    learned reward registers itself as the entry point ``style`` of the group
+    :data:`REWARD_PLUGINS` in the distribution's metadata (``pyproject.toml``), which is
+    how ``gym.make(id, style=...)`` composes the two.
+
+    Args:
+        style: a ``style.json`` path (or its folder) or a loaded style.
+
+    Raises:
+        RuntimeError: no reward plugin is installed (install the project with pip).
+    """
+    found = entry_points(group=REWARD_PLUGINS, name="style")
+    if not found:
+        raise RuntimeError(
+            "style= needs the learned-reward plugin 'style' of the entry-point group "
+            f"{REWARD_PLUGINS!r}; install the project (pip install -e .) or pass reward="
+        )
+    return next(iter(found)).load()(style)
+
+
+def _check_reward_model(reward: Any) -> None:
+    """Raise a TypeError naming ``reward=`` unless it has the :class:`RewardModel` API."""
+    missing = [name for name in ("reset", "step") if not callable(getattr(reward, name, None))]
+    if not hasattr(reward, "crash_penalty"):
+        missing.append("crash_penalty")
+    if missing:
+        raise TypeError(
+            f"reward must be a RewardModel (reset(), step(), crash_penalty); "
+            f"{type(reward).__name__} lacks {missing}"
+        )
 
 
 def task_reward(ev: np.ndarray, sc: ScenarioConfig, crashed: bool) -> float:
@@ -66,9 +124,18 @@ class LaneChangeEnv(gym.Env):
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         show_ellipse: draw the safety ellipse (and the λ-scaled one) around the TV.
         style: a learned style (``style.json`` path or :class:`irl.style.Style`): the reward
-            becomes its negative cost (:mod:`envs.style_reward`); the task reward moves to
-            ``info["original_env_rew"]``.
+            becomes its negative cost (:mod:`irl.reward`, found as a plugin, see
+            :func:`style_reward_model`); the task reward moves to ``info["original_env_rew"]``.
+        reward: any :class:`RewardModel` instead of ``style`` (not both).
         **overrides: scenario fields to replace, e.g. ``ev_speed=27``.
+
+    Raises:
+        KeyError: an unknown scenario name.
+        TypeError: an unknown or wrongly typed scenario parameter (e.g. ``ev_speed="fast"``),
+            a non-bool ``show_ellipse`` or ``randomize``, or a ``reward`` without the
+            :class:`RewardModel` API.
+        ValueError: an invalid scenario value (e.g. a NaN speed, an infeasible start),
+            an unknown ``render_mode``, or both ``style`` and ``reward``.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 5}
@@ -80,14 +147,17 @@ class LaneChangeEnv(gym.Env):
         render_mode: str | None = None,
         show_ellipse: bool = True,
         style: Any = None,
+        reward: RewardModel | None = None,
         **overrides: Any,
     ) -> None:
         base = get_scenario(scenario).with_overrides(**overrides)
-        self._style_reward = None
-        if style is not None:
-            from envs.style_reward import StyleReward
-
-            self._style_reward = StyleReward(style)
+        if style is not None and reward is not None:
+            raise ValueError("pass style= or reward=, not both")
+        if not isinstance(show_ellipse, (bool, np.bool_)):
+            raise TypeError(f"show_ellipse must be a bool, got {show_ellipse!r}")
+        if reward is not None:
+            _check_reward_model(reward)
+        self._reward_model = style_reward_model(style) if style is not None else reward
         if randomize is True:
             randomize = ScenarioRanges(base=base)
         elif randomize is not False and not isinstance(randomize, ScenarioRanges):
@@ -100,7 +170,7 @@ class LaneChangeEnv(gym.Env):
         self.base_scenario = base
         self.ranges: ScenarioRanges | None = randomize or None
         self.render_mode = render_mode
-        self.show_ellipse = show_ellipse
+        self.show_ellipse = bool(show_ellipse)
         self.scenario = base
         self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
 
@@ -118,6 +188,7 @@ class LaneChangeEnv(gym.Env):
         self.ev = base.ev_initial_state
         self.tv = base.tv_initial_state
         self.k = 0
+        self._done = False
         self._renderer = None
 
     # ------------------------------------------------------------------ helpers
@@ -161,14 +232,27 @@ class LaneChangeEnv(gym.Env):
 
         Returns:
             Observation and info.
+
+        Raises:
+            TypeError: ``options`` is not a dict.
+            ValueError: an unknown option.
+            KeyError: ``options["scenario"]`` names no known scenario.
         """
         super().reset(seed=seed)
-        options = options or {}
+        options = {} if options is None else options
+        if not isinstance(options, dict):
+            raise TypeError(
+                f"reset options must be a dict such as {{'scenario': 'paper'}} or None, "
+                f"got {options!r}"
+            )
         unknown = set(options) - {"scenario"}
         if unknown:
             raise ValueError(f"unknown reset option(s) {sorted(unknown)}; known: ['scenario']")
         if "scenario" in options:
-            self.scenario = get_scenario(options["scenario"])
+            try:
+                self.scenario = get_scenario(options["scenario"])
+            except KeyError as exc:
+                raise KeyError(f"reset options['scenario']: {exc.args[0]}") from None
         elif self.ranges is not None:
             self.scenario = self.ranges.sample(self.np_random)
         else:
@@ -176,8 +260,9 @@ class LaneChangeEnv(gym.Env):
         self.ev = self.scenario.ev_initial_state
         self.tv = self.scenario.tv_initial_state
         self.k = 0
-        if self._style_reward is not None:
-            self._style_reward.reset(self.scenario, self.ev, self.tv)
+        self._done = False
+        if self._reward_model is not None:
+            self._reward_model.reset(self.scenario, self.ev, self.tv)
         if self.render_mode == "human":
             self.render()
         return self._obs(), self._info(scenario=self.scenario, action_clipped=False)
@@ -194,9 +279,22 @@ class LaneChangeEnv(gym.Env):
             observation, reward, terminated, truncated, info.
 
         Raises:
-            ValueError: the action has the wrong shape or is not finite.
+            ValueError: the action is not numeric, has the wrong shape or is not finite.
+            RuntimeError: the episode has ended (terminated or truncated): call reset().
         """
-        u = np.asarray(action, dtype=float).reshape(-1)
+        if self._done:
+            raise RuntimeError(
+                "step() called after the episode ended (terminated or truncated); call reset()"
+            )
+        try:
+            raw = np.asarray(action)
+            # not strings, objects (None) or complex numbers: they would convert (to NaN, or
+            # silently losing an imaginary part)
+            u = raw.astype(float).reshape(-1) if raw.dtype.kind in "biuf" else None
+        except (TypeError, ValueError):
+            u = None
+        if u is None:
+            raise ValueError(f"action must be real numbers [a, delta], got {action!r}")
         if u.shape != (2,):
             raise ValueError(f"action must have shape (2,) = [a, delta], got {np.shape(action)}")
         if not np.all(np.isfinite(u)):
@@ -212,14 +310,15 @@ class LaneChangeEnv(gym.Env):
         info = self._info(action_clipped=bool(np.any(u_clip != u)), action=u_clip)
         terminated = info["collision"] or info["off_road"]
         truncated = (not terminated) and self.k >= sc.n_steps
+        self._done = terminated or truncated
         reward = task_reward(self.ev, sc, terminated)
-        if self._style_reward is not None:
+        if self._reward_model is not None:
             info["original_env_rew"] = reward
-            reward, info["style_feature_increment"] = self._style_reward.step(
+            reward, info["style_feature_increment"] = self._reward_model.step(
                 u_clip, self.ev, self.tv, sc.dt
             )
             if terminated:
-                reward -= self._style_reward.crash_penalty
+                reward -= self._reward_model.crash_penalty
         if self.render_mode == "human":
             self.render()
         return self._obs(), reward, terminated, truncated, info

@@ -60,7 +60,87 @@ class RecordedEpisode:
     """Source quality flags and episode facts (direction, target relation, set, …)."""
 
 
-def _read_csv(path: Path):
+_GZIP_MAGIC = b"\x1f\x8b"
+
+_DATASETS = {
+    "ngsim": ("NGSIM", "load_ngsim", "../shared/data/ngsim"),
+    "cats": ("CATS", "load_cats", "../shared/data/cats-av-lanechange"),
+}
+"""Dataset key → (name, loader, example folder), for error messages."""
+
+_COLUMNS: dict[str, dict[str, tuple[str, ...]]] = {
+    "ngsim": {
+        "episodes.csv": (
+            "episode_id",
+            "recording",
+            "direction",
+            "target_relation",
+            "target_selected_at",
+            "target_set_complete",
+            "rate_hz",
+            "complete_window",
+            "involves_ramp_or_aux_lane",
+        ),
+        "episode_tracks.csv.gz": (
+            "episode_id",
+            "role",
+            "t_rel_s",
+            "x_m",
+            "y_m",
+            "v_mps",
+            "interpolated",
+        ),
+        "tracks.csv.gz": ("recording", "lane_id", "y_m"),
+    },
+    "cats": {
+        "episodes.csv": (
+            "episode_id",
+            "set",
+            "leg",
+            "lc_direction",
+            "from_lane",
+            "target_relation",
+            "quality_flags",
+        ),
+        "episode_tracks.csv.gz": ("episode_id", "role", "t_rel_s", "x_m", "y_m", "v_mps"),
+    },
+}
+"""Columns each loader reads from each file of its dataset."""
+
+_NUMERIC = ("t_rel_s", "x_m", "y_m", "v_mps", "lane_id", "rate_hz", "from_lane")
+"""Columns used as numbers (whichever of them a file is required to have)."""
+
+
+def _dataset_dir(data_dir: str | Path) -> Path:
+    data_dir = Path(data_dir)
+    if data_dir.exists() and not data_dir.is_dir():
+        raise FileNotFoundError(
+            f"{data_dir} is not a folder; pass the dataset folder (e.g. "
+            "../shared/data/ngsim or ../shared/data/cats-av-lanechange), not one of its files"
+        )
+    return data_dir
+
+
+def _check_dt(dt: float) -> float:
+    if not isinstance(dt, (int, float, np.integer, np.floating)) or isinstance(dt, bool):
+        raise TypeError(f"dt must be a number [s], got {dt!r}")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be finite and > 0 [s], got {dt}")
+    return float(dt)
+
+
+def _read_csv(path: Path, dataset: str):
+    """Read one file of ``dataset`` ('ngsim' or 'cats') and check it has what we use.
+
+    Raises:
+        FileNotFoundError: the file is missing.
+        ValueError: not gzip (for ``.gz``) or a truncated gzip, an empty file, a file of
+            the other dataset, missing columns, no rows, or non-numeric values in a
+            numeric column; the message names the file and the problem.
+    """
+    import gzip
+    import zlib
+
     import pandas as pd
 
     if not path.is_file():
@@ -68,7 +148,56 @@ def _read_csv(path: Path):
             f"{path} not found; pass the dataset folder (e.g. "
             "../shared/data/ngsim or ../shared/data/cats-av-lanechange)"
         )
-    return pd.read_csv(path)
+    gz = path.suffix == ".gz"
+    if gz:
+        with path.open("rb") as f:
+            head = f.read(2)
+        if head != _GZIP_MAGIC:
+            raise ValueError(
+                f"{path}: bad gzip: the file is not gzip-compressed (it starts with "
+                f"{head!r}, not {_GZIP_MAGIC!r}); the dataset ships it as a gzipped CSV"
+            )
+    try:
+        df = pd.read_csv(path)
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"{path} is empty (no header, no rows)") from None
+    except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
+        if not gz:
+            raise
+        raise ValueError(f"{path}: bad gzip: truncated or corrupt ({exc})") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path} is not a readable CSV ({exc})") from None
+
+    required = _COLUMNS[dataset][path.name]
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        name, loader, folder = _DATASETS[dataset]
+        for other, columns in _COLUMNS.items():
+            theirs = columns.get(path.name, ())
+            if other != dataset and theirs and set(theirs) <= set(df.columns):
+                o_name, o_loader, _ = _DATASETS[other]
+                marks = ", ".join(repr(c) for c in theirs if c not in required)
+                raise ValueError(
+                    f"{path} looks like the {o_name} dataset (it has the {o_name} columns "
+                    f"{marks}), not {name}: {loader} reads the {name} folder (e.g. {folder}); "
+                    f"load this folder with {o_loader}"
+                )
+        raise ValueError(
+            f"{path} is missing column(s) {', '.join(repr(c) for c in missing)} needed by "
+            f"{loader}; it has {list(df.columns)}"
+        )
+    if df.empty:
+        raise ValueError(f"{path} has a header but no rows")
+    for column in (c for c in _NUMERIC if c in required):
+        values = df[column]
+        if not pd.api.types.is_numeric_dtype(values):
+            bad = values.notna() & pd.to_numeric(values, errors="coerce").isna()
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise ValueError(
+                f"{path}: column {column!r} has the non-numeric value {values.iloc[i]!r} "
+                f"(data row {i + 1})"
+            )
+    return df
 
 
 def scenario_from_episode(
@@ -205,10 +334,15 @@ def _episode(
     return RecordedEpisode(episode_id, dataset, not reasons, tuple(reasons), demo, flags)
 
 
-def _lane_width_ngsim(tracks, recording: str) -> float:
+def _lane_width_ngsim(tracks, recording: str, source: Path) -> float:
     """Median spacing of the recording's mainline lane centres (lanes 1–5) [m]."""
     g = tracks[(tracks.recording == recording) & (tracks.lane_id.between(1, 5))]
     centres = g.groupby("lane_id").y_m.median().sort_index().to_numpy()
+    if centres.size < 2:
+        raise ValueError(
+            f"{source} has {centres.size} mainline lane(s) (lane_id 1–5) of recording "
+            f"{recording!r}, named in episodes.csv; need 2 to measure its lane width"
+        )
     return float(np.median(np.diff(centres)))
 
 
@@ -225,13 +359,23 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
 
     Returns:
         All 19 episodes, ``used`` marking the selection.
+
+    Raises:
+        FileNotFoundError: ``data_dir`` is a file, or a dataset file is missing.
+        ValueError: a malformed file (not gzip, truncated, empty, header only, missing
+            columns, non-numeric values, the other dataset's folder) or a bad ``dt``; the
+            message names the file and the problem.
     """
-    data_dir = Path(data_dir)
-    episodes = _read_csv(data_dir / "episodes.csv")
-    tracks = _read_csv(data_dir / "episode_tracks.csv.gz")
-    all_tracks = _read_csv(data_dir / "tracks.csv.gz")
+    dt = _check_dt(dt)
+    data_dir = _dataset_dir(data_dir)
+    episodes = _read_csv(data_dir / "episodes.csv", "ngsim")
+    tracks = _read_csv(data_dir / "episode_tracks.csv.gz", "ngsim")
+    all_tracks = _read_csv(data_dir / "tracks.csv.gz", "ngsim")
     out = []
-    widths = {r: _lane_width_ngsim(all_tracks, r) for r in episodes.recording.unique()}
+    widths = {
+        r: _lane_width_ngsim(all_tracks, r, data_dir / "tracks.csv.gz")
+        for r in episodes.recording.unique()
+    }
     for row in episodes.itertuples():
         rows = tracks[tracks.episode_id == row.episode_id]
         ego, dropped_ego = clean_rows(rows[rows.role == "ego"])
@@ -245,12 +389,6 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
         # NGSIM y grows to the right (toward higher lane ids); a change to the left (toward
         # lane 1) already goes to smaller y, so mirror it; a change right is kept
         mirror = row.direction == "left"
-        # lane boundary: where the front centre crosses the marking (first new-lane sample
-        # and the last old-lane one, linearly)
-        before = ego[ego.t_rel_s < 0].iloc[-1]
-        after = ego[ego.t_rel_s >= 0].iloc[0]
-        y_b = 0.5 * (before.y_m + after.y_m)
-        y_b = -y_b if mirror else y_b
         flags = {
             "direction": row.direction,
             "target_relation": row.target_relation,
@@ -263,10 +401,44 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
             "recording": row.recording,
             "dropped_rows": dropped_ego + dropped_tgt,
         }
+        # lane boundary: where the front centre crosses the marking (first new-lane sample
+        # and the last old-lane one, linearly)
+        before, after = ego[ego.t_rel_s < 0], ego[ego.t_rel_s >= 0]
+        if before.empty or after.empty:
+            reasons.append(
+                f"unusable: the ego track has {len(before)} valid row(s) before the lane "
+                f"crossing (t_rel_s < 0) and {len(after)} after; need both"
+            )
+            out.append(RecordedEpisode(row.episode_id, "ngsim", False, tuple(reasons), None, flags))
+            continue
+        y_b = 0.5 * (before.iloc[-1].y_m + after.iloc[0].y_m)
+        y_b = -y_b if mirror else y_b
         out.append(
             _episode("ngsim", reasons, flags, row.episode_id, ego, tgt, mirror, y_b - w, w, dt)
         )
     return out
+
+
+def _cats_lane_width(summary: Path, default: float) -> float:
+    """The lane width of CATS's ``summary.json`` (``lanes.width_m``), else ``default`` [m]."""
+    import json
+
+    if not summary.is_file():
+        return default
+    try:
+        meta = json.loads(summary.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{summary} is not valid JSON ({exc})") from None
+    lanes = meta.get("lanes", {}) if isinstance(meta, dict) else None
+    if not isinstance(lanes, dict):
+        raise ValueError(f"{summary}: expected a JSON object whose 'lanes' is an object")
+    key = next((k for k in ("width_m", "lane_width_m") if k in lanes), None)
+    if key is None:
+        return default
+    w = lanes[key]
+    if not isinstance(w, (int, float)) or isinstance(w, bool) or not (math.isfinite(w) and w > 0):
+        raise ValueError(f"{summary}: lanes.{key} must be a positive number [m], got {w!r}")
+    return float(w)
 
 
 def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
@@ -283,16 +455,18 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
 
     Returns:
         All 31 episodes, ``used`` marking the selection; ``flags["set"]`` is AV or HV.
-    """
-    import json
 
-    data_dir = Path(data_dir)
-    episodes = _read_csv(data_dir / "episodes.csv")
-    tracks = _read_csv(data_dir / "episode_tracks.csv.gz")
-    w = 3.95
-    summary = data_dir / "summary.json"
-    if summary.is_file():
-        w = float(json.loads(summary.read_text()).get("lanes", {}).get("lane_width_m", w))
+    Raises:
+        FileNotFoundError: ``data_dir`` is a file, or a dataset file is missing.
+        ValueError: a malformed file (not gzip, truncated, empty, header only, missing
+            columns, non-numeric values, the other dataset's folder) or a bad ``dt``; the
+            message names the file and the problem.
+    """
+    dt = _check_dt(dt)
+    data_dir = _dataset_dir(data_dir)
+    episodes = _read_csv(data_dir / "episodes.csv", "cats")
+    tracks = _read_csv(data_dir / "episode_tracks.csv.gz", "cats")
+    w = _cats_lane_width(data_dir / "summary.json", 3.95)
     out = []
     for row in episodes.itertuples():
         rows = tracks[tracks.episode_id == row.episode_id]

@@ -9,11 +9,20 @@ paper's figures.
 Headless use: ``rgb_array`` draws on an off-screen surface. highway-env disables its
 viewer when ``SDL_VIDEODRIVER=dummy`` (frames come out blank); off-screen drawing does not
 need a display, so the renderer re-enables it.
+
+Several renderers per process: highway-env's ``EnvViewer.close()`` calls ``pygame.quit()``,
+which would invalidate every other live renderer's font (and window). A renderer therefore
+only quits pygame when it is the last live one; closing the last human-mode renderer while
+off-screen ones live only shuts the window (``pygame.display.quit()``). If pygame is quit
+from elsewhere (e.g. a highway-env env closed in the same process), the next ``draw``
+re-creates what it needs (font, window).
 """
 
 from __future__ import annotations
 
+import math
 import os
+import weakref
 from types import SimpleNamespace
 
 import numpy as np
@@ -26,6 +35,34 @@ EV_COLOR = (220, 40, 40)
 TV_COLOR = (40, 90, 230)
 ELLIPSE_COLOR = (40, 90, 230)
 SCALED_ELLIPSE_COLOR = (230, 160, 30)
+RENDER_MODES = ("rgb_array", "human")
+
+_LIVE: weakref.WeakSet[HighwayRenderer] = weakref.WeakSet()
+"""Renderers whose viewer is open; pygame is quit only when the last one closes."""
+
+
+def _positive_int(name: str, value: object) -> int:
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool):
+        raise TypeError(f"{name} must be an integer number of pixels, got {value!r}")
+    if value <= 0:
+        raise ValueError(f"{name} must be > 0 pixels, got {value}")
+    return int(value)
+
+
+def _vehicle_state(name: str, value: object) -> np.ndarray:
+    """A state [x, y, φ, v] as 4 finite floats, or a ValueError naming the argument."""
+    try:
+        state = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        state = None
+    if state is None or state.shape != (4,):
+        shape = "?" if state is None else state.shape
+        raise ValueError(
+            f"{name} must be a state [x, y, phi, v] of shape (4,), got {value!r} (shape {shape})"
+        )
+    if not np.all(np.isfinite(state)):
+        raise ValueError(f"{name} must be finite to be drawn, got {state}")
+    return state
 
 
 class HighwayRenderer:
@@ -36,6 +73,10 @@ class HighwayRenderer:
         width: frame width [px].
         height: frame height [px].
         scaling: pixels per metre.
+
+    Raises:
+        ValueError: unknown ``render_mode``, non-positive size or scaling.
+        TypeError: a size that is not an integer.
     """
 
     def __init__(
@@ -45,12 +86,23 @@ class HighwayRenderer:
         height: int = 180,
         scaling: float = 7.0,
     ) -> None:
+        if render_mode not in RENDER_MODES:
+            raise ValueError(
+                f"render_mode must be one of {list(RENDER_MODES)}, got {render_mode!r}"
+            )
+        width = _positive_int("width", width)
+        height = _positive_int("height", height)
+        if not isinstance(scaling, (int, float, np.integer, np.floating)) or isinstance(
+            scaling, bool
+        ):
+            raise TypeError(f"scaling must be a number [px/m], got {scaling!r}")
+        if not (math.isfinite(scaling) and scaling > 0):
+            raise ValueError(f"scaling must be finite and > 0 [px/m], got {scaling}")
         if render_mode == "rgb_array":
             # off-screen surfaces need no display; keep pygame from opening one
             os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
         os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
         import pygame
-        from highway_env.envs.common.graphics import EnvViewer
 
         self._pygame = pygame
         self.render_mode = render_mode
@@ -58,7 +110,7 @@ class HighwayRenderer:
             "screen_width": width,
             "screen_height": height,
             "offscreen_rendering": render_mode != "human",
-            "scaling": scaling,
+            "scaling": float(scaling),
             "centering_position": [0.35, 0.5],
             "simulation_frequency": 5,
             "real_time_rendering": render_mode == "human",
@@ -73,9 +125,42 @@ class HighwayRenderer:
             close=self.close,
         )
         self._geometry: tuple | None = None
+        self._font = None
+        self.viewer = None
+        self._open()
+
+    def _open(self) -> None:
+        """(Re)create highway-env's viewer (and, in human mode, its window)."""
+        from highway_env.envs.common.graphics import EnvViewer
+
         self.viewer = EnvViewer(self._scene, self.config)
         self.viewer.enabled = True  # see module docstring: dummy driver ≠ no drawing
         self._font = None
+        _LIVE.add(self)
+
+    def _ensure_open(self) -> None:
+        """Reopen after ``close()`` or after pygame's display was quit under a window."""
+        display = self._pygame.display
+        window_lost = self.render_mode == "human" and (
+            not display.get_init() or display.get_surface() is None
+        )
+        if self.viewer is None or window_lost:
+            self._open()
+
+    def _caption_surface(self, caption: str):
+        """The caption as a surface, drawn with a font valid in pygame's current session."""
+        font = self._pygame.font
+        colours = ((255, 255, 255), (60, 60, 60))
+        if not font.get_init():  # pygame was quit elsewhere
+            font.init()
+            self._font = None
+        if self._font is None:
+            self._font = font.SysFont(None, 24)
+        try:
+            return self._font.render(caption, True, *colours)
+        except self._pygame.error:  # the font outlived a font.quit() + init() elsewhere
+            self._font = font.SysFont(None, 24)
+            return self._font.render(caption, True, *colours)
 
     def _build_road(self, sc: ScenarioConfig) -> None:
         from highway_env.road.lane import LineType, StraightLane
@@ -138,7 +223,18 @@ class HighwayRenderer:
 
         Returns:
             The frame, shape (height, width, 3) uint8, in ``rgb_array`` mode; else None.
+
+        Raises:
+            TypeError: ``sc`` is not a :class:`ScenarioConfig` or ``caption`` not a string.
+            ValueError: a state that is not 4 finite numbers.
         """
+        if not isinstance(sc, ScenarioConfig):
+            raise TypeError(f"sc must be a ScenarioConfig, got {type(sc).__name__}")
+        ev = _vehicle_state("ev", ev)
+        tv = _vehicle_state("tv", tv)
+        if not isinstance(caption, str):
+            raise TypeError(f"caption must be a string, got {type(caption).__name__}")
+        self._ensure_open()
         geometry = (sc.n_lanes, sc.lane_width, sc.vehicle_length, sc.vehicle_width)
         if self._geometry != geometry:
             self._build_road(sc)
@@ -157,11 +253,7 @@ class HighwayRenderer:
             self._draw_ellipse(sc, tv, 1.0, ELLIPSE_COLOR)
             self._draw_ellipse(sc, tv, float(np.sqrt(sc.trigger_lambda)), SCALED_ELLIPSE_COLOR)
         if caption:
-            if self._font is None:
-                self._pygame.font.init()
-                self._font = self._pygame.font.SysFont(None, 24)
-            text = self._font.render(caption, True, (255, 255, 255), (60, 60, 60))
-            viewer.sim_surface.blit(text, (8, 6))
+            viewer.sim_surface.blit(self._caption_surface(caption), (8, 6))
         if self.render_mode == "human":
             viewer.screen.blit(viewer.sim_surface, (0, 0))
             self._pygame.display.flip()
@@ -170,7 +262,15 @@ class HighwayRenderer:
         return viewer.get_image()
 
     def close(self) -> None:
-        """Close the viewer (and its window)."""
-        if self.viewer is not None:
-            self.viewer.close()
-            self.viewer = None
+        """Close the viewer (and its window); a later ``draw`` reopens it.
+
+        pygame itself is quit only by the last live renderer (module docstring).
+        """
+        if self.viewer is None:
+            return
+        viewer, self.viewer, self._font = self.viewer, None, None
+        _LIVE.discard(self)
+        if not _LIVE:
+            viewer.close()  # pygame.quit(), as highway-env's own envs do
+        elif self.render_mode == "human" and not any(r.render_mode == "human" for r in _LIVE):
+            self._pygame.display.quit()  # shut the window; off-screen drawing needs none

@@ -1,4 +1,4 @@
-"""Scenario parameters of the three-lane lane-change problem (paper §IV-A, SPEC §1).
+"""Scenario parameters of the three-lane lane-change problem (paper §IV-A, docs/DESIGN.md §1).
 
 A :class:`ScenarioConfig` holds every physical constant of one episode: road, vehicle
 geometry, limits, initial states, the EV's goal, the sampling time and the safety
@@ -43,7 +43,7 @@ class ScenarioConfig:
     """One lane-change scenario: the EV changes lane next to a constant-speed TV.
 
     The EV starts in ``ev_lane`` and heads for ``target_lane``; the TV keeps ``tv_lane``.
-    Defaults are the paper's scenario (§IV-A, SPEC §1). Lane 0 is the right-most lane
+    Defaults are the paper's scenario (§IV-A, DESIGN §1). Lane 0 is the right-most lane
     (smallest y); x points along the road.
     """
 
@@ -174,7 +174,7 @@ class ScenarioConfig:
 
     @property
     def y_bounds(self) -> tuple[float, float]:
-        """Admissible EV centre y: road edges minus half a vehicle width (SPEC §1 erratum) [m]."""
+        """Admissible EV centre y: road edges minus half a vehicle width (DESIGN §1 erratum) [m]."""
         half = self.vehicle_width / 2
         return (half, self.road_width - half)
 

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from envs.lane_change import LaneChangeEnv
+from envs.rollout import Policy, run_episode
 
 __all__ = ["record_policy", "record_states", "write_video"]
 
@@ -42,10 +41,7 @@ def write_video(frames: list[np.ndarray], path: str | Path, fps: int = 5) -> Pat
 
 
 def record_policy(
-    env: LaneChangeEnv,
-    policy: Callable[[Any, np.ndarray], np.ndarray],
-    seed: int = 0,
-    options: dict | None = None,
+    env: LaneChangeEnv, policy: Policy, seed: int = 0, options: dict | None = None
 ) -> tuple[list[np.ndarray], list]:
     """Run a policy for one episode and collect the rendered frames (env in rgb_array mode).
 
@@ -58,15 +54,8 @@ def record_policy(
     Returns:
         (frames: reset frame + one per step, infos per step).
     """
-    obs, _ = env.reset(seed=seed, options=options)
-    frames, infos = [env.render()], []
-    for _ in range(env.scenario.n_steps):
-        obs, _, term, trunc, info = env.step(policy(env, obs))
-        frames.append(env.render())
-        infos.append(info)
-        if term or trunc:
-            break
-    return frames, infos
+    episode = run_episode(env, policy, seed, options, render=True)
+    return episode.frames, episode.infos
 
 
 def record_states(

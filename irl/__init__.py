@@ -12,7 +12,8 @@ from irl.features import (
     gauss_legendre_nodes,
 )
 from irl.inner import InnerProblem, InnerSolution, InnerSolveError, newton_minimize
-from irl.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta, reproduction_errors
+from irl.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta
+from irl.metrics import trajectory_errors
 from irl.spline import (
     QuinticTrajectory,
     basis_matrix,
@@ -45,6 +46,6 @@ __all__ = [
     "newton_minimize",
     "normalise_theta",
     "quintic_coefficients",
-    "reproduction_errors",
     "spline_eval",
+    "trajectory_errors",
 ]

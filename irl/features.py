@@ -1,4 +1,4 @@
-"""The ten trajectory features of the paper (§II-C, §III-A; SPEC §5).
+"""The ten trajectory features of the paper (§II-C, §III-A; docs/DESIGN.md §5).
 
 Order (``FEATURES``): f_ax, f_ay, f_v, f_l, f_il, f_el, f_tiv, f_sd, f_ed, f_id. The
 ``base`` set is the first six, ``reactive`` (the paper's) all ten.
@@ -7,8 +7,14 @@ Every feature is a weighted sum, over fixed Gauss–Legendre nodes (or a single 
 instant), of a scalar function of a spline value; spline values are linear in the
 control points (:func:`irl.spline.basis_matrix`). :func:`feature_basis` precomputes those
 linear maps for one demonstration (its event times stay fixed while candidate
-trajectories are optimised, SPEC §5) and :func:`feature_values` evaluates the features on
+trajectories are optimised, DESIGN §5) and :func:`feature_values` evaluates the features on
 numpy arrays or on CasADi symbols, so the inner problem gets exact derivatives.
+
+Each feature's integrand is written once (:func:`integrand`, :func:`instant_feature`) and
+used by both the whole-trajectory features (:func:`feature_values`) and the
+segment-by-segment ones of the learned reward (:func:`segment_integrals`); the constants
+and their scenario defaults come from :func:`feature_constants`, the event times from
+:func:`event_times`, for demonstrations and growing trajectories alike.
 
 Event times (from the demonstration):
 - t_turn: the EV centre crosses the boundary of its initial lane (linear interpolation
@@ -35,6 +41,7 @@ import numpy as np
 
 from envs.demonstration import Demonstration
 from envs.safety import elliptical_index, trigger_time
+from envs.scenario import ScenarioConfig
 from irl.spline import basis_matrix, state_control_points
 
 __all__ = [
@@ -45,10 +52,15 @@ __all__ = [
     "EventTimes",
     "FeatureBasis",
     "FeatureConfig",
+    "FeatureConstants",
     "event_times",
     "feature_basis",
+    "feature_constants",
     "feature_values",
     "gauss_legendre_nodes",
+    "instant_feature",
+    "integrand",
+    "segment_integrals",
     "tv_control_points",
 ]
 
@@ -67,7 +79,7 @@ class FeatureConfig:
     feature_set: str = "reactive"
     """'reactive' (10 features) or 'base' (the first 6)."""
     t_rct: float = 2.0
-    """T_rct: duration of the reaction window [s] (SPEC §1: ≈2 s)."""
+    """T_rct: duration of the reaction window [s] (DESIGN §1: ≈2 s)."""
     omega: tuple[float, ...] = PAPER_OMEGA
     """Ω: scaling of the ten features, in FEATURES order (§III-C)."""
     v_des: float | None = None
@@ -87,7 +99,7 @@ class FeatureConfig:
     abs_eps: float = 1e-2
     """ε of the |·| smoothing inside the optimiser [m]."""
     ay_first_segment_weight: float = 1.0
-    """Weight of the first segment in f_ay (0 excludes it; SPEC §4)."""
+    """Weight of the first segment in f_ay (0 excludes it; DESIGN §4)."""
 
     def __post_init__(self) -> None:
         if self.feature_set not in FEATURE_SETS:
@@ -172,13 +184,99 @@ def gauss_legendre_nodes(
     return np.concatenate(nodes), np.concatenate(weights)
 
 
-def tv_control_points(demo: Demonstration) -> np.ndarray:
-    """Control points of the TV's trajectory, shape (n, 6).
+def tv_control_points(t: np.ndarray, tv: np.ndarray) -> np.ndarray:
+    """Control points of the TV's sampled trajectory, shape (n, 6).
 
-    Velocities v·[cos φ, sin φ]; accelerations by central differences.
+    The kinematic rule without steering: velocities v·[cos φ, sin φ], accelerations by
+    central differences.
+
+    Args:
+        t: sample times, shape (n,) [s].
+        tv: TV states [x, y, φ, v], shape (n, 4).
     """
-    # the kinematic rule without steering: velocity along φ, differenced accelerations
-    return state_control_points(demo.t, demo.tv, np.zeros(demo.n), "kinematic", 0.5)
+    return state_control_points(t, tv, np.zeros(len(t)), "kinematic", 0.5)
+
+
+@dataclass(frozen=True)
+class FeatureConstants:
+    """The features' constants for one scenario (``FeatureConfig`` value or scenario default)."""
+
+    v_des: float
+    """Desired speed of f_v [m/s]."""
+    v_lane: float
+    """Lane speed of f_tiv [m/s]."""
+    l_des: float
+    """Desired lane centre of f_l and f_el [m]."""
+    l_initial: float
+    """Initial lane centre of f_il [m]."""
+    trigger_lambda: float
+    """λ of the trigger."""
+    tiv_d0: float
+    """d_0 of the TIV guard [m]."""
+
+
+def feature_constants(config: FeatureConfig, scenario: ScenarioConfig) -> FeatureConstants:
+    """Resolve the feature constants: the config's value, else the scenario's (DESIGN §5).
+
+    Args:
+        config: feature configuration (``None`` fields take the scenario's value).
+        scenario: the demonstration's scenario.
+
+    Returns:
+        The constants.
+    """
+
+    def pick(value: float | None, default: float) -> float:
+        return float(default if value is None else value)
+
+    sc = scenario
+    return FeatureConstants(
+        v_des=pick(config.v_des, sc.v_ref),
+        v_lane=pick(config.v_lane, sc.v_ref),
+        l_des=pick(config.l_des, sc.y_ref),
+        l_initial=pick(config.l_initial, sc.lane_centres[sc.ev_lane]),
+        trigger_lambda=pick(config.trigger_lambda, sc.trigger_lambda),
+        tiv_d0=config.tiv_d0,
+    )
+
+
+def integrand(name: str, z, k: FeatureConstants, absf, sqrt, ref=None):
+    """Integrand of an integral feature at spline values ``z`` (paper eq. 6–8, 14, 17).
+
+    Works on numpy arrays and CasADi symbols alike (``absf`` and ``sqrt`` are the matching
+    operations; ``absf`` may be the smoothed |·| of the optimiser).
+
+    Args:
+        name: 'ax', 'ay' (z: acceleration), 'v' (z: longitudinal velocity), 'l', 'el',
+            'il', 'id' (z: lateral position) or 'tiv' (z: longitudinal position).
+        z: spline values at the quadrature nodes.
+        k: feature constants.
+        absf: |·| (or its smoothed form).
+        sqrt: square root.
+        ref: x_TV at the nodes for 'tiv'; y_EV(t_trg) for 'id'.
+
+    Returns:
+        The integrand at the nodes (unscaled).
+    """
+    if name in ("ax", "ay"):
+        return z * z
+    if name == "v":
+        return (k.v_des - z) ** 2
+    if name in ("l", "el"):
+        return absf(k.l_des - z)
+    if name == "il":
+        return absf(k.l_initial - z)
+    if name == "tiv":
+        dx = ref - z
+        return k.v_lane / sqrt(dx * dx + k.tiv_d0**2)
+    if name == "id":
+        return absf(z - ref)
+    raise ValueError(f"{name!r} is not an integral feature")
+
+
+def instant_feature(y_ev, y_tv, exp, absf):
+    """f_sd (at t_trg) or f_ed (at t_trg + T_rct): exp(−|y_EV − y_TV|) (paper eq. 15, 16)."""
+    return exp(-absf(y_ev - y_tv))
 
 
 def _crossing_time(t: np.ndarray, y: np.ndarray, boundary: float, upward: bool) -> float | None:
@@ -194,35 +292,33 @@ def _crossing_time(t: np.ndarray, y: np.ndarray, boundary: float, upward: bool) 
 
 
 def event_times(
-    demo: Demonstration,
+    t: np.ndarray,
+    ev: np.ndarray,
+    tv: np.ndarray,
+    scenario: ScenarioConfig,
     config: FeatureConfig,
-    lam: float,
-    lane_width: float,
-    ev_lane: int,
-    target_lane: int,
-    l_a: float,
-    l_b: float,
 ) -> EventTimes:
-    """Event times of a demonstration (module docstring).
+    """Event times of a sampled trajectory (module docstring; DESIGN §5).
+
+    They depend on past samples only, so the learned reward gets the same times online
+    from the growing trajectory as the demonstration's features offline.
 
     Args:
-        demo: the demonstration.
-        config: feature configuration (T_rct).
-        lam: trigger threshold λ.
-        lane_width: lane width [m].
-        ev_lane: the EV's initial lane index.
-        target_lane: the EV's target lane index.
-        l_a: semi-major axis of the ellipse [m].
-        l_b: semi-minor axis [m].
+        t: sample times, shape (n,) [s].
+        ev: EV states [x, y, φ, v], shape (n, 4).
+        tv: TV states, shape (n, 4).
+        scenario: lanes (t_turn) and ellipse (t_trg).
+        config: feature configuration (T_rct, λ override).
 
     Returns:
         The event times.
     """
-    t = demo.t
-    upward = target_lane > ev_lane
-    boundary = lane_width * (ev_lane + 1) if upward else lane_width * ev_lane
-    t_turn = _crossing_time(t, demo.ev[:, 1], boundary, upward)
-    s_e = elliptical_index(demo.ev[:, 0] - demo.tv[:, 0], demo.ev[:, 1] - demo.tv[:, 1], l_a, l_b)
+    sc = scenario
+    lam = feature_constants(config, sc).trigger_lambda
+    upward = sc.target_lane > sc.ev_lane
+    boundary = sc.lane_width * (sc.ev_lane + 1) if upward else sc.lane_width * sc.ev_lane
+    t_turn = _crossing_time(t, ev[:, 1], boundary, upward)
+    s_e = elliptical_index(ev[:, 0] - tv[:, 0], ev[:, 1] - tv[:, 1], sc.l_a, sc.l_b)
     t_trg = trigger_time(t, s_e, lam)
     t_end = float(t[-1])
     return EventTimes(
@@ -245,10 +341,7 @@ class FeatureBasis:
     config: FeatureConfig
     events: EventTimes
     t_knots: np.ndarray
-    v_des: float
-    v_lane: float
-    l_des: float
-    l_initial: float
+    constants: FeatureConstants
     omega: np.ndarray
     B_acc: np.ndarray
     w_acc: np.ndarray
@@ -283,38 +376,32 @@ def feature_basis(demo: Demonstration, config: FeatureConfig | None = None) -> F
     config = config or FeatureConfig()
     sc = demo.scenario
     t = demo.t
-    lam = config.trigger_lambda if config.trigger_lambda is not None else sc.trigger_lambda
-    ev = event_times(demo, config, lam, sc.lane_width, sc.ev_lane, sc.target_lane, sc.l_a, sc.l_b)
+    events = event_times(t, demo.ev, demo.tv, sc, config)
     n = config.n_gauss
     t_all, w_all = gauss_legendre_nodes(t, t[0], t[-1], n)
     w_ay = w_all.copy()
     w_ay[t_all < t[1]] *= config.ay_first_segment_weight
-    t_il, w_il = gauss_legendre_nodes(t, t[0], ev.t_turn, n)
-    t_el, w_el = gauss_legendre_nodes(t, ev.t_last, ev.t_end, n)
-    tv_C = tv_control_points(demo)
+    t_il, w_il = gauss_legendre_nodes(t, t[0], events.t_turn, n)
+    t_el, w_el = gauss_legendre_nodes(t, events.t_last, events.t_end, n)
+    tv_C = tv_control_points(t, demo.tv)
     x_tv = basis_matrix(t, t_all) @ tv_C[:, :3].ravel()
     extra = {}
-    if ev.reactive_active:
-        t_id, w_id = gauss_legendre_nodes(t, ev.t_trg, ev.t_rct_end, n)
-        y_tv = basis_matrix(t, [ev.t_trg, ev.t_rct_end]) @ tv_C[:, 3:].ravel()
+    if events.reactive_active:
+        t_id, w_id = gauss_legendre_nodes(t, events.t_trg, events.t_rct_end, n)
+        y_tv = basis_matrix(t, [events.t_trg, events.t_rct_end]) @ tv_C[:, 3:].ravel()
         extra = {
             "B_id": basis_matrix(t, t_id),
             "w_id": w_id,
-            "B_trg": basis_matrix(t, [ev.t_trg]),
-            "B_rct": basis_matrix(t, [ev.t_rct_end]),
+            "B_trg": basis_matrix(t, [events.t_trg]),
+            "B_rct": basis_matrix(t, [events.t_rct_end]),
             "y_tv_trg": float(y_tv[0]),
             "y_tv_rct": float(y_tv[1]),
         }
     return FeatureBasis(
         config=config,
-        events=ev,
+        events=events,
         t_knots=t.copy(),
-        v_des=config.v_des if config.v_des is not None else sc.v_ref,
-        v_lane=config.v_lane if config.v_lane is not None else sc.v_ref,
-        l_des=config.l_des if config.l_des is not None else sc.y_ref,
-        l_initial=(
-            config.l_initial if config.l_initial is not None else float(sc.lane_centres[sc.ev_lane])
-        ),
+        constants=feature_constants(config, sc),
         omega=np.asarray(config.omega, float),
         B_acc=basis_matrix(t, t_all, 2),
         w_acc=w_all,
@@ -381,44 +468,34 @@ def feature_values(cx, cy, basis: FeatureBasis, smooth: bool = False, names=FEAT
     symbolic = isinstance(cx, (ca.SX, ca.MX)) or isinstance(cy, (ca.SX, ca.MX))
     lin, wsum, const, sqrt, exp, fabs, stack = _ops(symbolic)
     eps = basis.config.abs_eps
+    k = basis.constants
 
     def absf(z):
         return sqrt(z * z + eps * eps) - eps if smooth else fabs(z)
 
-    out = {}
-    need = set(names)
-    if "ax" in need:
-        out["ax"] = wsum(basis.w_acc, lin(basis.B_acc, cx) ** 2)
-    if "ay" in need:
-        out["ay"] = wsum(basis.w_ay, lin(basis.B_acc, cy) ** 2)
-    if "v" in need:
-        out["v"] = wsum(basis.w_all, (basis.v_des - lin(basis.B_vel, cx)) ** 2)
-    if "l" in need:
-        out["l"] = wsum(basis.w_all, absf(basis.l_des - lin(basis.B_pos, cy)))
-    if "il" in need:
-        out["il"] = (
-            wsum(basis.w_il, absf(basis.l_initial - lin(basis.B_il, cy)))
-            if basis.w_il.size
-            else 0.0
-        )
-    if "el" in need:
-        out["el"] = wsum(basis.w_el, absf(basis.l_des - lin(basis.B_el, cy)))
-    if "tiv" in need:
-        dx = const(basis.x_tv) - lin(basis.B_pos, cx)
-        out["tiv"] = wsum(basis.w_all, basis.v_lane / sqrt(dx * dx + basis.config.tiv_d0**2))
+    def integral(name: str, w: np.ndarray, B: np.ndarray, c, ref=None):
+        return wsum(w, integrand(name, lin(B, c), k, absf, sqrt, ref)) if w.size else 0.0
+
     active = basis.events.reactive_active
-    if "sd" in need:
-        out["sd"] = exp(-absf(lin(basis.B_trg, cy)[0] - basis.y_tv_trg)) if active else 0.0
-    if "ed" in need:
-        out["ed"] = exp(-absf(lin(basis.B_rct, cy)[0] - basis.y_tv_rct)) if active else 0.0
-    if "id" in need:
-        if active and basis.w_id.size:
-            y_trg = lin(basis.B_trg, cy)[0]
-            out["id"] = wsum(basis.w_id, absf(lin(basis.B_id, cy) - y_trg))
-        else:
-            out["id"] = 0.0
-    scale = {n: basis.omega[FEATURES.index(n)] for n in names}
-    return stack(*[scale[n] * out[n] for n in names])
+    terms = {
+        "ax": lambda: integral("ax", basis.w_acc, basis.B_acc, cx),
+        "ay": lambda: integral("ay", basis.w_ay, basis.B_acc, cy),
+        "v": lambda: integral("v", basis.w_all, basis.B_vel, cx),
+        "l": lambda: integral("l", basis.w_all, basis.B_pos, cy),
+        "il": lambda: integral("il", basis.w_il, basis.B_il, cy),
+        "el": lambda: integral("el", basis.w_el, basis.B_el, cy),
+        "tiv": lambda: integral("tiv", basis.w_all, basis.B_pos, cx, const(basis.x_tv)),
+        "sd": lambda: instant_feature(lin(basis.B_trg, cy)[0], basis.y_tv_trg, exp, absf),
+        "ed": lambda: instant_feature(lin(basis.B_rct, cy)[0], basis.y_tv_rct, exp, absf),
+        "id": lambda: integral("id", basis.w_id, basis.B_id, cy, lin(basis.B_trg, cy)[0]),
+    }
+    reactive = ("sd", "ed", "id")
+    return stack(
+        *[
+            basis.omega[FEATURES.index(n)] * terms[n]() if active or n not in reactive else 0.0
+            for n in names
+        ]
+    )
 
 
 @functools.lru_cache(maxsize=4096)
@@ -427,7 +504,9 @@ def _segment_basis(T: float, tau: tuple[float, ...], d: int) -> np.ndarray:
     return basis_matrix(np.array([0.0, T]), np.array(tau), d)
 
 
-"""Features that are integrals over time and so add up segment by segment."""
+SEGMENT_FEATURES = ("ax", "ay", "v", "l", "il", "tiv", "id")
+"""Features that are integrals over the whole horizon or a window of it, so they add up
+segment by segment (f_el, f_sd and f_ed are not: see :mod:`irl.reward`)."""
 
 
 def segment_integrals(
@@ -436,16 +515,17 @@ def segment_integrals(
     tv_cx: np.ndarray,
     t0: float,
     t1: float,
-    basis_like: FeatureBasis | dict,
-    t_turn: float,
-    window: tuple[float, float, float] | None,
+    config: FeatureConfig,
+    constants: FeatureConstants,
+    events: EventTimes,
+    y_trg: float | None,
     first: bool,
 ) -> dict[str, float]:
     """Unscaled contributions of the integral features over one spline segment [t0, t1].
 
-    Summed over all segments (plus f_el, f_sd, f_ed, see :func:`instant_features`) they
-    give :func:`feature_values` exactly: the same Gauss–Legendre nodes, split at the
-    window ends. Used to compute features incrementally along a growing trajectory.
+    Summed over all segments they give :func:`feature_values`'s integral features exactly:
+    the same integrands and Gauss–Legendre nodes, split at the event times. Used to
+    compute features incrementally along a growing trajectory (:mod:`irl.reward`).
 
     Args:
         cx: EV x control points [r, v, a] at t0 and t1, shape (6,).
@@ -453,46 +533,35 @@ def segment_integrals(
         tv_cx: TV x control points at t0 and t1, shape (6,).
         t0: segment start [s].
         t1: segment end [s].
-        basis_like: constants (v_des, v_lane, l_des, l_initial, config) — a
-            :class:`FeatureBasis` or a dict with those keys.
-        t_turn: end of f_il [s].
-        window: (t_trg, t_rct_end, y_EV(t_trg)) of f_id, or None if inactive.
+        config: feature configuration (quadrature, f_ay weighting).
+        constants: feature constants.
+        events: event times of the trajectory (t_turn; t_trg and t_rct_end for f_id).
+        y_trg: y_EV(t_trg) (None: reactive features inactive).
         first: this is the first segment (f_ay weighting).
 
     Returns:
-        Feature name → contribution (unscaled).
+        Feature name (:data:`SEGMENT_FEATURES`) → contribution (unscaled).
     """
-    get = (
-        (lambda k: getattr(basis_like, k))
-        if not isinstance(basis_like, dict)
-        else basis_like.__getitem__
-    )
-    config: FeatureConfig = get("config")
     knots = np.array([t0, t1])
-    n = config.n_gauss
-
-    def part(a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
-        return gauss_legendre_nodes(knots, max(a, t0), min(b, t1), n)
-
     T = t1 - t0
 
-    def seg_basis(nodes: np.ndarray, d: int = 0) -> np.ndarray:
-        return _segment_basis(T, tuple(np.round(nodes - t0, 12)), d)
+    def integral(name: str, c: np.ndarray, d: int, a: float, b: float, ref=None) -> float:
+        nodes, w = gauss_legendre_nodes(knots, max(a, t0), min(b, t1), config.n_gauss)
+        if not nodes.size:
+            return 0.0
+        B = _segment_basis(T, tuple(np.round(nodes - t0, 12)), d)
+        r = None if ref is None else (B @ ref if np.ndim(ref) else ref)
+        return float(w @ integrand(name, B @ c, constants, np.abs, np.sqrt, r))
 
-    tn, w = part(t0, t1)
-    B0, B1, B2 = (seg_basis(tn, d) for d in (0, 1, 2))
     out = {
-        "ax": float(w @ (B2 @ cx) ** 2),
-        "ay": float(w @ (B2 @ cy) ** 2) * (config.ay_first_segment_weight if first else 1.0),
-        "v": float(w @ (get("v_des") - B1 @ cx) ** 2),
-        "l": float(w @ np.abs(get("l_des") - B0 @ cy)),
-        "tiv": float(w @ (get("v_lane") / np.sqrt((B0 @ tv_cx - B0 @ cx) ** 2 + config.tiv_d0**2))),
+        "ax": integral("ax", cx, 2, t0, t1),
+        "ay": integral("ay", cy, 2, t0, t1) * (config.ay_first_segment_weight if first else 1),
+        "v": integral("v", cx, 1, t0, t1),
+        "l": integral("l", cy, 0, t0, t1),
+        "il": integral("il", cy, 0, t0, events.t_turn),
+        "tiv": integral("tiv", cx, 0, t0, t1, tv_cx),
+        "id": 0.0,
     }
-    ti, wi = part(t0, t_turn)
-    out["il"] = float(wi @ np.abs(get("l_initial") - seg_basis(ti) @ cy)) if ti.size else 0.0
-    out["id"] = 0.0
-    if window is not None:
-        td, wd = part(window[0], window[1])
-        if td.size:
-            out["id"] = float(wd @ np.abs(seg_basis(td) @ cy - window[2]))
+    if events.reactive_active and y_trg is not None:
+        out["id"] = integral("id", cy, 0, events.t_trg, events.t_rct_end, y_trg)
     return out

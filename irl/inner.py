@@ -1,4 +1,4 @@
-"""The inner problem of ME-IRL: r*_θ = argmin_r θᵀ f(r) over c_1 … c_S (§II-C2, SPEC §6).
+"""The inner problem of ME-IRL: r*_θ = argmin_r θᵀ f(r) over c_1 … c_S (§II-C2, docs/DESIGN.md §6).
 
 The features split into a longitudinal group (f_ax, f_v, f_tiv: x spline only) and a
 lateral group (the rest: y spline only), so the inner problem separates into two
@@ -139,24 +139,25 @@ class InnerProblem:
     Args:
         demo: the demonstration (knots = its sample times; c_0 from its first sample).
         config: feature configuration (active set, constants).
-        rule: control-point rule for the demonstration (``irl.spline.demo_control_points``).
+        control_point_rule: how the demonstration's control points are derived
+            (``irl.spline.demo_control_points``).
         control_points: the demonstration's control points, shape (n, 6), instead of
-            deriving them by ``rule`` (e.g. a trajectory that is itself a spline).
+            deriving them by ``control_point_rule`` (e.g. a trajectory that is itself a spline).
     """
 
     def __init__(
         self,
         demo: Demonstration,
         config: FeatureConfig | None = None,
-        rule: str = "kinematic",
+        control_point_rule: str = "kinematic",
         control_points: np.ndarray | None = None,
     ) -> None:
         self.demo = demo
         self.config = config or FeatureConfig()
-        self.rule = rule
+        self.control_point_rule = control_point_rule
         self.basis: FeatureBasis = feature_basis(demo, self.config)
         if control_points is None:
-            self.C_demo = demo_control_points(demo, rule)
+            self.C_demo = demo_control_points(demo, control_point_rule)
         else:
             C = np.asarray(control_points, dtype=float)
             if C.shape != (demo.n, 6) or not np.all(np.isfinite(C)):

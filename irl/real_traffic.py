@@ -19,25 +19,37 @@ speed it settles at, rather than the scenario's v_ref).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from envs.demonstration import Demonstration
+from envs.io import fmt
+from envs.real_data import RecordedEpisode
 from irl.features import FeatureConfig
 from irl.inner import InnerProblem
 from irl.learner import IRLConfig, MaxEntIRL, normalise_theta
+from irl.metrics import trajectory_errors
+from irl.plotting import plot_episode
 
 __all__ = [
-    "METHODS",
+    "REPRODUCTIONS",
+    "av_vs_hv",
     "classify_loo",
     "constant_velocity",
     "episode_feature_config",
-    "trajectory_errors",
+    "learn_general",
+    "learn_personal",
+    "reproduce_with",
+    "run_study",
+    "study_markdown",
 ]
 
-METHODS = ("personal_reactive", "personal_base", "general", "constant_velocity")
+REPRODUCTIONS = ("personal_reactive", "personal_base", "general", "constant_velocity")
+"""The reproductions compared with each recorded lane change (module docstring)."""
 
 
 def episode_feature_config(
@@ -62,16 +74,6 @@ def episode_feature_config(
         v_des=v_end,
         v_lane=v_end,
     )
-
-
-def trajectory_errors(xy: np.ndarray, demo: Demonstration) -> dict[str, float]:
-    """rmse_y, rmse_xy and final displacement error of positions at the samples [m]."""
-    dx, dy = xy[:, 0] - demo.ev[:, 0], xy[:, 1] - demo.ev[:, 1]
-    return {
-        "rmse_y_m": float(np.sqrt(np.mean(dy**2))),
-        "rmse_xy_m": float(np.sqrt(np.mean(dx**2 + dy**2))),
-        "fde_m": float(math.hypot(dx[-1], dy[-1])),
-    }
 
 
 def constant_velocity(demo: Demonstration) -> np.ndarray:
@@ -146,3 +148,212 @@ def classify_loo(thetas: np.ndarray, labels: Sequence[str], names: Sequence[str]
         "majority_rate": base,
         "p_value_vs_majority": float(p_value),
     }
+
+
+def _episode_task(i: int, demos: list[Demonstration], figure_dir: str | None) -> dict:
+    """All four methods on episode i (the general style leaves episode i out)."""
+    demo = demos[i]
+    res = {}
+    paths = {}
+    for fs in ("reactive", "base"):
+        r = learn_personal(demo, fs)
+        res[f"personal_{fs}"] = {
+            k: r[k] for k in ("rmse_y_m", "rmse_xy_m", "fde_m", "iterations", "converged")
+        }
+        res[f"personal_{fs}"]["theta_normalised"] = r["theta_normalised"]
+        res[f"personal_{fs}"]["trigger_fired"] = r["trigger_fired"]
+        paths[f"personal {fs}"] = r["control_points"][:, [0, 3]]
+    others = [d for j, d in enumerate(demos) if j != i]
+    if others:
+        theta = learn_general(others)
+        C = reproduce_with(theta, demo)
+        res["general"] = trajectory_errors(C[:, [0, 3]], demo)
+        paths["general (leave-one-out)"] = C[:, [0, 3]]
+    cv = constant_velocity(demo)
+    res["constant_velocity"] = trajectory_errors(cv, demo)
+    paths["constant velocity"] = cv
+    if figure_dir is not None:
+        plot_episode(
+            demo,
+            paths,
+            Path(figure_dir) / f"{demo.meta['episode_id']}.png",
+            demo.meta["episode_id"],
+        )
+    return res
+
+
+def _lane_change_stats(demo) -> dict:
+    """Peak lateral acceleration and 10–90 % lane-change duration of a recording."""
+    y = demo.ev[:, 1]
+    vy = np.gradient(y, demo.t)
+    ay = np.gradient(vy, demo.t)
+    y0, y1 = y[:5].mean(), y[-5:].mean()
+    frac = (y - y0) / (y1 - y0)
+    t10 = demo.t[np.argmax(frac >= 0.1)]
+    t90 = demo.t[np.argmax(frac >= 0.9)]
+    return {
+        "peak_lateral_accel_mps2": float(np.abs(ay).max()),
+        "peak_lateral_speed_mps": float(np.abs(vy).max()),
+        "duration_10_90_s": float(t90 - t10),
+    }
+
+
+def av_vs_hv(records: list[dict]) -> dict:
+    """Compare the computer-driven and human-driven CATS lane changes."""
+    rows = [r for r in records if "methods" in r]
+    labels = [r["flags"]["set"] for r in rows]
+    out: dict = {"n": {c: labels.count(c) for c in sorted(set(labels))}}
+    for c in sorted(set(labels)):
+        sel = [r for r in rows if r["flags"]["set"] == c]
+        out[c] = {
+            "rmse_y_personal_reactive_median_m": float(
+                np.median([r["methods"]["personal_reactive"]["rmse_y_m"] for r in sel])
+            ),
+            **{k: float(np.median([r["stats"][k] for r in sel])) for k in sel[0]["stats"]},
+            "theta_base_normalised_mean": np.mean(
+                [r["methods"]["personal_base"]["theta_normalised"] for r in sel], axis=0
+            ).tolist(),
+        }
+    names = ("ax", "ay", "v", "l", "il", "el")
+    out["classifier_base_features"] = classify_loo(
+        np.array([r["methods"]["personal_base"]["theta_normalised"] for r in rows]), labels, names
+    )
+    return out
+
+
+def _av_hv_markdown(d: dict) -> str:
+    c = d["classifier_base_features"]
+    rows = [
+        "| set | n | median rmse_y (personal reactive) | median peak lateral accel | "
+        "median 10–90 % duration |",
+        "|---|---|---|---|---|",
+    ]
+    for s in ("AV", "HV"):
+        if s in d:
+            rows.append(
+                f"| {s} | {d['n'][s]} | {d[s]['rmse_y_personal_reactive_median_m']:.3f} m "
+                f"| {d[s]['peak_lateral_accel_mps2']:.2f} m/s² | "
+                f"{d[s]['duration_10_90_s']:.1f} s |"
+            )
+    rows += [
+        "",
+        f"Leave-one-out nearest-centroid classifier on the base-feature styles: "
+        f"{c['accuracy']:.0%} of {c['n']} (majority rate {c['majority_rate']:.0%}, "
+        f"one-sided binomial p = {c['p_value_vs_majority']:.2f}).",
+    ]
+    return "\n".join(rows)
+
+
+def run_study(
+    episodes: Sequence[RecordedEpisode],
+    dataset: str,
+    workers: int = 2,
+    figure_dir: str | Path | None = None,
+    limit: int | None = None,
+    progress: Callable[[int], Any] | None = None,
+) -> dict[str, Any]:
+    """The recorded-traffic study: every method on every used episode, with medians.
+
+    Args:
+        episodes: the loaded episodes (used and unused).
+        dataset: 'ngsim' or 'cats' (CATS adds the AV-vs-human comparison).
+        workers: processes (1: in this process).
+        figure_dir: write one figure per episode here (None: no figures).
+        limit: only the first N used episodes (None: all).
+        progress: called with 1 after each episode.
+
+    Returns:
+        The ``real_traffic.json`` payload (DESIGN §7).
+
+    Raises:
+        ValueError: fewer than 2 usable episodes (the general style leaves one out).
+    """
+    used = [e for e in episodes if e.used]
+    if limit is not None:
+        used = used[:limit]
+    if len(used) < 2:
+        raise ValueError(f"{len(used)} usable {dataset} episode(s); the study needs at least 2")
+    demos = [e.demo for e in used]
+    fig = None if figure_dir is None else str(figure_dir)
+    results: dict[int, dict] = {}
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futs = {pool.submit(_episode_task, i, demos, fig): i for i in range(len(demos))}
+            try:
+                for fut in as_completed(futs):
+                    results[futs[fut]] = fut.result()
+                    if progress:
+                        progress(1)
+            except BaseException:  # Ctrl-C: drop queued work instead of finishing it
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+    else:
+        for i in range(len(demos)):
+            results[i] = _episode_task(i, demos, fig)
+            if progress:
+                progress(1)
+    records = []
+    for e in episodes:
+        rec = {
+            "episode_id": e.episode_id,
+            "used": e in used,
+            "reasons": list(e.reasons),
+            "flags": e.flags,
+        }
+        if e in used:
+            i = used.index(e)
+            rec["methods"] = results[i]
+            rec["stats"] = _lane_change_stats(e.demo)
+        records.append(rec)
+    medians = {}
+    for m in REPRODUCTIONS:
+        vals = [r["methods"][m] for r in records if "methods" in r and m in r["methods"]]
+        medians[m] = {
+            k: float(np.median([v[k] for v in vals])) if vals else None
+            for k in ("rmse_y_m", "rmse_xy_m", "fde_m")
+        }
+    payload: dict[str, Any] = {
+        "dataset": dataset,
+        "n_episodes": len(episodes),
+        "n_used": len(used),
+        "median_rmse_y_m": {m: medians[m]["rmse_y_m"] for m in REPRODUCTIONS},
+        "medians": medians,
+        "episodes": records,
+    }
+    if dataset == "cats":
+        payload["av_vs_hv"] = av_vs_hv(records)
+    return payload
+
+
+def study_markdown(payload: dict[str, Any]) -> str:
+    """``real_traffic.md``: medians per method, AV vs human (CATS), rmse_y per episode."""
+    medians = payload["medians"]
+    lines = [
+        f"# Real traffic: {payload['dataset']}",
+        "",
+        f"{payload['n_used']} of {payload['n_episodes']} episodes used "
+        "(selection in envs/real_data.py).",
+        "",
+        "| method | median rmse_y [m] | median rmse_xy [m] | median fde [m] |",
+        "|---|---|---|---|",
+    ]
+    for m in REPRODUCTIONS:
+        lines.append(
+            f"| {m} | {fmt(medians[m]['rmse_y_m'])} | {fmt(medians[m]['rmse_xy_m'])} "
+            f"| {fmt(medians[m]['fde_m'])} |"
+        )
+    if "av_vs_hv" in payload:
+        lines += ["", "## AV vs human", "", _av_hv_markdown(payload["av_vs_hv"])]
+    lines += [
+        "",
+        "| episode | " + " | ".join(f"{m} rmse_y" for m in REPRODUCTIONS) + " |",
+        "|---|" + "---|" * len(REPRODUCTIONS),
+    ]
+    for r in payload["episodes"]:
+        if "methods" in r:
+            lines.append(
+                f"| {r['episode_id']} | "
+                + " | ".join(fmt(r["methods"].get(m, {}).get("rmse_y_m")) for m in REPRODUCTIONS)
+                + " |"
+            )
+    return "\n".join(lines) + "\n"

@@ -1,4 +1,4 @@
-"""Piecewise quintic splines over control points (paper §II-B, §III-D; SPEC §4).
+"""Piecewise quintic splines over control points (paper §II-B, §III-D; docs/DESIGN.md §4).
 
 A trajectory r(t) on knots t_0 < … < t_S is one quintic per interval [t_j, t_{j+1}],
 fixed by the control points c_j = [r^x, v^x, a^x, r^y, v^y, a^y] at its two ends, so
@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from envs.demonstration import Demonstration
 
 __all__ = [
-    "AY_RULES",
+    "CONTROL_POINT_RULES",
     "QuinticTrajectory",
     "basis_matrix",
     "demo_control_points",
@@ -29,7 +29,8 @@ __all__ = [
     "state_control_points",
 ]
 
-AY_RULES = ("kinematic", "paper")
+CONTROL_POINT_RULES = ("kinematic", "paper")
+"""How a sampled trajectory's velocities and accelerations are derived (DESIGN §4)."""
 
 
 def _hermite_matrix(T: float) -> np.ndarray:
@@ -149,15 +150,15 @@ def _central_diff(v: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.gradient(v, t, edge_order=1)
 
 
-def demo_control_points(demo: Demonstration, rule: str = "kinematic") -> np.ndarray:
-    """Control points of a demonstration at its samples (SPEC §4).
+def demo_control_points(demo: Demonstration, control_point_rule: str = "kinematic") -> np.ndarray:
+    """Control points of a demonstration at its samples (DESIGN §4).
 
-    Positions come from the states. Velocities and accelerations by ``rule``:
+    Positions come from the states. Velocities and accelerations by ``control_point_rule``:
 
     - ``"paper"`` (§III-D as written): v^x = v cos φ, v^y = v sin φ,
       a^x = (v_{t+1} − v_{t−1})/(2T_s) cos φ, a^y likewise with sin φ (one-sided at the
       ends). It drops the side-slip β and the v·φ̇ term, so v^y jumps from 0 to v·φ_max
-      across the first segment, which then carries most of f_ay (SPEC §4 trap).
+      across the first segment, which then carries most of f_ay (DESIGN §4).
     - ``"kinematic"`` (default): the bicycle model's own velocity, v^x = v cos(φ+β),
       v^y = v sin(φ+β) with β = atan(l_r/(l_f+l_r)·tan δ) from the applied steering, and
       accelerations as central differences of those velocities (one-sided at the ends),
@@ -166,24 +167,22 @@ def demo_control_points(demo: Demonstration, rule: str = "kinematic") -> np.ndar
 
     Args:
         demo: the demonstration.
-        rule: ``"kinematic"`` or ``"paper"``.
+        control_point_rule: ``"kinematic"`` or ``"paper"``.
 
     Returns:
         Control points, shape (n, 6) [m, m/s, m/s², m, m/s, m/s²].
     """
-    if rule not in AY_RULES:
-        raise ValueError(f"unknown control-point rule {rule!r}; choose from {AY_RULES}")
     try:
         sc = demo.scenario
         ratio = sc.l_r / (sc.l_f + sc.l_r)
     except ValueError:
         ratio = 0.5
     delta = np.append(demo.u[:, 1], demo.u[-1, 1])
-    return state_control_points(demo.t, demo.ev, delta, rule, ratio)
+    return state_control_points(demo.t, demo.ev, delta, control_point_rule, ratio)
 
 
 def state_control_points(
-    t: np.ndarray, states: np.ndarray, delta: np.ndarray, rule: str, ratio: float
+    t: np.ndarray, states: np.ndarray, delta: np.ndarray, control_point_rule: str, ratio: float
 ) -> np.ndarray:
     """Control points from sampled states by a rule of :func:`demo_control_points`.
 
@@ -191,16 +190,18 @@ def state_control_points(
         t: sample times, shape (n,) [s] (n ≥ 2).
         states: [x, y, φ, v] per sample, shape (n, 4).
         delta: steering applied from each sample (the last one repeated), shape (n,) [rad].
-        rule: ``"kinematic"`` or ``"paper"``.
+        control_point_rule: ``"kinematic"`` or ``"paper"``.
         ratio: l_r/(l_f + l_r) of the side-slip β (kinematic rule).
 
     Returns:
         Control points, shape (n, 6).
     """
-    if rule not in AY_RULES:
-        raise ValueError(f"unknown control-point rule {rule!r}; choose from {AY_RULES}")
+    if control_point_rule not in CONTROL_POINT_RULES:
+        raise ValueError(
+            f"unknown control-point rule {control_point_rule!r}; choose from {CONTROL_POINT_RULES}"
+        )
     x, y, phi, v = np.asarray(states, float).T
-    if rule == "paper":
+    if control_point_rule == "paper":
         dv = _central_diff(v, t)
         vx, vy = v * np.cos(phi), v * np.sin(phi)
         ax, ay = dv * np.cos(phi), dv * np.sin(phi)

@@ -1,4 +1,4 @@
-"""A learned driving style on disk: ``style.json`` (SPEC §7) and its loader."""
+"""A learned driving style on disk: ``style.json`` (docs/DESIGN.md §7) and its loader."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from envs.results import read_json
+from envs.io import read_json
 from irl.features import FEATURES, FeatureConfig
 from irl.learner import LearningResult, MaxEntIRL
 from irl.spline import spline_eval
@@ -45,7 +45,7 @@ def style_payload(
 
     Args:
         result: the learning result.
-        learner: the learner that produced it (features, rule, problems).
+        learner: the learner that produced it (features, control-point rule, problems).
         demo_paths: where the demonstrations came from.
 
     Returns:
@@ -64,13 +64,13 @@ def style_payload(
 
     per_demo = []
     for i, (p, sol, e) in enumerate(zip(learner.problems, result.solutions, errs, strict=True)):
-        ev = p.basis.events
+        events = p.basis.events
         per_demo.append(
             {
                 "path": demo_paths[i] if demo_paths else None,
-                "t_trg_s": ev.t_trg,
-                "t_turn_s": ev.t_turn,
-                "trigger_fired": ev.reactive_active,
+                "t_trg_s": events.t_trg,
+                "t_turn_s": events.t_turn,
+                "trigger_fired": events.reactive_active,
                 **e,
                 "feature_values_demo": p.f_demo.tolist(),
                 "feature_values_reproduced": sol.features.tolist(),
@@ -94,7 +94,7 @@ def style_payload(
         "trigger_fired": p0.basis.events.reactive_active,
         "t_rct_s": fc.t_rct,
         "omega": [fc.omega[FEATURES.index(n)] for n in result.names],
-        "control_point_rule": learner.problems[0].rule,
+        "control_point_rule": learner.problems[0].control_point_rule,
         "feature_config": {k: getattr(fc, k) for k in fc.__dataclass_fields__},
         "feature_values_demo": result.feature_values_demo.tolist(),
         "feature_values_reproduced": result.feature_values_reproduced.tolist(),
@@ -166,7 +166,7 @@ def fit_style(
     demos,
     features: FeatureConfig,
     config=None,
-    rule: str = "kinematic",
+    control_point_rule: str = "kinematic",
     demo_paths: list[str] | None = None,
     progress=None,
 ) -> tuple[LearningResult, MaxEntIRL, dict[str, Any]]:
@@ -176,13 +176,13 @@ def fit_style(
         demos: one demonstration or a list (features averaged).
         features: feature configuration.
         config: :class:`irl.learner.IRLConfig`.
-        rule: control-point rule of the demonstrations.
+        control_point_rule: control-point rule of the demonstrations.
         demo_paths: recorded in the payload.
         progress: per-iteration callback (see :meth:`MaxEntIRL.learn`).
 
     Returns:
         (result, learner, payload).
     """
-    learner = MaxEntIRL(demos, features, config, rule)
+    learner = MaxEntIRL(demos, features, config, control_point_rule)
     result = learner.learn(progress=progress)
     return result, learner, style_payload(result, learner, demo_paths)

@@ -23,7 +23,7 @@ from tqdm import tqdm
 
 from agents import generate_demonstration
 from envs import load_demonstration
-from envs.results import write_json
+from envs.io import write_json
 from irl import FeatureConfig, IRLConfig, MaxEntIRL
 
 

@@ -26,7 +26,7 @@ from tqdm import tqdm
 
 from agents import SMPCConfig, SMPCExpert, rollout_expert
 from envs import LaneChangeEnv, ScenarioRanges
-from envs.results import write_json
+from envs.io import write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

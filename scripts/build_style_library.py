@@ -1,10 +1,11 @@
-r"""Build a style library: one learned θ per SMPC risk level from K shared scenarios.
+r"""Build a style library: per SMPC risk level, θ learned from K shared scenarios.
 
 Draws K interactive scenarios (the SMPC at the lowest risk triggers) from the
 LaneChangeRandom family with ``--seed``, generates the SMPC demonstration of every risk in
-each, learns one θ per risk from its K demonstrations jointly (in parallel over
-processes), and writes ``OUT/library.json`` (risk → θ, training scenarios, per-demo fit),
-the demonstrations under ``OUT/demos/`` and ``OUT/theta_vs_risk.png``.
+each, learns per risk one θ from its K demonstrations jointly and one θ per demonstration
+(in parallel over processes), and writes ``OUT/library.json`` (docs/DESIGN.md §7), the
+demonstrations under ``OUT/demos/`` and ``OUT/theta_vs_risk.png``. The folder is written
+atomically: an interrupted build leaves the previous library (or none), never a mix.
 
 Example:
     python scripts/build_style_library.py --risks 0.5,0.6,0.7,0.8,0.9,0.95 --scenarios 10 \\
@@ -16,17 +17,18 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 from tqdm import tqdm
 
-from agents.style_library import build_library, draw_interactive_scenarios
-from envs.results import write_json
+from agents import SMPCConfig
+from agents.rollout import draw_interactive_scenarios, generate_demonstrations
+from envs.cli import positive_int, risk_list, run_cli
+from envs.demonstration import save_demonstration
+from envs.io import atomic_output_dir, check_output_dir, write_json
+from irl.identification import learn_library
 from irl.plotting import plot_theta_vs_risk
-
-
-def _floats(text: str) -> list[float]:
-    return [float(v) for v in text.split(",") if v.strip()]
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -34,32 +36,50 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--risks", type=_floats, default=[0.5, 0.6, 0.7, 0.8, 0.9, 0.95])
-    p.add_argument("--scenarios", type=int, default=10, help="K scenarios per risk")
-    p.add_argument("--features", default="reactive", choices=("reactive", "base"))
-    p.add_argument("--workers", type=int, default=2, help="processes")
-    p.add_argument("--seed", type=int, default=0, help="seed of the training scenarios")
-    p.add_argument("--out", type=Path, default=Path("runs/library"))
+    p.add_argument(
+        "--risks",
+        type=risk_list,
+        default=[0.5, 0.6, 0.7, 0.8, 0.9, 0.95],
+        help="comma-separated SMPC risk levels p in (0, 1)",
+    )
+    p.add_argument(
+        "--scenarios", type=positive_int, default=10, help="K training scenarios per risk"
+    )
+    p.add_argument(
+        "--features", default="reactive", choices=("reactive", "base"), help="feature set"
+    )
+    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument("--seed", type=int, default=0, help="seed of the training scenario draws")
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/library"), help="output folder (replaced whole)"
+    )
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Build the library; returns library.json's payload."""
     args = parse_args(argv)
-    if not args.risks or any(not 0 < p < 1 for p in args.risks):
-        sys.exit(f"error: --risks must be values in (0, 1), got {args.risks}")
-    if args.scenarios < 1:
-        sys.exit("error: --scenarios must be >= 1")
+    check_output_dir(args.out)
     t0 = time.perf_counter()
     scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(args.risks))
     t_draw = time.perf_counter() - t0
-    bar = tqdm(total=len(args.risks), desc="risk levels")
+    bar = tqdm(total=2 * len(args.risks), desc="demonstrations, then styles per risk")
+    demos = generate_demonstrations(args.risks, scenarios, args.workers, lambda p: bar.update(1))
 
     def progress(rec: dict) -> None:
         bar.update(1)
         bar.set_postfix(p=rec["risk"], iters=rec["iterations"])
 
-    library = build_library(args.risks, scenarios, args.features, args.workers, args.out, progress)
+    library = learn_library(
+        demos,
+        args.features,
+        args.workers,
+        progress,
+        meta={
+            "training_scenarios": [sc.to_dict() for sc in scenarios],
+            "uncertainty": asdict(SMPCConfig().uncertainty),
+        },
+    )
     bar.close()
     payload = library.to_json() | {
         "seed": args.seed,
@@ -67,8 +87,12 @@ def main(argv: list[str] | None = None) -> dict:
         "draw_s": t_draw,
         "build_wall_s": time.perf_counter() - t0,
     }
-    write_json(args.out / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
-    plot_theta_vs_risk({args.features: library}, args.out / "theta_vs_risk.png")
+    with atomic_output_dir(args.out) as tmp:
+        for p, risk_demos in demos.items():
+            for i, demo in enumerate(risk_demos):
+                save_demonstration(demo, tmp / "demos" / f"p{p:g}_s{i}.npz")
+        write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+        plot_theta_vs_risk({args.features: library}, tmp / "theta_vs_risk.png")
     print(
         f"wrote {args.out}/library.json: {len(args.risks)} styles from {args.scenarios} "
         f"scenarios each in {payload['build_wall_s']:.1f} s"
@@ -77,4 +101,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

@@ -1,4 +1,4 @@
-"""Scan the TV-uncertainty scale and the risk p on the paper scenario (SPEC §3).
+"""Scan the TV-uncertainty scale and the risk p on the paper scenario (DESIGN §3).
 
 For each scale s (multiplying :data:`agents.prediction.PAPER_TV_UNCERTAINTY`) and each
 risk p, runs the SMPC closed loop and records t_trg, min s_e (and where), when the EV
@@ -24,8 +24,8 @@ from tqdm import tqdm
 
 from agents import PAPER_TV_UNCERTAINTY, SMPCConfig, generate_demonstration
 from envs import PAPER
+from envs.io import write_json
 from envs.plotting import draw_lanes, save_figure
-from envs.results import write_json
 from envs.safety import elliptical_index
 
 

@@ -21,7 +21,7 @@ from agents import SMPCConfig, generate_demonstration
 from agents.compare import LABELS, compare_methods, comparison_markdown, plot_comparison
 from envs import load_demonstration
 from envs.demonstration import DemonstrationError
-from envs.results import fmt, write_json
+from envs.io import fmt, write_json
 from irl.style import StyleError, load_style
 
 

@@ -1,4 +1,4 @@
-"""Generate an SMPC demonstration in the lane-change env (SPEC §7).
+"""Generate an SMPC demonstration in the lane-change env (DESIGN §7).
 
 Writes ``OUT/demo.npz`` (arrays t, ev, tv, u, meta) and ``OUT/demo.json`` (risk, t_trg_s,
 min_s_e, min_d_k, collision, solver timing, …); with ``--plot`` also ``OUT/demo.png``, the
@@ -16,8 +16,8 @@ from pathlib import Path
 
 from agents import SMPCConfig, generate_demonstration
 from envs import SCENARIOS, get_scenario, save_demonstration
+from envs.io import write_json
 from envs.plotting import plot_demonstration
-from envs.results import write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -1,9 +1,11 @@
 r"""Identify the driving style (risk level) of one vehicle from its demonstration(s).
 
 Scores every style of a library by reproducing r*_θ in each demonstration's own scenario
-(``--scorer``: suboptimality [default], rmse_y or feature; see irl.library) and writes
-``OUT/identify.json`` with ``risk_estimate``, ``risk_interpolated``, ``scores`` (per
-library risk, all scorers under ``all_scores``) and ``ranking``.
+(``--scorer``, default: the feature error, the scorer validation picked; see
+irl/identification.py) and writes ``OUT/identify.json`` with ``scorer``,
+``risk_estimate``, ``risk_interpolated``, ``scores`` (per library risk; every scorer under
+``all_scores``), ``ranking``, ``trigger_fired`` and, where the demonstrations' metadata
+holds it, ``true_risk``. Several demonstrations of one vehicle are scored together.
 
 Example:
     python scripts/identify_style.py runs/demo/demo.npz --library runs/library_reactive \\
@@ -17,10 +19,10 @@ import sys
 import time
 from pathlib import Path
 
-from envs import load_demonstration
-from envs.demonstration import DemonstrationError
-from envs.results import write_json
-from irl.library import SCORERS, LibraryError, identify, load_library
+from envs.cli import run_cli
+from envs.demonstration import load_demonstration
+from envs.io import atomic_output_dir, check_output_dir, write_json
+from irl.identification import DEFAULT_SCORER, SCORERS, identify, load_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -28,38 +30,51 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("demos", nargs="+", type=Path, help="demonstration(s) of one vehicle")
-    p.add_argument("--library", type=Path, required=True, help="library folder or json")
-    p.add_argument("--scorer", default="suboptimality", choices=SCORERS)
-    p.add_argument("--out", type=Path, default=Path("runs/identify"))
-    p.add_argument("--seed", type=int, default=0, help="unused: identification is deterministic")
+    p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s) of one vehicle")
+    p.add_argument("--library", type=Path, required=True, help="library folder or its library.json")
+    p.add_argument(
+        "--scorer", default=DEFAULT_SCORER, choices=SCORERS, help="how a style is scored"
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/identify"), help="output folder (replaced whole)"
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="accepted for a uniform interface; the work is deterministic",
+    )
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Identify; returns identify.json's payload."""
     args = parse_args(argv)
-    try:
-        library = load_library(args.library)
-        demos = [load_demonstration(p) for p in args.demos]
-        t0 = time.perf_counter()
-        result = identify(demos, library, scorer=args.scorer)
-    except (FileNotFoundError, DemonstrationError, LibraryError) as exc:
-        sys.exit(f"error: {exc}")
+    check_output_dir(args.out)
+    library = load_library(args.library)
+    demos = [load_demonstration(p) for p in args.demos]
+    t0 = time.perf_counter()
+    result = identify(demos, library, scorer=args.scorer)
+    true = [d.meta.get("risk") for d in demos]
     result |= {
         "identify_s": time.perf_counter() - t0,
         "library": str(args.library),
         "demos": [str(p) for p in args.demos],
-        "true_risk": [d.meta.get("risk") for d in demos],
+        "true_risk": true,
     }
-    write_json(args.out / "identify.json", result, [sys.argv[0], *(argv or sys.argv[1:])])
+    with atomic_output_dir(args.out) as tmp:
+        write_json(tmp / "identify.json", result, [sys.argv[0], *(argv or sys.argv[1:])])
+    known = sorted({float(p) for p in true if p is not None})
     print(
         f"risk estimate {result['risk_estimate']:g} (interpolated "
-        f"{result['risk_interpolated']:.3f}); ranking {result['ranking']}; "
-        f"{result['identify_s']:.2f} s"
+        f"{result['risk_interpolated']:.3f}) by the {args.scorer} scorer"
+        + (f"; true risk {', '.join(f'{p:g}' for p in known)}" if known else "")
+        + f"; ranking {result['ranking']}"
+        + ("" if result["trigger_fired"] else "; the trigger never fired (reactive features off)")
+        + f"; {result['identify_s']:.2f} s"
     )
     return result
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

@@ -1,6 +1,6 @@
 """Learn a driving style (feature weights θ) from one or more demonstrations by ME-IRL.
 
-Writes ``OUT/style.json`` (SPEC §7: features, theta, iterations, converged,
+Writes ``OUT/style.json`` (docs/DESIGN.md §7: features, theta, iterations, converged,
 learning_error, rmse_y_m, rmse_xy_m, rmse_y_reaction_m, wall_time_s,
 inner_solve_ms_median, t_trg_s, t_rct_s, omega, feature values, history, reproduced) and,
 with ``--plot``, ``OUT/reproduction.png`` and ``OUT/lateral.png``.
@@ -19,11 +19,11 @@ from tqdm import tqdm
 
 from envs import load_demonstration
 from envs.demonstration import DemonstrationError
-from envs.results import write_json
+from envs.io import write_json
 from irl import FEATURE_SETS, FeatureConfig, IRLConfig
 from irl.inner import InnerSolveError
 from irl.plotting import plot_lateral, plot_reproductions
-from irl.spline import AY_RULES, demo_control_points
+from irl.spline import CONTROL_POINT_RULES, demo_control_points
 from irl.style import fit_style
 
 
@@ -42,10 +42,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="outer update: Levenberg-Marquardt in log theta, or the paper's rule",
     )
     p.add_argument(
+        "--control-point-rule",
         "--rule",
+        dest="control_point_rule",
         default="kinematic",
-        choices=AY_RULES,
-        help="how demo velocities/accelerations are computed (SPEC §4)",
+        choices=CONTROL_POINT_RULES,
+        help="how demo velocities/accelerations are computed (docs/DESIGN.md §4)",
     )
     p.add_argument("--t-rct", type=float, default=2.0, help="reaction window T_rct [s]")
     p.add_argument("--max-iter", type=int, help="outer iterations (default 60 lm, 400 paper)")
@@ -73,7 +75,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     try:
         result, _, payload = fit_style(
-            demos, features, config, args.rule, [str(p) for p in args.demos], progress
+            demos, features, config, args.control_point_rule, [str(p) for p in args.demos], progress
         )
     except (InnerSolveError, ValueError) as exc:
         sys.exit(f"error: learning failed: {exc}")
@@ -82,7 +84,7 @@ def main(argv: list[str] | None = None) -> dict:
     write_json(args.out / "style.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
     if args.plot:
         demo = demos[0]
-        C = demo_control_points(demo, args.rule)
+        C = demo_control_points(demo, args.control_point_rule)
         plot_reproductions(demo, {args.features: result}, C, args.out / "reproduction.png")
         plot_lateral(
             demo,

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from agents.compare import policy_frames
 from envs import load_demonstration
-from envs.results import write_json
+from envs.io import write_json
 from envs.video import write_video
 
 

@@ -5,7 +5,7 @@
 3. Draw Fig. 3 (reproduced paths at iterations 1, 11, 21 and the last; base on top,
    reactive below) and Fig. 4 (lateral velocity and acceleration, reactive).
 4. Write ``results.json`` and ``results.md`` beside the paper's numbers, including the
-   paper's own update rule and the effect of the control-point rule (SPEC §4).
+   paper's own update rule and the effect of the control-point rule (DESIGN §4).
 
 Example:
     python scripts/reproduce_paper.py --out runs/paper
@@ -23,8 +23,8 @@ from tqdm import tqdm
 
 from agents import SMPCConfig, generate_demonstration
 from envs import save_demonstration
+from envs.io import fmt, write_json
 from envs.plotting import plot_demonstration
-from envs.results import fmt, write_json
 from irl import FeatureConfig, IRLConfig
 from irl.features import feature_basis, feature_values
 from irl.plotting import plot_lateral, plot_reproductions
@@ -139,7 +139,7 @@ def write_markdown(path: Path, res: dict) -> None:
         cp = res["control_point_rule"]
         lines += [
             "",
-            "## Control-point rule (SPEC §4)",
+            "## Control-point rule (DESIGN §4)",
             "",
             "| rule | share of f_ay in segment 0 | base rmse_y [m] | reactive rmse_y [m] "
             "| reactive rmse_y reaction [m] |",
@@ -310,7 +310,7 @@ def main(argv: list[str] | None = None) -> dict:
                 fc = FeatureConfig(
                     feature_set=name, t_rct=args.t_rct, ay_first_segment_weight=weight
                 )
-                _, _, p = fit_style(demo, fc, IRLConfig(), rule=rule)
+                _, _, p = fit_style(demo, fc, IRLConfig(), control_point_rule=rule)
                 entry[name] = _summary(p)
             payload["control_point_rule"][label] = entry
         steps.update(1)

@@ -25,8 +25,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from envs.io import write_json
 from envs.plotting import save_figure
-from envs.results import write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

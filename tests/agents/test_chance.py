@@ -49,7 +49,7 @@ def test_monte_carlo_backoff_is_conservative(p, sigma, angle):
 
 
 def test_axis_inflation_would_fail_where_tangent_holds():
-    # SPEC §3: inflating the axes by κσ is not safe when σ_x/l_a and σ_y/l_b differ
+    # DESIGN §3: inflating the axes by κσ is not safe when σ_x/l_a and σ_y/l_b differ
     rng = np.random.default_rng(1)
     p, sigma = 0.95, np.diag([8.0**2, 0.2**2])
     kappa = risk_quantile(p)

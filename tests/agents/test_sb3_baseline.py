@@ -5,9 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.sb3_baseline import SB3Policy, TrainConfig, train_baseline
+from agents.sb3_baseline import SB3Policy, TrainConfig, make_rl_env, train_baseline
 from envs import LaneChangeEnv
-from envs.rl import make_rl_env
 from irl import FeatureConfig, IRLConfig
 from irl.style import fit_style
 
@@ -17,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture(scope="module")
 def style_file(tmp_path_factory, paper_demo):
     from envs import save_demonstration
-    from envs.results import write_json
+    from envs.io import write_json
 
     folder = tmp_path_factory.mktemp("style")
     demo_path = save_demonstration(paper_demo, folder / "demo.npz")

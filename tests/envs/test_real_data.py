@@ -1,3 +1,4 @@
+import re
 from pathlib import Path
 
 import numpy as np
@@ -89,3 +90,125 @@ def test_bad_rows_are_dropped_and_counted(tmp_path):
     assert episodes[first].flags["dropped_rows"] == 1
     assert episodes[first].used and np.all(np.isfinite(episodes[first].demo.ev))
     assert all(e.flags["dropped_rows"] == 0 for k, e in episodes.items() if k != first)
+
+
+# --------------------------------------------------------------- malformed files
+NGSIM_FILES = ("episodes.csv", "episode_tracks.csv.gz", "tracks.csv.gz")
+CATS_FILES = ("episodes.csv", "episode_tracks.csv.gz", "summary.json")
+
+
+def _copy(tmp_path, dataset="ngsim"):
+    """A writable copy of a dataset folder (the shared one is read-only)."""
+    import shutil
+
+    src = DATA / dataset
+    dst = tmp_path / dataset
+    dst.mkdir()
+    for f in NGSIM_FILES if dataset == "ngsim" else CATS_FILES:
+        shutil.copyfile(src / f, dst / f)
+    return dst
+
+
+def _rewrite(path, change):
+    import pandas as pd
+
+    change(pd.read_csv(path)).to_csv(path, index=False)
+
+
+LOADERS = {"ngsim": load_ngsim, "cats-av-lanechange": load_cats}
+
+
+@pytest.mark.parametrize("dataset", ["ngsim", "cats-av-lanechange"])
+def test_not_gzip_is_a_clear_error(tmp_path, dataset):
+    folder = _copy(tmp_path, dataset)
+    (folder / "episode_tracks.csv.gz").write_text("episode_id,role\nx,ego\n")  # plain text
+    with pytest.raises(ValueError, match=r"episode_tracks\.csv\.gz.*bad gzip"):
+        LOADERS[dataset](folder)
+
+
+def test_truncated_gzip_is_a_clear_error(tmp_path):
+    folder = _copy(tmp_path)
+    path = folder / "episode_tracks.csv.gz"
+    path.write_bytes(path.read_bytes()[:2000])
+    with pytest.raises(ValueError, match=r"episode_tracks\.csv\.gz.*(truncated|corrupt)"):
+        load_ngsim(folder)
+
+
+@pytest.mark.parametrize(
+    ("dataset", "file", "drop"),
+    [
+        ("ngsim", "episodes.csv", ["direction"]),
+        ("ngsim", "episode_tracks.csv.gz", ["role", "y_m"]),
+        ("ngsim", "tracks.csv.gz", ["lane_id"]),
+        ("cats-av-lanechange", "episodes.csv", ["leg", "lc_direction"]),
+        ("cats-av-lanechange", "episode_tracks.csv.gz", ["v_mps"]),
+    ],
+)
+def test_missing_columns_are_named(tmp_path, dataset, file, drop):
+    folder = _copy(tmp_path, dataset)
+    _rewrite(folder / file, lambda df: df.drop(columns=drop))
+    with pytest.raises(ValueError, match=rf"{re.escape(file)}.*missing column") as exc:
+        LOADERS[dataset](folder)
+    assert all(repr(c) in str(exc.value) for c in drop)
+
+
+@pytest.mark.parametrize("dataset", ["ngsim", "cats-av-lanechange"])
+@pytest.mark.parametrize("file", ["episodes.csv", "episode_tracks.csv.gz"])
+def test_header_only_csv_is_a_clear_error(tmp_path, dataset, file):
+    folder = _copy(tmp_path, dataset)
+    _rewrite(folder / file, lambda df: df.iloc[:0])
+    with pytest.raises(ValueError, match=rf"{re.escape(file)}.*no rows"):
+        LOADERS[dataset](folder)
+
+
+def test_empty_file_is_a_clear_error(tmp_path):
+    folder = _copy(tmp_path)
+    (folder / "episodes.csv").write_text("")
+    with pytest.raises(ValueError, match=r"episodes\.csv.*empty"):
+        load_ngsim(folder)
+
+
+def test_loader_pointed_at_the_other_dataset_says_so():
+    with pytest.raises(ValueError, match=r"episodes\.csv.*looks like the NGSIM.*load_ngsim"):
+        load_cats(DATA / "ngsim")
+    with pytest.raises(ValueError, match=r"episodes\.csv.*looks like the CATS.*load_cats"):
+        load_ngsim(DATA / "cats-av-lanechange")
+
+
+def test_non_numeric_track_value_is_named(tmp_path):
+    folder = _copy(tmp_path)
+
+    def corrupt(df):
+        df["x_m"] = df["x_m"].astype(object)
+        df.loc[3, "x_m"] = "abc"
+        return df
+
+    _rewrite(folder / "episode_tracks.csv.gz", corrupt)
+    with pytest.raises(ValueError, match=r"episode_tracks\.csv\.gz.*'x_m'.*'abc'"):
+        load_ngsim(folder)
+
+
+def test_episode_without_track_rows_is_kept_unused(tmp_path):
+    folder = _copy(tmp_path)
+    first = "us101_scene_ego320_v323_t16.7"
+    _rewrite(folder / "episode_tracks.csv.gz", lambda df: df[df.episode_id != first])
+    episodes = {e.episode_id: e for e in load_ngsim(folder)}
+    assert len(episodes) == 19
+    assert not episodes[first].used and episodes[first].demo is None
+    assert any("unusable" in r for r in episodes[first].reasons)
+    assert sum(e.used for e in episodes.values()) == 11
+
+
+def test_bad_cats_summary_is_a_clear_error(tmp_path):
+    folder = _copy(tmp_path, "cats-av-lanechange")
+    (folder / "summary.json").write_text("{not json")
+    with pytest.raises(ValueError, match=r"summary\.json.*JSON"):
+        load_cats(folder)
+    (folder / "summary.json").write_text('{"lanes": {"width_m": "wide"}}')
+    with pytest.raises(ValueError, match=r"summary\.json.*width_m"):
+        load_cats(folder)
+
+
+def test_a_file_instead_of_the_folder_is_a_clear_error():
+    with pytest.raises(FileNotFoundError, match="not a folder"):
+        load_ngsim(DATA / "ngsim" / "episodes.csv")

@@ -11,7 +11,7 @@ def test_paper_numbers():
     np.testing.assert_allclose(PAPER.lane_centres, [2.625, 7.875, 13.125])
     np.testing.assert_allclose(PAPER.ev_initial_state, [80, 2.625, 0, 25])
     np.testing.assert_allclose(PAPER.tv_initial_state, [60, 7.875, 0, 28])
-    assert PAPER.y_bounds == (1.0, 14.75)  # SPEC §1 erratum
+    assert PAPER.y_bounds == (1.0, 14.75)  # DESIGN §1 erratum
     assert PAPER.y_ref == 7.875
 
 

@@ -126,7 +126,7 @@ def test_bad_inputs(inner, paper_demo):
 
 
 def test_style_round_trip(tmp_path, paper_demo):
-    from envs.results import write_json
+    from envs.io import write_json
 
     result, _, payload = fit_style(paper_demo, FeatureConfig(feature_set="base"), IRLConfig())
     write_json(tmp_path / "style.json", payload)

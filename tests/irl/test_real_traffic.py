@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from envs.real_data import load_cats, load_ngsim
+from irl.metrics import trajectory_errors
 from irl.real_traffic import (
     classify_loo,
     constant_velocity,
     episode_feature_config,
     learn_personal,
-    trajectory_errors,
 )
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -29,9 +29,20 @@ from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.utils import RecordConstructorArgs
 
-from envs.safety import elliptical_index
 from envs.scenario import ScenarioConfig
+from irl.features import (
+    FEATURES,
+    SEGMENT_FEATURES,
+    event_times,
+    feature_constants,
+    instant_feature,
+    segment_integrals,
+    tv_control_points,
+)
+from irl.spline import spline_eval, state_control_points
+from irl.style import Style, load_style
 
 __all__ = ["CRASH_FACTOR", "LearnedStyleReward", "StyleReward"]
 
@@ -42,6 +53,10 @@ CRASH_FACTOR = 10.0
 class StyleReward:
     """Incremental learned cost of a growing trajectory (module docstring).
 
+    It implements the env's reward-model protocol (:class:`envs.lane_change.RewardModel`):
+    ``reset(scenario, ev, tv)``, ``step(u, ev, tv, dt) -> (reward, Δf)`` and
+    ``crash_penalty``.
+
     Args:
         style: a loaded :class:`irl.style.Style` or the path of a ``style.json``.
         crash_penalty: cost of a collision or leaving the road; None: CRASH_FACTOR·θᵀ f(r_D).
@@ -51,18 +66,14 @@ class StyleReward:
     # themselves use the next input), so the last few segments are recomputed each step
     TAIL = 4
 
-    def __init__(self, style: Any, crash_penalty: float | None = None) -> None:
-        from irl.features import FEATURES
-        from irl.style import Style, load_style
-
+    def __init__(self, style: Style | str | Path, crash_penalty: float | None = None) -> None:
         self.style: Style = style if isinstance(style, Style) else load_style(Path(style))
-        cfg = self.style.features
-        self.config = cfg
+        self.config = self.style.features
         self.names = self.style.names
         self.theta = np.asarray(self.style.theta, float)
         self.idx = np.array([FEATURES.index(n) for n in self.names])
-        self.omega = np.asarray(cfg.omega, float)
-        self.rule = self.style.control_point_rule
+        self.omega = np.asarray(self.config.omega, float)
+        self.control_point_rule = self.style.control_point_rule
         f_demo = self.style.raw.get("feature_values_demo")
         ref_cost = float(self.theta @ np.asarray(f_demo)) if f_demo is not None else 100.0
         self.crash_penalty = (
@@ -79,65 +90,30 @@ class StyleReward:
             ev: EV state [x, y, φ, v].
             tv: TV state [x, y, φ, v].
         """
-        cfg, sc = self.config, scenario
-        self.sc = sc
-        self.consts = {
-            "config": cfg,
-            "v_des": cfg.v_des if cfg.v_des is not None else sc.v_ref,
-            "v_lane": cfg.v_lane if cfg.v_lane is not None else sc.v_ref,
-            "l_des": cfg.l_des if cfg.l_des is not None else sc.y_ref,
-            "l_initial": (
-                cfg.l_initial if cfg.l_initial is not None else float(sc.lane_centres[sc.ev_lane])
-            ),
-        }
-        self.lam = cfg.trigger_lambda if cfg.trigger_lambda is not None else sc.trigger_lambda
-        self.ratio = sc.l_r / (sc.l_f + sc.l_r)
-        self.upward = sc.target_lane > sc.ev_lane
-        self.boundary = sc.lane_width * (sc.ev_lane + 1 if self.upward else sc.ev_lane)
+        self.sc = scenario
+        self.constants = feature_constants(self.config, scenario)
+        self.ratio = scenario.l_r / (scenario.l_f + scenario.l_r)
         self.t = [0.0]
         self.ev = [np.asarray(ev, float).copy()]
         self.tv = [np.asarray(tv, float).copy()]
         self.delta: list[float] = []
         self.segments: list[dict[str, float]] = []
-        self.t_turn: float | None = None
-        self.t_trg: float | None = None
-        self._check_trigger()
         self.f = np.zeros(len(self.omega))
-
-    def _check_trigger(self) -> None:
-        if self.t_trg is None:
-            ev, tv = self.ev[-1], self.tv[-1]
-            s_e = float(elliptical_index(ev[0] - tv[0], ev[1] - tv[1], self.sc.l_a, self.sc.l_b))
-            if s_e < self.lam:
-                self.t_trg = self.t[-1]
-
-    def _check_turn(self) -> None:
-        if self.t_turn is not None or len(self.t) < 2:
-            return
-        s = [(e[1] - self.boundary) * (1 if self.upward else -1) for e in self.ev[-2:]]
-        if s[1] > 0:
-            frac = 0.0 if s[0] > 0 else -s[0] / (s[1] - s[0])
-            self.t_turn = self.t[-2] + frac * (self.t[-1] - self.t[-2])
 
     def features(self) -> np.ndarray:
         """Scaled features Ω f of the trajectory so far, all ten (FEATURES order)."""
-        from irl.features import FEATURES, segment_integrals
-        from irl.spline import spline_eval, state_control_points
-
         n = len(self.t)
         if n < 2:
             return np.zeros(len(FEATURES))
         t = np.asarray(self.t)
         ev, tv = np.asarray(self.ev), np.asarray(self.tv)
+        events = event_times(t, ev, tv, self.sc, self.config)
         delta = np.asarray([*self.delta, self.delta[-1]])
-        C = state_control_points(t, ev, delta, self.rule, self.ratio)
-        T = state_control_points(t, tv, np.zeros(n), "kinematic", 0.5)  # as tv_control_points
-        t_rct = self.config.t_rct
-        window = None
-        if self.t_trg is not None:
-            i_trg = int(np.argmin(np.abs(t - self.t_trg)))
-            window = (self.t_trg, self.t_trg + t_rct, float(ev[i_trg, 1]))
-        t_turn = self.t_turn if self.t_turn is not None else np.inf
+        C = state_control_points(t, ev, delta, self.control_point_rule, self.ratio)
+        T = tv_control_points(t, tv)
+        y_trg = None
+        if events.reactive_active:
+            y_trg = float(spline_eval(C, t, [events.t_trg])[0, 1])
         first_tail = max(0, n - 1 - self.TAIL)
         del self.segments[first_tail:]
         for j in range(first_tail, n - 1):
@@ -148,24 +124,23 @@ class StyleReward:
                     np.r_[T[j, :3], T[j + 1, :3]],
                     t[j],
                     t[j + 1],
-                    self.consts,
-                    t_turn,
-                    window,
+                    self.config,
+                    self.constants,
+                    events,
+                    y_trg,
                     j == 0,
                 )
             )
         f = dict.fromkeys(FEATURES, 0.0)
-        for seg in self.segments:
-            for k, v in seg.items():
-                f[k] += v
-        f["el"] = self.segments[-1]["l"]  # f_el: ∫ |l_des − y| over the last segment
-        if window is not None:
-            i_trg = int(np.argmin(np.abs(t - self.t_trg)))
-            f["sd"] = float(np.exp(-abs(ev[i_trg, 1] - tv[i_trg, 1])))
-            t_e = min(self.t_trg + t_rct, t[-1])
-            y_ev = spline_eval(C, t, [t_e])[0, 1]
-            y_tv = spline_eval(T, t, [t_e])[0, 1]
-            f["ed"] = float(np.exp(-abs(y_ev - y_tv)))
+        for name in SEGMENT_FEATURES:
+            f[name] = sum(seg[name] for seg in self.segments)
+        # f_el is f_l's integrand over the last segment (DESIGN §5)
+        f["el"] = self.segments[-1]["l"]
+        if events.reactive_active:
+            at = spline_eval(C, t, [events.t_trg, events.t_rct_end])[:, 1]
+            at_tv = spline_eval(T, t, [events.t_trg, events.t_rct_end])[:, 1]
+            f["sd"] = float(instant_feature(at[0], at_tv[0], np.exp, np.abs))
+            f["ed"] = float(instant_feature(at[1], at_tv[1], np.exp, np.abs))
         return self.omega * np.array([f[k] for k in FEATURES])
 
     def step(
@@ -186,15 +161,13 @@ class StyleReward:
         self.t.append(self.t[-1] + dt)
         self.ev.append(np.asarray(ev, float).copy())
         self.tv.append(np.asarray(tv, float).copy())
-        self._check_turn()
-        self._check_trigger()
         f = self.features()
         df = (f - self.f)[self.idx]
         self.f = f
         return -float(self.theta @ df), df
 
 
-class LearnedStyleReward(gym.Wrapper):
+class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
     """Replace a drivestyle env's reward with a learned style's negative cost.
 
     The original reward is kept in ``info["original_env_rew"]`` (the imitation library's
@@ -206,21 +179,24 @@ class LearnedStyleReward(gym.Wrapper):
         crash_penalty: see :class:`StyleReward`.
     """
 
-    def __init__(self, env: gym.Env, style: Any, crash_penalty: float | None = None) -> None:
-        super().__init__(env)
+    def __init__(
+        self, env: gym.Env, style: Style | str | Path, crash_penalty: float | None = None
+    ) -> None:
+        RecordConstructorArgs.__init__(self, style=style, crash_penalty=crash_penalty)
+        gym.Wrapper.__init__(self, env)
         self.style_reward = StyleReward(style, crash_penalty)
 
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset the env and the style's trajectory."""
         obs, info = self.env.reset(**kwargs)
-        self.style_reward.reset(self.env.unwrapped.scenario, obs[:4], obs[4:])
+        self.style_reward.reset(self.env.unwrapped.scenario, obs[:4], obs[4:8])
         return obs, info
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict]:
         """Step the env; the reward becomes −θᵀΔf (minus the crash penalty on a crash)."""
         obs, reward, terminated, truncated, info = self.env.step(action)
         r, df = self.style_reward.step(
-            info["action"], obs[:4], obs[4:], self.env.unwrapped.scenario.dt
+            info["action"], obs[:4], obs[4:8], self.env.unwrapped.scenario.dt
         )
         if info.get("collision") or info.get("off_road"):
             r -= self.style_reward.crash_penalty

@@ -6,10 +6,17 @@ import numpy as np
 import pytest
 
 from agents import generate_demonstration
-from agents.style_library import build_library, draw_interactive_scenarios
+from agents.rollout import draw_interactive_scenarios, generate_demonstrations
 from envs import Demonstration
-from envs.results import write_json
-from irl.library import LibraryError, StyleLibrary, identify, identify_all, load_library
+from envs.io import write_json
+from irl.identification import (
+    LibraryError,
+    StyleLibrary,
+    identify,
+    identify_all,
+    learn_library,
+    load_library,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -17,7 +24,10 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture(scope="module")
 def small_library():
     scenarios = draw_interactive_scenarios(2, seed=0)
-    return build_library([0.5, 0.95], scenarios, "reactive", workers=1)
+    demos = generate_demonstrations([0.5, 0.95], scenarios, workers=1)
+    return learn_library(
+        demos, "reactive", workers=1, meta={"training_scenarios": [s.to_dict() for s in scenarios]}
+    )
 
 
 def test_small_library_identifies_fresh_demos(small_library):

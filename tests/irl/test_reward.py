@@ -5,15 +5,16 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from envs import LaneChangeEnv, LearnedStyleReward
+from envs import LaneChangeEnv
 from irl import FeatureConfig, IRLConfig, feature_basis, feature_values
+from irl.reward import LearnedStyleReward
 from irl.spline import demo_control_points
 from irl.style import fit_style, load_style
 
 
 @pytest.fixture(scope="module")
 def styles(tmp_path_factory, paper_demo):
-    from envs.results import write_json
+    from envs.io import write_json
 
     out = {}
     for fs in ("base", "reactive"):
