@@ -18,6 +18,7 @@ import gymnasium as gym
 import numpy as np
 
 from envs.lane_change import LaneChangeEnv
+from envs.plotting import plt, save_figure
 from envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from envs.scenario import ScenarioConfig
 from irl.reward import LearnedStyleReward
@@ -214,11 +215,45 @@ def train_baseline(
         "final_eval_return": (
             float(eval_cb.last_mean_reward) if np.isfinite(eval_cb.last_mean_reward) else None
         ),
-        "model": str(out / "model.zip"),
-        "vecnormalize": str(out / "vecnormalize.pkl"),
+        "model": "model.zip",  # relative: the folder may be renamed into place
+        "vecnormalize": "vecnormalize.pkl",
     }
     (out / "train_summary.json").write_text(json.dumps(summary, indent=2))
     return summary
+
+
+def plot_learning_curve(out: str | Path, title: str) -> Path:
+    """Training episode returns (``monitor.csv``) and evaluation returns (``evaluations.npz``).
+
+    Args:
+        out: a :func:`train_baseline` output folder; the figure is written there as
+            ``learning_curve.png``.
+        title: figure title.
+
+    Returns:
+        The figure's path.
+    """
+    out = Path(out)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    monitor = out / "monitor.csv"
+    if monitor.is_file():
+        data = np.atleast_2d(np.genfromtxt(monitor, delimiter=",", skip_header=2, usecols=(0, 1)))
+        if data.size:
+            steps = np.cumsum(data[:, 1])
+            ax.plot(steps, data[:, 0], ".", ms=2, alpha=0.4, label="training episodes")
+            k = min(25, len(data))
+            smooth = np.convolve(data[:, 0], np.ones(k) / k, mode="valid")
+            ax.plot(steps[k - 1 :], smooth, lw=1.5, label=f"training, mean of {k}")
+    evals = out / "evaluations.npz"
+    if evals.is_file():
+        with np.load(evals) as ev:
+            ax.plot(ev["timesteps"], ev["results"].mean(axis=1), "o-", label="evaluation")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("episode return (−learned cost)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return save_figure(fig, out / "learning_curve.png", dpi=120)
 
 
 class SB3Policy:

@@ -13,6 +13,7 @@ starts long work on an argument it would ignore or misread.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from collections.abc import Callable
@@ -93,6 +94,22 @@ def positive_float(text: str) -> float:
     value = _number(text, float, "a number")
     if not (value > 0 and value != float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def finite_float(text: str) -> float:
+    """Any finite number."""
+    value = _number(text, float, "a number")
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+def risk_value(text: str) -> float:
+    """A risk level p in (0, 1)."""
+    value = _number(text, float, "a number")
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"a risk must lie in (0, 1), got {text}")
     return value
 
 

@@ -157,16 +157,20 @@ def check_output_dir(path: str | Path) -> Path:
 
 
 @contextlib.contextmanager
-def atomic_output_dir(path: str | Path) -> Iterator[Path]:
+def atomic_output_dir(path: str | Path, replace: bool = True) -> Iterator[Path]:
     """Build an output folder under a temporary name; swap it in only on success.
 
     Yields a fresh temporary folder next to ``path``. When the block completes, an existing
-    ``path`` is replaced as a whole by the new folder; when it raises (including
+    ``path`` is replaced as a whole by the new folder (``replace=True``: files of the old
+    folder are not mixed with new ones), or the new files are moved into it one by one
+    (``replace=False``: for scripts whose outputs share a folder with other files, e.g. a
+    style written next to its demonstration). When the block raises (including
     ``KeyboardInterrupt``), the temporary folder is removed and ``path`` keeps its previous
-    complete content (or stays absent). Files of the old folder are not mixed with new ones.
+    content (or stays absent).
 
     Args:
         path: the final output folder.
+        replace: replace the folder as a whole (True) or merge the new files into it.
 
     Raises:
         OutputPathError: ``path`` exists and is not a folder.
@@ -179,6 +183,14 @@ def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+    if not replace and path.exists():
+        for item in sorted(tmp.rglob("*")):
+            if item.is_file():
+                target = path / item.relative_to(tmp)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(item, target)
+        shutil.rmtree(tmp, ignore_errors=True)
+        return
     old = None
     if path.exists():
         old = path.with_name(f".{path.name}.old-{os.getpid()}")

@@ -23,6 +23,7 @@ from tqdm import tqdm
 
 from agents import generate_demonstration
 from envs import load_demonstration
+from envs.cli import positive_int, run_cli
 from envs.io import write_json
 from irl import FeatureConfig, IRLConfig, MaxEntIRL
 
@@ -32,10 +33,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--out", type=Path, default=Path("runs/bench_irl.json"))
+    p.add_argument("--out", type=Path, default=Path("runs/bench_irl.json"), help="output JSON")
     p.add_argument("--demo", type=Path, help="demonstration (default: generate the paper's)")
-    p.add_argument("--repeats", type=int, default=5)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--repeats", type=positive_int, default=5, help="learning runs per feature set")
+    p.add_argument("--seed", type=int, default=0, help="unused: the benchmark is deterministic")
     return p.parse_args(argv)
 
 
@@ -94,4 +95,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

@@ -26,6 +26,7 @@ from tqdm import tqdm
 
 from agents import SMPCConfig, SMPCExpert, rollout_expert
 from envs import LaneChangeEnv, ScenarioRanges
+from envs.cli import nonnegative_int, positive_int, risk_value, run_cli
 from envs.io import write_json
 
 
@@ -34,14 +35,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--out", type=Path, default=Path("runs/bench_smpc.json"))
-    p.add_argument("--risk", type=float, default=0.7)
-    p.add_argument("--repeats", type=int, default=5, help="closed loops of the paper scenario")
-    p.add_argument("--random", type=int, default=10, help="random scenarios")
+    p.add_argument("--out", type=Path, default=Path("runs/bench_smpc.json"), help="output JSON")
+    p.add_argument("--risk", type=risk_value, default=0.7, help="SMPC risk p")
+    p.add_argument(
+        "--repeats", type=positive_int, default=5, help="closed loops of the paper scenario"
+    )
+    p.add_argument("--random", type=nonnegative_int, default=10, help="random scenarios")
     p.add_argument("--seed", type=int, default=0, help="seed of the random scenarios")
     p.add_argument(
         "--trials",
-        type=int,
+        type=positive_int,
         default=3,
         help="independent repetitions of the whole measurement; the reported "
         "numbers are medians over trials (shared VMs drift by ±40 %%)",
@@ -165,4 +168,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

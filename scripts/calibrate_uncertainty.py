@@ -13,24 +13,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import asdict
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 from tqdm import tqdm
 
-from agents import PAPER_TV_UNCERTAINTY, SMPCConfig, generate_demonstration
-from envs import PAPER
-from envs.io import write_json
-from envs.plotting import draw_lanes, save_figure
-from envs.safety import elliptical_index
-
-
-def _floats(text: str) -> list[float]:
-    return [float(v) for v in text.split(",") if v.strip()]
+from agents.calibration import plot_risk_sweep, uncertainty_scan
+from envs.cli import float_list, risk_list, run_cli
+from envs.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -38,86 +27,53 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--scales", type=_floats, default=[0.8, 0.9, 1.0, 1.1, 1.2])
-    p.add_argument("--risks", type=_floats, default=[0.5, 0.6, 0.7, 0.8, 0.9, 0.95])
-    p.add_argument("--out", type=Path, default=Path("runs/calibration"))
+    p.add_argument(
+        "--scales",
+        type=float_list,
+        default=[0.8, 0.9, 1.0, 1.1, 1.2],
+        help="comma-separated factors (> 0) on the calibrated TV uncertainty",
+    )
+    p.add_argument(
+        "--risks",
+        type=risk_list,
+        default=[0.5, 0.6, 0.7, 0.8, 0.9, 0.95],
+        help="comma-separated risk levels p in (0, 1)",
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/calibration"), help="output folder (replaced whole)"
+    )
     p.add_argument("--plot", action="store_true", help="write risk_sweep.png (scale 1)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="env seed")
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Run the scan; returns the JSON payload."""
     args = parse_args(argv)
-    rows, demos = [], {}
-    jobs = [(s, p) for s in args.scales for p in args.risks]
-    for s, p in tqdm(jobs, desc="scale x risk"):
-        cfg = SMPCConfig(risk=p, uncertainty=PAPER_TV_UNCERTAINTY.scaled(s))
-        demo, summ = generate_demonstration(p, PAPER, cfg, seed=args.seed)
-        rows.append(
-            {
-                "scale": s,
-                "risk": p,
-                **{
-                    k: summ[k]
-                    for k in (
-                        "t_trg_s",
-                        "min_s_e",
-                        "x_at_min_s_e",
-                        "min_d_k",
-                        "t_enter_target_lane_s",
-                        "final_lane",
-                        "collision",
-                        "n_solver_failures",
-                    )
-                },
-                "final_y": float(demo.ev[-1, 1]),
-            }
-        )
-        if s == 1.0:
-            demos[p] = demo
-    payload = {
-        "base_uncertainty": asdict(PAPER_TV_UNCERTAINTY),
-        "rows": rows,
-        "paper": {"risk": 0.7, "t_trg_s": 3.0, "x_at_min_s_e_approx": 170.0},
-    }
-    write_json(args.out / "calibration.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    if any(not s > 0 for s in args.scales):
+        raise ValueError(f"--scales must be > 0, got {args.scales}")
+    check_output_dir(args.out)
+    bar = tqdm(total=len(args.scales) * len(args.risks), desc="scale x risk")
+    payload, demos = uncertainty_scan(args.scales, args.risks, args.seed, lambda: bar.update(1))
+    bar.close()
+    with atomic_output_dir(args.out) as tmp:
+        write_json(tmp / "calibration.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+        if args.plot and demos:
+            plot_risk_sweep(demos, tmp / "risk_sweep.png")
     print(
         f"{'scale':>5s} {'p':>5s} {'t_trg':>6s} {'min s_e':>8s} {'at x':>6s} "
         f"{'enter':>6s} {'final y':>8s}"
     )
-    for r in rows:
+    for r in payload["rows"]:
         trg = "never" if r["t_trg_s"] is None else f"{r['t_trg_s']:.1f}"
         ent = "never" if r["t_enter_target_lane_s"] is None else f"{r['t_enter_target_lane_s']:.1f}"
         print(
             f"{r['scale']:5.2f} {r['risk']:5.2f} {trg:>6s} {r['min_s_e']:8.2f} "
             f"{r['x_at_min_s_e']:6.0f} {ent:>6s} {r['final_y']:8.2f}"
         )
-    if args.plot and demos:
-        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-        cmap = plt.get_cmap("viridis")
-        for i, (p, demo) in enumerate(sorted(demos.items())):
-            c = cmap(i / max(len(demos) - 1, 1))
-            s_e = elliptical_index(
-                demo.ev[:, 0] - demo.tv[:, 0], demo.ev[:, 1] - demo.tv[:, 1], PAPER.l_a, PAPER.l_b
-            )
-            ax1.plot(demo.ev[:, 0], s_e, color=c, label=f"p = {p:g}")
-            ax2.plot(demo.ev[:, 0], demo.ev[:, 1], color=c)
-        ax1.axhline(PAPER.trigger_lambda, color="k", ls="--", lw=0.8, label="$\\lambda$")
-        ax1.set_ylabel("$s_e$")
-        ax1.set_ylim(0, 6)
-        ax1.legend(fontsize=8, ncol=4)
-        draw_lanes(ax2, PAPER)
-        ax2.set_xlabel("EV x [m]")
-        ax2.set_ylabel("EV y [m]")
-        save_figure(
-            fig,
-            args.out / "risk_sweep.png",
-            "SMPC demonstrations on the paper scenario by risk p",
-            dpi=120,
-        )
+    print(f"wrote {args.out}/calibration.json" + (" and risk_sweep.png" if args.plot else ""))
     return payload
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

@@ -20,9 +20,16 @@ from pathlib import Path
 from agents import SMPCConfig, generate_demonstration
 from agents.compare import LABELS, compare_methods, comparison_markdown, plot_comparison
 from envs import load_demonstration
-from envs.demonstration import DemonstrationError
-from envs.io import fmt, write_json
-from irl.style import StyleError, load_style
+from envs.cli import run_cli
+from envs.io import (
+    atomic_output_dir,
+    check_output_dir,
+    command_line,
+    fmt,
+    write_json,
+    write_text,
+)
+from irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -33,8 +40,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--style", type=Path, required=True, help="style.json (or its folder)")
     p.add_argument("--model", type=Path, help="train_baseline.py output folder (optional)")
     p.add_argument("--demo", type=Path, help="demonstration (default: the style's own)")
-    p.add_argument("--out", type=Path, default=Path("runs/compare"))
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/compare"), help="output folder (replaced whole)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="unused: the comparison is deterministic")
     return p.parse_args(argv)
 
 
@@ -42,34 +51,32 @@ def main(argv: list[str] | None = None) -> dict:
     """Run the comparison; returns the compare.json payload."""
     args = parse_args(argv)
     argv_full = [sys.argv[0], *(argv or sys.argv[1:])]
-    try:
-        style = load_style(args.style)
-        demo_path = args.demo or Path(style.raw["demos"][0]["path"])
-        demo = load_demonstration(demo_path)
-    except (FileNotFoundError, StyleError, DemonstrationError, KeyError, TypeError) as exc:
-        sys.exit(f"error: {exc}")
+    check_output_dir(args.out)
+    style = load_style(args.style)
+    demo_path = args.demo
+    if demo_path is None:
+        try:
+            demo_path = Path(style.raw["demos"][0]["path"])
+        except (KeyError, IndexError, TypeError):
+            raise ValueError(f"{args.style} names no demonstration: pass --demo") from None
+    demo = load_demonstration(demo_path)
     smpc_s = None
     risk = demo.meta.get("risk")
     if risk is not None:  # re-run the SMPC closed loop to time it
         rerun, summary = generate_demonstration(risk, demo.scenario, SMPCConfig(risk=risk))
         if rerun.n == demo.n and abs(rerun.ev - demo.ev).max() < 1e-6:
             smpc_s = summary["solve_ms_total"] / 1e3
-    try:
-        res = compare_methods(style, demo, smpc_s, args.model)
-    except FileNotFoundError as exc:
-        sys.exit(f"error: {exc}")
-    plot_comparison(
-        demo,
-        res["trajectories"],
-        args.out / "compare.png",
-        title=f"driving the learned style ({', '.join(style.names[:3])}, …)",
-    )
+    res = compare_methods(style, demo, smpc_s, args.model)
     payload = {"style": str(args.style), "demo": str(demo_path), "methods": res["methods"]}
-    path = write_json(args.out / "compare.json", payload, argv_full)
-    import json
-
-    command = json.loads(path.read_text())["command"]
-    (args.out / "compare.md").write_text(comparison_markdown(res["methods"], command))
+    with atomic_output_dir(args.out) as tmp:
+        plot_comparison(
+            demo,
+            res["trajectories"],
+            tmp / "compare.png",
+            title=f"driving the learned style ({', '.join(style.names[:3])}, …)",
+        )
+        write_json(tmp / "compare.json", payload, argv_full)
+        write_text(tmp / "compare.md", comparison_markdown(res["methods"], command_line(argv_full)))
     for name, m in res["methods"].items():
         print(
             f"{LABELS.get(name, name):28s} cost {fmt(m['learned_cost']):>8s}  rmse_y "
@@ -80,4 +87,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

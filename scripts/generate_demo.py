@@ -16,7 +16,8 @@ from pathlib import Path
 
 from agents import SMPCConfig, generate_demonstration
 from envs import SCENARIOS, get_scenario, save_demonstration
-from envs.io import write_json
+from envs.cli import finite_float, nonnegative_int, positive_float, risk_value, run_cli
+from envs.io import atomic_output_dir, check_output_dir, write_json
 from envs.plotting import plot_demonstration
 
 
@@ -25,17 +26,29 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--risk", type=float, default=0.7, help="risk parameter p in (0, 1)")
+    p.add_argument("--risk", type=risk_value, default=0.7, help="risk parameter p in (0, 1)")
     p.add_argument(
         "--scenario", default="paper", choices=sorted(SCENARIOS), help="named base scenario"
     )
-    p.add_argument("--out", type=Path, default=Path("runs/demo"), help="output folder")
-    p.add_argument("--ev-speed", type=float, help="EV initial speed [m/s]")
-    p.add_argument("--tv-speed", type=float, help="TV speed [m/s]")
-    p.add_argument("--tv-gap", type=float, help="initial gap x_TV - x_EV [m]")
-    p.add_argument("--tv-lane", type=int, help="TV lane index")
-    p.add_argument("--horizon-s", type=float, help="episode length [s]")
-    p.add_argument("--solver", default="fatrop", choices=("fatrop", "ipopt"))
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/demo"), help="output folder (other files kept)"
+    )
+    p.add_argument(
+        "--ev-speed", type=positive_float, help="EV initial speed [m/s] (default: the scenario's)"
+    )
+    p.add_argument("--tv-speed", type=positive_float, help="TV speed [m/s] (default: scenario's)")
+    p.add_argument(
+        "--tv-gap", type=finite_float, help="initial gap x_TV - x_EV [m] (default: scenario's)"
+    )
+    p.add_argument(
+        "--tv-lane", type=nonnegative_int, help="TV lane index, 0 = right (default: scenario's)"
+    )
+    p.add_argument(
+        "--horizon-s", type=positive_float, help="episode length [s] (default: scenario's)"
+    )
+    p.add_argument(
+        "--solver", default="fatrop", choices=("fatrop", "ipopt"), help="NLP solver of the SMPC"
+    )
     p.add_argument(
         "--jit", action="store_true", help="compile the NLP with gcc (faster solves, ~5 s compile)"
     )
@@ -47,6 +60,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Run the script; returns the summary written to demo.json."""
     args = parse_args(argv)
+    check_output_dir(args.out)
     overrides = {
         k: v
         for k, v in {
@@ -58,20 +72,18 @@ def main(argv: list[str] | None = None) -> dict:
         }.items()
         if v is not None
     }
-    try:
-        scenario = get_scenario(args.scenario).with_overrides(**overrides)
-        smpc = SMPCConfig(risk=args.risk, solver=args.solver, jit=args.jit)
-    except (TypeError, ValueError) as exc:
-        sys.exit(f"error: {exc}")
+    scenario = get_scenario(args.scenario).with_overrides(**overrides)
+    smpc = SMPCConfig(risk=args.risk, solver=args.solver, jit=args.jit)
     demo, summary = generate_demonstration(args.risk, scenario, smpc, seed=args.seed, progress=True)
     summary["scenario"] = scenario.to_dict()
     summary["seed"] = args.seed
-    save_demonstration(demo, args.out / "demo.npz")
-    write_json(args.out / "demo.json", summary, [sys.argv[0], *(argv or sys.argv[1:])])
-    if args.plot:
-        plot_demonstration(
-            demo, args.out / "demo.png", title=f"SMPC demonstration, p = {args.risk:g}"
-        )
+    with atomic_output_dir(args.out, replace=False) as tmp:
+        save_demonstration(demo, tmp / "demo.npz")
+        write_json(tmp / "demo.json", summary, [sys.argv[0], *(argv or sys.argv[1:])])
+        if args.plot:
+            plot_demonstration(
+                demo, tmp / "demo.png", title=f"SMPC demonstration, p = {args.risk:g}"
+            )
     trg = summary["t_trg_s"]
     print(f"wrote {args.out / 'demo.npz'} and demo.json" + (" and demo.png" if args.plot else ""))
     print(
@@ -90,4 +102,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

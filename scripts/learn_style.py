@@ -18,10 +18,11 @@ from pathlib import Path
 from tqdm import tqdm
 
 from envs import load_demonstration
-from envs.demonstration import DemonstrationError
-from envs.io import write_json
+from envs.cli import positive_float, positive_int, run_cli
+from envs.io import atomic_output_dir, check_output_dir, write_json
 from irl import FEATURE_SETS, FeatureConfig, IRLConfig
 from irl.inner import InnerSolveError
+from irl.learner import UPDATE_RULES
 from irl.plotting import plot_lateral, plot_reproductions
 from irl.spline import CONTROL_POINT_RULES, demo_control_points
 from irl.style import fit_style
@@ -33,12 +34,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s)")
-    p.add_argument("--features", default="reactive", choices=sorted(FEATURE_SETS))
-    p.add_argument("--out", type=Path, default=Path("runs/style"))
+    p.add_argument(
+        "--features", default="reactive", choices=sorted(FEATURE_SETS), help="feature set"
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/style"), help="output folder (other files kept)"
+    )
     p.add_argument(
         "--method",
         default="lm",
-        choices=("lm", "paper"),
+        choices=UPDATE_RULES,
         help="outer update: Levenberg-Marquardt in log theta, or the paper's rule",
     )
     p.add_argument(
@@ -49,9 +54,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         choices=CONTROL_POINT_RULES,
         help="how demo velocities/accelerations are computed (docs/DESIGN.md §4)",
     )
-    p.add_argument("--t-rct", type=float, default=2.0, help="reaction window T_rct [s]")
-    p.add_argument("--max-iter", type=int, help="outer iterations (default 60 lm, 400 paper)")
-    p.add_argument("--alpha", type=float, default=3e-4, help="learning rate of the paper rule")
+    p.add_argument("--t-rct", type=positive_float, default=2.0, help="reaction window T_rct [s]")
+    p.add_argument(
+        "--max-iter", type=positive_int, help="outer iterations (default: 60 lm, 400 paper)"
+    )
+    p.add_argument(
+        "--alpha", type=positive_float, default=3e-4, help="learning rate of the paper rule"
+    )
     p.add_argument("--plot", action="store_true", help="write reproduction figures")
     p.add_argument("--seed", type=int, default=0, help="unused: learning is deterministic")
     return p.parse_args(argv)
@@ -60,13 +69,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Run the script; returns the style payload."""
     args = parse_args(argv)
-    try:
-        demos = [load_demonstration(p) for p in args.demos]
-        features = FeatureConfig(feature_set=args.features, t_rct=args.t_rct)
-        max_iter = args.max_iter or (400 if args.method == "paper" else 60)
-        config = IRLConfig(method=args.method, max_iter=max_iter, alpha=args.alpha)
-    except (FileNotFoundError, DemonstrationError, ValueError) as exc:
-        sys.exit(f"error: {exc}")
+    check_output_dir(args.out)
+    demos = [load_demonstration(p) for p in args.demos]
+    features = FeatureConfig(feature_set=args.features, t_rct=args.t_rct)
+    max_iter = (
+        args.max_iter if args.max_iter is not None else (400 if args.method == "paper" else 60)
+    )
+    config = IRLConfig(method=args.method, max_iter=max_iter, alpha=args.alpha)
     bar = tqdm(total=max_iter, desc=f"ME-IRL ({args.features})", leave=False)
 
     def progress(entry: dict) -> None:
@@ -77,22 +86,23 @@ def main(argv: list[str] | None = None) -> dict:
         result, _, payload = fit_style(
             demos, features, config, args.control_point_rule, [str(p) for p in args.demos], progress
         )
-    except (InnerSolveError, ValueError) as exc:
-        sys.exit(f"error: learning failed: {exc}")
+    except InnerSolveError as exc:
+        raise RuntimeError(f"learning failed: {exc}") from None
     finally:
         bar.close()
-    write_json(args.out / "style.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
-    if args.plot:
-        demo = demos[0]
-        C = demo_control_points(demo, args.control_point_rule)
-        plot_reproductions(demo, {args.features: result}, C, args.out / "reproduction.png")
-        plot_lateral(
-            demo,
-            result,
-            C,
-            args.out / "lateral.png",
-            title=f"lateral motion, {args.features} features",
-        )
+    with atomic_output_dir(args.out, replace=False) as tmp:
+        write_json(tmp / "style.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+        if args.plot:
+            demo = demos[0]
+            C = demo_control_points(demo, args.control_point_rule)
+            plot_reproductions(demo, {args.features: result}, C, tmp / "reproduction.png")
+            plot_lateral(
+                demo,
+                result,
+                C,
+                tmp / "lateral.png",
+                title=f"lateral motion, {args.features} features",
+            )
     if not payload["trigger_fired"]:
         print(
             "note: the trigger never fired in the (first) demonstration: "
@@ -110,4 +120,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

@@ -17,8 +17,10 @@ from pathlib import Path
 
 from agents.compare import policy_frames
 from envs import load_demonstration
-from envs.io import write_json
+from envs.cli import positive_int, risk_value, run_cli
+from envs.io import atomic_output_dir, check_output_dir, write_json
 from envs.video import write_video
+from irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -26,7 +28,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--policy", required=True, choices=("expert", "spline", "sb3"))
+    p.add_argument(
+        "--policy",
+        required=True,
+        choices=("expert", "spline", "sb3"),
+        help="SMPC expert, spline reproduction of --style, or SB3 policy of --model",
+    )
     p.add_argument("--style", type=Path, help="style.json (spline)")
     p.add_argument("--model", type=Path, help="train_baseline.py output folder (sb3)")
     p.add_argument(
@@ -35,10 +42,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="demonstration whose scenario to use "
         "(default: the style's own demonstration, else the paper scenario)",
     )
-    p.add_argument("--risk", type=float, default=0.7, help="SMPC risk p (expert)")
+    p.add_argument("--risk", type=risk_value, default=0.7, help="SMPC risk p (expert)")
     p.add_argument("--video", type=Path, required=True, help="output .mp4 or .gif")
-    p.add_argument("--fps", type=int, default=5)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--fps", type=positive_int, default=5, help="frames per second")
+    p.add_argument("--seed", type=int, default=0, help="env seed")
     return p.parse_args(argv)
 
 
@@ -46,23 +53,25 @@ def main(argv: list[str] | None = None) -> dict:
     """Render; returns a small summary (also written next to the video as JSON)."""
     args = parse_args(argv)
     if args.video.suffix.lower() not in (".mp4", ".gif"):
-        sys.exit(f"error: --video must end in .mp4 or .gif, got {args.video.name}")
-    try:
-        style = None
-        if args.style is not None:
-            from irl.style import load_style
-
-            style = load_style(args.style)
-        demo_path = args.demo or (Path(style.raw["demos"][0]["path"]) if style else None)
-        demo = load_demonstration(demo_path) if demo_path else None
-    except (FileNotFoundError, ValueError, KeyError) as exc:
-        sys.exit(f"error: {exc}")
+        raise ValueError(f"--video must end in .mp4 or .gif, got {args.video.name}")
+    check_output_dir(args.video.parent)
+    if args.video.is_dir():
+        raise ValueError(f"--video {args.video} is a folder")
+    style = None
+    if args.style is not None:
+        style = load_style(args.style)
+    demo_path = args.demo
+    if demo_path is None and style is not None:
+        try:
+            demo_path = Path(style.raw["demos"][0]["path"])
+        except (KeyError, IndexError, TypeError):
+            raise ValueError(f"{args.style} names no demonstration: pass --demo") from None
+    demo = load_demonstration(demo_path) if demo_path else None
     scenario = demo.scenario if demo is not None else "paper"
     try:
         frames = policy_frames(args.policy, scenario, args.risk, style, demo, args.model, args.seed)
-    except (ValueError, FileNotFoundError, ImportError) as exc:
-        sys.exit(f"error: {exc}")
-    write_video(frames, args.video, args.fps)
+    except ImportError as exc:
+        raise RuntimeError(f"{exc} (install the extras: pip install -e '.[rl,video]')") from None
     summary = {
         "policy": args.policy,
         "video": str(args.video),
@@ -70,10 +79,16 @@ def main(argv: list[str] | None = None) -> dict:
         "fps": args.fps,
         "frame_shape": list(frames[0].shape),
     }
-    write_json(args.video.with_suffix(".json"), summary, [sys.argv[0], *(argv or sys.argv[1:])])
+    with atomic_output_dir(args.video.parent, replace=False) as tmp:
+        write_video(frames, tmp / args.video.name, args.fps)
+        write_json(
+            tmp / args.video.with_suffix(".json").name,
+            summary,
+            [sys.argv[0], *(argv or sys.argv[1:])],
+        )
     print(f"wrote {args.video} ({len(frames)} frames at {args.fps} fps)")
     return summary
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)

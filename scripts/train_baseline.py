@@ -19,14 +19,9 @@ import argparse
 import sys
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-import numpy as np
-
-from envs.io import write_json
-from envs.plotting import save_figure
+from envs.cli import positive_float, positive_int, run_cli
+from envs.io import atomic_output_dir, check_output_dir, write_json
+from irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -35,14 +30,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     p.add_argument("--style", type=Path, required=True, help="style.json (or its folder)")
-    p.add_argument("--algo", default="ppo", choices=("ppo", "sac"))
-    p.add_argument("--timesteps", type=int, default=60_000)
-    p.add_argument("--out", type=Path, default=Path("runs/baseline"))
-    p.add_argument("--eval-freq", type=int, default=2_000)
+    p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm")
+    p.add_argument("--timesteps", type=positive_int, default=60_000, help="training env steps")
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/baseline"), help="output folder (replaced whole)"
+    )
+    p.add_argument(
+        "--eval-freq", type=positive_int, default=2_000, help="env steps between evaluations"
+    )
     p.add_argument("--randomize", action="store_true", help="train on random scenarios")
     p.add_argument(
         "--crash-penalty",
-        type=float,
+        type=positive_float,
         help="cost of a crash (default: 10x the style's cost of its demonstration)",
     )
     p.add_argument(
@@ -50,62 +49,35 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="normalise rewards during training (evaluations stay raw)",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="training seed")
     return p.parse_args(argv)
-
-
-def plot_learning_curve(out: Path, title: str) -> Path:
-    """Training episode returns (monitor.csv) and evaluation returns (evaluations.npz)."""
-    fig, ax = plt.subplots(figsize=(7, 4))
-    monitor = out / "monitor.csv"
-    if monitor.is_file():
-        data = np.genfromtxt(monitor, delimiter=",", skip_header=2, usecols=(0, 1))
-        data = np.atleast_2d(data)
-        if data.size:
-            steps = np.cumsum(data[:, 1])
-            ax.plot(steps, data[:, 0], ".", ms=2, alpha=0.4, label="training episodes")
-            k = min(25, len(data))
-            smooth = np.convolve(data[:, 0], np.ones(k) / k, mode="valid")
-            ax.plot(steps[k - 1 :], smooth, lw=1.5, label=f"training, mean of {k}")
-    evals = out / "evaluations.npz"
-    if evals.is_file():
-        with np.load(evals) as ev:
-            ax.plot(ev["timesteps"], ev["results"].mean(axis=1), "o-", label="evaluation")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("episode return (−learned cost)")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend()
-    return save_figure(fig, out / "learning_curve.png", dpi=120)
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Run the training; returns the summary written to train.json."""
     args = parse_args(argv)
+    check_output_dir(args.out)
     try:
-        from agents.sb3_baseline import TrainConfig, train_baseline
-        from irl.style import load_style
-
-        style = load_style(args.style)
-        cfg = TrainConfig(
-            algo=args.algo,
-            timesteps=args.timesteps,
-            seed=args.seed,
-            eval_freq=min(args.eval_freq, args.timesteps),
-            randomize=args.randomize,
-            crash_penalty=args.crash_penalty,
-            norm_reward=args.norm_reward,
-        )
+        from agents.sb3_baseline import TrainConfig, plot_learning_curve, train_baseline
     except ImportError as exc:
-        sys.exit(
-            f"error: {exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"
-        )
-    except (FileNotFoundError, ValueError) as exc:
-        sys.exit(f"error: {exc}")
-    summary = train_baseline(style, args.out, cfg)
-    summary["style"] = str(args.style)
-    plot_learning_curve(args.out, f"{args.algo.upper()} on the learned reward ({args.style})")
-    write_json(args.out / "train.json", summary, [sys.argv[0], *(argv or sys.argv[1:])])
+        raise RuntimeError(
+            f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"
+        ) from None
+    style = load_style(args.style)
+    cfg = TrainConfig(
+        algo=args.algo,
+        timesteps=args.timesteps,
+        seed=args.seed,
+        eval_freq=min(args.eval_freq, args.timesteps),
+        randomize=args.randomize,
+        crash_penalty=args.crash_penalty,
+        norm_reward=args.norm_reward,
+    )
+    with atomic_output_dir(args.out) as tmp:
+        summary = train_baseline(style, tmp, cfg)
+        summary["style"] = str(args.style)
+        plot_learning_curve(tmp, f"{args.algo.upper()} on the learned reward ({args.style})")
+        write_json(tmp / "train.json", summary, [sys.argv[0], *(argv or sys.argv[1:])])
     print(
         f"wrote {args.out}/model.zip ({summary['train_time_s']:.0f} s of training); "
         f"final evaluation return {summary['final_eval_return']}"
@@ -114,4 +86,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    run_cli(main)
