@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import platform
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, replace
 from typing import Any
 
@@ -20,6 +19,7 @@ import numpy as np
 from agents.smpc import SMPCConfig, SMPCExpert
 from envs.demonstration import Demonstration
 from envs.lane_change import LaneChangeEnv
+from envs.parallel import parallel_map
 from envs.rollout import run_episode
 from envs.safety import ellipse_constraint, elliptical_index, trigger_time
 from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
@@ -226,21 +226,11 @@ def generate_demonstrations(
         risk → its demonstrations, in scenario order (``meta["scenario_index"]`` set).
     """
     raw = [sc.to_dict() for sc in scenarios]
-    out: dict[float, list[Demonstration]] = {}
-    if workers <= 1:
-        for p in risks:
-            out[float(p)] = _demos_of_risk(float(p), raw)
-            if progress:
-                progress(float(p))
-        return out
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(_demos_of_risk, float(p), raw): float(p) for p in risks}
-        try:
-            for fut in as_completed(futures):
-                out[futures[fut]] = fut.result()
-                if progress:
-                    progress(futures[fut])
-        except BaseException:  # Ctrl-C: drop queued work instead of finishing it
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-    return {float(p): out[float(p)] for p in risks}
+    risks = [float(p) for p in risks]
+    done = parallel_map(
+        _demos_of_risk,
+        [(p, raw) for p in risks],
+        workers,
+        None if progress is None else lambda i, _: progress(risks[i]),
+    )
+    return dict(zip(risks, done, strict=True))

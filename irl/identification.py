@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,6 +35,7 @@ import numpy as np
 
 from envs.demonstration import Demonstration
 from envs.io import fmt, read_json
+from envs.parallel import parallel_map
 from irl.features import FeatureConfig
 from irl.inner import InnerProblem, InnerSolveError
 from irl.learner import IRLConfig, MaxEntIRL, check_learnable
@@ -362,25 +362,10 @@ def learn_library(
     if any(not demos_by_risk[p] for p in risks):
         raise ValueError("every risk level needs at least one demonstration")
     args = [(p, list(demos_by_risk[p]), feature_set) for p in risks]
-    records: dict[float, dict[str, Any]] = {}
-    if workers <= 1:
-        for a in args:
-            rec = _learn_risk(*a)
-            records[rec["risk"]] = rec
-            if progress:
-                progress(rec)
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = [pool.submit(_learn_risk, *a) for a in args]
-            try:
-                for fut in as_completed(futures):
-                    rec = fut.result()
-                    records[rec["risk"]] = rec
-                    if progress:
-                        progress(rec)
-            except BaseException:  # Ctrl-C: drop queued work instead of finishing it
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
+    done = parallel_map(
+        _learn_risk, args, workers, None if progress is None else lambda _, rec: progress(rec)
+    )
+    records = {rec["risk"]: rec for rec in done}
     return StyleLibrary(
         feature_set=feature_set,
         risks=tuple(risks),

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +27,7 @@ import numpy as np
 
 from envs.demonstration import Demonstration
 from envs.io import fmt
+from envs.parallel import parallel_map
 from envs.real_data import RecordedEpisode
 from irl.features import FeatureConfig
 from irl.inner import InnerProblem
@@ -275,23 +275,12 @@ def run_study(
         raise ValueError(f"{len(used)} usable {dataset} episode(s); the study needs at least 2")
     demos = [e.demo for e in used]
     fig = None if figure_dir is None else str(figure_dir)
-    results: dict[int, dict] = {}
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futs = {pool.submit(_episode_task, i, demos, fig): i for i in range(len(demos))}
-            try:
-                for fut in as_completed(futs):
-                    results[futs[fut]] = fut.result()
-                    if progress:
-                        progress(1)
-            except BaseException:  # Ctrl-C: drop queued work instead of finishing it
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
-    else:
-        for i in range(len(demos)):
-            results[i] = _episode_task(i, demos, fig)
-            if progress:
-                progress(1)
+    results = parallel_map(
+        _episode_task,
+        [(i, demos, fig) for i in range(len(demos))],
+        workers,
+        None if progress is None else lambda *_: progress(1),
+    )
     records = []
     for e in episodes:
         rec = {
