@@ -30,6 +30,7 @@ __all__ = [
     "generate_demonstration",
     "generate_demonstrations",
     "rollout_expert",
+    "smpc_robustness",
 ]
 
 
@@ -121,6 +122,8 @@ def demo_summary(demo: Demonstration, steps: list[dict[str, Any]]) -> dict[str, 
         "solve_ms_total": float(ms.sum()),
         "n_steps": len(steps),
         "n_solver_failures": sum(not s["success"] for s in steps),
+        "n_retries": sum(bool(s.get("retried")) for s in steps),
+        "n_fallbacks": sum(s["fallback"] is not None for s in steps),
         "n_chance_relaxed": sum(bool(s["slack"] > 1e-6) for s in steps if s["success"]),
         "fallbacks": [s["fallback"] for s in steps if s["fallback"]],
         "t_enter_target_lane_s": float(demo.t[entered[0]]) if entered.size else None,
@@ -234,3 +237,98 @@ def generate_demonstrations(
         None if progress is None else lambda i, _: progress(risks[i]),
     )
     return dict(zip(risks, done, strict=True))
+
+
+ROBUSTNESS_RISKS = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.925, 0.95)
+"""The six grid risks and the five midpoints between them."""
+
+
+def _robustness_of_risk(risk: float, scenarios: list[dict[str, Any]], jit: bool) -> dict:
+    """Worker: closed loops of SMPC(risk) in every scenario; per-demo counts and step times."""
+    env = LaneChangeEnv()
+    expert = SMPCExpert(SMPCConfig(risk=risk, jit=jit))
+    demos, step_ms = [], []
+    for i, raw in enumerate(scenarios):
+        _, steps = rollout_expert(env, expert, seed=0, options={"scenario": ScenarioConfig(**raw)})
+        step_ms += [s["solve_ms"] for s in steps if not s.get("retried")]
+        demos.append(
+            {
+                "risk": risk,
+                "scenario_index": i,
+                "n_steps": len(steps),
+                "n_solver_failures": sum(not s["success"] for s in steps),
+                "n_retries": sum(bool(s.get("retried")) for s in steps),
+                "n_fallbacks": sum(s["fallback"] is not None for s in steps),
+                "collision": any(s["collision"] for s in steps),
+                "failure_statuses": [s["status"] for s in steps if not s["success"]],
+            }
+        )
+    env.close()
+    return {"risk": risk, "demos": demos, "step_ms": step_ms}
+
+
+def smpc_robustness(
+    n_scenarios: int,
+    seed: int,
+    risks: Sequence[float] = ROBUSTNESS_RISKS,
+    workers: int = 2,
+    jit: bool = False,
+    progress: Callable[[float], None] | None = None,
+) -> dict[str, Any]:
+    """Count solver failures, retries and fallbacks of the SMPC over many demonstrations.
+
+    Every risk drives every one of ``n_scenarios`` scenarios drawn from the random family
+    (:class:`envs.scenario.ScenarioRanges`) with ``seed``; one process per risk at a time,
+    the solver built once per risk.
+
+    Args:
+        n_scenarios: scenarios (≥ 1).
+        seed: seed of the scenario draws.
+        risks: risk levels.
+        workers: processes.
+        jit: compile the NLPs (faster steps).
+        progress: called with each finished risk.
+
+    Returns:
+        ``n_demos``, ``n_steps``, ``n_solver_failures`` (steps whose solve and retry failed),
+        ``n_demos_with_failures``, ``n_retries``, ``n_fallbacks``, ``n_collisions``, step
+        times (first attempts), a per-risk breakdown and the failing demonstrations.
+    """
+    if n_scenarios < 1:
+        raise ValueError(f"n_scenarios must be >= 1, got {n_scenarios}")
+    rng = np.random.default_rng(seed)
+    ranges = ScenarioRanges()
+    raw = [ranges.sample(rng).to_dict() for _ in range(n_scenarios)]
+    risks = [float(p) for p in risks]
+    runs = parallel_map(
+        _robustness_of_risk,
+        [(p, raw, jit) for p in risks],
+        workers,
+        None if progress is None else lambda i, _: progress(risks[i]),
+    )
+    demos = [d for run in runs for d in run["demos"]]
+    step_ms = np.array([ms for run in runs for ms in run["step_ms"]])
+
+    def counts(ds: list[dict]) -> dict[str, int]:
+        return {
+            "n_demos": len(ds),
+            "n_solver_failures": sum(d["n_solver_failures"] for d in ds),
+            "n_demos_with_failures": sum(d["n_solver_failures"] > 0 for d in ds),
+            "n_retries": sum(d["n_retries"] for d in ds),
+            "n_fallbacks": sum(d["n_fallbacks"] for d in ds),
+            "n_collisions": sum(d["collision"] for d in ds),
+        }
+
+    return {
+        **counts(demos),
+        "n_steps": int(sum(d["n_steps"] for d in demos)),
+        "n_scenarios": n_scenarios,
+        "seed": seed,
+        "risks": risks,
+        "jit": jit,
+        "step_ms_median": float(np.median(step_ms)),
+        "step_ms_p95": float(np.percentile(step_ms, 95)),
+        "step_ms_max": float(np.max(step_ms)),
+        "by_risk": {f"{run['risk']:g}": counts(run["demos"]) for run in runs},
+        "failing_demos": [d for d in demos if d["n_solver_failures"] or d["n_retries"]],
+    }

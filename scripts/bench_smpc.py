@@ -8,8 +8,13 @@ is repeated ``--trials`` times and each statistic is the median over trials. Pri
 table and writes JSON with median_ms, p95_ms, n_steps, solver, ipopt_median_ms,
 speedup_vs_ipopt.
 
-Example:
+With ``--robustness N`` it instead counts solver failures, retries and fallbacks over N
+random-family scenarios × the six grid risks and the five midpoints (``n_demos``,
+``n_solver_failures``, ``n_fallbacks``, ``n_retries``, ``n_collisions``, step times).
+
+Examples:
     python scripts/bench_smpc.py --out runs/bench_smpc.json
+    python scripts/bench_smpc.py --robustness 100 --seed 0 --out runs/bench_smpc_robustness.json
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import numpy as np
 from tqdm import tqdm
 
 from agents import SMPCConfig, SMPCExpert, rollout_expert
+from agents.rollout import smpc_robustness
 from envs import LaneChangeEnv, ScenarioRanges
 from envs.cli import nonnegative_int, positive_int, risk_value, run_cli
 from envs.io import write_json
@@ -49,6 +55,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="independent repetitions of the whole measurement; the reported "
         "numbers are medians over trials (shared VMs drift by ±40 %%)",
     )
+    p.add_argument(
+        "--robustness",
+        type=positive_int,
+        metavar="N",
+        help="count failures over N random scenarios x 11 risks instead of timing",
+    )
+    p.add_argument("--workers", type=positive_int, default=2, help="processes (--robustness only)")
     p.add_argument(
         "--no-jit",
         action="store_true",
@@ -107,10 +120,42 @@ def time_solvers(
     return out
 
 
+def robustness(args: argparse.Namespace, jit: bool, argv: list[str]) -> dict:
+    """The ``--robustness`` mode: failure counts over many demonstrations."""
+    bar = tqdm(total=11, desc=f"risks x {args.robustness} scenarios")
+    result = smpc_robustness(
+        args.robustness, args.seed, workers=args.workers, jit=jit, progress=lambda p: bar.update(1)
+    )
+    bar.close()
+    result["goal"] = {"n_solver_failures": 0, "n_fallbacks": 0, "step_ms_median": 1.0}
+    result["meets_goal"] = (
+        result["n_solver_failures"] == 0
+        and result["n_fallbacks"] == 0
+        and result["step_ms_median"] <= 1.0
+    )
+    write_json(args.out, result, argv)
+    print(f"{'risk':>6s} {'demos':>6s} {'failures':>9s} {'retries':>8s} {'fallbacks':>10s}")
+    for p, c in result["by_risk"].items():
+        print(
+            f"{p:>6s} {c['n_demos']:6d} {c['n_solver_failures']:9d} {c['n_retries']:8d} "
+            f"{c['n_fallbacks']:10d}"
+        )
+    print(
+        f"{result['n_demos']} demonstrations, {result['n_steps']} steps: "
+        f"{result['n_solver_failures']} failures, {result['n_retries']} retries, "
+        f"{result['n_fallbacks']} fallbacks, {result['n_collisions']} collisions; step median "
+        f"{result['step_ms_median']:.2f} ms (jit={jit}); goal "
+        f"{'met' if result['meets_goal'] else 'NOT met'}; wrote {args.out}"
+    )
+    return result
+
+
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark; returns the JSON payload."""
     args = parse_args(argv)
     jit = not args.no_jit
+    if args.robustness:
+        return robustness(args, jit, [sys.argv[0], *(argv or sys.argv[1:])])
     trials = [
         time_solvers(("fatrop", "ipopt"), jit, args.risk, args.repeats, args.random, args.seed)
         for _ in range(args.trials)

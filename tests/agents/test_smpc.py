@@ -129,3 +129,33 @@ def test_act_returns_info():
     assert action.shape == (2,)
     assert info["success"] and info["fallback"] is None and info["iterations"] > 0
     assert info["slack"] == pytest.approx(0.0, abs=1e-6) and info["solve_ms"] > 0
+
+
+def test_a_failed_solve_is_retried_before_any_fallback(monkeypatch):
+    obs = np.concatenate([PAPER.ev_initial_state, PAPER.tv_initial_state])
+    expert = SMPCExpert(SMPCConfig(retry_solver="ipopt"))
+    real_solve = expert._solve
+
+    def fatrop_fails(name):
+        if name == "fatrop":
+            expert._out["x"][:] = np.nan  # a failed attempt may leave garbage behind
+            return False, "1", 40
+        return real_solve(name)
+
+    monkeypatch.setattr(expert, "_solve", fatrop_fails)
+    u = expert.act(obs)
+    report = expert.last_report
+    assert report.success and report.retried and report.fallback is None
+    assert report.status.startswith("ipopt")
+    u_ipopt = SMPCExpert(SMPCConfig(solver="ipopt")).act(obs)
+    np.testing.assert_allclose(u, u_ipopt, atol=1e-5)
+    # without a retry solver the same failure falls back at once
+    plain = SMPCExpert(SMPCConfig(retry_solver=None))
+    monkeypatch.setattr(plain, "_solve", lambda name: (False, "1", 40))
+    plain.act(obs)
+    assert plain.last_report.fallback == "brake" and not plain.last_report.retried
+
+
+def test_bad_retry_solver_is_rejected():
+    with pytest.raises(ValueError, match="retry_solver"):
+        SMPCConfig(retry_solver="snopt")
