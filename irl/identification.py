@@ -36,6 +36,8 @@ import numpy as np
 from envs.demonstration import Demonstration
 from envs.io import fmt, read_json
 from envs.parallel import parallel_map
+from envs.safety import elliptical_index
+from envs.tracking import observe
 from irl.features import FeatureConfig
 from irl.inner import InnerProblem, InnerSolveError
 from irl.learner import IRLConfig, MaxEntIRL, check_learnable
@@ -46,20 +48,36 @@ __all__ = [
     "SCORERS",
     "LibraryError",
     "StyleLibrary",
+    "demo_scores",
     "evaluate_identification",
     "evaluation_markdown",
     "identify",
     "identify_all",
+    "knn_baseline",
     "learn_library",
     "load_library",
+    "pooled_accuracy",
+    "posterior_from_scores",
+    "risk_interval",
 ]
 
-SCORERS = ("feature", "rmse_y", "suboptimality")
-DEFAULT_SCORER = "feature"
-"""The scorer the library API and the command line use unless told otherwise."""
-MAX_MEMBERS = 5
-"""Per-risk member styles scored by default (validated on seed 500: 77 % grid accuracy with
-5 members, the same as with 10, at half the identification time)."""
+SCORERS = ("rmse_xy", "feature", "rmse_y", "suboptimality")
+DEFAULT_SCORER = "rmse_xy"
+"""The scorer the library API and the command line use unless told otherwise (validation
+seed 500, docs/RESULTS.md §6: best between-grid error and calibrated intervals)."""
+MAX_MEMBERS: int | None = None
+"""Per-risk member styles scored by default (None: all; validation: 10 members 63 %, 5
+members 57 % grid accuracy with the default scorer)."""
+TEMPERATURE = 1.0
+"""τ of the likelihood ℓ_p = −(s_p / min_q s_q − 1)/τ (relative score gap; chosen on the
+validation seed so that the 90 % interval covers the true risk for ≥ 85 % of
+demonstrations: 92 % there)."""
+S_E_INFORMATIVE = 8.0
+"""A demonstration is informative when the TV comes within this elliptical index of the
+EV (s_e < 8, 120 m ahead or behind in the same lane): farther, no library risk changes the
+SMPC's path (probes with the TV 60–150 m behind: identical paths for p = 0.5 … 0.95)."""
+INTERVAL_MASS = 0.9
+"""Posterior mass of the reported risk interval."""
 
 
 class LibraryError(ValueError):
@@ -174,6 +192,155 @@ def _check_kind(demo: Demonstration) -> None:
         )
 
 
+def demo_scores(
+    demo: Demonstration,
+    library: StyleLibrary,
+    control_point_rule: str = "kinematic",
+    f_floor: float = 0.05,
+    max_members: int | None = MAX_MEMBERS,
+) -> dict[str, Any]:
+    """Every scorer's score of every library risk on one demonstration (lower is better).
+
+    A risk's score is the median over its members' reproductions r*_θ in the
+    demonstration's own scenario (module docstring).
+
+    Returns:
+        ``scores`` (scorer → list over the library's risks), ``informative``, ``min_s_e``
+        (closest approach of the TV in ellipse units) and ``trigger_fired``.
+
+    Raises:
+        LibraryError: the demonstration is of another kind or degenerate.
+    """
+    _check_kind(demo)
+    problem = InnerProblem(demo, library.features, control_point_rule)
+    events = problem.basis.events
+    scale = np.maximum(np.abs(problem.f_demo), f_floor)
+    scores = {s: [] for s in SCORERS}
+    for i in range(len(library.risks)):
+        member_scores = {s: [] for s in SCORERS}
+        for theta in library.styles(i, max_members):
+            problem.reset()
+            try:
+                sol = problem.solve(np.asarray(theta))
+            except InnerSolveError:
+                for s in SCORERS:
+                    member_scores[s].append(np.inf)
+                continue
+            err = trajectory_errors(
+                sol.control_points[:, [0, 3]], demo, events.t_trg, events.t_rct_end
+            )
+            member_scores["rmse_y"].append(err["rmse_y_m"])
+            member_scores["rmse_xy"].append(err["rmse_xy_m"])
+            gap = 0.0
+            for names in problem.groups.values():
+                idx = [problem.names.index(n) for n in names]
+                if idx:
+                    th = np.asarray(theta)[idx]
+                    ref = max(float(th @ sol.features[idx]), 1e-12)
+                    gap += float(th @ (problem.f_demo[idx] - sol.features[idx])) / ref
+            member_scores["suboptimality"].append(gap)
+            member_scores["feature"].append(
+                float(np.linalg.norm((sol.features - problem.f_demo) / scale))
+            )
+        for s in SCORERS:  # median over a risk's members (one member: its value)
+            scores[s].append(float(np.median(member_scores[s])))
+    sc = demo.scenario
+    s_e = elliptical_index(
+        demo.ev[:, 0] - demo.tv[:, 0], demo.ev[:, 1] - demo.tv[:, 1], sc.l_a, sc.l_b
+    )
+    min_s_e = float(np.min(s_e))
+    return {
+        "scores": scores,
+        "informative": min_s_e < S_E_INFORMATIVE,
+        "min_s_e": min_s_e,
+        "trigger_fired": bool(events.reactive_active),
+    }
+
+
+def posterior_from_scores(
+    scores: Sequence[Sequence[float]],
+    informative: Sequence[bool],
+    temperature: float = TEMPERATURE,
+) -> np.ndarray:
+    """Posterior over the library's risks from one or several demonstrations' scores.
+
+    Each informative demonstration contributes the log-likelihood
+    ℓ_p = −(s_p / min_q s_q − 1)/τ (its relative score gap, free of the scorer's unit and of
+    how hard the scenario is to reproduce); uninformative ones contribute nothing; the
+    prior is uniform over the library's risks. Demonstrations of one vehicle pool by adding
+    their log-likelihoods, so the posterior sharpens as they are added.
+
+    Args:
+        scores: per demonstration, the scores of the library's risks (lower is better).
+        informative: per demonstration, whether it says anything about p.
+        temperature: τ > 0.
+
+    Returns:
+        Posterior probabilities, shape (n_risks,), summing to 1.
+    """
+    if not temperature > 0:
+        raise ValueError(f"temperature must be > 0, got {temperature}")
+    n = len(scores[0]) if len(scores) else 0
+    if n == 0:
+        raise ValueError("need the scores of at least one demonstration")
+    log_lik = np.zeros(n)
+    for s, info in zip(scores, informative, strict=True):
+        s = np.asarray(s, float)
+        if not info or not np.any(np.isfinite(s)):
+            continue
+        best = max(float(np.min(s[np.isfinite(s)])), 1e-9)
+        log_lik -= np.where(np.isfinite(s), (s / best - 1.0) / temperature, np.inf)
+    log_lik -= np.max(log_lik)
+    post = np.exp(log_lik)
+    return post / post.sum()
+
+
+def risk_interval(
+    risks: Sequence[float], posterior: np.ndarray, mass: float = INTERVAL_MASS
+) -> tuple[float, float]:
+    """The smallest set of risks holding ``mass`` of the posterior, as the [lo, hi] it spans."""
+    risks = np.asarray(risks, float)
+    order = np.argsort(-posterior, kind="stable")
+    k = int(np.searchsorted(np.cumsum(posterior[order]), mass - 1e-12)) + 1
+    chosen = risks[order[: min(k, risks.size)]]
+    return float(chosen.min()), float(chosen.max())
+
+
+def _summarise(
+    risks: Sequence[float], per_demo: list[dict[str, Any]], scorer: str
+) -> dict[str, Any]:
+    """Posterior, estimate, interval and ranking of one scorer from per-demonstration scores."""
+    risks = np.asarray(risks, float)
+    informative = [d["informative"] for d in per_demo]
+    posterior = posterior_from_scores([d["scores"][scorer] for d in per_demo], informative)
+    order = np.argsort(-posterior, kind="stable")
+    lo, hi = risk_interval(risks, posterior)
+    mean_scores = {
+        s: {
+            str(p): float(np.mean([d["scores"][s][i] for d in per_demo]))
+            for i, p in enumerate(risks)
+        }
+        for s in SCORERS
+    }
+    return {
+        "scorer": scorer,
+        "risk_estimate": float(risks[order[0]]),
+        "risk_interpolated": float(posterior @ risks),
+        "risk_interval": [lo, hi],
+        "interval_mass": INTERVAL_MASS,
+        "posterior": {str(p): float(q) for p, q in zip(risks, posterior, strict=True)},
+        "informative": any(informative),
+        "informative_per_demo": informative,
+        "min_s_e_per_demo": [d["min_s_e"] for d in per_demo],
+        "scores": mean_scores[scorer],
+        "all_scores": mean_scores,
+        "ranking": [float(risks[i]) for i in order],
+        "n_demos": len(per_demo),
+        "trigger_fired": any(d["trigger_fired"] for d in per_demo),
+        "trigger_fired_per_demo": [d["trigger_fired"] for d in per_demo],
+    }
+
+
 def identify(
     demos: Demonstration | Sequence[Demonstration],
     library: StyleLibrary,
@@ -182,10 +349,10 @@ def identify(
     f_floor: float = 0.05,
     max_members: int | None = MAX_MEMBERS,
 ) -> dict[str, Any]:
-    """Score every library style on one vehicle's demonstration(s) (module docstring).
+    """Identify one vehicle's risk from its demonstration(s), with an honest uncertainty.
 
     Args:
-        demos: one demonstration or several of the same vehicle (scores averaged).
+        demos: one demonstration or several of the same vehicle (their evidence pools).
         library: the style library.
         scorer: one of :data:`SCORERS` (lower is better).
         control_point_rule: control-point rule of the demonstrations.
@@ -193,12 +360,15 @@ def identify(
         max_members: per-risk member styles to score (None: all).
 
     Returns:
-        ``risk_estimate``, ``risk_interpolated``, ``scores`` (risk → score, every scorer
-        under ``all_scores``), ``ranking`` (risks, best first), ``scorer``,
-        ``trigger_fired`` (whether any demonstration's trigger fired).
+        ``risk_estimate`` (posterior mode), ``risk_interpolated`` (posterior mean),
+        ``risk_interval`` (the smallest set of risks with 90 % of the posterior, as
+        [lo, hi]), ``posterior`` (risk → probability), ``informative`` (False: no
+        demonstration's TV came near enough for p to matter; the posterior is then the
+        uniform prior), ``scores`` (risk → mean score; every scorer under ``all_scores``),
+        ``ranking`` (by posterior), ``scorer``, ``trigger_fired``.
 
     Raises:
-        LibraryError: the demonstration is of another kind or degenerate (no TV, no lane
+        LibraryError: a demonstration is of another kind or degenerate (no TV, no lane
             change, no motion, a time grid other than its scenario's T_s).
     """
     if scorer not in SCORERS:
@@ -206,85 +376,8 @@ def identify(
     demos = [demos] if isinstance(demos, Demonstration) else list(demos)
     if not demos:
         raise ValueError("need at least one demonstration")
-    all_scores = {s: np.zeros(len(library.risks)) for s in SCORERS}
-    fired = []
-    for demo in demos:
-        _check_kind(demo)
-        problem = InnerProblem(demo, library.features, control_point_rule)
-        events = problem.basis.events
-        fired.append(events.reactive_active)
-        scale = np.maximum(np.abs(problem.f_demo), f_floor)
-        for i in range(len(library.risks)):
-            member_scores = {s: [] for s in SCORERS}
-            for theta in library.styles(i, max_members):
-                problem.reset()
-                try:
-                    sol = problem.solve(np.asarray(theta))
-                except InnerSolveError:
-                    for s in SCORERS:
-                        member_scores[s].append(np.inf)
-                    continue
-                err = trajectory_errors(
-                    sol.control_points[:, [0, 3]], demo, events.t_trg, events.t_rct_end
-                )
-                member_scores["rmse_y"].append(err["rmse_y_m"])
-                gap = 0.0
-                for names in problem.groups.values():
-                    idx = [problem.names.index(n) for n in names]
-                    if idx:
-                        th = np.asarray(theta)[idx]
-                        ref = max(float(th @ sol.features[idx]), 1e-12)
-                        gap += float(th @ (problem.f_demo[idx] - sol.features[idx])) / ref
-                member_scores["suboptimality"].append(gap)
-                member_scores["feature"].append(
-                    float(np.linalg.norm((sol.features - problem.f_demo) / scale))
-                )
-            for s in SCORERS:  # median over a risk's members (one member: its value)
-                all_scores[s][i] += float(np.median(member_scores[s])) / len(demos)
-    risks = np.asarray(library.risks)
-    return _summarise(
-        risks,
-        all_scores[scorer],
-        scorer,
-        {
-            k: {str(p): float(s) for p, s in zip(risks, v, strict=True)}
-            for k, v in all_scores.items()
-        },
-        len(demos),
-        fired,
-    )
-
-
-def _summarise(
-    risks: np.ndarray,
-    scores: np.ndarray,
-    scorer: str,
-    all_scores: dict[str, dict[str, float]],
-    n_demos: int,
-    trigger_fired: list[bool],
-) -> dict[str, Any]:
-    """Estimate, interpolation and ranking from one scorer's scores (lower is better)."""
-    order = np.argsort(scores, kind="stable")
-    best = int(order[0])
-    # interpolate between the best style and its better neighbour by inverse score
-    interp = float(risks[best])
-    neighbours = [j for j in (best - 1, best + 1) if 0 <= j < len(risks)]
-    if neighbours and np.isfinite(scores[best]):
-        j = min(neighbours, key=lambda k: scores[k])
-        w_best = 1.0 / max(scores[best], 1e-9)
-        w_j = 1.0 / max(scores[j], 1e-9) if np.isfinite(scores[j]) else 0.0
-        interp = float((w_best * risks[best] + w_j * risks[j]) / (w_best + w_j))
-    return {
-        "scorer": scorer,
-        "risk_estimate": float(risks[best]),
-        "risk_interpolated": interp,
-        "scores": {str(p): float(s) for p, s in zip(risks, scores, strict=True)},
-        "all_scores": all_scores,
-        "ranking": [float(risks[i]) for i in order],
-        "n_demos": n_demos,
-        "trigger_fired": any(trigger_fired),
-        "trigger_fired_per_demo": list(trigger_fired),
-    }
+    per_demo = [demo_scores(d, library, control_point_rule, f_floor, max_members) for d in demos]
+    return _summarise(library.risks, per_demo, scorer)
 
 
 def identify_all(
@@ -294,15 +387,9 @@ def identify_all(
     max_members: int | None = MAX_MEMBERS,
 ) -> dict[str, dict[str, Any]]:
     """:func:`identify` with every scorer from one set of inner solves."""
-    first = identify(demos, library, SCORERS[0], control_point_rule, max_members=max_members)
-    out = {SCORERS[0]: first}
-    risks = np.asarray(library.risks)
-    for s in SCORERS[1:]:
-        scores = np.array([first["all_scores"][s][str(p)] for p in risks])
-        out[s] = _summarise(
-            risks, scores, s, first["all_scores"], first["n_demos"], first["trigger_fired_per_demo"]
-        )
-    return out
+    demos = [demos] if isinstance(demos, Demonstration) else list(demos)
+    per_demo = [demo_scores(d, library, control_point_rule, max_members=max_members) for d in demos]
+    return {s: _summarise(library.risks, per_demo, s) for s in SCORERS}
 
 
 def _learn_risk(risk: float, demos: list[Demonstration], feature_set: str) -> dict[str, Any]:
@@ -382,16 +469,97 @@ def learn_library(
     )
 
 
+def _scores_task(
+    demo: Demonstration, library: StyleLibrary, noise: float, noise_seed: int
+) -> dict[str, Any]:
+    """Worker: :func:`demo_scores` of the demonstration as observed with position noise."""
+    t0 = time.perf_counter()
+    observed = demo if noise == 0 else observe(demo, noise, np.random.default_rng(noise_seed))
+    try:
+        out = demo_scores(observed, library)
+    except LibraryError as exc:
+        return {"error": str(exc), "identify_s": time.perf_counter() - t0}
+    return out | {"identify_s": time.perf_counter() - t0}
+
+
+def _record(
+    demo: Demonstration, grid: set[float], risks: Sequence[float], scored: dict[str, Any]
+) -> dict[str, Any]:
+    p = float(demo.meta["risk"])
+    rec: dict[str, Any] = {
+        "risk": p,
+        "scenario": demo.meta.get("scenario_index"),
+        "grid": p in grid,
+        "identify_s": scored["identify_s"],
+    }
+    if "error" in scored:
+        return rec | {"error": scored["error"]}
+    rec |= {k: scored[k] for k in ("informative", "min_s_e", "trigger_fired", "scores")}
+    for scorer in SCORERS:
+        res = _summarise(risks, [scored], scorer)
+        lo, hi = res["risk_interval"]
+        rec |= {
+            f"{scorer}_estimate": res["risk_estimate"],
+            f"{scorer}_interpolated": res["risk_interpolated"],
+            f"{scorer}_interval": [lo, hi],
+            f"{scorer}_covered": lo - 1e-9 <= p <= hi + 1e-9,
+        }
+    rec["posterior"] = _summarise(risks, [scored], DEFAULT_SCORER)["posterior"]
+    return rec
+
+
+def pooled_accuracy(
+    records: list[dict[str, Any]],
+    risks: Sequence[float],
+    n_pool: int = 3,
+    scorer: str = DEFAULT_SCORER,
+) -> dict[str, Any]:
+    """Grid accuracy of single demonstrations against pools of ``n_pool`` of one vehicle.
+
+    A "vehicle" is a grid risk; its demonstrations (in different scenarios, scenario order)
+    are pooled in consecutive groups of ``n_pool`` by :func:`posterior_from_scores`.
+
+    Returns:
+        ``single_accuracy`` and ``pooled_accuracy`` over the same demonstrations,
+        ``single_interval_width`` and ``pooled_interval_width`` (mean), ``n_pools``.
+    """
+    risks = list(risks)
+    single, pooled, w1, wn = [], [], [], []
+    for p in risks:
+        rs = sorted(
+            (r for r in records if r["risk"] == p and "error" not in r),
+            key=lambda r: (r["scenario"] is None, r["scenario"]),
+        )
+        for k in range(0, len(rs) - n_pool + 1, n_pool):
+            group = rs[k : k + n_pool]
+            post = posterior_from_scores(
+                [r["scores"][scorer] for r in group], [r["informative"] for r in group]
+            )
+            pooled.append(risks[int(np.argmax(post))] == p)
+            lo, hi = risk_interval(risks, post)
+            wn.append(hi - lo)
+            single += [r[f"{scorer}_estimate"] == p for r in group]
+            w1 += [r[f"{scorer}_interval"][1] - r[f"{scorer}_interval"][0] for r in group]
+    return {
+        "n_pool": n_pool,
+        "n_pools": len(pooled),
+        "single_accuracy": float(np.mean(single)) if single else None,
+        "pooled_accuracy": float(np.mean(pooled)) if pooled else None,
+        "single_interval_width": float(np.mean(w1)) if w1 else None,
+        "pooled_interval_width": float(np.mean(wn)) if wn else None,
+    }
+
+
 def evaluate_identification(
     library: StyleLibrary,
     demos: Sequence[Demonstration],
     grid_risks: Sequence[float],
     progress: Callable[[int], Any] | None = None,
+    workers: int = 1,
+    noise: float = 0.0,
+    noise_seed: int = 0,
 ) -> dict[str, Any]:
     """Identify held-out demonstrations of known risk with every scorer and summarise.
-
-    ``transfer`` asks, for the grid risks, whether θ_p reproduces SMPC(p) best among the
-    library styles (the rmse_y ranking's first place).
 
     Args:
         library: the style library.
@@ -399,101 +567,149 @@ def evaluate_identification(
             ``meta["scenario_index"]`` (optional) names the held-out scenario.
         grid_risks: the risks that count as grid points (others are between the grid).
         progress: called with 1 after each demonstration.
+        workers: processes.
+        noise: position noise σ [m] of the observation (:func:`envs.tracking.observe`;
+            0: the true states).
+        noise_seed: seed of the noise (demonstration i uses ``noise_seed + i``).
 
     Returns:
-        ``records`` (one per demonstration) and ``summary`` (per scorer: grid accuracy,
-        MAE, between-grid MAE; transfer; identification time).
+        ``records`` (one per demonstration) and ``summary``: per scorer the grid accuracy
+        (all and informative), grid MAE, between-grid MAE of the posterior mean, interval
+        coverage and width; pooled vs single accuracy; transfer; identification time.
 
     Raises:
         ValueError: a demonstration has no true risk in its metadata.
     """
+    if any("risk" not in d.meta for d in demos):
+        raise ValueError("every evaluation demonstration needs meta['risk'] (its true risk)")
     grid = {float(p) for p in grid_risks}
-    records = []
-    for demo in demos:
-        if "risk" not in demo.meta:
-            raise ValueError("every evaluation demonstration needs meta['risk'] (its true risk)")
-        p = float(demo.meta["risk"])
-        t0 = time.perf_counter()
-        res = identify_all(demo, library)
-        ident_s = time.perf_counter() - t0
-        records.append(
-            {
-                "risk": p,
-                "scenario": demo.meta.get("scenario_index"),
-                "grid": p in grid,
-                "trigger_fired": res[DEFAULT_SCORER]["trigger_fired"],
-                "identify_s": ident_s,
-                **{f"{s}_estimate": r["risk_estimate"] for s, r in res.items()},
-                **{f"{s}_interpolated": r["risk_interpolated"] for s, r in res.items()},
-                "scores": res[DEFAULT_SCORER]["all_scores"],
-            }
-        )
-        if progress:
-            progress(1)
-    summary: dict[str, Any] = {}
-    grid_recs = [r for r in records if r["grid"]]
-    between = [r for r in records if not r["grid"]]
-    interactive = [r for r in grid_recs if r["trigger_fired"]]
+    scored = parallel_map(
+        _scores_task,
+        [(d, library, noise, noise_seed + i) for i, d in enumerate(demos)],
+        workers,
+        None if progress is None else lambda *_: progress(1),
+    )
+    records = [_record(d, grid, library.risks, s) for d, s in zip(demos, scored, strict=True)]
+    ok = [r for r in records if "error" not in r]
+    grid_recs = [r for r in ok if r["grid"]]
+    informative = [r for r in grid_recs if r["informative"]]
+    between = [r for r in ok if not r["grid"]]
+
+    def mean(values: list) -> float | None:
+        return float(np.mean(values)) if values else None
+
+    summary: dict[str, Any] = {
+        "n": len(records),
+        "n_failed": len(records) - len(ok),
+        "n_grid": len(grid_recs),
+        "n_grid_informative": len(informative),
+        "n_between": len(between),
+        "noise_sigma_m": noise,
+    }
     for s in SCORERS:
-
-        def acc(rs: list[dict], s: str = s) -> float | None:
-            return float(np.mean([r[f"{s}_estimate"] == r["risk"] for r in rs])) if rs else None
-
-        def mae(rs: list[dict], key: str) -> float | None:
-            return float(np.mean([abs(r[key] - r["risk"]) for r in rs])) if rs else None
-
         summary[s] = {
-            "grid_accuracy": acc(grid_recs),
-            "grid_mae": mae(grid_recs, f"{s}_estimate"),
-            "grid_accuracy_interactive": acc(interactive),
-            "n_grid": len(grid_recs),
-            "n_grid_interactive": len(interactive),
-            "between_mae_nearest": mae(between, f"{s}_estimate"),
-            "between_mae_interpolated": mae(between, f"{s}_interpolated"),
-            "n_between": len(between),
+            "grid_accuracy": mean([r[f"{s}_estimate"] == r["risk"] for r in grid_recs]),
+            "grid_accuracy_informative": mean(
+                [r[f"{s}_estimate"] == r["risk"] for r in informative]
+            ),
+            "grid_mae_informative": mean(
+                [abs(r[f"{s}_estimate"] - r["risk"]) for r in informative]
+            ),
+            "grid_accuracy_interactive": mean(
+                [r[f"{s}_estimate"] == r["risk"] for r in grid_recs if r["trigger_fired"]]
+            ),
+            "between_mae_nearest": mean([abs(r[f"{s}_estimate"] - r["risk"]) for r in between]),
+            "between_mae_interpolated": mean(
+                [abs(r[f"{s}_interpolated"] - r["risk"]) for r in between]
+            ),
+            "interval_coverage": mean([r[f"{s}_covered"] for r in ok]),
+            "interval_width": mean([r[f"{s}_interval"][1] - r[f"{s}_interval"][0] for r in ok]),
         }
-    summary["transfer_own_risk_best"] = summary["rmse_y"]["grid_accuracy"]
+    summary["pooled"] = pooled_accuracy(records, sorted(grid))
+    summary["transfer_own_risk_best"] = mean([r["rmse_y_estimate"] == r["risk"] for r in grid_recs])
     summary["identify_s_median"] = (
-        float(np.median([r["identify_s"] for r in records])) if records else None
+        mean([]) if not records else float(np.median([r["identify_s"] for r in records]))
     )
     return {"records": records, "summary": summary}
 
 
-def evaluation_markdown(results: dict[str, dict[str, Any]]) -> str:
-    """``evaluation.md``: per feature set and scorer, accuracy, MAE, transfer and timing.
+def knn_baseline(
+    train: Sequence[Demonstration],
+    test: Sequence[Demonstration],
+    features: FeatureConfig | None = None,
+    k: int = 3,
+) -> list[float]:
+    """A supervised reference without IRL: k-nearest neighbours on features and scenario.
+
+    Each demonstration is described by its scaled feature values Ω f(r_D) and its scenario
+    (EV speed, TV speed, TV gap), each column standardised on the training set; a test
+    demonstration gets the median true risk of its k nearest training demonstrations.
+
+    Args:
+        train: demonstrations with ``meta["risk"]`` (e.g. the library's own).
+        test: demonstrations to classify.
+        features: feature configuration (default: the reactive set).
+        k: neighbours.
+
+    Returns:
+        The estimated risk of each test demonstration.
+    """
+    fc = features or FeatureConfig()
+
+    def describe(d: Demonstration) -> np.ndarray:
+        sc = d.scenario
+        return np.concatenate([InnerProblem(d, fc).f_demo, [sc.ev_speed, sc.tv_speed, sc.tv_gap]])
+
+    X = np.array([describe(d) for d in train])
+    y = np.array([float(d.meta["risk"]) for d in train])
+    mu, sd = X.mean(0), X.std(0) + 1e-9
+    Xs = (X - mu) / sd
+    out = []
+    for d in test:
+        dist = np.linalg.norm(Xs - (describe(d) - mu) / sd, axis=1)
+        out.append(float(np.median(y[np.argsort(dist)[:k]])))
+    return out
+
+
+def evaluation_markdown(results: dict[str, dict[str, Any]], extra: list[str] | None = None) -> str:
+    """``evaluation.md``: per feature set and scorer, accuracy, MAE, intervals, pooling, timing.
 
     Args:
         results: feature-set name → :func:`evaluate_identification` output.
+        extra: further Markdown lines (references, noise curve).
     """
     lines = [
         "# Style identification on held-out scenarios",
         "",
-        f"Default scorer: {DEFAULT_SCORER}.",
+        f"Default scorer: {DEFAULT_SCORER}; interval: {INTERVAL_MASS:.0%} posterior mass.",
         "",
-        "| features | scorer | grid accuracy | grid accuracy (trigger fired) | grid MAE | "
-        "between MAE (nearest) | between MAE (interpolated) |",
-        "|---|---|---|---|---|---|---|",
+        "| features | scorer | grid acc. (informative) | grid acc. (all) | grid MAE "
+        "(informative) | between MAE (posterior mean) | interval coverage | interval width |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for name, r in results.items():
+        sm = r["summary"]
         for s in SCORERS:
-            m = r["summary"][s]
+            m = sm[s]
             lines.append(
-                f"| {name} | {s} | {fmt(m['grid_accuracy'], 2)} | "
-                f"{fmt(m['grid_accuracy_interactive'], 2)} ({m['n_grid_interactive']}) | "
-                f"{fmt(m['grid_mae'])} | {fmt(m['between_mae_nearest'])} | "
-                f"{fmt(m['between_mae_interpolated'])} |"
+                f"| {name} | {s} | {fmt(m['grid_accuracy_informative'], 2)} "
+                f"({sm['n_grid_informative']}) | {fmt(m['grid_accuracy'], 2)} ({sm['n_grid']}) | "
+                f"{fmt(m['grid_mae_informative'])} | {fmt(m['between_mae_interpolated'])} | "
+                f"{fmt(m['interval_coverage'], 2)} | {fmt(m['interval_width'], 2)} |"
             )
     lines += [
         "",
-        "Transfer (own-risk θ reproduces SMPC(p) best, rmse_y): "
-        + ", ".join(
-            f"{n} {fmt(r['summary']['transfer_own_risk_best'], 2)}" for n, r in results.items()
-        ),
-        "",
-        "Median identification time per demonstration: "
-        + ", ".join(
-            f"{n} {fmt(r['summary']['identify_s_median'], 2)} s" for n, r in results.items()
-        ),
-        "",
+        "| features | pooled 3 demos: accuracy single → pooled | interval width single → "
+        "pooled | transfer | identify s (median) |",
+        "|---|---|---|---|---|",
     ]
-    return "\n".join(lines)
+    for name, r in results.items():
+        sm = r["summary"]
+        pl = sm["pooled"]
+        lines.append(
+            f"| {name} | {fmt(pl['single_accuracy'], 2)} → {fmt(pl['pooled_accuracy'], 2)} "
+            f"({pl['n_pools']} pools) | {fmt(pl['single_interval_width'], 2)} → "
+            f"{fmt(pl['pooled_interval_width'], 2)} | {fmt(sm['transfer_own_risk_best'], 2)} | "
+            f"{fmt(sm['identify_s_median'], 2)} |"
+        )
+    return "\n".join([*lines, "", *(extra or []), ""])

@@ -66,7 +66,7 @@ class _Buffered:
 
 
 def newton_minimize(
-    fgh, z0: np.ndarray, tol: float = 1e-9, max_iter: int = 100
+    fgh, z0: np.ndarray, tol: float = 1e-9, max_iter: int = 100, f=None
 ) -> tuple[np.ndarray, int, bool]:
     """Minimise a smooth function by damped Newton steps.
 
@@ -78,10 +78,13 @@ def newton_minimize(
         z0: starting point, shape (n,).
         tol: stop when ‖∇‖_∞ ≤ tol · (1 + |value|).
         max_iter: iteration cap.
+        f: z ↦ value alone, for the line search's trial points (derivatives are then
+            evaluated at accepted points only: a trial costs a fraction of a Hessian).
 
     Returns:
         (minimiser, iterations, converged).
     """
+    f_only = f
     z = np.array(z0, dtype=float)
     f, g, H = fgh(z)
     n = z.size
@@ -105,12 +108,17 @@ def newton_minimize(
         step = 1.0
         while step > 1e-12:
             z_new = z + step * p
-            f_new, g_new, H_new = fgh(z_new)
+            if f_only is None:
+                f_new, g_new, H_new = fgh(z_new)
+            else:
+                f_new = f_only(z_new)
             if np.isfinite(f_new) and f_new <= f + 1e-4 * step * slope:
                 break
             step *= 0.5
         else:
             return z, it, bool(np.max(np.abs(g)) <= 1e3 * tol * (1.0 + abs(f)))
+        if f_only is not None:
+            f_new, g_new, H_new = fgh(z_new)
         if abs(f - f_new) <= 1e-15 * (1.0 + abs(f)) and step < 1e-6:
             return z_new, it + 1, True
         z, f, g, H = z_new, f_new, g_new, H_new
@@ -193,7 +201,8 @@ class InnerProblem:
             H, grad = ca.hessian(obj, z)
             fgh = ca.Function(f"fgh_{axis}", [z, th], [obj, grad, ca.densify(H)])
             fj = ca.Function(f"fJ_{axis}", [z], [f, ca.densify(ca.jacobian(f, z))])
-            self._fns[axis] = (_Buffered(fgh), _Buffered(fj))
+            fo = ca.Function(f"f_{axis}", [z, th], [obj])
+            self._fns[axis] = (_Buffered(fgh), _Buffered(fj), _Buffered(fo))
 
     def reset(self) -> None:
         """Warm start from the demonstration's own control points."""
@@ -239,13 +248,16 @@ class InnerProblem:
                 continue
             idx = [self.names.index(n) for n in names]
             th = theta[idx]
-            fgh_fn, fj_fn = self._fns[axis]
+            fgh_fn, fj_fn, f_fn = self._fns[axis]
 
             def fgh(z, fn=fgh_fn, th=th):
                 o, g, H = fn(z, th)
                 return float(o[0]), g, H
 
-            z, it, ok = newton_minimize(fgh, self._z[axis], tol, max_iter)
+            def f_only(z, fn=f_fn, th=th):
+                return float(fn(z, th)[0][0])
+
+            z, it, ok = newton_minimize(fgh, self._z[axis], tol, max_iter, f_only)
             iters += it
             if not ok:
                 raise InnerSolveError(

@@ -1,15 +1,18 @@
-r"""Evaluate style identification on held-out scenarios and held-out risk levels.
+r"""Evaluate style identification on held-out scenarios, risks and measurement noise.
 
-Draws M interactive scenarios with a seed disjoint from the library's, generates SMPC
-demonstrations at every library risk and at risks between the grid points, identifies
-each with every scorer, and writes ``OUT/evaluation.json`` + ``OUT/evaluation.md``
-(accuracy, MAE, transfer), ``OUT/confusion_<features>_<scorer>.png`` and
-``OUT/theta_vs_risk.png``. Pass several libraries (e.g. reactive and base) to compare
-feature sets.
+Draws M scenarios of the random family with a seed disjoint from the library's (use one
+seed for validation, where designs are chosen, and another for the final test, run once),
+generates SMPC demonstrations at every library risk and at the midpoints between them,
+identifies each with every scorer and writes ``OUT/evaluation.json`` + ``OUT/evaluation.md``
+(accuracy among informative demonstrations, MAE, interval coverage, pooling, transfer),
+``OUT/confusion_<features>.png`` and ``OUT/theta_vs_risk.png``. ``--noise`` repeats the
+identification with tracked noisy positions (envs/tracking.py) and draws
+``OUT/noise_curve.png``; ``--references`` adds the ceiling that knows the expert and a
+supervised k-NN baseline without IRL.
 
 Example:
     python scripts/evaluate_identification.py --library runs/library_reactive \\
-        --library runs/library_base --scenarios 5 --seed 1000 --out runs/evaluation
+        --scenarios 10 --seed 2000 --noise 0,0.05,0.1,0.2,0.3 --references --out runs/test
 """
 
 from __future__ import annotations
@@ -19,19 +22,22 @@ import itertools
 import sys
 from pathlib import Path
 
+import numpy as np
 from tqdm import tqdm
 
+from agents.ceiling import identification_references, references_markdown
 from agents.rollout import draw_interactive_scenarios, generate_demonstrations
-from envs.cli import positive_int, risk_list, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json, write_text
+from envs.cli import float_list, positive_int, risk_list, run_cli
+from envs.io import atomic_output_dir, check_output_dir, fmt, write_json, write_text
+from envs.scenario import ScenarioRanges
 from irl.identification import (
-    SCORERS,
+    DEFAULT_SCORER,
     LibraryError,
     evaluate_identification,
     evaluation_markdown,
     load_library,
 )
-from irl.plotting import plot_confusion, plot_theta_vs_risk
+from irl.plotting import plot_confusion, plot_noise_curve, plot_theta_vs_risk
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -46,8 +52,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         required=True,
         help="library folder or library.json (repeat for several feature sets)",
     )
+    p.add_argument("--scenarios", type=positive_int, default=5, help="M held-out scenarios")
     p.add_argument(
-        "--scenarios", type=positive_int, default=5, help="M held-out interactive scenarios"
+        "--draw",
+        default="random",
+        choices=("random", "interactive"),
+        help="scenarios: any of the random family, or only those where SMPC(lowest p) triggers",
     )
     p.add_argument(
         "--between",
@@ -58,6 +68,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--seed", type=int, default=1000, help="held-out scenario seed (not the library's)"
     )
     p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument(
+        "--noise",
+        type=float_list,
+        default=[0.0],
+        help="comma-separated position noise levels sigma [m] (0: true states)",
+    )
+    p.add_argument(
+        "--references",
+        action="store_true",
+        help="also run the ceiling that knows the expert and a k-NN baseline without IRL",
+    )
     p.add_argument(
         "--out", type=Path, default=Path("runs/evaluation"), help="output folder (replaced whole)"
     )
@@ -79,37 +100,84 @@ def main(argv: list[str] | None = None) -> dict:
                 f"--seed {args.seed} is the library's own training seed; "
                 "use a disjoint seed for held-out scenarios"
             )
+    if any(not (np.isfinite(s) and s >= 0) for s in args.noise):
+        raise ValueError(f"--noise levels must be finite and >= 0, got {args.noise}")
     grid = list(next(iter(libraries.values())).risks)
     if any(list(lib.risks) != grid for lib in libraries.values()):
         raise LibraryError("the libraries have different risk grids; compare like with like")
     between = args.between or [round((a + b) / 2, 4) for a, b in itertools.pairwise(grid)]
-    scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(grid))
+    if args.draw == "interactive":
+        scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(grid))
+    else:
+        rng = np.random.default_rng(args.seed)
+        scenarios = [ScenarioRanges().sample(rng) for _ in range(args.scenarios)]
     risks = [*grid, *[p for p in between if p not in grid]]
     demos_by_risk = generate_demonstrations(risks, scenarios, args.workers)
     demos = [d for p in risks for d in demos_by_risk[p]]
-    results = {}
+    results, curves = {}, {}
     for name, lib in libraries.items():
-        with tqdm(total=len(demos), desc=f"identify ({name})") as bar:
-            results[name] = evaluate_identification(lib, demos, grid, bar.update)
+        curves[name] = []
+        for sigma in args.noise:
+            with tqdm(total=len(demos), desc=f"identify ({name}, noise {sigma:g} m)") as bar:
+                res = evaluate_identification(
+                    lib, demos, grid, bar.update, args.workers, sigma, args.seed
+                )
+            if sigma == args.noise[0]:
+                results[name] = res
+            curves[name].append(
+                {
+                    "noise_sigma_m": sigma,
+                    **res["summary"][DEFAULT_SCORER],
+                    "summary": res["summary"],
+                }
+            )
     payload = {
         "grid_risks": grid,
         "between_risks": between,
         "seed": args.seed,
+        "draw": args.draw,
         "held_out_scenarios": [sc.to_dict() for sc in scenarios],
         "summary": {n: r["summary"] for n, r in results.items()},
+        "noise_curve": {
+            n: [{k: v for k, v in c.items() if k != "summary"} for c in cs]
+            for n, cs in curves.items()
+        },
         "records": {n: r["records"] for n, r in results.items()},
     }
-    markdown = evaluation_markdown(results)
+    extra = []
+    if len(args.noise) > 1:
+        extra += [
+            "## Measurement noise (default scorer)",
+            "",
+            "| features | σ [m] | grid acc. (informative) | coverage |",
+            "|---|---|---|---|",
+        ]
+        for n, cs in curves.items():
+            extra += [
+                f"| {n} | {c['noise_sigma_m']:g} | {fmt(c['grid_accuracy_informative'], 2)} | "
+                f"{fmt(c['interval_coverage'], 2)} |"
+                for c in cs
+            ]
+        extra.append("")
+    if args.references:
+        dirs = {
+            n: Path(p).parent if Path(p).suffix else Path(p)
+            for n, p in zip(libraries, args.library, strict=True)
+        }
+        payload["references"] = identification_references(libraries, dirs, demos, grid)
+        extra += references_markdown(payload["references"], results)
+    markdown = evaluation_markdown(results, extra)
     with atomic_output_dir(args.out) as tmp:
         for name in results:
-            for s in SCORERS:
-                plot_confusion(
-                    results[name]["records"],
-                    grid,
-                    s,
-                    tmp / f"confusion_{name}_{s}.png",
-                    title=f"{name} features, scorer {s}",
-                )
+            plot_confusion(
+                results[name]["records"],
+                grid,
+                DEFAULT_SCORER,
+                tmp / f"confusion_{name}.png",
+                title=f"{name} features, scorer {DEFAULT_SCORER}",
+            )
+            if len(args.noise) > 1:
+                plot_noise_curve(curves[name], tmp / f"noise_curve_{name}.png", f"{name} features")
         plot_theta_vs_risk(libraries, tmp / "theta_vs_risk.png")
         write_json(tmp / "evaluation.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "evaluation.md", markdown)

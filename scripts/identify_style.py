@@ -1,11 +1,13 @@
 r"""Identify the driving style (risk level) of one vehicle from its demonstration(s).
 
 Scores every style of a library by reproducing r*_θ in each demonstration's own scenario
-(``--scorer``, default: the feature error, the scorer validation picked; see
-irl/identification.py) and writes ``OUT/identify.json`` with ``scorer``,
-``risk_estimate``, ``risk_interpolated``, ``scores`` (per library risk; every scorer under
-``all_scores``), ``ranking``, ``trigger_fired`` and, where the demonstrations' metadata
-holds it, ``true_risk``. Several demonstrations of one vehicle are scored together.
+(``--scorer``, default: the one validation picked; see irl/identification.py) and writes
+``OUT/identify.json`` with ``scorer``, ``risk_estimate`` (posterior mode),
+``risk_interpolated`` (posterior mean), ``posterior`` (per library risk), ``risk_interval``
+(90 % of the posterior), ``informative`` (false when no TV came near enough for the risk
+to matter: the interval is then the whole grid), ``scores``, ``ranking``,
+``trigger_fired`` and, where the demonstrations' metadata holds it, ``true_risk``. Several
+demonstrations of one vehicle pool into one posterior.
 
 Example:
     python scripts/identify_style.py runs/demo/demo.npz --library runs/library_reactive \\
@@ -65,14 +67,25 @@ def main(argv: list[str] | None = None) -> dict:
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "identify.json", result, [sys.argv[0], *(argv or sys.argv[1:])])
     known = sorted({float(p) for p in true if p is not None})
+    lo, hi = result["risk_interval"]
     print(
-        f"risk estimate {result['risk_estimate']:g} (interpolated "
-        f"{result['risk_interpolated']:.3f}) by the {args.scorer} scorer"
-        + (f"; true risk {', '.join(f'{p:g}' for p in known)}" if known else "")
-        + f"; ranking {result['ranking']}"
-        + ("" if result["trigger_fired"] else "; the trigger never fired (reactive features off)")
-        + f"; {result['identify_s']:.2f} s"
+        f"risk estimate {result['risk_estimate']:g}, 90 % interval [{lo:g}, {hi:g}], "
+        f"posterior mean {result['risk_interpolated']:.3f} ({args.scorer} scorer, "
+        f"{len(demos)} demonstration{'s' if len(demos) > 1 else ''}"
+        + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
     )
+    print(
+        "  posterior: "
+        + ", ".join(f"p={float(p):g}: {q:.2f}" for p, q in result["posterior"].items())
+    )
+    if not result["informative"]:
+        print(
+            "  not informative: the TV never came near enough for the risk to matter "
+            f"(min s_e {min(result['min_s_e_per_demo']):.1f}); the interval is the whole grid"
+        )
+    if not result["trigger_fired"]:
+        print("  note: the trigger never fired (the reactive features are inactive)")
+    print(f"  {result['identify_s']:.2f} s; wrote {args.out}/identify.json")
     return result
 
 

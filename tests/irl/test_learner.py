@@ -24,12 +24,13 @@ def _theta(ip, seed=0):
 
 @pytest.mark.parametrize("axis", ["x", "y"])
 def test_inner_gradient_and_hessian_match_finite_differences(inner, axis):
-    fgh_fn, _ = inner._fns[axis]
+    fgh_fn, _, f_fn = inner._fns[axis]
     names = inner.groups[axis]
     th = _theta(inner)[[inner.names.index(n) for n in names]]
     rng = np.random.default_rng(1)
     z = inner._z[axis] + rng.normal(scale=0.05, size=inner._z[axis].size)
     _f0, g, H = fgh_fn(z, th)
+    assert f_fn(z, th)[0][0] == pytest.approx(_f0[0], rel=1e-12)  # the line search's value
     h = 1e-6
     for i in rng.choice(z.size, 8, replace=False):
         e = np.zeros(z.size)
