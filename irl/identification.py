@@ -2,13 +2,15 @@
 
 A *library* holds, per SMPC risk level p, one θ learned jointly from K demonstrations of
 that risk in shared scenarios of the random family and one θ per demonstration
-(*members*). *Identification* scores every library style on an unseen demonstration by
-reproducing r*_θ in the demonstration's own scenario (its knots, event times and TV) and
-comparing it with the demonstration:
+(*members*). *Identification* scores, per risk, the members learned in the training
+scenarios nearest to an unseen demonstration's, by reproducing r*_θ in the
+demonstration's own scenario (its knots, event times and TV) and comparing it with the
+demonstration:
 
 - ``feature`` (default, :data:`DEFAULT_SCORER`; best on validation, docs/RESULTS.md §6):
   relative feature error ‖(f(r*_θ) − f_D)/max(|f_D|, f_floor)‖₂ — the ME-IRL matching
   criterion;
+- ``rmse_xy``: RMS position distance of r*_θ to the demonstration [m];
 - ``rmse_y``: lateral RMSE of r*_θ against the demonstration [m] — the trajectory-level
   criterion (DESIGN §6: ε is not the headline);
 - ``suboptimality``: how far from optimal the demonstration is under θ, per feature group
@@ -16,10 +18,10 @@ comparing it with the demonstration:
   approximate max-ent likelihood p(r_D | θ) ∝ exp(−θᵀf(r_D)) with the partition function
   replaced by its Laplace peak exp(−θᵀf(r*_θ)), normalised per group to remove θ's gauge.
 
-All three are invariant to the per-group scale of θ (r*_θ is), so styles learned from
-different demonstrations are comparable. The risk estimate is the best-scoring style's p
-(``risk_estimate``) and a score-weighted interpolation between the two best neighbours
-(``risk_interpolated``) for risks between grid points.
+All are invariant to the per-group scale of θ (r*_θ is), so styles learned from
+different demonstrations are comparable. The scores become a posterior over the library's
+risks (:func:`posterior_from_scores`, DESIGN §8): its mode is ``risk_estimate``, its mean
+``risk_interpolated`` and the span of its 90 % set ``risk_interval``.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from envs.demonstration import Demonstration
 from envs.io import fmt, read_json
 from envs.parallel import parallel_map
 from envs.safety import elliptical_index
+from envs.scenario import ScenarioConfig
 from envs.tracking import observe
 from irl.features import FeatureConfig
 from irl.inner import InnerProblem, InnerSolveError
@@ -61,17 +64,19 @@ __all__ = [
     "risk_interval",
 ]
 
-SCORERS = ("rmse_xy", "feature", "rmse_y", "suboptimality")
-DEFAULT_SCORER = "rmse_xy"
+SCORERS = ("feature", "rmse_xy", "rmse_y", "suboptimality")
+DEFAULT_SCORER = "feature"
 """The scorer the library API and the command line use unless told otherwise (validation
-seed 500, docs/RESULTS.md §6: best between-grid error and calibrated intervals)."""
-MAX_MEMBERS: int | None = None
-"""Per-risk member styles scored by default (None: all; validation: 10 members 63 %, 5
-members 57 % grid accuracy with the default scorer)."""
-TEMPERATURE = 1.0
-"""τ of the likelihood ℓ_p = −(s_p / min_q s_q − 1)/τ (relative score gap; chosen on the
-validation seed so that the 90 % interval covers the true risk for ≥ 85 % of
-demonstrations: 92 % there)."""
+seed 500, docs/RESULTS.md §6: best grid accuracy with scenario-nearest members)."""
+NEAREST_MEMBERS: int | None = 5
+"""Per risk, score the members learned in the k training scenarios nearest to the
+demonstration's (a scenario-conditioned style; None: all members). Validation seed 500
+with a 6 × 30 library: grid accuracy 72 % with 5 nearest, 68 % with 10, 63 % with all."""
+SCENARIO_SCALE = {"ev_speed": 3.0, "tv_speed": 3.5, "tv_gap": 10.0}
+"""Units of the scenario distance: half the random family's range of each quantity."""
+TEMPERATURE = 0.5
+"""τ of the likelihood ℓ_p = −(s_p / min_q s_q − 1)/τ (relative score gap), the smallest
+τ whose 90 % intervals cover the truth for ≈ 90 % of validation demonstrations (89 %)."""
 S_E_INFORMATIVE = 8.0
 """A demonstration is informative when the TV comes within this elliptical index of the
 EV (s_e < 8, 120 m ahead or behind in the same lane): farther, no library risk changes the
@@ -99,9 +104,10 @@ class StyleLibrary:
     meta: dict[str, Any] = field(default_factory=dict)
     """Training scenarios, per-demo fit, timings."""
     members: tuple[tuple[tuple[float, ...], ...], ...] = ()
-    """Per-demonstration styles of each risk (one θ per training scenario); identification
-    scores a risk's first members and takes the median. A library file without them is
-    rejected by :func:`load_library` (identification would silently change)."""
+    """Per-demonstration styles of each risk (one θ per training scenario, in the order of
+    ``meta["training_scenarios"]``); identification scores a risk's members nearest to the
+    demonstration's scenario and takes the median. A library file without them is rejected
+    by :func:`load_library` (identification would silently change)."""
 
     def __post_init__(self) -> None:
         if not self.risks:
@@ -118,12 +124,30 @@ class StyleLibrary:
                 if len(t) != m or not all(math.isfinite(v) and v > 0 for v in t):
                     raise LibraryError(f"theta for p={p} must be {m} positive numbers, got {t}")
 
-    def styles(self, i: int, max_members: int | None = None) -> tuple[tuple[float, ...], ...]:
-        """The weight vectors that represent risk i.
+    def styles(
+        self, i: int, nearest: int | None = None, scenario: ScenarioConfig | None = None
+    ) -> tuple[tuple[float, ...], ...]:
+        """The weight vectors that represent risk i in a scenario.
 
-        Its first ``max_members`` members if the library has members, else its joint θ.
+        The members learned in the ``nearest`` training scenarios closest to ``scenario``
+        (distance in :data:`SCENARIO_SCALE` units over EV speed, TV speed and TV gap); all
+        members if ``nearest`` is None, and the first ``nearest`` if the library does not
+        record its training scenarios; the joint θ if it has no members.
         """
-        return self.members[i][:max_members] if self.members else (self.thetas[i],)
+        if not self.members:
+            return (self.thetas[i],)
+        members = self.members[i]
+        train = self.meta.get("training_scenarios") or []
+        if nearest is None or nearest >= len(members):
+            return members
+        if scenario is None or len(train) != len(members):
+            return members[:nearest]
+        keys = list(SCENARIO_SCALE)
+        scale = np.array([SCENARIO_SCALE[k] for k in keys])
+        here = np.array([getattr(scenario, k) for k in keys])
+        there = np.array([[float(sc[k]) for k in keys] for sc in train])
+        order = np.argsort(np.linalg.norm((there - here) / scale, axis=1), kind="stable")
+        return tuple(members[j] for j in order[:nearest])
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``library.json``)."""
@@ -197,12 +221,12 @@ def demo_scores(
     library: StyleLibrary,
     control_point_rule: str = "kinematic",
     f_floor: float = 0.05,
-    max_members: int | None = MAX_MEMBERS,
+    nearest: int | None = NEAREST_MEMBERS,
 ) -> dict[str, Any]:
     """Every scorer's score of every library risk on one demonstration (lower is better).
 
-    A risk's score is the median over its members' reproductions r*_θ in the
-    demonstration's own scenario (module docstring).
+    A risk's score is the median over its ``nearest`` members' reproductions r*_θ in the
+    demonstration's own scenario (module docstring; :meth:`StyleLibrary.styles`).
 
     Returns:
         ``scores`` (scorer → list over the library's risks), ``informative``, ``min_s_e``
@@ -218,7 +242,7 @@ def demo_scores(
     scores = {s: [] for s in SCORERS}
     for i in range(len(library.risks)):
         member_scores = {s: [] for s in SCORERS}
-        for theta in library.styles(i, max_members):
+        for theta in library.styles(i, nearest, demo.scenario):
             problem.reset()
             try:
                 sol = problem.solve(np.asarray(theta))
@@ -347,7 +371,7 @@ def identify(
     scorer: str = DEFAULT_SCORER,
     control_point_rule: str = "kinematic",
     f_floor: float = 0.05,
-    max_members: int | None = MAX_MEMBERS,
+    nearest: int | None = NEAREST_MEMBERS,
 ) -> dict[str, Any]:
     """Identify one vehicle's risk from its demonstration(s), with an honest uncertainty.
 
@@ -357,7 +381,8 @@ def identify(
         scorer: one of :data:`SCORERS` (lower is better).
         control_point_rule: control-point rule of the demonstrations.
         f_floor: floor of the relative feature error's denominators.
-        max_members: per-risk member styles to score (None: all).
+        nearest: per risk, the members of the nearest training scenarios to score (None:
+            all).
 
     Returns:
         ``risk_estimate`` (posterior mode), ``risk_interpolated`` (posterior mean),
@@ -376,7 +401,7 @@ def identify(
     demos = [demos] if isinstance(demos, Demonstration) else list(demos)
     if not demos:
         raise ValueError("need at least one demonstration")
-    per_demo = [demo_scores(d, library, control_point_rule, f_floor, max_members) for d in demos]
+    per_demo = [demo_scores(d, library, control_point_rule, f_floor, nearest) for d in demos]
     return _summarise(library.risks, per_demo, scorer)
 
 
@@ -384,11 +409,11 @@ def identify_all(
     demos: Demonstration | Sequence[Demonstration],
     library: StyleLibrary,
     control_point_rule: str = "kinematic",
-    max_members: int | None = MAX_MEMBERS,
+    nearest: int | None = NEAREST_MEMBERS,
 ) -> dict[str, dict[str, Any]]:
     """:func:`identify` with every scorer from one set of inner solves."""
     demos = [demos] if isinstance(demos, Demonstration) else list(demos)
-    per_demo = [demo_scores(d, library, control_point_rule, max_members=max_members) for d in demos]
+    per_demo = [demo_scores(d, library, control_point_rule, nearest=nearest) for d in demos]
     return {s: _summarise(library.risks, per_demo, s) for s in SCORERS}
 
 
@@ -627,6 +652,8 @@ def evaluate_identification(
         }
     summary["pooled"] = pooled_accuracy(records, sorted(grid))
     summary["transfer_own_risk_best"] = mean([r["rmse_y_estimate"] == r["risk"] for r in grid_recs])
+    own = [r["scores"]["rmse_y"][list(library.risks).index(r["risk"])] for r in grid_recs]
+    summary["own_style_rmse_y_median_m"] = float(np.median(own)) if own else None
     summary["identify_s_median"] = (
         mean([]) if not records else float(np.median([r["identify_s"] for r in records]))
     )
@@ -709,7 +736,8 @@ def evaluation_markdown(results: dict[str, dict[str, Any]], extra: list[str] | N
         lines.append(
             f"| {name} | {fmt(pl['single_accuracy'], 2)} → {fmt(pl['pooled_accuracy'], 2)} "
             f"({pl['n_pools']} pools) | {fmt(pl['single_interval_width'], 2)} → "
-            f"{fmt(pl['pooled_interval_width'], 2)} | {fmt(sm['transfer_own_risk_best'], 2)} | "
+            f"{fmt(pl['pooled_interval_width'], 2)} | {fmt(sm['transfer_own_risk_best'], 2)} "
+            f"(own style's median rmse_y {fmt(sm['own_style_rmse_y_median_m'], 2)} m) | "
             f"{fmt(sm['identify_s_median'], 2)} |"
         )
     return "\n".join([*lines, "", *(extra or []), ""])

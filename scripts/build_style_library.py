@@ -43,7 +43,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="comma-separated SMPC risk levels p in (0, 1)",
     )
     p.add_argument(
-        "--scenarios", type=positive_int, default=10, help="K training scenarios per risk"
+        "--scenarios", type=positive_int, default=30, help="K training scenarios per risk"
     )
     p.add_argument(
         "--features", default="reactive", choices=("reactive", "base"), help="feature set"

@@ -21,7 +21,9 @@ def test_posterior_is_the_normalised_relative_gap_likelihood():
     expected = np.exp([-1.0, 0.0, -2.0])
     np.testing.assert_allclose(post, expected / expected.sum())
     # scale-free: the same relative gaps give the same posterior
-    np.testing.assert_allclose(posterior_from_scores([[20.0, 10.0, 30.0]], [True]), post)
+    np.testing.assert_allclose(
+        posterior_from_scores([[20.0, 10.0, 30.0]], [True], temperature=1.0), post
+    )
 
 
 def test_uninformative_demos_leave_the_uniform_prior():
@@ -81,3 +83,21 @@ def test_identify_reports_a_posterior_and_interval(tiny_library, paper_demo):
     lo, hi = res["risk_interval"]
     assert lo <= res["risk_estimate"] <= hi
     assert min(tiny_library.risks) <= res["risk_interpolated"] <= max(tiny_library.risks)
+
+
+def test_nearest_members_follow_the_scenario():
+    from irl.identification import StyleLibrary
+
+    train = [
+        PAPER.with_overrides(ev_speed=v, tv_gap=g).to_dict()
+        for v, g in ((22.0, -30.0), (28.0, -10.0), (25.0, -20.0))
+    ]
+    members = (((1.0,) * 10, (2.0,) * 10, (3.0,) * 10),)
+    lib = StyleLibrary(
+        "reactive", (0.7,), ((1.0,) * 10,), meta={"training_scenarios": train}, members=members
+    )
+    here = PAPER.with_overrides(ev_speed=27.5, tv_gap=-11.0)
+    assert lib.styles(0, 1, here) == ((2.0,) * 10,)
+    assert lib.styles(0, 2, here) == ((2.0,) * 10, (3.0,) * 10)
+    assert lib.styles(0, None, here) == members[0]
+    assert lib.styles(0, 1, None) == ((1.0,) * 10,)  # no scenario: the first members
