@@ -20,6 +20,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+import numpy as np
 from tqdm import tqdm
 
 from agents import SMPCConfig
@@ -27,6 +28,7 @@ from agents.rollout import draw_interactive_scenarios, generate_demonstrations
 from envs.cli import positive_int, risk_list, run_cli
 from envs.demonstration import save_demonstration
 from envs.io import atomic_output_dir, check_output_dir, write_json
+from envs.tracking import observe
 from irl.identification import learn_library
 from irl.plotting import plot_theta_vs_risk
 
@@ -48,6 +50,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--features", default="reactive", choices=("reactive", "base"), help="feature set"
     )
+    p.add_argument(
+        "--tracked",
+        action="store_true",
+        help="learn from the demonstrations as a tracker records them (positions only, "
+        "envs/tracking.py): the library for identifying noisy recordings",
+    )
     p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
     p.add_argument("--seed", type=int, default=0, help="seed of the training scenario draws")
     p.add_argument(
@@ -65,6 +73,9 @@ def main(argv: list[str] | None = None) -> dict:
     t_draw = time.perf_counter() - t0
     bar = tqdm(total=2 * len(args.risks), desc="demonstrations, then styles per risk")
     demos = generate_demonstrations(args.risks, scenarios, args.workers, lambda p: bar.update(1))
+    if args.tracked:  # σ = 0: the tracker's view of the true positions
+        rng = np.random.default_rng(args.seed)
+        demos = {p: [observe(d, 0.0, rng) for d in ds] for p, ds in demos.items()}
 
     def progress(rec: dict) -> None:
         bar.update(1)
@@ -78,6 +89,7 @@ def main(argv: list[str] | None = None) -> dict:
         meta={
             "training_scenarios": [sc.to_dict() for sc in scenarios],
             "uncertainty": asdict(SMPCConfig().uncertainty),
+            "observation": "tracked" if args.tracked else "true",
         },
     )
     bar.close()
