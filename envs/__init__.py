@@ -6,6 +6,10 @@ Importing this package registers the Gymnasium ids (idempotently):
   parameters, e.g. ``gym.make("drivestyle/LaneChange-v0", ev_speed=27, tv_gap=-15)``.
 - ``drivestyle/LaneChangeRandom-v0``: a scenario drawn per reset from
   :class:`envs.scenario.ScenarioRanges` with the env's seed.
+- ``drivestyle/Traffic-v0``: the lane change among several vehicles
+  (:data:`envs.traffic.DEFAULT_TRAFFIC`); ``others=[...]`` and scenario fields override it.
+- ``drivestyle/TrafficRandom-v0``: traffic scenes drawn per reset from
+  :class:`envs.traffic.TrafficRanges` with the env's seed.
 """
 
 from __future__ import annotations
@@ -37,7 +41,12 @@ __all__ = [
     "task_reward",
 ]
 
-ENV_IDS = ("drivestyle/LaneChange-v0", "drivestyle/LaneChangeRandom-v0")
+ENV_IDS = (
+    "drivestyle/LaneChange-v0",
+    "drivestyle/LaneChangeRandom-v0",
+    "drivestyle/Traffic-v0",
+    "drivestyle/TrafficRandom-v0",
+)
 
 
 def register_envs() -> None:
@@ -49,6 +58,11 @@ def register_envs() -> None:
         gym.register(
             id=ENV_IDS[1], entry_point=entry, kwargs={"scenario": "paper", "randomize": True}
         )
+    traffic = "envs.traffic:TrafficEnv"
+    if ENV_IDS[2] not in gym.registry:
+        gym.register(id=ENV_IDS[2], entry_point=traffic)
+    if ENV_IDS[3] not in gym.registry:
+        gym.register(id=ENV_IDS[3], entry_point=traffic, kwargs={"randomize": True})
 
 
 register_envs()

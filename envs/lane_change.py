@@ -42,7 +42,11 @@ class RewardModel(Protocol):
     def step(
         self, u: np.ndarray, ev: np.ndarray, tv: np.ndarray, dt: float
     ) -> tuple[float, np.ndarray]:
-        """Add a sample; return (reward, per-feature increment)."""
+        """Add a sample; return (reward, per-feature increment).
+
+        In traffic (:class:`envs.traffic.TrafficEnv`) ``reset`` and ``step`` also receive
+        ``others``: the further vehicles' states, shape (m, 4).
+        """
 
 
 def style_reward_model(style: Any) -> RewardModel:
@@ -217,6 +221,16 @@ class LaneChangeEnv(gym.Env):
         tv = vehicle_corners(self.tv, sc.vehicle_length, sc.vehicle_width)
         return rectangles_overlap(ev, tv)
 
+    def _advance_others(self) -> None:
+        """Move the TV one step at constant velocity (the paper's scripted TV)."""
+        x, y, phi, v = self.tv
+        dt = self.scenario.dt
+        self.tv = np.array([x + v * np.cos(phi) * dt, y + v * np.sin(phi) * dt, phi, v])
+
+    def _reward_context(self) -> dict[str, Any]:
+        """Extra keyword arguments of the reward model's ``step`` (traffic: the others)."""
+        return {}
+
     def _off_road(self) -> bool:
         return not (0.0 <= self.ev[1] <= self.scenario.road_width)
 
@@ -303,8 +317,7 @@ class LaneChangeEnv(gym.Env):
         u_clip = np.clip(u, self.action_space.low, self.action_space.high)
         ev = rk4_step(self.ev, u_clip, sc.dt, sc.l_f, sc.l_r)
         ev[3] = np.clip(ev[3], 0.0, sc.v_max)
-        x, y, phi, v = self.tv
-        self.tv = np.array([x + v * np.cos(phi) * sc.dt, y + v * np.sin(phi) * sc.dt, phi, v])
+        self._advance_others()
         self.ev = ev
         self.k += 1
         info = self._info(action_clipped=bool(np.any(u_clip != u)), action=u_clip)
@@ -315,7 +328,7 @@ class LaneChangeEnv(gym.Env):
         if self._reward_model is not None:
             info["original_env_rew"] = reward
             reward, info["style_feature_increment"] = self._reward_model.step(
-                u_clip, self.ev, self.tv, sc.dt
+                u_clip, self.ev, self.tv, sc.dt, **self._reward_context()
             )
             if terminated:
                 reward -= self._reward_model.crash_penalty

@@ -29,10 +29,12 @@ import numpy as np
 
 from envs.scenario import ScenarioConfig
 
-__all__ = ["EV_COLOR", "TV_COLOR", "HighwayRenderer"]
+__all__ = ["EV_COLOR", "OTHER_COLOR", "TV_COLOR", "HighwayRenderer"]
 
 EV_COLOR = (220, 40, 40)
 TV_COLOR = (40, 90, 230)
+OTHER_COLOR = (120, 120, 120)
+"""Further vehicles in traffic scenes."""
 ELLIPSE_COLOR = (40, 90, 230)
 SCALED_ELLIPSE_COLOR = (230, 160, 30)
 RENDER_MODES = ("rgb_array", "human")
@@ -187,7 +189,23 @@ class HighwayRenderer:
             road.vehicles.append(v)
         self._scene.road, self._scene.vehicle = road, ev
         self._tv = tv
+        self._others = []
         self._geometry = (sc.n_lanes, sc.lane_width, sc.vehicle_length, sc.vehicle_width)
+
+    def _ensure_other_vehicles(self, sc: ScenarioConfig, m: int) -> None:
+        """Keep exactly m extra vehicles on the drawn road."""
+        from highway_env.vehicle.kinematics import Vehicle
+
+        road = self._scene.road
+        while len(self._others) < m:
+            v = Vehicle(road, [0.0, 0.0])
+            v.LENGTH, v.WIDTH, v.color = sc.vehicle_length, sc.vehicle_width, OTHER_COLOR
+            self._others.append(v)
+        keep = {id(self._scene.vehicle), id(self._tv), *(id(v) for v in self._others[:m])}
+        road.vehicles = [v for v in road.vehicles if id(v) in keep]
+        for v in self._others[:m]:
+            if v not in road.vehicles:
+                road.vehicles.append(v)
 
     def _to_screen(self, sc: ScenarioConfig, x: float, y: float) -> tuple[int, int]:
         return self.viewer.sim_surface.pos2pix(x, sc.road_width - y)
@@ -211,6 +229,7 @@ class HighwayRenderer:
         tv: np.ndarray,
         caption: str = "",
         show_ellipse: bool = True,
+        others: np.ndarray | None = None,
     ) -> np.ndarray | None:
         """Draw one frame.
 
@@ -220,6 +239,7 @@ class HighwayRenderer:
             tv: TV state [x, y, φ, v].
             caption: text drawn in the top-left corner.
             show_ellipse: draw the safety ellipse and the λ-scaled ellipse.
+            others: further vehicles' states [x, y, φ, v], shape (m, 4) (drawn grey).
 
         Returns:
             The frame, shape (height, width, 3) uint8, in ``rgb_array`` mode; else None.
@@ -238,7 +258,15 @@ class HighwayRenderer:
         geometry = (sc.n_lanes, sc.lane_width, sc.vehicle_length, sc.vehicle_width)
         if self._geometry != geometry:
             self._build_road(sc)
-        for vehicle, state in ((self._scene.vehicle, ev), (self._tv, tv)):
+        others = np.zeros((0, 4)) if others is None else np.asarray(others, float).reshape(-1, 4)
+        if not np.all(np.isfinite(others)):
+            raise ValueError("others must hold finite states [x, y, phi, v]")
+        self._ensure_other_vehicles(sc, len(others))
+        for vehicle, state in (
+            (self._scene.vehicle, ev),
+            (self._tv, tv),
+            *zip(self._others[: len(others)], others, strict=True),
+        ):
             vehicle.position = np.array([state[0], sc.road_width - state[1]])
             vehicle.heading = -float(state[2])
             vehicle.speed = float(state[3])
