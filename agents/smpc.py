@@ -42,6 +42,7 @@ from agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 from envs.dynamics import rk4_step
 from envs.safety import elliptical_index
 from envs.scenario import PAPER, ScenarioConfig
+from envs.traffic import parse_traffic_observation
 
 __all__ = ["InfeasibleStartError", "SMPCConfig", "SMPCExpert", "SolveReport"]
 
@@ -88,6 +89,12 @@ class SMPCConfig:
     to 1e4 from the slack penalty, positions of hundreds of metres): fatrop's line search
     then stalls next to the optimum and reports failure (status 1) in ≈ 1 of 5 p = 0.8
     demonstrations, although the iterate is optimal to 1e-6 (DESIGN §3)."""
+    max_vehicles: int = 1
+    """M: surrounding vehicles with a chance constraint each (1: the paper's TV only; in
+    traffic the M nearest within :attr:`vehicle_range`, fewer are padded with a far,
+    standing placeholder whose constraints never bind)."""
+    vehicle_range: float = 100.0
+    """Vehicles farther than this from the EV (centre distance) are not constrained [m]."""
     retry_solver: str | None = "ipopt"
     """Second attempt when the first solve fails, from the same initial guess, before any
     fallback (None: no retry). Built on first use only."""
@@ -105,6 +112,12 @@ class SMPCConfig:
         _diag4("R", self.R, 2)
         if self.solver not in SOLVERS:
             raise ValueError(f"solver must be one of {SOLVERS}, got {self.solver!r}")
+        if not (isinstance(self.max_vehicles, int) and 1 <= self.max_vehicles <= 12):
+            raise ValueError(
+                f"max_vehicles must be an integer in [1, 12], got {self.max_vehicles!r}"
+            )
+        if not (math.isfinite(self.vehicle_range) and self.vehicle_range > 0):
+            raise ValueError(f"vehicle_range must be > 0 m, got {self.vehicle_range!r}")
         if self.retry_solver is not None and self.retry_solver not in SOLVERS:
             raise ValueError(
                 f"retry_solver must be None or one of {SOLVERS}, got {self.retry_solver!r}"
@@ -209,15 +222,17 @@ class SMPCExpert:
         F = ca.Function("F", [x_sym, u_sym], [rk4_step(x_sym, u_sym, T_s, sc.l_f, sc.l_r)])
 
         # parameters: ξ0 (4), TV state (4), y_ref, v_ref
-        P = ca.SX.sym("P", NX + 4 + 2)
-        xi0, tv, y_ref, v_ref = P[0:4], P[4:8], P[8], P[9]
+        M = cfg.max_vehicles
+        P = ca.SX.sym("P", NX + 4 * M + 2)
+        xi0, y_ref, v_ref = P[0:4], P[NX + 4 * M], P[NX + 4 * M + 1]
+        vehicles = [P[NX + 4 * j : NX + 4 * j + 4] for j in range(M)]
         sigma = tv_covariance(cfg.uncertainty, T_s, N)
         Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
         xs = [ca.SX.sym(f"x{k}", NX) for k in range(N + 1)]
         us = [ca.SX.sym(f"u{k}", NU) for k in range(N)]
-        ss = [ca.SX.sym(f"s{k}") for k in range(N + 1)]  # ss[0] unused
+        ss = [ca.SX.sym(f"s{k}", M) for k in range(N + 1)]  # ss[0] unused; one per vehicle
 
-        def margins(k: int) -> tuple[ca.SX, ca.SX]:
+        def margins(k: int, tv: ca.SX) -> tuple[ca.SX, ca.SX]:
             t_k = k * T_s
             dx = xs[k][0] - (tv[0] + tv[3] * ca.cos(tv[2]) * t_k)
             dy = xs[k][1] - (tv[1] + tv[3] * ca.sin(tv[2]) * t_k)
@@ -250,8 +265,8 @@ class SMPCExpert:
             if k < N:
                 iu.append(add_var(us[k]))
             if k > 0:
-                i_s.append(add_var(ss[k])[0])
-                J += cfg.slack_l1 * ss[k] + cfg.slack_l2 * ss[k] ** 2
+                i_s.append(add_var(ss[k]))
+                J += cfg.slack_l1 * ca.sum1(ss[k]) + cfg.slack_l2 * ca.sumsqr(ss[k])
             if k < N:
                 J += ca.mtimes([e.T, Q, e]) + ca.mtimes([us[k].T, R, us[k]])
                 ig_dyn.append(add_con(xs[k + 1] - F(xs[k], us[k]), True))
@@ -260,8 +275,11 @@ class SMPCExpert:
             if k == 0:
                 ig_path.append(add_con(xs[0] - xi0, True))
             else:
-                chance, nominal = margins(k)
-                ig_path.append(add_con(ca.vertcat(chance + ss[k], nominal), False))
+                rows = []
+                for j, tv in enumerate(vehicles):
+                    chance, nominal = margins(k, tv)
+                    rows += [chance + ss[k][j], nominal]
+                ig_path.append(add_con(ca.vertcat(*rows), False))
         nlp = {"x": ca.vertcat(*w), "f": J, "g": ca.vertcat(*g), "p": P}
         self._ix, self._iu, self._is = np.array(ix), np.array(iu), np.array(i_s)
         self._ig_dyn, self._ig_path = np.array(ig_dyn), ig_path
@@ -381,7 +399,7 @@ class SMPCExpert:
             x_tail = np.asarray(self._F(xs[-1], us[-1])).ravel()
             w[self._ix] = np.vstack([xs[1:], x_tail])
             w[self._iu] = np.vstack([us[1:], us[-1:]])
-            w[self._is] = np.append(self._w0[self._is][1:], self._w0[self._is][-1])
+            w[self._is] = np.vstack([self._w0[self._is][1:], self._w0[self._is][-1:]])
         else:
             xs = np.empty((N + 1, NX))
             xs[0] = xi0
@@ -406,13 +424,28 @@ class SMPCExpert:
         new_x[self._is[:-1]] = lx[self._is[1:]]
         return new_g, new_x
 
+    def _constrained_vehicles(self, xi0: np.ndarray, others: np.ndarray) -> np.ndarray:
+        """The M vehicles the NLP constrains, nearest first, padded with placeholders.
+
+        A placeholder stands 10 km behind the EV: its margins are huge and never bind.
+        """
+        M = self.config.max_vehicles
+        dist = np.hypot(others[:, 0] - xi0[0], others[:, 1] - xi0[1]) if len(others) else []
+        order = [j for j in np.argsort(dist, kind="stable") if dist[j] <= self.config.vehicle_range]
+        if M == 1 and len(others) == 1:
+            order = [0]  # the paper's TV is always constrained, however far
+        chosen = [others[j] for j in order[:M]]
+        chosen += [np.array([xi0[0] - 1e4, xi0[1], 0.0, 0.0])] * (M - len(chosen))
+        return np.array(chosen)
+
     def act(
         self, obs: ArrayLike, return_info: bool = False
     ) -> np.ndarray | tuple[np.ndarray, dict[str, object]]:
         """Solve the SMPC problem for the current observation and return u_0.
 
         Args:
-            obs: env observation [x, y, φ, v]_EV ++ [x, y, φ, v]_TV, shape (8,).
+            obs: env observation: [x, y, φ, v]_EV ++ [x, y, φ, v]_TV, shape (8,), or a traffic
+                observation (``envs.traffic``: EV ++ K × [present, x, y, φ, v]).
             return_info: also return the solve's info dict (``success``, ``status``,
                 ``iterations``, ``solve_ms``, ``fallback``, ``slack``).
 
@@ -421,7 +454,7 @@ class SMPCExpert:
 
         Raises:
             ValueError: obs has the wrong shape or non-finite entries.
-            InfeasibleStartError: the episode's first state lies inside the safety ellipse.
+            InfeasibleStartError: the episode's first state lies inside a safety ellipse.
 
         Retry: if the solver does not report success, :attr:`SMPCConfig.retry_solver` solves
         the same NLP from the same initial guess. Fallback: if that fails too (e.g. the
@@ -431,21 +464,28 @@ class SMPCExpert:
         :attr:`last_report` records which.
         """
         obs = np.asarray(obs, dtype=float)
-        if obs.shape != (8,):
-            raise ValueError(f"observation must have shape (8,), got {obs.shape}")
+        if obs.ndim != 1 or (obs.shape != (8,) and (obs.size < 9 or (obs.size - 4) % 5)):
+            raise ValueError(
+                f"observation must have shape (8,) or the traffic layout 4 + 5K, got {obs.shape}"
+            )
         if not np.all(np.isfinite(obs)):
             raise ValueError(f"observation contains NaN or inf: {obs}")
         sc = self.scenario
-        xi0, tv = obs[:4], obs[4:]
+        if obs.shape == (8,):
+            xi0, others = obs[:4], obs[4:].reshape(1, 4)
+        else:
+            xi0, others = parse_traffic_observation(obs)
+        vehicles = self._constrained_vehicles(xi0, others)
         if self._first:
-            s_e = float(elliptical_index(xi0[0] - tv[0], xi0[1] - tv[1], sc.l_a, sc.l_b))
-            if s_e <= 1.0:
+            s_e = elliptical_index(xi0[0] - others[:, 0], xi0[1] - others[:, 1], sc.l_a, sc.l_b)
+            if s_e.size and float(np.min(s_e)) <= 1.0:
+                who = "the TV's" if len(others) == 1 else "a vehicle's"
                 raise InfeasibleStartError(
-                    f"infeasible start: the EV is inside the TV's safety ellipse (s_e={s_e:.3f}"
-                    " <= 1); no plan can satisfy the chance constraint"
+                    f"infeasible start: the EV is inside {who} safety ellipse (s_e="
+                    f"{float(np.min(s_e)):.3f} <= 1); no plan can satisfy the chance constraint"
                 )
             self._first = False
-        self._in["p"][:] = np.concatenate([xi0, tv, [sc.y_ref, sc.v_ref]])
+        self._in["p"][:] = np.concatenate([xi0, vehicles.ravel(), [sc.y_ref, sc.v_ref]])
         self._in["x0"][:] = self._initial_guess(xi0)
         if self._lam_g is not None:
             self._in["lam_g0"][:], self._in["lam_x0"][:] = self._shifted_duals()
@@ -481,7 +521,7 @@ class SMPCExpert:
             us = w[self._iu]
             self._plan_u = us[1:]
             action, fallback, plan = us[0].copy(), None, w[self._ix]
-            slack = float(max(w[self._is[0]], 0.0))
+            slack = float(max(np.max(w[self._is[0]]), 0.0))
         else:
             self._w0 = self._lam_g = self._lam_x = None
             if self._plan_u is not None and len(self._plan_u) > 0:

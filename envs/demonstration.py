@@ -43,6 +43,9 @@ class Demonstration:
     """EV inputs [a, δ] applied over [t_i, t_{i+1}], shape (n−1, 2) [m/s², rad]."""
     meta: dict[str, Any] = field(default_factory=dict)
     """Free-form metadata; ``meta["scenario"]`` holds the scenario's fields."""
+    others: np.ndarray | None = None
+    """States of the further surrounding vehicles (traffic, besides the TV), shape
+    (n, m, 4); None or m = 0: the single-TV setting (files without it load as m = 0)."""
 
     def __post_init__(self) -> None:
         arrays = {}
@@ -78,11 +81,26 @@ class Demonstration:
             raise DemonstrationError(
                 f"'t' must be strictly increasing; t[{i}]={t[i]} >= t[{i + 1}]={t[i + 1]}"
             )
+        others = np.zeros((n, 0, 4)) if self.others is None else self.others
+        try:
+            others = np.array(others, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DemonstrationError(f"array 'others' is not numeric: {exc}") from None
+        if others.ndim != 3 or others.shape[0] != n or others.shape[2] != 4:
+            raise DemonstrationError(f"'others' must have shape ({n}, m, 4), got {others.shape}")
+        if not np.all(np.isfinite(others)):
+            raise DemonstrationError("'others' contains NaN or inf")
+        arrays["others"] = others
         for name, a in arrays.items():
             a.setflags(write=False)
             object.__setattr__(self, name, a)
         if not isinstance(self.meta, dict):
             raise DemonstrationError(f"meta must be a dict, got {type(self.meta).__name__}")
+
+    @property
+    def vehicles(self) -> np.ndarray:
+        """Every surrounding vehicle, TV first: shape (n, 1 + m, 4)."""
+        return np.concatenate([self.tv[:, None, :], self.others], axis=1)
 
     @property
     def n(self) -> int:
@@ -117,7 +135,16 @@ def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, t=demo.t, ev=demo.ev, tv=demo.tv, u=demo.u, meta=np.array(json.dumps(demo.meta)))
+    extra = {"others": demo.others} if demo.others.shape[1] else {}
+    np.savez(
+        path,
+        t=demo.t,
+        ev=demo.ev,
+        tv=demo.tv,
+        u=demo.u,
+        meta=np.array(json.dumps(demo.meta)),
+        **extra,
+    )
     return path
 
 
@@ -125,7 +152,8 @@ def load_demonstration(path: str | Path) -> Demonstration:
     """Read and validate a demonstration file.
 
     Args:
-        path: an ``.npz`` written by :func:`save_demonstration` (``meta`` is optional).
+        path: an ``.npz`` written by :func:`save_demonstration` (``meta`` and ``others``
+            are optional).
 
     Returns:
         The demonstration.
@@ -146,6 +174,8 @@ def load_demonstration(path: str | Path) -> Demonstration:
                     f"{path}: missing array(s) {missing}; a demonstration needs {list(REQUIRED)}"
                 )
             arrays = {k: data[k] for k in REQUIRED}
+            if "others" in data.files:
+                arrays["others"] = data["others"]
             meta = json.loads(str(data["meta"])) if "meta" in data.files else {}
     except DemonstrationError:
         raise

@@ -70,8 +70,11 @@ def plot_demonstration(
         The path written.
     """
     sc = demo.scenario
-    ev, tv = demo.ev, demo.tv
-    s_e = elliptical_index(ev[:, 0] - tv[:, 0], ev[:, 1] - tv[:, 1], sc.l_a, sc.l_b)
+    ev, tv, others = demo.ev, demo.tv, demo.others
+    veh = demo.vehicles  # traffic: the least s_e over every vehicle
+    s_e = elliptical_index(
+        ev[:, None, 0] - veh[:, :, 0], ev[:, None, 1] - veh[:, :, 1], sc.l_a, sc.l_b
+    ).min(axis=1)
     t_trg = trigger_time(demo.t, s_e, sc.trigger_lambda)
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6.5), height_ratios=(1, 1.3))
 
@@ -105,6 +108,15 @@ def plot_demonstration(
 
     x_lo = min(ev[:, 0].min(), tv[:, 0].min()) - sc.l_a * 1.5
     x_hi = max(ev[:, 0].max(), tv[:, 0].max()) + sc.l_a * 1.5
+    for j in range(others.shape[1]):
+        ax2.plot(
+            others[:, j, 0],
+            others[:, j, 1],
+            "-",
+            color="0.5",
+            lw=1.0,
+            label="other vehicles" if j == 0 else None,
+        )
     draw_lanes(ax2, sc)
     ax2.plot(ev[:, 0], ev[:, 1], "-", color=EV_RED, lw=1.5, label="EV")
     ax2.plot(tv[:, 0], tv[:, 1], "-", color=TV_BLUE, lw=1.5, label="TV")
@@ -134,7 +146,7 @@ def plot_demonstration(
                 label="scaled ellipse ($\\lambda$)" if j == 0 else None,
             )
         )
-        for state, color in ((ev[i], EV_RED), (tv[i], TV_BLUE)):
+        for state, color in ((ev[i], EV_RED), (tv[i], TV_BLUE), *((o, "0.5") for o in others[i])):
             corners = vehicle_corners(state, sc.vehicle_length, sc.vehicle_width)
             ax2.add_patch(Polygon(corners, closed=True, fc=color, ec="k", lw=0.5, alpha=0.8))
         ax2.annotate(f"k={s}", (ev[i, 0], ev[i, 1] - 1.6), ha="center", fontsize=8)

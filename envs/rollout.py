@@ -64,12 +64,20 @@ class Episode:
         sc = self.reset_info["scenario"]
         meta = {"scenario": sc.to_dict(), **(meta or {})}
         obs = self.observations
+        others = None
+        if "vehicles" in self.reset_info:  # traffic: every vehicle in the scene's order
+            vehicles = np.stack([self.reset_info["vehicles"], *(i["vehicles"] for i in self.infos)])
+            tv, others = vehicles[:, 0], vehicles[:, 1:]
+            meta.setdefault("scene", self.reset_info["scene"].to_dict())
+        else:
+            tv = obs[:, 4:8]
         return Demonstration(
             t=np.arange(obs.shape[0]) * sc.dt,
             ev=obs[:, :4],
-            tv=obs[:, 4:8],
+            tv=tv,
             u=self.inputs,
             meta=meta,
+            others=others,
         )
 
 

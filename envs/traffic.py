@@ -124,8 +124,8 @@ class VehicleSpec:
 
 def _default_others() -> tuple[VehicleSpec, ...]:
     return (
-        VehicleSpec(lane=0, gap=45.0, speed=24.0, behaviour="idm"),  # leader, EV's lane
-        VehicleSpec(lane=1, gap=40.0, speed=29.0, behaviour="idm"),  # leader, target lane
+        VehicleSpec(lane=0, gap=60.0, speed=24.0, behaviour="idm"),  # leader, EV's lane
+        VehicleSpec(lane=1, gap=60.0, speed=30.0, behaviour="idm"),  # leader, target lane
         VehicleSpec(lane=2, gap=0.0, speed=27.0, behaviour="idm"),  # third lane
     )
 
@@ -201,8 +201,9 @@ class TrafficScene:
 
 DEFAULT_TRAFFIC = TrafficScene()
 """The fixed default scene of ``drivestyle/Traffic-v0``: the paper's EV and TV, a leader in
-the EV's lane (45 m ahead, 24 m/s), a leader in the target lane (40 m ahead, 29 m/s) and a
-vehicle in the third lane beside the EV (27 m/s), all three IDM."""
+the EV's lane (60 m ahead, 24 m/s), a leader in the target lane (60 m ahead, 30 m/s) and a
+vehicle in the third lane beside the EV (27 m/s), all three IDM. SMPC(0.7) changes lane
+behind the TV at t_trg = 3.0 s as in the paper; SMPC(0.95) stays behind the slow leader."""
 
 
 @dataclass(frozen=True)

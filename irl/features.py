@@ -147,6 +147,9 @@ class EventTimes:
     """Trigger time (None: the reactive features are inactive)."""
     t_rct_end: float | None
     """min(t_trg + T_rct, t_end)."""
+    critical: int = 0
+    """The vehicle the reactive features refer to (index into the vehicles, TV = 0): the
+    one with the least s_e at the trigger sample."""
 
     @property
     def reactive_active(self) -> bool:
@@ -291,17 +294,35 @@ def _crossing_time(t: np.ndarray, y: np.ndarray, boundary: float, upward: bool) 
     return float(t[i - 1] + frac * (t[i] - t[i - 1]))
 
 
+def _vehicles(tv: np.ndarray, others: np.ndarray | None) -> np.ndarray:
+    """TV and further vehicles as one array (n, 1 + m, 4)."""
+    tv = np.asarray(tv, float)[:, None, :]
+    if others is None or np.size(others) == 0:
+        return tv
+    return np.concatenate([tv, np.asarray(others, float)], axis=1)
+
+
+def _index_field(ev: np.ndarray, vehicles: np.ndarray, sc: ScenarioConfig) -> np.ndarray:
+    """s_e of the EV against every vehicle at every sample, shape (n, 1 + m)."""
+    return elliptical_index(
+        ev[:, None, 0] - vehicles[:, :, 0], ev[:, None, 1] - vehicles[:, :, 1], sc.l_a, sc.l_b
+    )
+
+
 def event_times(
     t: np.ndarray,
     ev: np.ndarray,
     tv: np.ndarray,
     scenario: ScenarioConfig,
     config: FeatureConfig,
+    others: np.ndarray | None = None,
 ) -> EventTimes:
     """Event times of a sampled trajectory (module docstring; DESIGN §5).
 
     They depend on past samples only, so the learned reward gets the same times online
-    from the growing trajectory as the demonstration's features offline.
+    from the growing trajectory as the demonstration's features offline. In traffic the
+    trigger fires on the most critical vehicle: t_trg is the first sample at which the
+    least s_e over all vehicles drops below λ, and that vehicle is ``critical``.
 
     Args:
         t: sample times, shape (n,) [s].
@@ -309,6 +330,7 @@ def event_times(
         tv: TV states, shape (n, 4).
         scenario: lanes (t_turn) and ellipse (t_trg).
         config: feature configuration (T_rct, λ override).
+        others: further vehicles' states, shape (n, m, 4) (traffic; None: the TV only).
 
     Returns:
         The event times.
@@ -318,8 +340,11 @@ def event_times(
     upward = sc.target_lane > sc.ev_lane
     boundary = sc.lane_width * (sc.ev_lane + 1) if upward else sc.lane_width * sc.ev_lane
     t_turn = _crossing_time(t, ev[:, 1], boundary, upward)
-    s_e = elliptical_index(ev[:, 0] - tv[:, 0], ev[:, 1] - tv[:, 1], sc.l_a, sc.l_b)
-    t_trg = trigger_time(t, s_e, lam)
+    s_e = _index_field(ev, _vehicles(tv, others), sc)
+    s_min = s_e.min(axis=1)
+    t_trg = trigger_time(t, s_min, lam)
+    below = np.flatnonzero(s_min < lam)
+    critical = int(np.argmin(s_e[below[0]])) if below.size else 0
     t_end = float(t[-1])
     return EventTimes(
         t_end=t_end,
@@ -327,7 +352,45 @@ def event_times(
         t_turn=t_end if t_turn is None else t_turn,
         t_trg=t_trg,
         t_rct_end=None if t_trg is None else min(t_trg + config.t_rct, t_end),
+        critical=critical,
     )
+
+
+def tiv_reference(
+    ev: np.ndarray, tv: np.ndarray, scenario: ScenarioConfig, others: np.ndarray | None = None
+) -> np.ndarray:
+    """Which vehicle f_tiv refers to on each segment (index into the vehicles, TV = 0).
+
+    On segment j (from sample j): the nearest vehicle ahead whose centre is in the lane the
+    EV's centre occupies at sample j; if there is none, the vehicle with the least s_e at
+    sample j. With the TV alone, always the TV (the single-TV features unchanged).
+
+    Args:
+        ev: EV states, shape (n, 4).
+        tv: TV states, shape (n, 4).
+        scenario: lane geometry and ellipse.
+        others: further vehicles, shape (n, m, 4).
+
+    Returns:
+        Vehicle index per segment, shape (n − 1,).
+    """
+    vehicles = _vehicles(tv, others)
+    n, m = vehicles.shape[:2]
+    if m == 1:
+        return np.zeros(n - 1, dtype=int)
+    sc = scenario
+    s_e = _index_field(ev, vehicles, sc)
+    lane = np.floor(vehicles[:, :, 1] / sc.lane_width)
+    ev_lane = np.floor(ev[:, 1] / sc.lane_width)
+    ref = np.empty(n - 1, dtype=int)
+    for j in range(n - 1):
+        ahead = (lane[j] == ev_lane[j]) & (vehicles[j, :, 0] > ev[j, 0])
+        if ahead.any():
+            cand = np.flatnonzero(ahead)
+            ref[j] = cand[np.argmin(vehicles[j, cand, 0])]
+        else:
+            ref[j] = int(np.argmin(s_e[j]))
+    return ref
 
 
 @dataclass(frozen=True)
@@ -354,6 +417,7 @@ class FeatureBasis:
     B_el: np.ndarray
     w_el: np.ndarray
     x_tv: np.ndarray
+    """x of the vehicle f_tiv refers to at each node (:func:`tiv_reference`) [m]."""
     B_id: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     w_id: np.ndarray = field(default_factory=lambda: np.zeros(0))
     B_trg: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
@@ -376,18 +440,24 @@ def feature_basis(demo: Demonstration, config: FeatureConfig | None = None) -> F
     config = config or FeatureConfig()
     sc = demo.scenario
     t = demo.t
-    events = event_times(t, demo.ev, demo.tv, sc, config)
+    events = event_times(t, demo.ev, demo.tv, sc, config, demo.others)
     n = config.n_gauss
     t_all, w_all = gauss_legendre_nodes(t, t[0], t[-1], n)
     w_ay = w_all.copy()
     w_ay[t_all < t[1]] *= config.ay_first_segment_weight
     t_il, w_il = gauss_legendre_nodes(t, t[0], events.t_turn, n)
     t_el, w_el = gauss_legendre_nodes(t, events.t_last, events.t_end, n)
-    tv_C = tv_control_points(t, demo.tv)
-    x_tv = basis_matrix(t, t_all) @ tv_C[:, :3].ravel()
+    vehicles = demo.vehicles
+    vehicle_C = [tv_control_points(t, vehicles[:, i]) for i in range(vehicles.shape[1])]
+    B_all = basis_matrix(t, t_all)
+    ref = tiv_reference(demo.ev, demo.tv, sc, demo.others)
+    segment = np.clip(np.searchsorted(t, t_all, side="right") - 1, 0, len(t) - 2)
+    x_all = np.array([B_all @ C[:, :3].ravel() for C in vehicle_C])
+    x_tv = x_all[ref[segment], np.arange(t_all.size)]
     extra = {}
     if events.reactive_active:
         t_id, w_id = gauss_legendre_nodes(t, events.t_trg, events.t_rct_end, n)
+        tv_C = vehicle_C[events.critical]
         y_tv = basis_matrix(t, [events.t_trg, events.t_rct_end]) @ tv_C[:, 3:].ravel()
         extra = {
             "B_id": basis_matrix(t, t_id),

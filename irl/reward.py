@@ -39,6 +39,7 @@ from irl.features import (
     feature_constants,
     instant_feature,
     segment_integrals,
+    tiv_reference,
     tv_control_points,
 )
 from irl.spline import spline_eval, state_control_points
@@ -82,13 +83,20 @@ class StyleReward:
         if not (np.isfinite(self.crash_penalty) and self.crash_penalty >= 0):
             raise ValueError(f"crash_penalty must be finite and >= 0, got {crash_penalty}")
 
-    def reset(self, scenario: ScenarioConfig, ev: np.ndarray, tv: np.ndarray) -> None:
+    def reset(
+        self,
+        scenario: ScenarioConfig,
+        ev: np.ndarray,
+        tv: np.ndarray,
+        others: np.ndarray | None = None,
+    ) -> None:
         """Start a trajectory at the first sample.
 
         Args:
             scenario: the episode's scenario (lanes, v_ref, λ, ellipse, T_s).
             ev: EV state [x, y, φ, v].
             tv: TV state [x, y, φ, v].
+            others: further vehicles' states, shape (m, 4) (traffic; None: the TV only).
         """
         self.sc = scenario
         self.constants = feature_constants(self.config, scenario)
@@ -96,6 +104,10 @@ class StyleReward:
         self.t = [0.0]
         self.ev = [np.asarray(ev, float).copy()]
         self.tv = [np.asarray(tv, float).copy()]
+        self.m = 0 if others is None else int(np.shape(others)[0])
+        self.others = [
+            np.zeros((0, 4)) if others is None else np.asarray(others, float).reshape(self.m, 4)
+        ]
         self.delta: list[float] = []
         self.segments: list[dict[str, float]] = []
         self.f = np.zeros(len(self.omega))
@@ -107,10 +119,13 @@ class StyleReward:
             return np.zeros(len(FEATURES))
         t = np.asarray(self.t)
         ev, tv = np.asarray(self.ev), np.asarray(self.tv)
-        events = event_times(t, ev, tv, self.sc, self.config)
+        others = np.asarray(self.others).reshape(n, self.m, 4) if self.m else None
+        events = event_times(t, ev, tv, self.sc, self.config, others)
         delta = np.asarray([*self.delta, self.delta[-1]])
         C = state_control_points(t, ev, delta, self.control_point_rule, self.ratio)
-        T = tv_control_points(t, tv)
+        vehicles = tv[:, None, :] if others is None else np.concatenate([tv[:, None], others], 1)
+        Ts = [tv_control_points(t, vehicles[:, i]) for i in range(vehicles.shape[1])]
+        ref = tiv_reference(ev, tv, self.sc, others)
         y_trg = None
         if events.reactive_active:
             y_trg = float(spline_eval(C, t, [events.t_trg])[0, 1])
@@ -121,7 +136,7 @@ class StyleReward:
                 segment_integrals(
                     np.r_[C[j, :3], C[j + 1, :3]],
                     np.r_[C[j, 3:], C[j + 1, 3:]],
-                    np.r_[T[j, :3], T[j + 1, :3]],
+                    np.r_[Ts[ref[j]][j, :3], Ts[ref[j]][j + 1, :3]],
                     t[j],
                     t[j + 1],
                     self.config,
@@ -138,13 +153,18 @@ class StyleReward:
         f["el"] = self.segments[-1]["l"]
         if events.reactive_active:
             at = spline_eval(C, t, [events.t_trg, events.t_rct_end])[:, 1]
-            at_tv = spline_eval(T, t, [events.t_trg, events.t_rct_end])[:, 1]
+            at_tv = spline_eval(Ts[events.critical], t, [events.t_trg, events.t_rct_end])[:, 1]
             f["sd"] = float(instant_feature(at[0], at_tv[0], np.exp, np.abs))
             f["ed"] = float(instant_feature(at[1], at_tv[1], np.exp, np.abs))
         return self.omega * np.array([f[k] for k in FEATURES])
 
     def step(
-        self, u: np.ndarray, ev: np.ndarray, tv: np.ndarray, dt: float
+        self,
+        u: np.ndarray,
+        ev: np.ndarray,
+        tv: np.ndarray,
+        dt: float,
+        others: np.ndarray | None = None,
     ) -> tuple[float, np.ndarray]:
         """Add the next sample and return the step's reward.
 
@@ -153,6 +173,7 @@ class StyleReward:
             ev: EV state after the step.
             tv: TV state after the step.
             dt: step length [s].
+            others: further vehicles after the step, shape (m, 4) (as at reset).
 
         Returns:
             (reward −θᵀΔf, Δf of the active features).
@@ -161,6 +182,9 @@ class StyleReward:
         self.t.append(self.t[-1] + dt)
         self.ev.append(np.asarray(ev, float).copy())
         self.tv.append(np.asarray(tv, float).copy())
+        self.others.append(
+            np.zeros((0, 4)) if not self.m else np.asarray(others, float).reshape(self.m, 4).copy()
+        )
         f = self.features()
         df = (f - self.f)[self.idx]
         self.f = f
@@ -189,14 +213,23 @@ class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset the env and the style's trajectory."""
         obs, info = self.env.reset(**kwargs)
-        self.style_reward.reset(self.env.unwrapped.scenario, obs[:4], obs[4:8])
+        tv, others = self._vehicles(obs, info)
+        self.style_reward.reset(self.env.unwrapped.scenario, obs[:4], tv, others)
         return obs, info
+
+    @staticmethod
+    def _vehicles(obs: np.ndarray, info: dict) -> tuple[np.ndarray, np.ndarray | None]:
+        """TV and further vehicles: from ``info["vehicles"]`` in traffic, else the obs."""
+        if "vehicles" in info:
+            return info["vehicles"][0], info["vehicles"][1:]
+        return obs[4:8], None
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict]:
         """Step the env; the reward becomes −θᵀΔf (minus the crash penalty on a crash)."""
         obs, reward, terminated, truncated, info = self.env.step(action)
+        tv, others = self._vehicles(obs, info)
         r, df = self.style_reward.step(
-            info["action"], obs[:4], obs[4:8], self.env.unwrapped.scenario.dt
+            info["action"], obs[:4], tv, self.env.unwrapped.scenario.dt, others
         )
         if info.get("collision") or info.get("off_road"):
             r -= self.style_reward.crash_penalty

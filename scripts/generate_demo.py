@@ -11,14 +11,19 @@ Example:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
 from agents import SMPCConfig, generate_demonstration
+from agents.rollout import TRAFFIC_VEHICLES, generate_traffic_demonstration
 from envs import SCENARIOS, get_scenario, save_demonstration
 from envs.cli import finite_float, nonnegative_int, positive_float, risk_value, run_cli
 from envs.io import atomic_output_dir, check_output_dir, write_json
 from envs.plotting import plot_demonstration
+from envs.traffic import DEFAULT_TRAFFIC
+
+TRAFFIC_CHOICES = ("traffic", "traffic-random")
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -28,7 +33,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--risk", type=risk_value, default=0.7, help="risk parameter p in (0, 1)")
     p.add_argument(
-        "--scenario", default="paper", choices=sorted(SCENARIOS), help="named base scenario"
+        "--scenario",
+        default="paper",
+        choices=[*sorted(SCENARIOS), *TRAFFIC_CHOICES],
+        help="named base scenario; 'traffic': the default traffic scene, 'traffic-random': "
+        "a scene drawn with --seed",
     )
     p.add_argument(
         "--out", type=Path, default=Path("runs/demo"), help="output folder (other files kept)"
@@ -72,9 +81,24 @@ def main(argv: list[str] | None = None) -> dict:
         }.items()
         if v is not None
     }
-    scenario = get_scenario(args.scenario).with_overrides(**overrides)
-    smpc = SMPCConfig(risk=args.risk, solver=args.solver, jit=args.jit)
-    demo, summary = generate_demonstration(args.risk, scenario, smpc, seed=args.seed, progress=True)
+    if args.scenario in TRAFFIC_CHOICES:
+        smpc = SMPCConfig(
+            risk=args.risk, solver=args.solver, jit=args.jit, max_vehicles=TRAFFIC_VEHICLES
+        )
+        scene = DEFAULT_TRAFFIC
+        if overrides:
+            scene = dataclasses.replace(scene, base=scene.base.with_overrides(**overrides))
+        demo, summary = generate_traffic_demonstration(
+            args.risk, scene, smpc, args.seed, args.scenario == "traffic-random", progress=True
+        )
+        scenario = demo.scenario
+        summary["scene"] = demo.meta["scene"]
+    else:
+        scenario = get_scenario(args.scenario).with_overrides(**overrides)
+        smpc = SMPCConfig(risk=args.risk, solver=args.solver, jit=args.jit)
+        demo, summary = generate_demonstration(
+            args.risk, scenario, smpc, seed=args.seed, progress=True
+        )
     summary["scenario"] = scenario.to_dict()
     summary["seed"] = args.seed
     with atomic_output_dir(args.out, replace=False) as tmp:
