@@ -23,7 +23,7 @@ from envs.parallel import parallel_map
 from envs.rollout import run_episode
 from envs.safety import ellipse_constraint, elliptical_index, trigger_time
 from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
-from envs.traffic import TrafficEnv, TrafficScene
+from envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
 
 __all__ = [
     "demo_summary",
@@ -244,17 +244,20 @@ def draw_interactive_scenarios(
 
 
 def _demos_of_risk(risk: float, scenarios: list[dict[str, Any]]) -> list[Demonstration]:
-    """Worker: the SMPC(risk) demonstration in each scenario (solver built once)."""
+    """Worker: the SMPC(risk) demonstration in each scenario (or traffic scene)."""
     demos = []
     for i, raw in enumerate(scenarios):
-        demo, _ = generate_demonstration(risk, ScenarioConfig(**raw), SMPCConfig(risk=risk))
+        if "others" in raw:
+            demo, _ = generate_traffic_demonstration(risk, TrafficScene.from_dict(raw))
+        else:
+            demo, _ = generate_demonstration(risk, ScenarioConfig(**raw), SMPCConfig(risk=risk))
         demos.append(replace(demo, meta={**demo.meta, "scenario_index": i}))
     return demos
 
 
 def generate_demonstrations(
     risks: Sequence[float],
-    scenarios: Sequence[ScenarioConfig],
+    scenarios: Sequence[ScenarioConfig | TrafficScene],
     workers: int = 2,
     progress: Callable[[float], None] | None = None,
 ) -> dict[float, list[Demonstration]]:
@@ -262,7 +265,7 @@ def generate_demonstrations(
 
     Args:
         risks: risk levels p.
-        scenarios: the scenarios (shared by every risk).
+        scenarios: the scenarios or traffic scenes (shared by every risk).
         workers: processes (1: in this process).
         progress: called with each finished risk.
 
@@ -285,12 +288,22 @@ ROBUSTNESS_RISKS = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.925, 0.95
 
 
 def _robustness_of_risk(risk: float, scenarios: list[dict[str, Any]], jit: bool) -> dict:
-    """Worker: closed loops of SMPC(risk) in every scenario; per-demo counts and step times."""
-    env = LaneChangeEnv()
-    expert = SMPCExpert(SMPCConfig(risk=risk, jit=jit))
+    """Worker: closed loops of SMPC(risk) in every scenario; per-demo counts and step times.
+
+    Scenarios with an ``others`` entry are traffic scenes (:class:`TrafficScene` dicts).
+    """
+    traffic = bool(scenarios) and "others" in scenarios[0]
+    env = TrafficEnv() if traffic else LaneChangeEnv()
+    vehicles = TRAFFIC_VEHICLES if traffic else 1
+    expert = SMPCExpert(SMPCConfig(risk=risk, jit=jit, max_vehicles=vehicles))
     demos, step_ms = [], []
     for i, raw in enumerate(scenarios):
-        _, steps = rollout_expert(env, expert, seed=0, options={"scenario": ScenarioConfig(**raw)})
+        options = (
+            {"scene": TrafficScene.from_dict(raw)}
+            if traffic
+            else {"scenario": ScenarioConfig(**raw)}
+        )
+        _, steps = rollout_expert(env, expert, seed=0, options=options)
         step_ms += [s["solve_ms"] for s in steps if not s.get("retried")]
         demos.append(
             {
@@ -315,6 +328,7 @@ def smpc_robustness(
     workers: int = 2,
     jit: bool = False,
     progress: Callable[[float], None] | None = None,
+    traffic: bool = False,
 ) -> dict[str, Any]:
     """Count solver failures, retries and fallbacks of the SMPC over many demonstrations.
 
@@ -329,6 +343,8 @@ def smpc_robustness(
         workers: processes.
         jit: compile the NLPs (faster steps).
         progress: called with each finished risk.
+        traffic: draw traffic scenes (:class:`envs.traffic.TrafficRanges`) and constrain
+            :data:`TRAFFIC_VEHICLES` vehicles.
 
     Returns:
         ``n_demos``, ``n_steps``, ``n_solver_failures`` (steps whose solve and retry failed),
@@ -338,7 +354,7 @@ def smpc_robustness(
     if n_scenarios < 1:
         raise ValueError(f"n_scenarios must be >= 1, got {n_scenarios}")
     rng = np.random.default_rng(seed)
-    ranges = ScenarioRanges()
+    ranges = TrafficRanges() if traffic else ScenarioRanges()
     raw = [ranges.sample(rng).to_dict() for _ in range(n_scenarios)]
     risks = [float(p) for p in risks]
     runs = parallel_map(
@@ -367,6 +383,7 @@ def smpc_robustness(
         "seed": seed,
         "risks": risks,
         "jit": jit,
+        "traffic": traffic,
         "step_ms_median": float(np.median(step_ms)),
         "step_ms_p95": float(np.percentile(step_ms, 95)),
         "step_ms_max": float(np.max(step_ms)),

@@ -716,6 +716,11 @@ def evaluation_markdown(results: dict[str, dict[str, Any]], extra: list[str] | N
         "",
         f"Default scorer: {DEFAULT_SCORER}; interval: {INTERVAL_MASS:.0%} posterior mass.",
         "",
+        "Demonstrations refused (not identifiable, e.g. no lane change): "
+        + ", ".join(
+            f"{n} {r['summary']['n_failed']} of {r['summary']['n']}" for n, r in results.items()
+        ),
+        "",
         "| features | scorer | grid acc. (informative) | grid acc. (all) | grid MAE "
         "(informative) | between MAE (posterior mean) | interval coverage | interval width |",
         "|---|---|---|---|---|---|---|---|",

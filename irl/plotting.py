@@ -165,7 +165,7 @@ def plot_confusion(
     grid = list(grid)
     M = np.zeros((len(grid), len(grid)))
     for r in records:
-        if r["grid"]:
+        if r["grid"] and "error" not in r:
             M[grid.index(r["risk"]), grid.index(r[f"{scorer}_estimate"])] += 1
     fig, ax = plt.subplots(figsize=(5, 4.2))
     im = ax.imshow(M, cmap="Blues")

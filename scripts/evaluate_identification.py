@@ -30,6 +30,7 @@ from agents.rollout import draw_interactive_scenarios, generate_demonstrations
 from envs.cli import float_list, positive_int, risk_list, run_cli
 from envs.io import atomic_output_dir, check_output_dir, fmt, write_json, write_text
 from envs.scenario import ScenarioRanges
+from envs.traffic import TrafficRanges
 from irl.identification import (
     DEFAULT_SCORER,
     LibraryError,
@@ -56,8 +57,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--draw",
         default="random",
-        choices=("random", "interactive"),
-        help="scenarios: any of the random family, or only those where SMPC(lowest p) triggers",
+        choices=("random", "interactive", "traffic"),
+        help="scenarios: any of the random family, only those where SMPC(lowest p) triggers, "
+        "or random traffic scenes (TrafficRandom-v0)",
     )
     p.add_argument(
         "--between",
@@ -110,7 +112,8 @@ def main(argv: list[str] | None = None) -> dict:
         scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(grid))
     else:
         rng = np.random.default_rng(args.seed)
-        scenarios = [ScenarioRanges().sample(rng) for _ in range(args.scenarios)]
+        ranges = TrafficRanges() if args.draw == "traffic" else ScenarioRanges()
+        scenarios = [ranges.sample(rng) for _ in range(args.scenarios)]
     risks = [*grid, *[p for p in between if p not in grid]]
     demos_by_risk = generate_demonstrations(risks, scenarios, args.workers)
     demos = [d for p in risks for d in demos_by_risk[p]]
