@@ -260,6 +260,10 @@ def _grid(t_rel: np.ndarray, dt: float) -> np.ndarray:
     return np.round(np.arange(start, stop + dt / 2, dt), 9)
 
 
+NEIGHBOUR_RANGE = 100.0
+"""Further vehicles are kept when they come within this longitudinal distance of the EV [m]."""
+
+
 def clean_rows(df) -> tuple[Any, int]:
     """Drop rows with non-finite t/x/y/v or repeated times; returns (rows, dropped count)."""
     cols = ["t_rel_s", "x_m", "y_m", "v_mps"]
@@ -269,9 +273,21 @@ def clean_rows(df) -> tuple[Any, int]:
 
 
 def _build(
-    ep_id: str, ego, tgt, mirror: bool, y_origin_lower: float, lane_width: float, dt: float
+    ep_id: str,
+    ego,
+    tgt,
+    mirror: bool,
+    y_origin_lower: float,
+    lane_width: float,
+    dt: float,
+    neighbours: list | None = None,
 ) -> Demonstration:
-    """Demonstration of one episode in the road frame (rows already cleaned)."""
+    """Demonstration of one episode in the road frame (rows already cleaned).
+
+    ``neighbours`` (cleaned rows of further vehicles) become ``others``: each is resampled
+    where it was recorded and continued at constant velocity before and after
+    (:data:`NEIGHBOUR_RANGE` decides who counts).
+    """
     if len(ego) < 4:
         raise ValueError(f"only {len(ego)} valid ego rows")
     t_new = _grid(ego.t_rel_s.to_numpy(), dt)
@@ -305,6 +321,29 @@ def _build(
         tv[:, 0] += PHANTOM_GAP_M
         tv[:, 1] = 1.5 * lane_width
         tv[:, 2] = 0.0
+    others = []
+    for df in neighbours or []:
+        if len(df) < 2:
+            continue
+        covered = (t_new >= df.t_rel_s.min() - 1e-9) & (t_new <= df.t_rel_s.max() + 1e-9)
+        if covered.sum() < 2:
+            continue
+        states = np.empty_like(ev)
+        states[covered] = frame(df, t_new[covered])
+        idx = np.flatnonzero(covered)
+        for edge, span in ((idx[0], slice(0, idx[0])), (idx[-1], slice(idx[-1] + 1, None))):
+            x, y, phi, v = states[edge]
+            tau = t_new[span] - t_new[edge]
+            states[span] = np.column_stack(
+                [
+                    x + v * np.cos(phi) * tau,
+                    y + v * np.sin(phi) * tau,
+                    np.full_like(tau, phi),
+                    np.full_like(tau, v),
+                ]
+            )
+        if np.min(np.abs(states[:, 0] - ev[:, 0])) <= NEIGHBOUR_RANGE:
+            others.append(states)
     L = float(ego.length_m.iloc[0]) if "length_m" in ego else 4.5
     W = float(ego.width_m.iloc[0]) if "width_m" in ego else 1.8
     sc = scenario_from_episode(ev, tv, lane_width, dt, L, W)
@@ -315,6 +354,7 @@ def _build(
         tv=tv,
         u=u,
         meta={"scenario": sc.to_dict(), "episode_id": ep_id, "t_cross_rel_s": float(-t_new[0])},
+        others=np.stack(others, axis=1) if others else None,
     )
 
 
@@ -346,7 +386,9 @@ def _lane_width_ngsim(tracks, recording: str, source: Path) -> float:
     return float(np.median(np.diff(centres)))
 
 
-def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
+def load_ngsim(
+    data_dir: str | Path, dt: float = 0.2, neighbours: bool = True
+) -> list[RecordedEpisode]:
     """The NGSIM lane-change episodes (``episodes.csv`` + ``episode_tracks.csv.gz``).
 
     Selection (the README's "clean" set): a complete ±4 s window and no ramp or auxiliary
@@ -356,6 +398,8 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
     Args:
         data_dir: the ``ngsim`` folder.
         dt: learner's sampling time [s].
+        neighbours: keep every further vehicle of ``tracks.csv.gz`` that comes within
+            :data:`NEIGHBOUR_RANGE` of the EV in the window, as the demonstration's ``others``.
 
     Returns:
         All 19 episodes, ``used`` marking the selection.
@@ -413,8 +457,21 @@ def load_ngsim(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
             continue
         y_b = 0.5 * (before.iloc[-1].y_m + after.iloc[0].y_m)
         y_b = -y_b if mirror else y_b
+        near = []
+        if neighbours:
+            t0, t1 = ego.time_s.min(), ego.time_s.max()
+            pool = all_tracks[
+                (all_tracks.recording == row.recording)
+                & (~all_tracks.vehicle_id.isin([row.ego_id, row.target_id]))
+                & all_tracks.time_s.between(t0 - 1.0, t1 + 1.0)
+            ]
+            for _, g in pool.groupby("vehicle_id"):
+                g = g.assign(t_rel_s=g.time_s - row.t_cross_s)
+                near.append(clean_rows(g)[0])
         out.append(
-            _episode("ngsim", reasons, flags, row.episode_id, ego, tgt, mirror, y_b - w, w, dt)
+            _episode(
+                "ngsim", reasons, flags, row.episode_id, ego, tgt, mirror, y_b - w, w, dt, near
+            )
         )
     return out
 
@@ -441,7 +498,9 @@ def _cats_lane_width(summary: Path, default: float) -> float:
     return float(w)
 
 
-def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
+def load_cats(
+    data_dir: str | Path, dt: float = 0.2, neighbours: bool = True
+) -> list[RecordedEpisode]:
     """The CATS field-test lane changes (``episodes.csv`` + ``episode_tracks.csv.gz``).
 
     Selection: the designed manoeuvres (``leg == "experiment"``: 6 by the computer-driven
@@ -452,6 +511,8 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
     Args:
         data_dir: the ``cats-av-lanechange`` folder.
         dt: learner's sampling time [s].
+        neighbours: keep the run's further vehicles (``role == "other"``) that come within
+            :data:`NEIGHBOUR_RANGE` of the EV, as the demonstration's ``others``.
 
     Returns:
         All 31 episodes, ``used`` marking the selection; ``flags["set"]`` is AV or HV.
@@ -472,6 +533,10 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
         rows = tracks[tracks.episode_id == row.episode_id]
         ego, dropped_ego = clean_rows(rows[rows.role == "ego"])
         tgt, dropped_tgt = clean_rows(rows[rows.role == "target"])
+        near = []
+        if neighbours:
+            for _, g in rows[rows.role == "other"].groupby("vehicle_id"):
+                near.append(clean_rows(g)[0])
         reasons = [] if row.leg == "experiment" else ["return_leg"]
         qf = str(row.quality_flags) if isinstance(row.quality_flags, str) else ""
         mirror = row.lc_direction == "right"
@@ -501,6 +566,7 @@ def load_cats(data_dir: str | Path, dt: float = 0.2) -> list[RecordedEpisode]:
                 y_origin_lower,
                 w,
                 dt,
+                near,
             )
         )
     return out

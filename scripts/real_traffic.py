@@ -43,6 +43,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--limit", type=positive_int, help="only the first N used episodes (default: all)"
     )
     p.add_argument(
+        "--no-neighbours",
+        action="store_true",
+        help="drop the further vehicles (only the EV and its target vehicle, as before traffic)",
+    )
+    p.add_argument(
         "--seed",
         type=int,
         default=0,
@@ -56,13 +61,17 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out)
     loader = load_ngsim if args.dataset == "ngsim" else load_cats
-    episodes = loader(args.data)
+    episodes = loader(args.data, neighbours=not args.no_neighbours)
     with atomic_output_dir(args.out) as tmp:
         n = sum(e.used for e in episodes) if args.limit is None else args.limit
         with tqdm(total=n, desc=f"{args.dataset} episodes") as bar:
             payload = run_study(
                 episodes, args.dataset, args.workers, tmp / "episodes", args.limit, bar.update
             )
+        payload["neighbours"] = not args.no_neighbours
+        payload["n_neighbours_per_episode"] = [
+            int(e.demo.others.shape[1]) for e in episodes if e.used and e.demo is not None
+        ]
         markdown = study_markdown(payload)
         write_json(tmp / "real_traffic.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "real_traffic.md", markdown)

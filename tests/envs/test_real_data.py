@@ -212,3 +212,19 @@ def test_bad_cats_summary_is_a_clear_error(tmp_path):
 def test_a_file_instead_of_the_folder_is_a_clear_error():
     with pytest.raises(FileNotFoundError, match="not a folder"):
         load_ngsim(DATA / "ngsim" / "episodes.csv")
+
+
+def test_recorded_neighbours_become_others():
+    from envs.real_data import NEIGHBOUR_RANGE, load_cats, load_ngsim
+
+    ngsim = [e for e in load_ngsim(DATA / "ngsim") if e.used]
+    alone = [e for e in load_ngsim(DATA / "ngsim", neighbours=False) if e.used]
+    for with_n, without in zip(ngsim, alone, strict=True):
+        d = with_n.demo
+        assert d.others.shape[0] == d.n and d.others.shape[1] > 0
+        assert without.demo.others.shape[1] == 0
+        np.testing.assert_array_equal(d.ev, without.demo.ev)  # the EV is untouched
+        gap = np.min(np.abs(d.others[:, :, 0] - d.ev[:, None, 0]), axis=0)
+        assert np.all(gap <= NEIGHBOUR_RANGE)
+    cats = {e.episode_id: e for e in load_cats(DATA / "cats-av-lanechange") if e.used}
+    assert max(e.demo.others.shape[1] for e in cats.values()) >= 1
