@@ -28,6 +28,7 @@ from envs.lane_change import LaneChangeEnv
 from envs.plotting import draw_lanes, save_figure
 from envs.rollout import Policy, run_episode
 from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
+from envs.traffic import TrafficEnv, TrafficScene
 from irl.features import feature_basis, feature_values
 from irl.inner import InnerProblem
 from irl.metrics import trajectory_errors
@@ -84,7 +85,8 @@ def policy_frames(
 
     Args:
         kind: 'expert', 'spline' or 'sb3'.
-        scenario: scenario of the episode.
+        scenario: scenario of the episode, or a :class:`envs.traffic.TrafficScene`
+            (expert and sb3 only).
         risk: SMPC risk (expert).
         style: learned style (spline).
         demo: the style's demonstration (spline).
@@ -96,12 +98,20 @@ def policy_frames(
     """
     from envs.video import record_policy, record_states
 
-    env = LaneChangeEnv(scenario=scenario, render_mode="rgb_array")
+    traffic = isinstance(scenario, TrafficScene)
+    if traffic and kind == "spline":
+        raise ValueError("the spline replay is single-TV only; use --policy expert in traffic")
+    if traffic:
+        env = TrafficEnv(scenario, render_mode="rgb_array")
+    else:
+        env = LaneChangeEnv(scenario=scenario, render_mode="rgb_array")
     try:
         if kind == "expert":
+            from agents.rollout import TRAFFIC_VEHICLES
             from agents.smpc import SMPCConfig, SMPCExpert
 
-            expert = SMPCExpert(SMPCConfig(risk=risk), env.scenario)
+            vehicles = TRAFFIC_VEHICLES if traffic else 1
+            expert = SMPCExpert(SMPCConfig(risk=risk, max_vehicles=vehicles), env.scenario)
             return record_policy(env, lambda e, o: expert.act(o), seed)[0]
         if kind == "sb3":
             if model is None:

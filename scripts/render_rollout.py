@@ -15,10 +15,13 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from agents.compare import policy_frames
 from envs import load_demonstration
 from envs.cli import positive_int, risk_value, run_cli
 from envs.io import atomic_output_dir, check_output_dir, write_json
+from envs.traffic import DEFAULT_TRAFFIC, TrafficRanges
 from envs.video import write_video
 from irl.style import load_style
 
@@ -43,6 +46,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "(default: the style's own demonstration, else the paper scenario)",
     )
     p.add_argument("--risk", type=risk_value, default=0.7, help="SMPC risk p (expert)")
+    p.add_argument(
+        "--scenario",
+        choices=("traffic", "traffic-random"),
+        help="drive in the default traffic scene or one drawn with --seed (expert)",
+    )
     p.add_argument("--video", type=Path, required=True, help="output .mp4 or .gif")
     p.add_argument("--fps", type=positive_int, default=5, help="frames per second")
     p.add_argument("--seed", type=int, default=0, help="env seed")
@@ -68,6 +76,10 @@ def main(argv: list[str] | None = None) -> dict:
             raise ValueError(f"{args.style} names no demonstration: pass --demo") from None
     demo = load_demonstration(demo_path) if demo_path else None
     scenario = demo.scenario if demo is not None else "paper"
+    if args.scenario == "traffic":
+        scenario = DEFAULT_TRAFFIC
+    elif args.scenario == "traffic-random":
+        scenario = TrafficRanges().sample(np.random.default_rng(args.seed))
     try:
         frames = policy_frames(args.policy, scenario, args.risk, style, demo, args.model, args.seed)
     except ImportError as exc:

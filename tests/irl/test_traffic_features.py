@@ -85,3 +85,13 @@ def test_a_custom_scene_with_a_slow_leader_keeps_the_ev_behind_it():
     scene = TrafficScene(others=(VehicleSpec(lane=0, gap=30.0, speed=20.0, behaviour="constant"),))
     _, summary = generate_traffic_demonstration(0.95, scene)
     assert not summary["collision"] and summary["min_d_k"] > 0
+
+
+def test_traffic_rollout_video_frames_show_the_expert_driving():
+    from agents.compare import policy_frames
+    from envs.traffic import DEFAULT_TRAFFIC
+
+    frames = policy_frames("expert", DEFAULT_TRAFFIC, 0.7)
+    assert len(frames) == 31 and frames[0].std() > 5
+    with pytest.raises(ValueError, match="single-TV"):
+        policy_frames("spline", DEFAULT_TRAFFIC)
