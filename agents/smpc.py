@@ -29,6 +29,7 @@ reports it in :attr:`SMPCExpert.last_report`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -223,8 +224,10 @@ class SMPCExpert:
 
         # parameters: ξ0 (4), TV state (4), y_ref, v_ref
         M = cfg.max_vehicles
-        P = ca.SX.sym("P", NX + 4 * M + 2)
+        # κ = Φ⁻¹(p) is a parameter: one built solver serves every risk (set_risk)
+        P = ca.SX.sym("P", NX + 4 * M + 3)
         xi0, y_ref, v_ref = P[0:4], P[NX + 4 * M], P[NX + 4 * M + 1]
+        kappa = P[NX + 4 * M + 2]
         vehicles = [P[NX + 4 * j : NX + 4 * j + 4] for j in range(M)]
         sigma = tv_covariance(cfg.uncertainty, T_s, N)
         Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
@@ -237,7 +240,7 @@ class SMPCExpert:
             dx = xs[k][0] - (tv[0] + tv[3] * ca.cos(tv[2]) * t_k)
             dy = xs[k][1] - (tv[1] + tv[3] * ca.sin(tv[2]) * t_k)
             g = chance_margin(
-                dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], sc.l_a, sc.l_b, cfg.kappa
+                dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], sc.l_a, sc.l_b, kappa
             )
             nominal = chance_margin(dx, dy, 0.0, 0.0, 0.0, sc.l_a, sc.l_b, 0.0)
             return g, nominal
@@ -368,6 +371,15 @@ class SMPCExpert:
         ubg = np.where(self._eq, 0.0, np.inf)
         return lbw, ubw, lbg, ubg
 
+    def set_risk(self, risk: float) -> None:
+        """Drive with another risk p from the next episode on (no rebuild: κ is a parameter).
+
+        Raises:
+            ValueError: p outside (0, 1).
+        """
+        self.config = dataclasses.replace(self.config, risk=risk)
+        self.reset()
+
     # ------------------------------------------------------------------ episode
     def reset(self, scenario: ScenarioConfig | None = None) -> None:
         """Start a new episode (drops the warm start); rebuilds the NLP if the geometry changed.
@@ -485,7 +497,9 @@ class SMPCExpert:
                     f"{float(np.min(s_e)):.3f} <= 1); no plan can satisfy the chance constraint"
                 )
             self._first = False
-        self._in["p"][:] = np.concatenate([xi0, vehicles.ravel(), [sc.y_ref, sc.v_ref]])
+        self._in["p"][:] = np.concatenate(
+            [xi0, vehicles.ravel(), [sc.y_ref, sc.v_ref, self.config.kappa]]
+        )
         self._in["x0"][:] = self._initial_guess(xi0)
         if self._lam_g is not None:
             self._in["lam_g0"][:], self._in["lam_x0"][:] = self._shifted_duals()

@@ -19,10 +19,12 @@ __all__ = ["parallel_map"]
 _ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def _worker_init() -> None:
+def _worker_init(initializer: Callable[..., None] | None = None, initargs: tuple = ()) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     for name in _ONE_THREAD:
         os.environ.setdefault(name, "1")
+    if initializer is not None:
+        initializer(*initargs)
 
 
 def parallel_map(
@@ -30,6 +32,8 @@ def parallel_map(
     tasks: Sequence[tuple[Any, ...]],
     workers: int,
     on_result: Callable[[int, Any], None] | None = None,
+    initializer: Callable[..., None] | None = None,
+    initargs: tuple = (),
 ) -> list[Any]:
     """``[fn(*t) for t in tasks]``, in ``workers`` processes (1: in this process).
 
@@ -38,7 +42,10 @@ def parallel_map(
         tasks: its argument tuples.
         workers: processes; ≤ 1 runs in this process.
         on_result: called as each task finishes, with its index and result (in completion
-            order; for progress bars).
+            order; for progress bars and incremental output).
+        initializer: called once per worker process with ``initargs`` before its first
+            task (e.g. to build solvers once per worker); in this process when workers ≤ 1.
+        initargs: its arguments.
 
     Returns:
         The results in task order.
@@ -48,12 +55,18 @@ def parallel_map(
     """
     results: list[Any] = [None] * len(tasks)
     if workers <= 1 or len(tasks) <= 1:
+        if initializer is not None:
+            initializer(*initargs)
         for i, args in enumerate(tasks):
             results[i] = fn(*args)
             if on_result is not None:
                 on_result(i, results[i])
         return results
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), initializer=_worker_init)
+    pool = ProcessPoolExecutor(
+        max_workers=min(workers, len(tasks)),
+        initializer=_worker_init,
+        initargs=(initializer, initargs),
+    )
     try:
         futures = {pool.submit(fn, *args): i for i, args in enumerate(tasks)}
         for fut in as_completed(futures):

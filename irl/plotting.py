@@ -240,3 +240,52 @@ def plot_noise_curve(curve: list[dict], path: str | Path, title: str = "") -> Pa
     ax.grid(alpha=0.3)
     ax.legend()
     return save_figure(fig, path, title, dpi=120)
+
+
+def plot_population(rows: Sequence[dict], path: str | Path, title: str = "") -> Path:
+    """Estimated against true risk (where known, with 90 % intervals) and the distribution.
+
+    Args:
+        rows: ``styles.csv`` rows (:mod:`irl.mining`).
+        path: output PNG.
+        title: figure title.
+    """
+
+    def num(v) -> float:
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return float("nan")
+
+    ok = [r for r in rows if r["status"] == "ok"]
+    est = np.array([num(r["risk_mean"]) for r in ok])
+    true = np.array([num(r["true_risk"]) for r in ok])
+    lo = np.array([num(r["risk_lo"]) for r in ok])
+    hi = np.array([num(r["risk_hi"]) for r in ok])
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    known = np.isfinite(true)
+    if known.any():
+        ax1.errorbar(
+            true[known],
+            est[known],
+            # the posterior mean may lie outside the 90 % set's span when the mass is split
+            yerr=[
+                np.maximum(est[known] - lo[known], 0.0),
+                np.maximum(hi[known] - est[known], 0.0),
+            ],
+            fmt="o",
+            ms=3,
+            alpha=0.5,
+            elinewidth=0.6,
+        )
+        ax1.plot([0.5, 0.95], [0.5, 0.95], "k--", lw=0.8)
+        ax1.set_xlabel("true risk p")
+        ax1.set_ylabel("posterior mean (bars: 90 % interval)")
+    else:
+        ax1.text(0.5, 0.5, "no true risks (recorded data)", ha="center", transform=ax1.transAxes)
+    ax1.grid(alpha=0.3)
+    ax2.hist(est[np.isfinite(est)], bins=np.linspace(0.45, 1.0, 23), color="C1", alpha=0.8)
+    ax2.set_xlabel("estimated risk (posterior mean)")
+    ax2.set_ylabel("vehicles")
+    ax2.grid(alpha=0.3)
+    return save_figure(fig, path, title, dpi=120)
