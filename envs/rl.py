@@ -1,12 +1,16 @@
 """Observation and action wrappers that make the lane-change env convenient for deep RL.
 
-- :func:`rl_observation` / :class:`RLObservation`: a compact, translation-invariant
-  observation ``[y, φ, v, x_TV − x_EV, y_TV, v_TV, t/T]`` (float32) instead of absolute
-  positions (x grows without bound along the road, which a normaliser cannot fix) and
-  with the episode's progress, which the time-limited learned cost depends on.
+- :func:`rl_observation` / :class:`RLObservation`: a compact observation made of
+  relative quantities, so that one policy can serve the whole scenario family:
+  ``[y − y_target, y − y_initial, φ, v − v_ref, x_TV − x_EV, y_TV − y, v_TV − v, t_left/T]``
+  (float32; lane offsets against the target and the initial lane centre, the TV relative
+  to the EV, the share of the episode left — the time-limited learned cost depends on it)
+  instead of absolute positions (x grows without bound along the road).
 - :func:`physical_action` / :class:`NormalisedAction`: actions in [−1, 1]² (float32, as
   stable-baselines3 recommends for continuous actions) mapped linearly onto the
-  scenario's [a_min, a_max] × [−δ_max, δ_max].
+  scenario's [a_min, a_max] × [−δ_max, δ_max]; with ``heading_bound`` the steering is
+  further limited so that the next heading stays within the SMPC's bound |φ| ≤ φ_max
+  (:func:`heading_steering_limits`): a policy cannot exploit the reward by swinging.
 
 The same two functions serve training (through the wrappers) and a trained policy acting
 on the raw env (``agents.sb3_baseline.SB3Policy``), so both see identical inputs.
@@ -21,33 +25,96 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import RecordConstructorArgs
 
-__all__ = ["NormalisedAction", "RLObservation", "physical_action", "rl_observation"]
+__all__ = [
+    "RL_OBSERVATION_SIZE",
+    "NormalisedAction",
+    "RLObservation",
+    "heading_steering_limits",
+    "physical_action",
+    "rl_observation",
+]
 
 
-def rl_observation(observation: np.ndarray, k: int, n_steps: int) -> np.ndarray:
-    """The RL observation of a raw drivestyle observation.
+RL_OBSERVATION_SIZE = 8
+
+
+def rl_observation(observation: np.ndarray, k: int, scenario: Any) -> np.ndarray:
+    """The RL observation of a raw drivestyle observation (module docstring).
 
     Args:
         observation: raw observation [x, y, φ, v] of the EV then the TV, shape (8,).
         k: steps taken in the episode.
-        n_steps: the episode's horizon in steps.
+        scenario: the episode's :class:`envs.scenario.ScenarioConfig`.
 
     Returns:
-        ``[y, φ, v, x_TV − x_EV, y_TV, v_TV, k/n_steps]``, shape (7,), float32.
+        Shape (8,), float32.
     """
     ev, tv = observation[:4], observation[4:8]
-    progress = min(k / n_steps, 1.0)
-    return np.array([ev[1], ev[2], ev[3], tv[0] - ev[0], tv[1], tv[3], progress], np.float32)
+    sc = scenario
+    left = max(1.0 - k / sc.n_steps, 0.0)
+    return np.array(
+        [
+            ev[1] - sc.y_ref,
+            ev[1] - sc.lane_centres[sc.ev_lane],
+            ev[2],
+            ev[3] - sc.v_ref,
+            tv[0] - ev[0],
+            tv[1] - ev[1],
+            tv[3] - ev[3],
+            left,
+        ],
+        np.float32,
+    )
 
 
-def physical_action(a: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """Map a normalised action in [−1, 1]² (clipped) to [low, high] [m/s², rad]."""
+def heading_steering_limits(ev: np.ndarray, scenario: Any) -> tuple[float, float]:
+    """Steering range that keeps the next heading within [−φ_max, φ_max] [rad].
+
+    From φ_{k+1} ≈ φ_k + T_s (v/l_r) sin β, β = atan(l_r/(l_f + l_r) tan δ) (first order in
+    T_s), intersected with [−δ_max, δ_max]; if the heading is already outside the bound,
+    the range still turns it back.
+
+    Args:
+        ev: EV state [x, y, φ, v].
+        scenario: geometry, T_s, φ_max and δ_max.
+    """
+    sc = scenario
+    phi, v = float(ev[2]), max(float(ev[3]), 1e-3)
+    scale = sc.l_r / (v * sc.dt)
+
+    def steer(sin_beta: float) -> float:
+        sin_beta = float(np.clip(sin_beta, -0.99, 0.99))
+        return float(np.arctan(np.tan(np.arcsin(sin_beta)) * (sc.l_f + sc.l_r) / sc.l_r))
+
+    lo = max(-sc.delta_max, steer((-sc.phi_max - phi) * scale))
+    hi = min(sc.delta_max, steer((sc.phi_max - phi) * scale))
+    if lo > hi:  # numerically outside the bound: steer back as hard as allowed
+        lo = hi = -sc.delta_max if phi > 0 else sc.delta_max
+    return lo, hi
+
+
+def physical_action(
+    a: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    ev: np.ndarray | None = None,
+    scenario: Any = None,
+) -> np.ndarray:
+    """Map a normalised action in [−1, 1]² (clipped) to [low, high] [m/s², rad].
+
+    With ``ev`` and ``scenario`` the steering is then clipped to
+    :func:`heading_steering_limits` (the SMPC's heading bound).
+    """
     a = np.clip(np.asarray(a, float), -1.0, 1.0)
-    return low + (a + 1.0) * 0.5 * (high - low)
+    u = low + (a + 1.0) * 0.5 * (high - low)
+    if ev is not None and scenario is not None:
+        lo, hi = heading_steering_limits(ev, scenario)
+        u[1] = np.clip(u[1], lo, hi)
+    return u
 
 
 class RLObservation(gym.ObservationWrapper, RecordConstructorArgs):
-    """``[y, φ, v, x_TV − x_EV, y_TV, v_TV, t/T]`` (float32) from a drivestyle env.
+    """The relative RL observation (:func:`rl_observation`, float32) from a drivestyle env.
 
     Raises:
         TypeError: ``env`` is not a drivestyle env (8-vector observation, a scenario).
@@ -63,16 +130,15 @@ class RLObservation(gym.ObservationWrapper, RecordConstructorArgs):
                 f"and the TV, shape (8,)); got {base!r} with {env.observation_space}"
             )
         inf = np.inf
-        self.observation_space = spaces.Box(
-            low=np.array([-inf, -inf, 0.0, -inf, -inf, 0.0, 0.0], dtype=np.float32),
-            high=np.array([inf, inf, inf, inf, inf, inf, 1.0], dtype=np.float32),
-            dtype=np.float32,
-        )
+        low = np.full(RL_OBSERVATION_SIZE, -inf, dtype=np.float32)
+        high = np.full(RL_OBSERVATION_SIZE, inf, dtype=np.float32)
+        low[-1], high[-1] = 0.0, 1.0
+        self.observation_space = spaces.Box(low=low, high=high, dtype=np.float32)
 
     def observation(self, observation: np.ndarray) -> np.ndarray:
         """Map the raw 8-vector to the RL observation."""
         env = self.env.unwrapped
-        return rl_observation(observation, env.k, env.scenario.n_steps)
+        return rl_observation(observation, env.k, env.scenario)
 
 
 class NormalisedAction(gym.ActionWrapper, RecordConstructorArgs):
@@ -83,9 +149,10 @@ class NormalisedAction(gym.ActionWrapper, RecordConstructorArgs):
         ValueError: (at ``step``) an action that is not 2 real numbers.
     """
 
-    def __init__(self, env: gym.Env) -> None:
-        RecordConstructorArgs.__init__(self)
+    def __init__(self, env: gym.Env, heading_bound: bool = True) -> None:
+        RecordConstructorArgs.__init__(self, heading_bound=heading_bound)
         gym.ActionWrapper.__init__(self, env)
+        self.heading_bound = bool(heading_bound)
         space = env.action_space
         if not (
             isinstance(space, spaces.Box)
@@ -104,5 +171,7 @@ class NormalisedAction(gym.ActionWrapper, RecordConstructorArgs):
         if a.dtype.kind not in "iuf" or a.size != 2:
             raise ValueError(f"action must be 2 real numbers in [-1, 1], got {action!r}")
         space = self.env.action_space
-        action = a.reshape(2)
-        return physical_action(action, space.low, space.high)
+        base = self.env.unwrapped
+        if self.heading_bound and hasattr(base, "ev") and hasattr(base, "scenario"):
+            return physical_action(a.reshape(2), space.low, space.high, base.ev, base.scenario)
+        return physical_action(a.reshape(2), space.low, space.high)

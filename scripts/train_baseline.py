@@ -38,7 +38,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--eval-freq", type=positive_int, default=2_000, help="env steps between evaluations"
     )
-    p.add_argument("--randomize", action="store_true", help="train on random scenarios")
+    p.add_argument(
+        "--env",
+        default="drivestyle/LaneChange-v0",
+        choices=("drivestyle/LaneChange-v0", "drivestyle/LaneChangeRandom-v0"),
+        help="training env: the style's fixed scenario or the random family",
+    )
+    p.add_argument(
+        "--randomize", action="store_true", help="same as --env drivestyle/LaneChangeRandom-v0"
+    )
     p.add_argument(
         "--crash-penalty",
         type=positive_float,
@@ -69,7 +77,7 @@ def main(argv: list[str] | None = None) -> dict:
         timesteps=args.timesteps,
         seed=args.seed,
         eval_freq=min(args.eval_freq, args.timesteps),
-        randomize=args.randomize,
+        randomize=args.randomize or args.env.endswith("Random-v0"),
         crash_penalty=args.crash_penalty,
         norm_reward=args.norm_reward,
     )

@@ -36,7 +36,7 @@ def test_rl_env_passes_sb3_check(style_file):
         check_env(make_rl_env(style_file))
     env = make_rl_env(style_file)
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (7,) and obs[3] == pytest.approx(-20.0)  # x_TV − x_EV
+    assert obs.shape == (8,) and obs[4] == pytest.approx(-20.0)  # x_TV − x_EV
     assert env.action_space.low.tolist() == [-1.0, -1.0]
 
 

@@ -202,3 +202,41 @@ def test_rl_wrappers_reject_a_foreign_env():
 def test_loaders_reject_a_bad_dt(tmp_path, loader, dt):
     with pytest.raises((ValueError, TypeError), match="dt must be"):
         loader(tmp_path, dt=dt)
+
+
+def test_the_rl_action_keeps_the_smpc_heading_bound():
+    from envs.rl import heading_steering_limits
+
+    env = NormalisedAction(RLObservation(gym.make(ENV_IDS[1])))
+    env.reset(seed=3)
+    base = env.unwrapped
+    phi_max = base.scenario.phi_max
+    headings = []
+    for k in range(30):
+        swing = 1.0 if (k // 5) % 2 == 0 else -1.0  # full steering, alternating
+        _, _, terminated, truncated, _ = env.step(np.array([0.0, swing], np.float32))
+        headings.append(base.ev[2])
+        if terminated or truncated:
+            break
+    assert max(abs(h) for h in headings) <= phi_max * 1.05  # first order in T_s
+    unbounded = NormalisedAction(RLObservation(gym.make(ENV_IDS[1])), heading_bound=False)
+    unbounded.reset(seed=3)
+    for _ in range(5):
+        unbounded.step(np.array([0.0, 1.0], np.float32))
+    assert unbounded.unwrapped.ev[2] > 2 * phi_max
+    lo, hi = heading_steering_limits(np.array([0.0, 2.6, phi_max, 25.0]), base.scenario)
+    assert hi == pytest.approx(0.0, abs=1e-9) and lo < 0
+
+
+def test_the_rl_observation_is_relative():
+    from envs.rl import rl_observation
+
+    sc = PAPER
+    obs = np.concatenate([sc.ev_initial_state, sc.tv_initial_state])
+    o = rl_observation(obs, 0, sc)
+    np.testing.assert_allclose(
+        o, [2.625 - 7.875, 0.0, 0.0, 25 - 30, -20.0, 5.25, 3.0, 1.0], rtol=1e-6, atol=1e-6
+    )
+    shifted = obs.copy()
+    shifted[[0, 4]] += 500.0  # the same situation further down the road
+    np.testing.assert_array_equal(rl_observation(shifted, 0, sc), o)
