@@ -12,6 +12,7 @@ feature error and the trajectory errors are directly comparable.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -303,3 +304,111 @@ def plot_comparison(
     a2.set_ylabel("lateral velocity [m/s]")
     a2.grid(alpha=0.3)
     return save_figure(fig, path, title, dpi=120)
+
+
+def heldout_comparison(
+    style: Style,
+    models: dict[str, str | Path],
+    k: int,
+    seed: int,
+    risk: float,
+    progress: Callable[[int], Any] | None = None,
+) -> dict[str, Any]:
+    """SMPC(p), the spline reproduction and SB3 policies on K held-out random scenarios.
+
+    In each scenario drawn from :class:`envs.scenario.ScenarioRanges` with ``seed``, the
+    SMPC(p) demonstration is the reference; the spline reproduction r*_θ is planned in that
+    scenario (open loop); each SB3 policy drives it in closed loop. Per method: the learned
+    cost θᵀf, rmse_y against SMPC(p), min d_k, collisions and the compute per decision
+    (SMPC: solver time per step; spline: one plan; SB3: one forward pass).
+
+    Args:
+        style: the learned style (its θ, features and control-point rule).
+        models: method name → :func:`agents.sb3_baseline.train_baseline` output folder.
+        k: held-out scenarios (≥ 1).
+        seed: their seed (disjoint from training).
+        risk: the demonstrator's risk p.
+        progress: called with 1 after each scenario.
+
+    Returns:
+        ``per_scenario`` (per method: metrics) and ``summary`` (per method:
+        ``median_rmse_y_m``, ``collisions``, ``median_cost``, ``decision_ms``, ``n``).
+    """
+    from agents.rollout import generate_demonstration
+    from agents.sb3_baseline import SB3Policy
+    from envs.scenario import ScenarioRanges
+
+    if k < 1:
+        raise ValueError(f"need at least one held-out scenario, got {k}")
+    policies = {name: SB3Policy(folder) for name, folder in models.items()}
+    rng = np.random.default_rng(seed)
+    per_scenario = []
+    for _ in range(k):
+        scenario = ScenarioRanges().sample(rng)
+        demo, summary = generate_demonstration(risk, scenario)
+        C_demo = demo_control_points(demo, style.control_point_rule)
+        rows = {
+            "smpc": trajectory_metrics(C_demo, demo, style, C_demo)
+            | {"decision_ms": summary["solve_ms_median"]}
+        }
+        inner = InnerProblem(demo, style.features, style.control_point_rule)
+        sol = inner.solve(style.theta)
+        rows["spline"] = trajectory_metrics(sol.control_points, demo, style, C_demo) | {
+            "decision_ms": sol.solve_ms
+        }
+        for name, policy in policies.items():
+            times: list[float] = []
+
+            def timed(env: Any, obs: np.ndarray, act=policy.act, times=times) -> np.ndarray:
+                t0 = time.perf_counter()
+                u = act(env, obs)
+                times.append((time.perf_counter() - t0) * 1e3)
+                return u
+
+            rollout, _ = rollout_policy(timed, demo)
+            C = demo_control_points(
+                replace(rollout, meta=dict(demo.meta)), style.control_point_rule
+            )
+            rows[name] = trajectory_metrics(C, demo, style, C_demo) | {
+                "decision_ms": float(np.median(times)) if times else None
+            }
+        per_scenario.append({"scenario": scenario.to_dict(), "methods": rows})
+        if progress is not None:
+            progress(1)
+
+    def median(values: list) -> float | None:
+        values = [v for v in values if v is not None]
+        return float(np.median(values)) if values else None
+
+    names = list(per_scenario[0]["methods"])
+    summary = {
+        name: {
+            "median_rmse_y_m": median([s["methods"][name]["rmse_y_m"] for s in per_scenario]),
+            "collisions": sum(s["methods"][name]["collision"] for s in per_scenario),
+            "median_cost": median([s["methods"][name]["learned_cost"] for s in per_scenario]),
+            "decision_ms": median([s["methods"][name]["decision_ms"] for s in per_scenario]),
+            "min_d_k": min(s["methods"][name]["min_d_k"] for s in per_scenario),
+            "n": len(per_scenario),
+        }
+        for name in names
+    }
+    return {"per_scenario": per_scenario, "summary": summary}
+
+
+def plot_heldout(result: dict[str, Any], path: str | Path) -> Path:
+    """rmse_y against SMPC(p) per method over the held-out scenarios (box plot)."""
+    names = list(result["summary"])[1:]  # the SMPC is the reference (0 by definition)
+    data = [
+        [
+            s["methods"][n]["rmse_y_m"]
+            for s in result["per_scenario"]
+            if s["methods"][n]["rmse_y_m"] is not None
+        ]
+        for n in names
+    ]
+    fig, ax = plt.subplots(figsize=(6, 3.8))
+    ax.boxplot(data, tick_labels=names)
+    ax.set_ylabel("rmse_y against SMPC(p) [m]")
+    ax.set_title(f"{result['summary'][names[0]]['n']} held-out scenarios")
+    ax.grid(alpha=0.3)
+    return save_figure(fig, path, dpi=120)

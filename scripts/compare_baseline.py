@@ -17,10 +17,19 @@ import argparse
 import sys
 from pathlib import Path
 
+from tqdm import tqdm
+
 from agents import SMPCConfig, generate_demonstration
-from agents.compare import LABELS, compare_methods, comparison_markdown, plot_comparison
+from agents.compare import (
+    LABELS,
+    compare_methods,
+    comparison_markdown,
+    heldout_comparison,
+    plot_comparison,
+    plot_heldout,
+)
 from envs import load_demonstration
-from envs.cli import run_cli
+from envs.cli import positive_int, risk_value, run_cli
 from envs.io import (
     atomic_output_dir,
     check_output_dir,
@@ -43,8 +52,42 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--out", type=Path, default=Path("runs/compare"), help="output folder (replaced whole)"
     )
-    p.add_argument("--seed", type=int, default=0, help="unused: the comparison is deterministic")
+    p.add_argument(
+        "--heldout",
+        type=positive_int,
+        metavar="K",
+        help="instead: compare on K held-out random scenarios (heldout.json, heldout.png)",
+    )
+    p.add_argument(
+        "--sac-model", type=Path, help="a second (SAC) train_baseline.py folder (--heldout)"
+    )
+    p.add_argument(
+        "--risk", type=risk_value, default=0.7, help="the demonstrator's risk p (--heldout)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the held-out scenarios (--heldout)")
     return p.parse_args(argv)
+
+
+def heldout(args: argparse.Namespace, argv_full: list[str]) -> dict:
+    """The ``--heldout`` mode."""
+    style = load_style(args.style)
+    models = {}
+    for name, folder in (("sb3", args.model), ("sac", args.sac_model)):
+        if folder is not None:
+            models[name] = folder
+    with tqdm(total=args.heldout, desc="held-out scenarios") as bar:
+        res = heldout_comparison(style, models, args.heldout, args.seed, args.risk, bar.update)
+    payload = {"style": str(args.style), "seed": args.seed, "risk": args.risk, **res}
+    with atomic_output_dir(args.out) as tmp:
+        write_json(tmp / "heldout.json", payload, argv_full)
+        plot_heldout(res, tmp / "heldout.png")
+    for name, m in res["summary"].items():
+        print(
+            f"{name:7s} median rmse_y {fmt(m['median_rmse_y_m'])} m, collisions "
+            f"{m['collisions']}/{m['n']}, median cost {fmt(m['median_cost'])}, decision "
+            f"{fmt(m['decision_ms'], 3)} ms"
+        )
+    return payload
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -52,6 +95,8 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     argv_full = [sys.argv[0], *(argv or sys.argv[1:])]
     check_output_dir(args.out)
+    if args.heldout:
+        return heldout(args, argv_full)
     style = load_style(args.style)
     demo_path = args.demo
     if demo_path is None:

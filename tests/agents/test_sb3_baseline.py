@@ -133,3 +133,18 @@ def test_scripts_train_compare_render(tmp_path, style_file):
     gif = tmp_path / "expert.gif"
     main("render_rollout")(["--policy", "expert", "--video", str(gif)])
     assert iio.imread(gif).shape[0] == 31
+
+
+def test_heldout_comparison_scores_every_method(style_file, tmp_path):
+    from agents.compare import heldout_comparison, plot_heldout
+    from irl.style import load_style
+
+    res = heldout_comparison(load_style(style_file), {}, k=2, seed=3000, risk=0.7)
+    summary = res["summary"]
+    assert set(summary) == {"smpc", "spline"}
+    assert summary["smpc"]["median_rmse_y_m"] == pytest.approx(0.0, abs=1e-12)
+    assert 0 < summary["spline"]["median_rmse_y_m"] < 5
+    assert summary["smpc"]["collisions"] == 0 and summary["spline"]["n"] == 2
+    assert plot_heldout(res, tmp_path / "h.png").stat().st_size > 5_000
+    with pytest.raises(ValueError, match="held-out"):
+        heldout_comparison(load_style(style_file), {}, k=0, seed=1, risk=0.7)
