@@ -178,6 +178,9 @@ def atomic_output_dir(path: str | Path, replace: bool = True) -> Iterator[Path]:
     path = check_output_dir(path).resolve()
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the output is an ordinary folder
     try:
         yield tmp
     except BaseException:

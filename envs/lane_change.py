@@ -6,6 +6,8 @@ to ``target_lane`` while a scripted target vehicle (TV) drives at constant speed
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import Any, ClassVar, Protocol, SupportsFloat
 
@@ -17,7 +19,14 @@ from envs.dynamics import rk4_step
 from envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
-__all__ = ["COLLISION_PENALTY", "REWARD_PLUGINS", "LaneChangeEnv", "RewardModel", "task_reward"]
+__all__ = [
+    "COLLISION_PENALTY",
+    "REWARD_PLUGINS",
+    "LaneChangeEnv",
+    "RewardModel",
+    "TVDeviation",
+    "task_reward",
+]
 
 COLLISION_PENALTY = 10.0
 """Reward lost on a collision or on leaving the road (the episode then terminates)."""
@@ -25,6 +34,36 @@ COLLISION_PENALTY = 10.0
 
 REWARD_PLUGINS = "drivestyle.rewards"
 """Entry-point group of reward models that ``style=`` resolves (the ``style`` entry)."""
+
+
+@dataclass(frozen=True)
+class TVDeviation:
+    """A TV that deviates from the constant velocity every predictor assumes.
+
+    From ``t_start`` for ``duration`` seconds the TV accelerates at ``accel`` (negative:
+    it brakes; its speed stays ≥ 0), then keeps its new speed. The acceleration applies to
+    the steps that start within [t_start, t_start + duration) (with T_s = 0.2 s the
+    default 1.5 s from t = 1.5 s covers the 7 steps starting at 1.6 … 2.8 s: 5.6 m/s).
+    """
+
+    t_start: float = 1.5
+    """Start of the deviation [s]."""
+    accel: float = -4.0
+    """Longitudinal acceleration during the deviation [m/s²]."""
+    duration: float = 1.5
+    """Length of the deviation [s]."""
+
+    def __post_init__(self) -> None:
+        for name in ("t_start", "accel", "duration"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value)):
+                raise ValueError(f"TVDeviation.{name} must be a finite number, got {value!r}")
+        if self.t_start < 0 or self.duration <= 0:
+            raise ValueError("TVDeviation needs t_start >= 0 and duration > 0")
+
+    def accel_at(self, t: float) -> float:
+        """The TV's acceleration over the step starting at t [m/s²]."""
+        return self.accel if self.t_start <= t < self.t_start + self.duration else 0.0
 
 
 class RewardModel(Protocol):
@@ -131,6 +170,7 @@ class LaneChangeEnv(gym.Env):
             becomes its negative cost (:mod:`irl.reward`, found as a plugin, see
             :func:`style_reward_model`); the task reward moves to ``info["original_env_rew"]``.
         reward: any :class:`RewardModel` instead of ``style`` (not both).
+        tv_deviation: make the TV brake or accelerate mid-episode (:class:`TVDeviation`).
         **overrides: scenario fields to replace, e.g. ``ev_speed=27``.
 
     Raises:
@@ -152,9 +192,13 @@ class LaneChangeEnv(gym.Env):
         show_ellipse: bool = True,
         style: Any = None,
         reward: RewardModel | None = None,
+        tv_deviation: TVDeviation | None = None,
         **overrides: Any,
     ) -> None:
         base = get_scenario(scenario).with_overrides(**overrides)
+        if tv_deviation is not None and not isinstance(tv_deviation, TVDeviation):
+            raise TypeError(f"tv_deviation must be a TVDeviation, got {tv_deviation!r}")
+        self.tv_deviation = tv_deviation
         if style is not None and reward is not None:
             raise ValueError("pass style= or reward=, not both")
         if not isinstance(show_ellipse, (bool, np.bool_)):
@@ -222,10 +266,13 @@ class LaneChangeEnv(gym.Env):
         return rectangles_overlap(ev, tv)
 
     def _advance_others(self) -> None:
-        """Move the TV one step at constant velocity (the paper's scripted TV)."""
+        """Move the TV one step: constant velocity (the paper's scripted TV) or deviating."""
         x, y, phi, v = self.tv
         dt = self.scenario.dt
-        self.tv = np.array([x + v * np.cos(phi) * dt, y + v * np.sin(phi) * dt, phi, v])
+        a = 0.0 if self.tv_deviation is None else self.tv_deviation.accel_at(self.k * dt)
+        v_new = max(v + a * dt, 0.0)
+        step = 0.5 * (v + v_new) * dt
+        self.tv = np.array([x + step * np.cos(phi), y + step * np.sin(phi), phi, v_new])
 
     def _reward_context(self) -> dict[str, Any]:
         """Extra keyword arguments of the reward model's ``step`` (traffic: the others)."""

@@ -148,3 +148,26 @@ def test_heldout_comparison_scores_every_method(style_file, tmp_path):
     assert plot_heldout(res, tmp_path / "h.png").stat().st_size > 5_000
     with pytest.raises(ValueError, match="held-out"):
         heldout_comparison(load_style(style_file), {}, k=0, seed=1, risk=0.7)
+
+
+def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
+    from agents import generate_demonstration
+    from agents.deviation import deviating_tv_study
+    from envs.lane_change import LaneChangeEnv, TVDeviation
+    from irl.style import load_style
+
+    with pytest.raises(ValueError, match="duration"):
+        TVDeviation(duration=0.0)
+    env = LaneChangeEnv(tv_deviation=TVDeviation(t_start=1.0, accel=-4.0, duration=1.0))
+    env.reset()
+    for _ in range(15):
+        env.step(np.zeros(2))
+    assert env.tv[3] == pytest.approx(28.0 - 4.0 * 1.0)  # braked for exactly 1 s
+    style = load_style(style_file)
+    nominal = generate_demonstration(0.7)[0]
+    res = deviating_tv_study(style, nominal, TVDeviation())
+    assert set(res["methods"]) == {"smpc", "spline_open_loop", "spline_receding"}
+    assert res["methods"]["smpc"]["rmse_y_vs_smpc_m"] == 0.0
+    assert not res["methods"]["smpc"]["collision"] and res["methods"]["smpc"]["min_d_k"] > 0
+    braking_steps = sum(1.5 <= k * 0.2 < 3.0 for k in range(30))  # steps starting inside
+    assert res["tv"][-1, 3] == pytest.approx(28.0 - 4.0 * 0.2 * braking_steps)
