@@ -290,6 +290,7 @@ class SB3Policy:
 
             self.norm: VecNormalize = pickle.load(fh)
         self.norm.training = False
+        self._numpy_network()
 
     def act(self, env: Any, obs: np.ndarray) -> np.ndarray:
         """Deterministic action [a, δ] in physical units for the env's raw observation.
@@ -302,7 +303,56 @@ class SB3Policy:
             [a, δ] [m/s², rad].
         """
         base = env.unwrapped
-        o = rl_observation(obs, base.k, base.scenario)[None, :]
-        a, _ = self.model.predict(self.norm.normalize_obs(o), deterministic=True)
+        o = rl_observation(obs, base.k, base.scenario)
+        a = self.forward(o)
         low, high = base.action_space.low, base.action_space.high
-        return physical_action(a[0], low, high, base.ev, base.scenario)
+        return physical_action(a, low, high, base.ev, base.scenario)
+
+    def _numpy_network(self) -> None:
+        """Copy the deterministic action path into numpy (a decision in microseconds).
+
+        PPO: the policy MLP then the Gaussian mean, clipped to [−1, 1] (SB3's ``predict``);
+        SAC: the actor MLP then tanh of the mean (its squashing). Observations are
+        normalised with the stored VecNormalize statistics, as ``predict`` would see them.
+        """
+        import torch
+
+        policy = self.model.policy
+        if self.summary["algo"] == "ppo":
+            body, head, self._squash = policy.mlp_extractor.policy_net, policy.action_net, False
+        else:
+            body, head, self._squash = policy.actor.latent_pi, policy.actor.mu, True
+        layers: list[tuple[str, Any]] = []
+        for module in [*body, head]:
+            if isinstance(module, torch.nn.Linear):
+                w = module.weight.detach().cpu().numpy().astype(np.float64)
+                b = module.bias.detach().cpu().numpy().astype(np.float64)
+                layers.append(("linear", (w, b)))
+            elif isinstance(module, torch.nn.Tanh):
+                layers.append(("tanh", None))
+            elif isinstance(module, torch.nn.ReLU):
+                layers.append(("relu", None))
+            else:
+                raise TypeError(f"unsupported layer {module!r} in the policy network")
+        self._layers = layers
+        rms = self.norm.obs_rms
+        self._obs_mean = np.asarray(rms.mean, float)
+        self._obs_scale = 1.0 / np.sqrt(np.asarray(rms.var, float) + self.norm.epsilon)
+        self._clip_obs = float(self.norm.clip_obs)
+
+    def forward(self, observation: np.ndarray) -> np.ndarray:
+        """Deterministic normalised action in [−1, 1]² of an RL observation (numpy only)."""
+        z = np.clip(
+            (np.asarray(observation, float) - self._obs_mean) * self._obs_scale,
+            -self._clip_obs,
+            self._clip_obs,
+        )
+        for kind, params in self._layers:
+            if kind == "linear":
+                w, b = params
+                z = w @ z + b
+            elif kind == "tanh":
+                z = np.tanh(z)
+            else:
+                z = np.maximum(z, 0.0)
+        return np.tanh(z) if self._squash else np.clip(z, -1.0, 1.0)

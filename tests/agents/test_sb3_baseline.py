@@ -52,6 +52,12 @@ def test_train_save_reload_identical_actions(tmp_path, style_file, algo):
     for _ in range(5):
         ua, ub = a.act(env, obs), b.act(env, obs)
         np.testing.assert_array_equal(ua, ub)
+        # the numpy forward pass equals SB3's own predict on the normalised observation
+        from envs.rl import rl_observation
+
+        o = rl_observation(obs, env.k, env.scenario)
+        sb3, _ = a.model.predict(a.norm.normalize_obs(o[None, :]), deterministic=True)
+        np.testing.assert_allclose(a.forward(o), sb3[0], atol=1e-5)
         assert np.all(ua >= env.action_space.low) and np.all(ua <= env.action_space.high)
         obs, *_ = env.step(ua)
 
