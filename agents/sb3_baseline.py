@@ -21,6 +21,7 @@ from envs.lane_change import LaneChangeEnv
 from envs.plotting import plt, save_figure
 from envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from envs.scenario import ScenarioConfig
+from envs.traffic import TrafficEnv
 from irl.reward import LearnedStyleReward
 from irl.style import Style
 
@@ -45,6 +46,8 @@ class TrainConfig:
     """Episodes per evaluation (the paper scenario is deterministic: one suffices)."""
     randomize: bool = False
     """Train on the random scenario family instead of the fixed scenario."""
+    traffic: bool = False
+    """Train in traffic (``Traffic-v0`` / ``TrafficRandom-v0``)."""
     crash_penalty: float | None = None
     """Cost of a crash (None: the reward's default, see irl.reward)."""
     norm_reward: bool = False
@@ -66,6 +69,7 @@ def make_rl_env(
     monitor_file: str | Path | None = None,
     render_mode: str | None = None,
     crash_penalty: float | None = None,
+    traffic: bool = False,
     **overrides: Any,
 ) -> gym.Env:
     """The RL training env: learned reward, RL observation, actions in [−1, 1].
@@ -77,6 +81,8 @@ def make_rl_env(
         monitor_file: write SB3 ``Monitor`` episode statistics to this CSV.
         render_mode: passed to the env.
         crash_penalty: see :class:`irl.reward.StyleReward`.
+        traffic: the traffic env (``Traffic-v0``, or ``TrafficRandom-v0`` with randomize)
+            instead of the single-TV one (``scenario`` then ignored).
         **overrides: scenario overrides.
 
     Returns:
@@ -84,9 +90,13 @@ def make_rl_env(
     """
     from stable_baselines3.common.monitor import Monitor
 
-    env: gym.Env = LaneChangeEnv(
-        scenario=scenario, randomize=randomize, render_mode=render_mode, **overrides
-    )
+    env: gym.Env
+    if traffic:
+        env = TrafficEnv(randomize=randomize, render_mode=render_mode, **overrides)
+    else:
+        env = LaneChangeEnv(
+            scenario=scenario, randomize=randomize, render_mode=render_mode, **overrides
+        )
     env = LearnedStyleReward(env, style, crash_penalty)
     env = Monitor(
         env,
@@ -103,12 +113,18 @@ def _vec_env(
     monitor: Path | None,
     randomize: bool,
     crash_penalty: float | None,
+    traffic: bool = False,
 ):
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     def make():
         env = make_rl_env(
-            style, scenario, randomize=randomize, monitor_file=monitor, crash_penalty=crash_penalty
+            style,
+            scenario,
+            randomize=randomize,
+            monitor_file=monitor,
+            crash_penalty=crash_penalty,
+            traffic=traffic,
         )
         env.reset(seed=seed)
         env.action_space.seed(seed)
@@ -153,13 +169,23 @@ def train_baseline(
     set_random_seed(cfg.seed)
     # rewards may be normalised for learning only; evaluation reports the raw learned cost
     train_env = VecNormalize(
-        _vec_env(style, scenario, cfg.seed, out / "monitor.csv", cfg.randomize, cfg.crash_penalty),
+        _vec_env(
+            style,
+            scenario,
+            cfg.seed,
+            out / "monitor.csv",
+            cfg.randomize,
+            cfg.crash_penalty,
+            cfg.traffic,
+        ),
         norm_obs=True,
         norm_reward=cfg.norm_reward,
         gamma=0.99,
     )
     eval_env = VecNormalize(
-        _vec_env(style, scenario, cfg.seed + 1, None, cfg.randomize, cfg.crash_penalty),
+        _vec_env(
+            style, scenario, cfg.seed + 1, None, cfg.randomize, cfg.crash_penalty, cfg.traffic
+        ),
         norm_obs=True,
         norm_reward=False,
         training=False,
@@ -217,6 +243,7 @@ def train_baseline(
         "seed": cfg.seed,
         "train_time_s": train_s,
         "randomize": cfg.randomize,
+        "traffic": cfg.traffic,
         "final_eval_return": (
             float(eval_cb.last_mean_reward) if np.isfinite(eval_cb.last_mean_reward) else None
         ),

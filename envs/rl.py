@@ -32,39 +32,53 @@ __all__ = [
     "heading_steering_limits",
     "physical_action",
     "rl_observation",
+    "rl_observation_size",
 ]
 
 
 RL_OBSERVATION_SIZE = 8
+"""Size of the single-TV RL observation; traffic: 4 + 4K + 1 (:func:`rl_observation_size`)."""
+
+
+def rl_observation_size(raw_size: int) -> int:
+    """RL observation size for a raw observation of ``raw_size`` entries (8 or 4 + 5K)."""
+    if raw_size == 8:
+        return RL_OBSERVATION_SIZE
+    if raw_size < 9 or (raw_size - 4) % 5:
+        raise ValueError(f"not a drivestyle observation size: {raw_size}")
+    return 4 + 4 * ((raw_size - 4) // 5) + 1
 
 
 def rl_observation(observation: np.ndarray, k: int, scenario: Any) -> np.ndarray:
     """The RL observation of a raw drivestyle observation (module docstring).
 
+    Single TV (raw shape (8,)): ``[y − y_target, y − y_initial, φ, v − v_ref,
+    x_TV − x_EV, y_TV − y, v_TV − v, t_left/T]``. Traffic (raw ``EV ++ K × [present, x, y, φ,
+    v]``): the same four EV entries, then per slot ``[present, x − x_EV, y − y, v − v]``
+    (zeros when absent), then t_left/T.
+
     Args:
-        observation: raw observation [x, y, φ, v] of the EV then the TV, shape (8,).
+        observation: raw observation.
         k: steps taken in the episode.
         scenario: the episode's :class:`envs.scenario.ScenarioConfig`.
 
     Returns:
-        Shape (8,), float32.
+        Float32 vector of :func:`rl_observation_size` entries.
     """
-    ev, tv = observation[:4], observation[4:8]
+    observation = np.asarray(observation, float)
+    ev = observation[:4]
     sc = scenario
     left = max(1.0 - k / sc.n_steps, 0.0)
-    return np.array(
-        [
-            ev[1] - sc.y_ref,
-            ev[1] - sc.lane_centres[sc.ev_lane],
-            ev[2],
-            ev[3] - sc.v_ref,
-            tv[0] - ev[0],
-            tv[1] - ev[1],
-            tv[3] - ev[3],
-            left,
-        ],
-        np.float32,
+    own = [ev[1] - sc.y_ref, ev[1] - sc.lane_centres[sc.ev_lane], ev[2], ev[3] - sc.v_ref]
+    if observation.size == 8:
+        tv = observation[4:8]
+        return np.array([*own, tv[0] - ev[0], tv[1] - ev[1], tv[3] - ev[3], left], np.float32)
+    slots = observation[4:].reshape(-1, 5)
+    rel = np.column_stack(
+        [slots[:, 0], slots[:, 1] - ev[0], slots[:, 2] - ev[1], slots[:, 4] - ev[3]]
     )
+    rel[slots[:, 0] < 0.5] = 0.0
+    return np.concatenate([own, rel.ravel(), [left]]).astype(np.float32)
 
 
 def heading_steering_limits(ev: np.ndarray, scenario: Any) -> tuple[float, float]:
@@ -124,14 +138,20 @@ class RLObservation(gym.ObservationWrapper, RecordConstructorArgs):
         RecordConstructorArgs.__init__(self)
         gym.ObservationWrapper.__init__(self, env)
         base = env.unwrapped
-        if env.observation_space.shape != (8,) or not hasattr(base, "scenario"):
+        shape = env.observation_space.shape
+        try:
+            size = rl_observation_size(shape[0]) if shape and len(shape) == 1 else None
+        except ValueError:
+            size = None
+        if size is None or not hasattr(base, "scenario"):
             raise TypeError(
-                "RLObservation needs a drivestyle env (observation [x, y, φ, v] of the EV "
-                f"and the TV, shape (8,)); got {base!r} with {env.observation_space}"
+                "RLObservation needs a drivestyle env (observation [x, y, φ, v] of the EV and "
+                "the TV, shape (8,), or the traffic layout 4 + 5K); got "
+                f"{base!r} with {env.observation_space}"
             )
         inf = np.inf
-        low = np.full(RL_OBSERVATION_SIZE, -inf, dtype=np.float32)
-        high = np.full(RL_OBSERVATION_SIZE, inf, dtype=np.float32)
+        low = np.full(size, -inf, dtype=np.float32)
+        high = np.full(size, inf, dtype=np.float32)
         low[-1], high[-1] = 0.0, 1.0
         self.observation_space = spaces.Box(low=low, high=high, dtype=np.float32)
 

@@ -41,8 +41,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--env",
         default="drivestyle/LaneChange-v0",
-        choices=("drivestyle/LaneChange-v0", "drivestyle/LaneChangeRandom-v0"),
-        help="training env: the style's fixed scenario or the random family",
+        choices=(
+            "drivestyle/LaneChange-v0",
+            "drivestyle/LaneChangeRandom-v0",
+            "drivestyle/Traffic-v0",
+            "drivestyle/TrafficRandom-v0",
+        ),
+        help="training env: the style's fixed scenario, the random family, or traffic",
     )
     p.add_argument(
         "--randomize", action="store_true", help="same as --env drivestyle/LaneChangeRandom-v0"
@@ -78,6 +83,7 @@ def main(argv: list[str] | None = None) -> dict:
         seed=args.seed,
         eval_freq=min(args.eval_freq, args.timesteps),
         randomize=args.randomize or args.env.endswith("Random-v0"),
+        traffic=args.env.startswith("drivestyle/Traffic"),
         crash_penalty=args.crash_penalty,
         norm_reward=args.norm_reward,
     )

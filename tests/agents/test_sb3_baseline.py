@@ -177,3 +177,21 @@ def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
     assert not res["methods"]["smpc"]["collision"] and res["methods"]["smpc"]["min_d_k"] > 0
     braking_steps = sum(1.5 <= k * 0.2 < 3.0 for k in range(30))  # steps starting inside
     assert res["tv"][-1, 3] == pytest.approx(28.0 - 4.0 * 0.2 * braking_steps)
+
+
+def test_traffic_training_env_passes_sb3_check_and_a_policy_trains(style_file, tmp_path):
+    import warnings
+
+    from stable_baselines3.common.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(make_rl_env(style_file, traffic=True, randomize=True))
+    cfg = TrainConfig(timesteps=256, eval_freq=256, traffic=True, randomize=True)
+    train_baseline(style_file, tmp_path / "traffic", cfg, progress=False)
+    from envs.traffic import TrafficEnv
+
+    env = TrafficEnv()
+    obs, _ = env.reset(seed=0)
+    u = SB3Policy(tmp_path / "traffic").act(env, obs)
+    assert np.all(u >= env.action_space.low) and np.all(u <= env.action_space.high)

@@ -33,7 +33,7 @@ def test_check_env_passes_on_every_registered_id(env_id, render_mode):
 
 
 @pytest.mark.parametrize("wrap", WRAPPERS.values(), ids=WRAPPERS.keys())
-@pytest.mark.parametrize("env_id", ENV_IDS[:2])  # the RL observation is single-TV (issue 13)
+@pytest.mark.parametrize("env_id", ENV_IDS)
 def test_check_env_passes_on_the_rl_wrappers(env_id, wrap):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
