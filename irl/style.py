@@ -129,6 +129,20 @@ class Style:
 
         return normalise_theta(self.theta, self.names)
 
+    def demo_path(self, source: str | Path = "the style") -> Path:
+        """The file of the (first) demonstration the style was learned from.
+
+        Args:
+            source: how to name the style in the error (e.g. its path).
+
+        Raises:
+            StyleError: the style names no demonstration.
+        """
+        try:
+            return Path(self.raw["demos"][0]["path"])
+        except (KeyError, IndexError, TypeError):
+            raise StyleError(f"{source} names no demonstration: pass --demo") from None
+
 
 def load_style(path: str | Path) -> Style:
     """Read and validate a ``style.json``.

@@ -98,12 +98,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.heldout:
         return heldout(args, argv_full)
     style = load_style(args.style)
-    demo_path = args.demo
-    if demo_path is None:
-        try:
-            demo_path = Path(style.raw["demos"][0]["path"])
-        except (KeyError, IndexError, TypeError):
-            raise ValueError(f"{args.style} names no demonstration: pass --demo") from None
+    demo_path = args.demo or style.demo_path(args.style)
     demo = load_demonstration(demo_path)
     smpc_s = None
     risk = demo.meta.get("risk")

@@ -57,13 +57,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out)
     style = load_style(args.style)
-    if args.demo is not None:
-        nominal = load_demonstration(args.demo)
-    else:
-        try:
-            nominal = load_demonstration(style.raw["demos"][0]["path"])
-        except (KeyError, IndexError, TypeError):
-            raise ValueError(f"{args.style} names no demonstration: pass --demo") from None
+    nominal = load_demonstration(args.demo or style.demo_path(args.style))
     if nominal.meta.get("risk") not in (None, args.risk):
         nominal, _ = generate_demonstration(args.risk, nominal.scenario)
     deviation = TVDeviation(args.t_start, args.accel, args.duration)

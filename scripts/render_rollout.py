@@ -70,10 +70,7 @@ def main(argv: list[str] | None = None) -> dict:
         style = load_style(args.style)
     demo_path = args.demo
     if demo_path is None and style is not None:
-        try:
-            demo_path = Path(style.raw["demos"][0]["path"])
-        except (KeyError, IndexError, TypeError):
-            raise ValueError(f"{args.style} names no demonstration: pass --demo") from None
+        demo_path = style.demo_path(args.style)
     demo = load_demonstration(demo_path) if demo_path else None
     scenario = demo.scenario if demo is not None else "paper"
     if args.scenario == "traffic":

@@ -81,3 +81,12 @@ def test_crash_costs_the_penalty(styles):
 def test_bad_style_path():
     with pytest.raises(FileNotFoundError):
         LearnedStyleReward(LaneChangeEnv(), "no/such/style.json")
+
+
+def test_a_style_names_its_demonstration_or_says_it_has_none(tmp_path):
+    from irl.style import Style, StyleError
+
+    named = Style(("ax",), np.ones(1), None, "kinematic", {"demos": [{"path": "d/demo.npz"}]})
+    assert str(named.demo_path()) == "d/demo.npz"
+    with pytest.raises(StyleError, match=r"s\.json names no demonstration: pass --demo"):
+        Style(("ax",), np.ones(1), None, "kinematic", {"demos": []}).demo_path("s.json")
