@@ -318,6 +318,9 @@ class TrafficEnv(LaneChangeEnv):
             randomize = TrafficRanges()
         elif randomize is not False and not isinstance(randomize, TrafficRanges):
             raise TypeError(f"randomize must be a bool or TrafficRanges, got {randomize!r}")
+        # the vehicles first: the base class sets the TV, which is vehicles[0] here
+        self.vehicles = scene.initial_states()
+        self._desired_speeds = self.vehicles[:, 3].copy()  # IDM: the initial speeds
         super().__init__(scene.base, False, render_mode, show_ellipse, style=style, reward=reward)
         self.base_scene = scene
         self.scene = scene
@@ -327,7 +330,6 @@ class TrafficEnv(LaneChangeEnv):
         high = np.full(n, np.inf)
         low[3], high[3] = 0.0, scene.base.v_max
         self.observation_space = spaces.Box(low=low, high=high, dtype=np.float64)
-        self.vehicles = scene.initial_states()
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -337,8 +339,7 @@ class TrafficEnv(LaneChangeEnv):
 
     @tv.setter
     def tv(self, state: np.ndarray) -> None:
-        if hasattr(self, "vehicles"):
-            self.vehicles[0] = state
+        self.vehicles[0] = state
 
     def _obs(self) -> np.ndarray:
         obs = np.zeros(4 + 5 * OBS_SLOTS)
@@ -367,7 +368,8 @@ class TrafficEnv(LaneChangeEnv):
             for s in self.vehicles
         )
 
-    def _move_others(self) -> None:
+    def _advance_others(self) -> None:
+        """Move every other vehicle one step (constant velocity or IDM)."""
         sc = self.scenario
         old = self.vehicles.copy()
         new = old.copy()
@@ -385,7 +387,7 @@ class TrafficEnv(LaneChangeEnv):
                     ahead.append((self.ev[0], self.ev[3]))
                 leader = min(ahead, default=None)
                 gap = None if leader is None else leader[0] - x - sc.vehicle_length
-                v0 = self.scene.initial_states()[j, 3]
+                v0 = self._desired_speeds[j]
                 a = idm_acceleration(v, v0, gap, 0.0 if leader is None else leader[1])
                 v_new = max(v + a * sc.dt, 0.0)
                 x += 0.5 * (v + v_new) * sc.dt
@@ -422,6 +424,7 @@ class TrafficEnv(LaneChangeEnv):
         self.scenario = self.scene.base
         self.ev = self.scenario.ev_initial_state
         self.vehicles = self.scene.initial_states()
+        self._desired_speeds = self.vehicles[:, 3].copy()
         self.k = 0
         self._done = False
         if self._reward_model is not None:
@@ -430,9 +433,6 @@ class TrafficEnv(LaneChangeEnv):
             self.render()
         info = self._info(scenario=self.scenario, scene=self.scene, action_clipped=False)
         return self._obs(), info
-
-    def _advance_others(self) -> None:
-        self._move_others()
 
     def _reward_context(self) -> dict[str, Any]:
         return {"others": self.vehicles[1:].copy()}
