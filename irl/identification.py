@@ -535,7 +535,8 @@ def _record(
             f"{scorer}_interval": [lo, hi],
             f"{scorer}_covered": lo - 1e-9 <= p <= hi + 1e-9,
         }
-    rec["posterior"] = _summarise(risks, [scored], DEFAULT_SCORER)["posterior"]
+        if scorer == DEFAULT_SCORER:
+            rec["posterior"] = res["posterior"]
     return rec
 
 
@@ -661,7 +662,7 @@ def evaluate_identification(
     own = [r["scores"]["rmse_y"][list(library.risks).index(r["risk"])] for r in grid_recs]
     summary["own_style_rmse_y_median_m"] = float(np.median(own)) if own else None
     summary["identify_s_median"] = (
-        mean([]) if not records else float(np.median([r["identify_s"] for r in records]))
+        float(np.median([r["identify_s"] for r in records])) if records else None
     )
     return {"records": records, "summary": summary}
 
