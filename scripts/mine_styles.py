@@ -99,17 +99,15 @@ def main(argv: list[str] | None = None) -> dict:
         if new_file:
             writer.writeheader()
 
-        def write(row: dict) -> None:
-            writer.writerow(row)
-            fh.flush()  # a row on disk is a row a rerun skips
-            bar.update(1)
-            bar.set_postfix(failed=sum(r["status"] == "failed" for r in new_rows))
-
-        new_rows: list[dict] = []
+        failed = 0
 
         def on_row(row: dict) -> None:
-            new_rows.append(row)
-            write(row)
+            nonlocal failed
+            writer.writerow(row)
+            fh.flush()  # a row on disk is a row a rerun skips
+            failed += row["status"] == "failed"
+            bar.update(1)
+            bar.set_postfix(failed=failed)
 
         mine(todo, library, args.engine, args.workers, on_row, args.address)
     wall = time.perf_counter() - t0
