@@ -22,8 +22,8 @@ from agents.smpc import SMPCConfig, SMPCExpert
 from envs.demonstration import save_demonstration
 from envs.lane_change import LaneChangeEnv
 from envs.parallel import parallel_map
-from envs.scenario import ScenarioRanges
-from envs.traffic import TrafficEnv, TrafficRanges
+from envs.scenario import ScenarioConfig, ScenarioRanges
+from envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
 
 __all__ = ["RISK_RANGE", "draw_vehicle", "simulate_population"]
 
@@ -42,9 +42,6 @@ def draw_vehicle(seed: int, i: int, traffic_share: float = 0.0) -> dict[str, Any
 
 def _simulate_chunk(vehicles: list[dict[str, Any]], folder: str, jit: bool) -> list[dict]:
     """Worker: simulate and save a chunk of vehicles with one solver per family."""
-    from envs.scenario import ScenarioConfig
-    from envs.traffic import TrafficScene
-
     experts: dict[bool, SMPCExpert] = {}
     envs = {False: LaneChangeEnv(), True: TrafficEnv()}
     rows = []
