@@ -1,9 +1,14 @@
 """drivestyle agents: the stochastic MPC expert that produces demonstrations."""
 
-from agents.chance import chance_margin, risk_quantile
-from agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance, tv_mean_prediction
-from agents.rollout import demo_summary, generate_demonstration, rollout_expert
-from agents.smpc import InfeasibleStartError, SMPCConfig, SMPCExpert, SolveReport
+from drivestyle.agents.chance import chance_margin, risk_quantile
+from drivestyle.agents.demo_generation import demo_summary, generate_demonstration, rollout_expert
+from drivestyle.agents.prediction import (
+    PAPER_TV_UNCERTAINTY,
+    TVUncertainty,
+    tv_covariance,
+    tv_mean_prediction,
+)
+from drivestyle.agents.smpc import InfeasibleStartError, SMPCConfig, SMPCExpert, SolveReport
 
 __all__ = [
     "PAPER_TV_UNCERTAINTY",

@@ -16,14 +16,13 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-
-from envs.lane_change import LaneChangeEnv
-from envs.plotting import plt, save_figure
-from envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
-from envs.scenario import ScenarioConfig
-from envs.traffic import TrafficEnv
-from irl.reward import LearnedStyleReward
-from irl.style import Style
+from drivestyle.agents.studies.figures import plt, save_figure
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.traffic import TrafficEnv
+from drivestyle.irl.reward import LearnedStyleReward
+from drivestyle.irl.style import Style
 
 __all__ = ["ALGOS", "SB3Policy", "TrainConfig", "make_rl_env", "train_baseline"]
 
@@ -49,7 +48,7 @@ class TrainConfig:
     traffic: bool = False
     """Train in traffic (``Traffic-v0`` / ``TrafficRandom-v0``)."""
     crash_penalty: float | None = None
-    """Cost of a crash (None: the reward's default, see irl.reward)."""
+    """Cost of a crash (None: the reward's default, see drivestyle.irl.reward)."""
     norm_reward: bool = False
     """Normalise rewards during training (VecNormalize); evaluations stay raw."""
 
@@ -75,12 +74,12 @@ def make_rl_env(
     """The RL training env: learned reward, RL observation, actions in [−1, 1].
 
     Args:
-        style: ``style.json`` path or loaded :class:`irl.style.Style`.
+        style: ``style.json`` path or loaded :class:`drivestyle.irl.style.Style`.
         scenario: scenario name or config.
         randomize: draw scenarios per reset (``LaneChangeRandom``).
         monitor_file: write SB3 ``Monitor`` episode statistics to this CSV.
         render_mode: passed to the env.
-        crash_penalty: see :class:`irl.reward.StyleReward`.
+        crash_penalty: see :class:`drivestyle.irl.reward.StyleReward`.
         traffic: the traffic env (``Traffic-v0``, or ``TrafficRandom-v0`` with randomize)
             instead of the single-TV one (``scenario`` then ignored).
         **overrides: scenario overrides.

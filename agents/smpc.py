@@ -3,9 +3,9 @@
 At each step the EV solves
 
     min_u  Σ_{k<N} ‖ξ_k − ξ_k^ref‖²_Q + ‖u_k‖²_R + ‖ξ_N − ξ_N^ref‖²_{Q_N}
-    s.t.   ξ_{k+1} = F(ξ_k, u_k)                      (the env's RK4 map, envs.dynamics)
+    s.t.   ξ_{k+1} = F(ξ_k, u_k)                      (the env's RK4 map, envs/dynamics.py)
            ξ_k ∈ Ξ, u_k ∈ U                           (heading, speed, road, input bounds)
-           g_k(ξ_k) + s_k ≥ 0, s_k ≥ 0, k = 1 … N     (tangent chance constraint, agents.chance)
+           g_k(ξ_k) + s_k ≥ 0, s_k ≥ 0, k = 1 … N     (tangent chance constraint, agents/chance.py)
            ‖z̄_k‖ − 1 ≥ 0, k = 1 … N                  (nominal ellipse, hard)
 
 with ξ^ref_k = [x_0 + v_ref t_k, y_ref, 0, v_ref] (the x weight is 1e-6, so x_ref only
@@ -36,14 +36,13 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+from drivestyle.agents.chance import chance_margin, risk_quantile
+from drivestyle.agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
+from drivestyle.envs.dynamics import rk4_step
+from drivestyle.envs.safety import elliptical_index
+from drivestyle.envs.scenario import PAPER, ScenarioConfig
+from drivestyle.envs.traffic import parse_traffic_observation
 from numpy.typing import ArrayLike
-
-from agents.chance import chance_margin, risk_quantile
-from agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
-from envs.dynamics import rk4_step
-from envs.safety import elliptical_index
-from envs.scenario import PAPER, ScenarioConfig
-from envs.traffic import parse_traffic_observation
 
 __all__ = ["InfeasibleStartError", "SMPCConfig", "SMPCExpert", "SolveReport"]
 
@@ -75,7 +74,7 @@ class SMPCConfig:
     R: tuple[float, float] = (1.0, 10.0)
     """Input weights on [a, δ]."""
     uncertainty: TVUncertainty = field(default_factory=lambda: PAPER_TV_UNCERTAINTY)
-    """TV prediction error model (agents.prediction)."""
+    """TV prediction error model (drivestyle.agents.prediction)."""
     solver: str = "fatrop"
     """'fatrop' (structure-exploiting interior point) or 'ipopt'."""
     max_iter: int = 200
@@ -457,7 +456,7 @@ class SMPCExpert:
 
         Args:
             obs: env observation: [x, y, φ, v]_EV ++ [x, y, φ, v]_TV, shape (8,), or a traffic
-                observation (``envs.traffic``: EV ++ K × [present, x, y, φ, v]).
+                observation (``drivestyle.envs.traffic``: EV ++ K × [present, x, y, φ, v]).
             return_info: also return the solve's info dict (``success``, ``status``,
                 ``iterations``, ``solve_ms``, ``fallback``, ``slack``).
 

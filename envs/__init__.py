@@ -5,22 +5,22 @@ Importing this package registers the Gymnasium ids (idempotently):
 - ``drivestyle/LaneChange-v0``: the paper's scenario; keyword arguments override its
   parameters, e.g. ``gym.make("drivestyle/LaneChange-v0", ev_speed=27, tv_gap=-15)``.
 - ``drivestyle/LaneChangeRandom-v0``: a scenario drawn per reset from
-  :class:`envs.scenario.ScenarioRanges` with the env's seed.
+  :class:`drivestyle.envs.scenario.ScenarioRanges` with the env's seed.
 - ``drivestyle/Traffic-v0``: the lane change among several vehicles
-  (:data:`envs.traffic.DEFAULT_TRAFFIC`); ``others=[...]`` and scenario fields override it.
+  (:data:`drivestyle.envs.traffic.DEFAULT_TRAFFIC`); ``others=[...]`` and scenario fields
+  override it.
 - ``drivestyle/TrafficRandom-v0``: traffic scenes drawn per reset from
-  :class:`envs.traffic.TrafficRanges` with the env's seed.
+  :class:`drivestyle.envs.traffic.TrafficRanges` with the env's seed.
 """
 
 from __future__ import annotations
 
 import gymnasium as gym
-
-from envs.demonstration import Demonstration, load_demonstration, save_demonstration
-from envs.dynamics import bicycle_ode, rk4_step
-from envs.lane_change import LaneChangeEnv, task_reward
-from envs.safety import ellipse_constraint, elliptical_index
-from envs.scenario import PAPER, SCENARIOS, ScenarioConfig, ScenarioRanges, get_scenario
+from drivestyle.envs.demonstration import Demonstration, load_demonstration, save_demonstration
+from drivestyle.envs.dynamics import bicycle_ode, rk4_step
+from drivestyle.envs.lane_change import LaneChangeEnv, task_reward
+from drivestyle.envs.safety import ellipse_constraint, elliptical_index
+from drivestyle.envs.scenario import PAPER, SCENARIOS, ScenarioConfig, ScenarioRanges, get_scenario
 
 __all__ = [
     "ENV_IDS",
@@ -51,14 +51,14 @@ ENV_IDS = (
 
 def register_envs() -> None:
     """Register the drivestyle ids with Gymnasium (no-op if already registered)."""
-    entry = "envs.lane_change:LaneChangeEnv"
+    entry = "drivestyle.envs.lane_change:LaneChangeEnv"
     if ENV_IDS[0] not in gym.registry:
         gym.register(id=ENV_IDS[0], entry_point=entry, kwargs={"scenario": "paper"})
     if ENV_IDS[1] not in gym.registry:
         gym.register(
             id=ENV_IDS[1], entry_point=entry, kwargs={"scenario": "paper", "randomize": True}
         )
-    traffic = "envs.traffic:TrafficEnv"
+    traffic = "drivestyle.envs.traffic:TrafficEnv"
     if ENV_IDS[2] not in gym.registry:
         gym.register(id=ENV_IDS[2], entry_point=traffic)
     if ENV_IDS[3] not in gym.registry:

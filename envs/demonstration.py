@@ -13,8 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from envs.scenario import ScenarioConfig
+from drivestyle.envs.scenario import ScenarioConfig
 
 __all__ = ["Demonstration", "DemonstrationError", "load_demonstration", "save_demonstration"]
 

@@ -13,11 +13,10 @@ from typing import Any, ClassVar, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
+from drivestyle.envs.dynamics import rk4_step
+from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
+from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 from gymnasium import spaces
-
-from envs.dynamics import rk4_step
-from envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
-from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
 __all__ = [
     "COLLISION_PENALTY",
@@ -83,7 +82,7 @@ class RewardModel(Protocol):
     ) -> tuple[float, np.ndarray]:
         """Add a sample; return (reward, per-feature increment).
 
-        In traffic (:class:`envs.traffic.TrafficEnv`) ``reset`` and ``step`` also receive
+        In traffic (:class:`drivestyle.envs.traffic.TrafficEnv`) ``reset`` and ``step`` also receive
         ``others``: the further vehicles' states, shape (m, 4).
         """
 
@@ -149,7 +148,7 @@ class LaneChangeEnv(gym.Env):
     Action (``Box(2,)``, float64): ``[a, δ]`` within the scenario's bounds [m/s², rad];
     out-of-range actions are clipped (``info["action_clipped"]``).
 
-    Dynamics: the RK4 kinematic bicycle map of :mod:`envs.dynamics` (shared with the
+    Dynamics: the RK4 kinematic bicycle map of :mod:`drivestyle.envs.dynamics` (shared with the
     SMPC); speed is kept in [0, v_max]. The TV keeps its speed and heading.
 
     Episode end: terminated on collision (vehicle rectangles overlap) or when the EV's
@@ -161,13 +160,13 @@ class LaneChangeEnv(gym.Env):
     and ``action_clipped``; at reset also ``scenario`` (the :class:`ScenarioConfig`).
 
     Args:
-        scenario: a name from :data:`envs.scenario.SCENARIOS` or a config.
+        scenario: a name from :data:`drivestyle.envs.scenario.SCENARIOS` or a config.
         randomize: ``True`` or a :class:`ScenarioRanges` to draw a new scenario at each
             reset from ``np_random`` (``drivestyle/LaneChangeRandom-v0``).
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         show_ellipse: draw the safety ellipse (and the λ-scaled one) around the TV.
-        style: a learned style (``style.json`` path or :class:`irl.style.Style`): the reward
-            becomes its negative cost (:mod:`irl.reward`, found as a plugin, see
+        style: a learned style (``style.json`` path or :class:`drivestyle.irl.style.Style`): the
+            reward becomes its negative cost (:mod:`drivestyle.irl.reward`, found as a plugin, see
             :func:`style_reward_model`); the task reward moves to ``info["original_env_rew"]``.
         reward: any :class:`RewardModel` instead of ``style`` (not both).
         tv_deviation: make the TV brake or accelerate mid-episode (:class:`TVDeviation`).
@@ -389,7 +388,7 @@ class LaneChangeEnv(gym.Env):
             gym.logger.warn("render() called without a render_mode; pass render_mode=...")
             return None
         if self._renderer is None:
-            from envs.rendering import HighwayRenderer
+            from drivestyle.envs.rendering import HighwayRenderer
 
             self._renderer = HighwayRenderer(self.render_mode)
         info = self._info()

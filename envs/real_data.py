@@ -33,9 +33,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from envs.demonstration import Demonstration
-from envs.scenario import ScenarioConfig
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import ScenarioConfig
 
 __all__ = ["RecordedEpisode", "load_cats", "load_ngsim", "scenario_from_episode"]
 

@@ -26,8 +26,7 @@ import weakref
 from types import SimpleNamespace
 
 import numpy as np
-
-from envs.scenario import ScenarioConfig
+from drivestyle.envs.scenario import ScenarioConfig
 
 __all__ = ["EV_COLOR", "OTHER_COLOR", "TV_COLOR", "HighwayRenderer"]
 

@@ -13,7 +13,7 @@
   (:func:`heading_steering_limits`): a policy cannot exploit the reward by swinging.
 
 The same two functions serve training (through the wrappers) and a trained policy acting
-on the raw env (``agents.sb3_baseline.SB3Policy``), so both see identical inputs.
+on the raw env (``drivestyle.agents.sb3_baseline.SB3Policy``), so both see identical inputs.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def rl_observation(observation: np.ndarray, k: int, scenario: Any) -> np.ndarray
     Args:
         observation: raw observation.
         k: steps taken in the episode.
-        scenario: the episode's :class:`envs.scenario.ScenarioConfig`.
+        scenario: the episode's :class:`drivestyle.envs.scenario.ScenarioConfig`.
 
     Returns:
         Float32 vector of :func:`rl_observation_size` entries.

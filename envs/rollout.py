@@ -14,9 +14,8 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from drivestyle.envs.demonstration import Demonstration
 from tqdm import tqdm
-
-from envs.demonstration import Demonstration
 
 __all__ = ["Episode", "Policy", "run_episode"]
 

@@ -14,8 +14,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from envs.safety import elliptical_index
+from drivestyle.envs.safety import elliptical_index
 
 __all__ = [
     "PAPER",

@@ -28,11 +28,10 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
+from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
 from gymnasium import spaces
-
-from envs.lane_change import LaneChangeEnv
-from envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
-from envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
 
 __all__ = [
     "BEHAVIOURS",
@@ -442,7 +441,7 @@ class TrafficEnv(LaneChangeEnv):
         if self.render_mode is None:
             return super().render()
         if self._renderer is None:
-            from envs.rendering import HighwayRenderer
+            from drivestyle.envs.rendering import HighwayRenderer
 
             self._renderer = HighwayRenderer(self.render_mode)
         info = self._info()

@@ -5,9 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-
-from envs.lane_change import LaneChangeEnv
-from envs.rollout import Policy, run_episode
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.rollout import Policy, run_episode
 
 __all__ = ["record_policy", "record_states", "write_video"]
 

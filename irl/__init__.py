@@ -1,6 +1,6 @@
 """drivestyle IRL: quintic-spline trajectories, reaction-aware features and ME-IRL."""
 
-from irl.features import (
+from drivestyle.irl.features import (
     FEATURE_SETS,
     FEATURES,
     EventTimes,
@@ -11,10 +11,10 @@ from irl.features import (
     feature_values,
     gauss_legendre_nodes,
 )
-from irl.inner import InnerProblem, InnerSolution, InnerSolveError, newton_minimize
-from irl.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta
-from irl.metrics import trajectory_errors
-from irl.spline import (
+from drivestyle.irl.inner import InnerProblem, InnerSolution, InnerSolveError, newton_minimize
+from drivestyle.irl.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta
+from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.irl.spline import (
     QuinticTrajectory,
     basis_matrix,
     demo_control_points,

@@ -5,7 +5,7 @@ Order (``FEATURES``): f_ax, f_ay, f_v, f_l, f_il, f_el, f_tiv, f_sd, f_ed, f_id.
 
 Every feature is a weighted sum, over fixed Gauss–Legendre nodes (or a single fixed
 instant), of a scalar function of a spline value; spline values are linear in the
-control points (:func:`irl.spline.basis_matrix`). :func:`feature_basis` precomputes those
+control points (:func:`drivestyle.irl.spline.basis_matrix`). :func:`feature_basis` precomputes those
 linear maps for one demonstration (its event times stay fixed while candidate
 trajectories are optimised, DESIGN §5) and :func:`feature_values` evaluates the features on
 numpy arrays or on CasADi symbols, so the inner problem gets exact derivatives.
@@ -38,11 +38,10 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-
-from envs.demonstration import Demonstration
-from envs.safety import elliptical_index, trigger_time
-from envs.scenario import ScenarioConfig
-from irl.spline import basis_matrix, state_control_points
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.safety import elliptical_index, trigger_time
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.spline import basis_matrix, state_control_points
 
 __all__ = [
     "FEATURES",
@@ -576,7 +575,7 @@ def _segment_basis(T: float, tau: tuple[float, ...], d: int) -> np.ndarray:
 
 SEGMENT_FEATURES = ("ax", "ay", "v", "l", "il", "tiv", "id")
 """Features that are integrals over the whole horizon or a window of it, so they add up
-segment by segment (f_el, f_sd and f_ed are not: see :mod:`irl.reward`)."""
+segment by segment (f_el, f_sd and f_ed are not: see :mod:`drivestyle.irl.reward`)."""
 
 
 def segment_integrals(
@@ -595,7 +594,7 @@ def segment_integrals(
 
     Summed over all segments they give :func:`feature_values`'s integral features exactly:
     the same integrands and Gauss–Legendre nodes, split at the event times. Used to
-    compute features incrementally along a growing trajectory (:mod:`irl.reward`).
+    compute features incrementally along a growing trajectory (:mod:`drivestyle.irl.reward`).
 
     Args:
         cx: EV x control points [r, v, a] at t0 and t1, shape (6,).

@@ -34,17 +34,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.safety import elliptical_index
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.tracking import observe
+from drivestyle.irl.features import FeatureConfig
+from drivestyle.irl.inner import InnerProblem, InnerSolveError
+from drivestyle.irl.learner import IRLConfig, MaxEntIRL, check_learnable
+from drivestyle.irl.metrics import trajectory_errors
 
-from envs.demonstration import Demonstration
-from envs.io import fmt, read_json
-from envs.parallel import parallel_map
-from envs.safety import elliptical_index
-from envs.scenario import ScenarioConfig
-from envs.tracking import observe
-from irl.features import FeatureConfig
-from irl.inner import InnerProblem, InnerSolveError
-from irl.learner import IRLConfig, MaxEntIRL, check_learnable
-from irl.metrics import trajectory_errors
+from drivestyle.common.io import fmt, read_json
+from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "DEFAULT_SCORER",
@@ -600,7 +600,7 @@ def evaluate_identification(
         grid_risks: the risks that count as grid points (others are between the grid).
         progress: called with 1 after each demonstration.
         workers: processes.
-        noise: position noise σ [m] of the observation (:func:`envs.tracking.observe`;
+        noise: position noise σ [m] of the observation (:func:`drivestyle.envs.tracking.observe`;
             0: the true states).
         noise_seed: seed of the noise (demonstration i uses ``noise_seed + i``).
 

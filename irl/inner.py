@@ -1,11 +1,11 @@
 """The inner problem of ME-IRL: r*_θ = argmin_r θᵀ f(r) over c_1 … c_S (§II-C2, docs/DESIGN.md §6).
 
-The features split into a longitudinal group (f_ax, f_v, f_tiv: x spline only) and a
-lateral group (the rest: y spline only), so the inner problem separates into two
-unconstrained problems of 3S variables each. Each is solved by a damped Newton method
-with the exact gradient and Hessian that CasADi derives from :func:`irl.features.feature_values`
-(|·| smoothed), warm-started from the previous solution. The same Hessian H and feature
-Jacobian J give the sensitivity of the optimum used by the learner,
+The features split into a longitudinal group (f_ax, f_v, f_tiv: x spline only) and a lateral group
+(the rest: y spline only), so the inner problem separates into two unconstrained problems of 3S
+variables each. Each is solved by a damped Newton method with the exact gradient and Hessian that
+CasADi derives from :func:`drivestyle.irl.features.feature_values` (|·| smoothed), warm-started from
+the previous solution. The same Hessian H and feature Jacobian J give the sensitivity of the optimum
+used by the learner,
 
     ∂f(r*_θ)/∂θ = −J H⁻¹ Jᵀ     (implicit function theorem on ∇_c θᵀf = 0).
 """
@@ -17,10 +17,8 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
-
-from envs.demonstration import Demonstration
-from irl.features import (
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.irl.features import (
     FEATURES,
     X_FEATURES,
     FeatureBasis,
@@ -28,7 +26,8 @@ from irl.features import (
     feature_basis,
     feature_values,
 )
-from irl.spline import demo_control_points
+from drivestyle.irl.spline import demo_control_points
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 __all__ = ["InnerProblem", "InnerSolution", "InnerSolveError", "newton_minimize"]
 
@@ -148,7 +147,7 @@ class InnerProblem:
         demo: the demonstration (knots = its sample times; c_0 from its first sample).
         config: feature configuration (active set, constants).
         control_point_rule: how the demonstration's control points are derived
-            (``irl.spline.demo_control_points``).
+            (``drivestyle.irl.spline.demo_control_points``).
         control_points: the demonstration's control points, shape (n, 6), instead of
             deriving them by ``control_point_rule`` (e.g. a trajectory that is itself a spline).
     """
@@ -279,5 +278,5 @@ class InnerProblem:
 
     @property
     def feature_index(self) -> np.ndarray:
-        """Indices of the active features in :data:`irl.features.FEATURES`."""
+        """Indices of the active features in :data:`drivestyle.irl.features.FEATURES`."""
         return np.array([FEATURES.index(n) for n in self.names])

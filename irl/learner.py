@@ -26,11 +26,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
-from envs.demonstration import Demonstration, DemonstrationError
-from irl.features import X_FEATURES, FeatureConfig
-from irl.inner import InnerProblem, InnerSolution
-from irl.metrics import trajectory_errors
+from drivestyle.envs.demonstration import Demonstration, DemonstrationError
+from drivestyle.irl.features import X_FEATURES, FeatureConfig
+from drivestyle.irl.inner import InnerProblem, InnerSolution
+from drivestyle.irl.metrics import trajectory_errors
 
 __all__ = ["IRLConfig", "LearningResult", "MaxEntIRL", "check_learnable", "normalise_theta"]
 
@@ -174,7 +173,7 @@ class MaxEntIRL:
             demonstration (same active set; e.g. recorded episodes with their own lanes).
         config: outer-loop settings.
         control_point_rule: how the demonstrations' control points are derived
-            (``irl.spline``).
+            (``drivestyle.irl.spline``).
         control_points: per demonstration, control points to use instead of the rule.
     """
 

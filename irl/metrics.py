@@ -9,8 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-from envs.demonstration import Demonstration
+from drivestyle.envs.demonstration import Demonstration
 
 __all__ = ["trajectory_errors"]
 

@@ -1,16 +1,16 @@
 """Styles of a whole population: per demonstration a personal style and an identified risk.
 
-:class:`Miner` (a stateful shell holding one style library) turns one demonstration into
-one row of :data:`COLUMNS`: the personal style learned by ME-IRL (θ normalised per group,
-fit errors), the identified risk with its 90 % interval (:func:`irl.identification.identify`)
-and timings. A demonstration that cannot be mined (malformed, no lane change, a solver
-failure) becomes a row with ``status = "failed"`` and the error, never a crashed job.
+:class:`Miner` (a stateful shell holding one style library) turns one demonstration into one row of
+:data:`COLUMNS`: the personal style learned by ME-IRL (θ normalised per group, fit errors), the
+identified risk with its 90 % interval (:func:`drivestyle.irl.identification.identify`) and timings.
+A demonstration that cannot be mined (malformed, no lane change, a solver failure) becomes a row
+with ``status = "failed"`` and the error, never a crashed job.
 
 Engines run the rows in parallel and hand each finished row to a callback (so callers can
 write them as they come and resume after an interruption):
 
-- ``local`` (default): worker processes on this machine (:func:`envs.parallel.parallel_map`),
-  one :class:`Miner` per worker;
+- ``local`` (default): worker processes on this machine
+  (:func:`drivestyle.common.parallel.parallel_map`), one :class:`Miner` per worker;
 - ``ray``: Ray actors, one :class:`Miner` each, on ``ray.init()`` here or a cluster at
   ``address``; an actor that dies is restarted and its task retried (``max_restarts``,
   ``max_task_retries``), so a killed worker does not lose the job. Ray is an optional
@@ -31,12 +31,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.irl.identification import StyleLibrary, identify
+from drivestyle.irl.inner import InnerSolveError
+from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 
-from envs.demonstration import Demonstration, load_demonstration
-from envs.parallel import parallel_map
-from irl.identification import StyleLibrary, identify
-from irl.inner import InnerSolveError
-from irl.learner import IRLConfig, MaxEntIRL
+from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "COLUMNS",

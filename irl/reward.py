@@ -29,10 +29,8 @@ from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.utils import RecordConstructorArgs
-
-from envs.scenario import ScenarioConfig
-from irl.features import (
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.features import (
     FEATURES,
     SEGMENT_FEATURES,
     event_times,
@@ -42,8 +40,9 @@ from irl.features import (
     tiv_reference,
     tv_control_points,
 )
-from irl.spline import spline_eval, state_control_points
-from irl.style import Style, load_style
+from drivestyle.irl.spline import spline_eval, state_control_points
+from drivestyle.irl.style import Style, load_style
+from gymnasium.utils import RecordConstructorArgs
 
 __all__ = ["CRASH_FACTOR", "LearnedStyleReward", "StyleReward"]
 
@@ -54,12 +53,13 @@ CRASH_FACTOR = 10.0
 class StyleReward:
     """Incremental learned cost of a growing trajectory (module docstring).
 
-    It implements the env's reward-model protocol (:class:`envs.lane_change.RewardModel`):
+    It implements the env's reward-model protocol
+    (:class:`drivestyle.envs.lane_change.RewardModel`):
     ``reset(scenario, ev, tv)``, ``step(u, ev, tv, dt) -> (reward, Δf)`` and
     ``crash_penalty``.
 
     Args:
-        style: a loaded :class:`irl.style.Style` or the path of a ``style.json``.
+        style: a loaded :class:`drivestyle.irl.style.Style` or the path of a ``style.json``.
         crash_penalty: cost of a collision or leaving the road; None: CRASH_FACTOR·θᵀ f(r_D).
     """
 
@@ -199,7 +199,8 @@ class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
 
     Args:
         env: a drivestyle env (possibly wrapped).
-        style: a :class:`irl.style.Style` or the path of a ``style.json`` (or its folder).
+        style: a :class:`drivestyle.irl.style.Style` or the path of a ``style.json`` (or its
+            folder).
         crash_penalty: see :class:`StyleReward`.
     """
 

@@ -8,11 +8,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.irl.features import FEATURES, FeatureConfig
+from drivestyle.irl.learner import LearningResult, MaxEntIRL
+from drivestyle.irl.spline import spline_eval
 
-from envs.io import read_json
-from irl.features import FEATURES, FeatureConfig
-from irl.learner import LearningResult, MaxEntIRL
-from irl.spline import spline_eval
+from drivestyle.common.io import read_json
 
 __all__ = ["Style", "StyleError", "fit_style", "load_style", "style_payload"]
 
@@ -125,7 +125,7 @@ class Style:
     @property
     def theta_normalised(self) -> np.ndarray:
         """θ normalised per feature group."""
-        from irl.learner import normalise_theta
+        from drivestyle.irl.learner import normalise_theta
 
         return normalise_theta(self.theta, self.names)
 
@@ -189,7 +189,7 @@ def fit_style(
     Args:
         demos: one demonstration or a list (features averaged).
         features: feature configuration.
-        config: :class:`irl.learner.IRLConfig`.
+        config: :class:`drivestyle.irl.learner.IRLConfig`.
         control_point_rule: control-point rule of the demonstrations.
         demo_paths: recorded in the payload.
         progress: per-iteration callback (see :meth:`MaxEntIRL.learn`).

@@ -22,15 +22,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+from drivestyle.agents import generate_demonstration
+from drivestyle.envs import load_demonstration
+from drivestyle.envs.scenario import ScenarioRanges
+from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
+from drivestyle.irl.identification import identify, load_library
 from tqdm import tqdm
 
-from agents import generate_demonstration
-from envs import load_demonstration
-from envs.cli import positive_int, run_cli
-from envs.io import write_json
-from envs.scenario import ScenarioRanges
-from irl import FeatureConfig, IRLConfig, MaxEntIRL
-from irl.identification import identify, load_library
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -50,7 +50,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 
 def time_identification(library_dir: Path, n: int, seed: int) -> dict:
-    """Median wall time of :func:`irl.identification.identify` on n fresh demonstrations."""
+    """Median wall time of :func:`drivestyle.irl.identification.identify` on n new demos."""
     library = load_library(library_dir)
     rng = np.random.default_rng(seed)
     times = []

@@ -1,11 +1,11 @@
 r"""Benchmark mining a simulated population: throughput, scaling, Ray's overhead, per-demo cost.
 
-Simulates N vehicles (``agents.population``), then mines them three times in one run — the
-local engine with 1 worker and with 2, and Ray with 2 actors — and reports demonstrations
-per second (and per core), the 1 → 2 scaling, Ray's overhead against local (Ray is
-started before the clock; actor creation and task traffic are timed), the median
-learning and identification time per demonstration, the median inner spline solve, and
-from the 1-worker rate an estimate of the hours for 110,000 vehicles on 1, 8 and 64 cores.
+Simulates N vehicles (``drivestyle.agents.studies.population``), then mines them three times in one
+run — the local engine with 1 worker and with 2, and Ray with 2 actors — and reports demonstrations
+per second (and per core), the 1 → 2 scaling, Ray's overhead against local (Ray is started before
+the clock; actor creation and task traffic are timed), the median learning and identification time
+per demonstration, the median inner spline solve, and from the 1-worker rate an estimate of the
+hours for 110,000 vehicles on 1, 8 and 64 cores.
 
 Example:
     python scripts/bench_population.py --vehicles 500 --library runs/library_reactive \\
@@ -23,15 +23,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+from drivestyle.agents.studies.population import simulate_population
+from drivestyle.envs.demonstration import load_demonstration
+from drivestyle.irl.identification import load_library
+from drivestyle.irl.learner import IRLConfig, MaxEntIRL
+from drivestyle.irl.mining import mine
 from tqdm import tqdm
 
-from agents.population import simulate_population
-from envs.cli import positive_int, run_cli
-from envs.demonstration import load_demonstration
-from envs.io import fmt, write_json
-from irl.identification import load_library
-from irl.learner import IRLConfig, MaxEntIRL
-from irl.mining import mine
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import fmt, write_json
 
 TARGET_VEHICLES = 110_000
 """A drone-recorded highway dataset's size (the issue's scale)."""

@@ -28,13 +28,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from drivestyle.agents import SMPCConfig, SMPCExpert, rollout_expert
+from drivestyle.agents.demo_generation import ROBUSTNESS_RISKS, smpc_robustness
+from drivestyle.envs import LaneChangeEnv, ScenarioRanges
 from tqdm import tqdm
 
-from agents import SMPCConfig, SMPCExpert, rollout_expert
-from agents.rollout import ROBUSTNESS_RISKS, smpc_robustness
-from envs import LaneChangeEnv, ScenarioRanges
-from envs.cli import nonnegative_int, positive_int, risk_value, run_cli
-from envs.io import write_json
+from drivestyle.common.cli import nonnegative_int, positive_int, risk_value, run_cli
+from drivestyle.common.io import write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

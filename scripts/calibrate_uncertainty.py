@@ -1,6 +1,6 @@
 """Scan the TV-uncertainty scale and the risk p on the paper scenario (DESIGN §3).
 
-For each scale s (multiplying :data:`agents.prediction.PAPER_TV_UNCERTAINTY`) and each
+For each scale s (multiplying :data:`drivestyle.agents.prediction.PAPER_TV_UNCERTAINTY`) and each
 risk p, runs the SMPC closed loop and records t_trg, min s_e (and where), when the EV
 enters the centre lane and where it ends. Writes ``OUT/calibration.json`` and, with
 ``--plot``, ``OUT/risk_sweep.png``: the EV paths and s_e for each p at scale 1.
@@ -15,11 +15,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from drivestyle.agents.studies.calibration import plot_risk_sweep, uncertainty_scan
 from tqdm import tqdm
 
-from agents.calibration import plot_risk_sweep, uncertainty_scan
-from envs.cli import float_list, risk_list, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.common.cli import float_list, risk_list, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -17,10 +17,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from tqdm import tqdm
-
-from agents import SMPCConfig, generate_demonstration
-from agents.compare import (
+from drivestyle.agents import SMPCConfig, generate_demonstration
+from drivestyle.agents.studies.compare import (
     LABELS,
     compare_methods,
     comparison_markdown,
@@ -28,9 +26,12 @@ from agents.compare import (
     plot_comparison,
     plot_heldout,
 )
-from envs import load_demonstration
-from envs.cli import positive_int, risk_value, run_cli
-from envs.io import (
+from drivestyle.envs import load_demonstration
+from drivestyle.irl.style import load_style
+from tqdm import tqdm
+
+from drivestyle.common.cli import positive_int, risk_value, run_cli
+from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
     command_line,
@@ -38,7 +39,6 @@ from envs.io import (
     write_json,
     write_text,
 )
-from irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -18,13 +18,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from agents.deviation import deviating_tv_study, write_videos
-from agents.rollout import generate_demonstration
-from envs.cli import finite_float, positive_float, positive_int, risk_value, run_cli
-from envs.demonstration import load_demonstration
-from envs.io import atomic_output_dir, check_output_dir, fmt, write_json
-from envs.lane_change import TVDeviation
-from irl.style import load_style
+from drivestyle.agents.demo_generation import generate_demonstration
+from drivestyle.agents.studies.deviation import deviating_tv_study, write_videos
+from drivestyle.envs.demonstration import load_demonstration
+from drivestyle.envs.lane_change import TVDeviation
+from drivestyle.irl.style import load_style
+
+from drivestyle.common.cli import finite_float, positive_float, positive_int, risk_value, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -63,7 +64,7 @@ def main(argv: list[str] | None = None) -> dict:
     deviation = TVDeviation(args.t_start, args.accel, args.duration)
     policy = None
     if args.model is not None:
-        from agents.sb3_baseline import SB3Policy
+        from drivestyle.agents.sb3_baseline import SB3Policy
 
         policy = SB3Policy(args.model).act
     res = deviating_tv_study(style, nominal, deviation, policy, args.replan_every, args.risk)

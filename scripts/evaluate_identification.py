@@ -23,22 +23,22 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
-
-from agents.ceiling import identification_references, references_markdown
-from agents.rollout import draw_interactive_scenarios, generate_demonstrations
-from envs.cli import float_list, positive_int, risk_list, run_cli
-from envs.io import atomic_output_dir, check_output_dir, fmt, write_json, write_text
-from envs.scenario import ScenarioRanges
-from envs.traffic import TrafficRanges
-from irl.identification import (
+from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
+from drivestyle.agents.studies.ceiling import identification_references, references_markdown
+from drivestyle.agents.studies.figures import plot_confusion, plot_noise_curve, plot_theta_vs_risk
+from drivestyle.envs.scenario import ScenarioRanges
+from drivestyle.envs.traffic import TrafficRanges
+from drivestyle.irl.identification import (
     DEFAULT_SCORER,
     LibraryError,
     evaluate_identification,
     evaluation_markdown,
     load_library,
 )
-from irl.plotting import plot_confusion, plot_noise_curve, plot_theta_vs_risk
+from tqdm import tqdm
+
+from drivestyle.common.cli import float_list, positive_int, risk_list, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json, write_text
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

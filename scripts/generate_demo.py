@@ -15,13 +15,14 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from agents import SMPCConfig, generate_demonstration
-from agents.rollout import TRAFFIC_VEHICLES, generate_traffic_demonstration
-from envs import SCENARIOS, get_scenario, save_demonstration
-from envs.cli import finite_float, nonnegative_int, positive_float, risk_value, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json
-from envs.plotting import plot_demonstration
-from envs.traffic import DEFAULT_TRAFFIC
+from drivestyle.agents import SMPCConfig, generate_demonstration
+from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, generate_traffic_demonstration
+from drivestyle.agents.studies.figures import plot_demonstration
+from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
+from drivestyle.envs.traffic import DEFAULT_TRAFFIC
+
+from drivestyle.common.cli import finite_float, nonnegative_int, positive_float, risk_value, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 TRAFFIC_CHOICES = ("traffic", "traffic-random")
 

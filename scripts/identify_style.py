@@ -21,10 +21,11 @@ import sys
 import time
 from pathlib import Path
 
-from envs.cli import run_cli
-from envs.demonstration import load_demonstration
-from envs.io import atomic_output_dir, check_output_dir, write_json
-from irl.identification import DEFAULT_SCORER, SCORERS, identify, load_library
+from drivestyle.envs.demonstration import load_demonstration
+from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify, load_library
+
+from drivestyle.common.cli import run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

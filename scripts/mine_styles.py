@@ -26,14 +26,14 @@ import sys
 import time
 from pathlib import Path
 
+from drivestyle.agents.studies.figures import plot_population
+from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.irl.identification import load_library
+from drivestyle.irl.mining import COLUMNS, ENGINES, finished_ids, mine, read_rows, summary_numbers
 from tqdm import tqdm
 
-from envs.cli import positive_int, run_cli
-from envs.io import check_output_dir, write_json
-from envs.real_data import load_cats, load_ngsim
-from irl.identification import load_library
-from irl.mining import COLUMNS, ENGINES, finished_ids, mine, read_rows, summary_numbers
-from irl.plotting import plot_population
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -20,12 +20,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from drivestyle.agents.studies.real_traffic import run_study, study_markdown
+from drivestyle.envs.real_data import load_cats, load_ngsim
 from tqdm import tqdm
 
-from envs.cli import positive_int, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json, write_text
-from envs.real_data import load_cats, load_ngsim
-from irl.real_traffic import run_study, study_markdown
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

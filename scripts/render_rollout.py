@@ -16,14 +16,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from drivestyle.agents.studies.compare import policy_frames
+from drivestyle.envs import load_demonstration
+from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges
+from drivestyle.envs.video import write_video
+from drivestyle.irl.style import load_style
 
-from agents.compare import policy_frames
-from envs import load_demonstration
-from envs.cli import positive_int, risk_value, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json
-from envs.traffic import DEFAULT_TRAFFIC, TrafficRanges
-from envs.video import write_video
-from irl.style import load_style
+from drivestyle.common.cli import positive_int, risk_value, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -18,16 +18,16 @@ import sys
 import time
 from pathlib import Path
 
-from tqdm import tqdm
-
-from agents.paper_study import (
+from drivestyle.agents.studies.paper import (
     baseline_study,
     paper_study,
     write_paper_results,
     write_paper_study,
 )
-from envs.cli import positive_float, positive_int, risk_value, run_cli
-from envs.io import atomic_output_dir, check_output_dir, fmt
+from tqdm import tqdm
+
+from drivestyle.common.cli import positive_float, positive_int, risk_value, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -69,9 +69,8 @@ def main(argv: list[str] | None = None) -> dict:
     check_output_dir(args.out)
     if args.with_baseline:
         try:
+            import drivestyle.envs.video  # noqa: F401
             import stable_baselines3  # noqa: F401
-
-            import envs.video  # noqa: F401
         except ImportError as exc:
             raise RuntimeError(
                 f"{exc}; --with-baseline needs: pip install -c constraints-cpu.txt -e '.[rl,video]'"

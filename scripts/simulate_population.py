@@ -16,11 +16,11 @@ import sys
 import time
 from pathlib import Path
 
+from drivestyle.agents.studies.population import simulate_population
 from tqdm import tqdm
 
-from agents.population import simulate_population
-from envs.cli import positive_int, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

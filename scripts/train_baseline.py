@@ -19,9 +19,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from envs.cli import positive_float, positive_int, run_cli
-from envs.io import atomic_output_dir, check_output_dir, write_json
-from irl.style import load_style
+from drivestyle.irl.style import load_style
+
+from drivestyle.common.cli import positive_float, positive_int, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out)
     try:
-        from agents.sb3_baseline import TrainConfig, plot_learning_curve, train_baseline
+        from drivestyle.agents.sb3_baseline import TrainConfig, plot_learning_curve, train_baseline
     except ImportError as exc:
         raise RuntimeError(
             f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"

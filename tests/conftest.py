@@ -15,6 +15,6 @@ def rng() -> np.random.Generator:
 @pytest.fixture(scope="session")
 def paper_demo():
     """The paper scenario's p = 0.7 SMPC demonstration (generated once per session)."""
-    from agents import generate_demonstration
+    from drivestyle.agents import generate_demonstration
 
     return generate_demonstration(0.7, "paper")[0]

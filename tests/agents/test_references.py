@@ -1,11 +1,14 @@
 """The identification references and the SMPC robustness count."""
 
 import pytest
-
-from agents import generate_demonstration
-from agents.ceiling import ceiling_identify
-from agents.rollout import draw_interactive_scenarios, generate_demonstrations, smpc_robustness
-from irl.identification import knn_baseline
+from drivestyle.agents import generate_demonstration
+from drivestyle.agents.demo_generation import (
+    draw_interactive_scenarios,
+    generate_demonstrations,
+    smpc_robustness,
+)
+from drivestyle.agents.studies.ceiling import ceiling_identify
+from drivestyle.irl.identification import knn_baseline
 
 
 def test_the_ceiling_recovers_the_expert_risk():

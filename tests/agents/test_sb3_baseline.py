@@ -4,19 +4,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from agents.sb3_baseline import SB3Policy, TrainConfig, make_rl_env, train_baseline
-from envs import LaneChangeEnv
-from irl import FeatureConfig, IRLConfig
-from irl.style import fit_style
+from drivestyle.agents.sb3_baseline import SB3Policy, TrainConfig, make_rl_env, train_baseline
+from drivestyle.envs import LaneChangeEnv
+from drivestyle.irl import FeatureConfig, IRLConfig
+from drivestyle.irl.style import fit_style
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
 def style_file(tmp_path_factory, paper_demo):
-    from envs import save_demonstration
-    from envs.io import write_json
+    from drivestyle.envs import save_demonstration
+
+    from drivestyle.common.io import write_json
 
     folder = tmp_path_factory.mktemp("style")
     demo_path = save_demonstration(paper_demo, folder / "demo.npz")
@@ -53,7 +53,7 @@ def test_train_save_reload_identical_actions(tmp_path, style_file, algo):
         ua, ub = a.act(env, obs), b.act(env, obs)
         np.testing.assert_array_equal(ua, ub)
         # the numpy forward pass equals SB3's own predict on the normalised observation
-        from envs.rl import rl_observation
+        from drivestyle.envs.rl import rl_observation
 
         o = rl_observation(obs, env.k, env.scenario)
         sb3, _ = a.model.predict(a.norm.normalize_obs(o[None, :]), deterministic=True)
@@ -142,8 +142,8 @@ def test_scripts_train_compare_render(tmp_path, style_file):
 
 
 def test_heldout_comparison_scores_every_method(style_file, tmp_path):
-    from agents.compare import heldout_comparison, plot_heldout
-    from irl.style import load_style
+    from drivestyle.agents.studies.compare import heldout_comparison, plot_heldout
+    from drivestyle.irl.style import load_style
 
     res = heldout_comparison(load_style(style_file), {}, k=2, seed=3000, risk=0.7)
     summary = res["summary"]
@@ -157,10 +157,10 @@ def test_heldout_comparison_scores_every_method(style_file, tmp_path):
 
 
 def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
-    from agents import generate_demonstration
-    from agents.deviation import deviating_tv_study
-    from envs.lane_change import LaneChangeEnv, TVDeviation
-    from irl.style import load_style
+    from drivestyle.agents import generate_demonstration
+    from drivestyle.agents.studies.deviation import deviating_tv_study
+    from drivestyle.envs.lane_change import LaneChangeEnv, TVDeviation
+    from drivestyle.irl.style import load_style
 
     with pytest.raises(ValueError, match="duration"):
         TVDeviation(duration=0.0)
@@ -189,7 +189,7 @@ def test_traffic_training_env_passes_sb3_check_and_a_policy_trains(style_file, t
         check_env(make_rl_env(style_file, traffic=True, randomize=True))
     cfg = TrainConfig(timesteps=256, eval_freq=256, traffic=True, randomize=True)
     train_baseline(style_file, tmp_path / "traffic", cfg, progress=False)
-    from envs.traffic import TrafficEnv
+    from drivestyle.envs.traffic import TrafficEnv
 
     env = TrafficEnv()
     obs, _ = env.reset(seed=0)

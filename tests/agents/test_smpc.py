@@ -2,11 +2,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-
-from agents import InfeasibleStartError, SMPCConfig, SMPCExpert, generate_demonstration
-from agents.smpc import straighten_steer
-from envs import PAPER, LaneChangeEnv
-from envs.safety import ellipse_constraint, elliptical_index
+from drivestyle.agents import InfeasibleStartError, SMPCConfig, SMPCExpert, generate_demonstration
+from drivestyle.agents.smpc import straighten_steer
+from drivestyle.envs import PAPER, LaneChangeEnv
+from drivestyle.envs.safety import ellipse_constraint, elliptical_index
 
 
 @pytest.fixture(scope="module")
@@ -115,7 +114,7 @@ def test_solver_failure_falls_back_and_reports():
 
 
 def test_straighten_steer_zeroes_heading():
-    from envs.dynamics import rk4_step
+    from drivestyle.envs.dynamics import rk4_step
 
     xi = np.array([0.0, 5.0, 0.01, 25.0])
     delta = straighten_steer(xi, PAPER)

@@ -9,12 +9,11 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from drivestyle.envs import ENV_IDS, PAPER, LaneChangeEnv
+from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.envs.rl import NormalisedAction, RLObservation
 from gymnasium.utils import RecordConstructorArgs
 from gymnasium.utils.env_checker import check_env
-
-from envs import ENV_IDS, PAPER, LaneChangeEnv
-from envs.real_data import load_cats, load_ngsim
-from envs.rl import NormalisedAction, RLObservation
 
 WRAPPERS = {
     "RLObservation": lambda env: RLObservation(env),
@@ -205,7 +204,7 @@ def test_loaders_reject_a_bad_dt(tmp_path, loader, dt):
 
 
 def test_the_rl_action_keeps_the_smpc_heading_bound():
-    from envs.rl import heading_steering_limits
+    from drivestyle.envs.rl import heading_steering_limits
 
     env = NormalisedAction(RLObservation(gym.make(ENV_IDS[1])))
     env.reset(seed=3)
@@ -229,7 +228,7 @@ def test_the_rl_action_keeps_the_smpc_heading_bound():
 
 
 def test_the_rl_observation_is_relative():
-    from envs.rl import rl_observation
+    from drivestyle.envs.rl import rl_observation
 
     sc = PAPER
     obs = np.concatenate([sc.ev_initial_state, sc.tv_initial_state])

@@ -2,14 +2,13 @@ import json
 
 import numpy as np
 import pytest
-
-from envs.demonstration import (
+from drivestyle.envs.demonstration import (
     Demonstration,
     DemonstrationError,
     load_demonstration,
     save_demonstration,
 )
-from envs.scenario import PAPER
+from drivestyle.envs.scenario import PAPER
 
 
 def _arrays(n=5):

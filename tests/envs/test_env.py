@@ -1,13 +1,12 @@
 import warnings
 
+import drivestyle.envs
 import gymnasium as gym
 import numpy as np
 import pytest
+from drivestyle.envs import ENV_IDS, PAPER, LaneChangeEnv
 from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
-
-import envs
-from envs import ENV_IDS, PAPER, LaneChangeEnv
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -19,8 +18,8 @@ def test_check_env_gymnasium_and_sb3(env_id):
 
 
 def test_registration_is_idempotent():
-    envs.register_envs()
-    envs.register_envs()
+    drivestyle.envs.register_envs()
+    drivestyle.envs.register_envs()
     assert all(i in gym.registry for i in ENV_IDS)
 
 

@@ -4,7 +4,7 @@ import time
 
 import pytest
 
-from envs.parallel import parallel_map
+from drivestyle.common.parallel import parallel_map
 
 
 def _square_after(x: int, delay: float) -> int:

@@ -3,8 +3,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from envs.real_data import load_cats, load_ngsim
+from drivestyle.envs.real_data import load_cats, load_ngsim
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
@@ -215,7 +214,7 @@ def test_a_file_instead_of_the_folder_is_a_clear_error():
 
 
 def test_recorded_neighbours_become_others():
-    from envs.real_data import NEIGHBOUR_RANGE, load_cats, load_ngsim
+    from drivestyle.envs.real_data import NEIGHBOUR_RANGE, load_cats, load_ngsim
 
     ngsim = [e for e in load_ngsim(DATA / "ngsim") if e.used]
     alone = [e for e in load_ngsim(DATA / "ngsim", neighbours=False) if e.used]

@@ -3,14 +3,13 @@
 Headless throughout: tests/conftest.py sets ``SDL_VIDEODRIVER=dummy``.
 """
 
+import drivestyle.envs  # noqa: F401  (registers the ids)
 import gymnasium as gym
 import numpy as np
 import pygame
 import pytest
-
-import envs  # noqa: F401  (registers the ids)
-from envs import PAPER
-from envs.rendering import HighwayRenderer
+from drivestyle.envs import PAPER
+from drivestyle.envs.rendering import HighwayRenderer
 
 ID = "drivestyle/LaneChange-v0"
 

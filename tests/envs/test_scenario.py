@@ -2,8 +2,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-
-from envs.scenario import PAPER, ScenarioConfig, ScenarioRanges, get_scenario
+from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges, get_scenario
 
 
 def test_paper_numbers():

@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-
-from envs.tracking import observe, rts_smooth
+from drivestyle.envs.tracking import observe, rts_smooth
 
 
 def test_rts_smoother_recovers_constant_acceleration():

@@ -11,17 +11,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from envs.demonstration import DemonstrationError
-from irl import FeatureConfig, IRLConfig, MaxEntIRL
-from irl.identification import (
+from drivestyle.envs.demonstration import DemonstrationError
+from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
+from drivestyle.irl.identification import (
     DEFAULT_SCORER,
     LibraryError,
     StyleLibrary,
     identify,
     load_library,
 )
-from irl.learner import check_learnable
+from drivestyle.irl.learner import check_learnable
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -65,7 +64,7 @@ def test_degenerate_demonstrations_are_rejected(paper_demo, make, message):
 
 
 def test_learn_style_cli_refuses_a_demo_without_lane_change(tmp_path, paper_demo):
-    from envs import save_demonstration
+    from drivestyle.envs import save_demonstration
 
     path = save_demonstration(_no_lane_change(paper_demo), tmp_path / "flat.npz")
     out = tmp_path / "style"

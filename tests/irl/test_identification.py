@@ -4,12 +4,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from agents import generate_demonstration
-from agents.rollout import draw_interactive_scenarios, generate_demonstrations
-from envs import Demonstration
-from envs.io import write_json
-from irl.identification import (
+from drivestyle.agents import generate_demonstration
+from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
+from drivestyle.envs import Demonstration
+from drivestyle.irl.identification import (
     LibraryError,
     StyleLibrary,
     identify,
@@ -17,6 +15,8 @@ from irl.identification import (
     learn_library,
     load_library,
 )
+
+from drivestyle.common.io import write_json
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -77,7 +77,7 @@ def test_demo_of_another_kind_is_rejected(small_library, paper_demo):
 
 
 def test_identify_script(tmp_path, small_library, paper_demo):
-    from envs import save_demonstration
+    from drivestyle.envs import save_demonstration
 
     write_json(tmp_path / "lib" / "library.json", small_library.to_json())
     demo = save_demonstration(paper_demo, tmp_path / "demo.npz")

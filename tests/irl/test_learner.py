@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from irl import (
+from drivestyle.irl import (
     FeatureConfig,
     InnerProblem,
     IRLConfig,
@@ -9,7 +8,7 @@ from irl import (
     newton_minimize,
     normalise_theta,
 )
-from irl.style import StyleError, fit_style, load_style
+from drivestyle.irl.style import StyleError, fit_style, load_style
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +126,7 @@ def test_bad_inputs(inner, paper_demo):
 
 
 def test_style_round_trip(tmp_path, paper_demo):
-    from envs.io import write_json
+    from drivestyle.common.io import write_json
 
     result, _, payload = fit_style(paper_demo, FeatureConfig(feature_set="base"), IRLConfig())
     write_json(tmp_path / "style.json", payload)

@@ -7,11 +7,10 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from agents.population import draw_vehicle, simulate_population
-from agents.rollout import draw_interactive_scenarios, generate_demonstrations
-from irl.identification import learn_library
-from irl.mining import COLUMNS, FAULT_ONCE_ENV, TIMING_COLUMNS, mine
+from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
+from drivestyle.agents.studies.population import draw_vehicle, simulate_population
+from drivestyle.irl.identification import learn_library
+from drivestyle.irl.mining import COLUMNS, FAULT_ONCE_ENV, TIMING_COLUMNS, mine
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -71,7 +70,7 @@ def _run_script(*args: str) -> None:
 
 
 def test_a_rerun_skips_finished_rows(population, library, tmp_path):
-    from envs.io import write_json
+    from drivestyle.common.io import write_json
 
     out, _ = population
     write_json(tmp_path / "lib" / "library.json", library.to_json())

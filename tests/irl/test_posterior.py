@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
-
-from agents import generate_demonstration
-from envs.scenario import PAPER
-from irl.identification import (
+from drivestyle.agents import generate_demonstration
+from drivestyle.envs.scenario import PAPER
+from drivestyle.irl.identification import (
     S_E_INFORMATIVE,
     identify,
     posterior_from_scores,
@@ -59,8 +58,11 @@ def test_bad_posterior_input():
 
 @pytest.fixture(scope="module")
 def tiny_library():
-    from agents.rollout import draw_interactive_scenarios, generate_demonstrations
-    from irl.identification import learn_library
+    from drivestyle.agents.demo_generation import (
+        draw_interactive_scenarios,
+        generate_demonstrations,
+    )
+    from drivestyle.irl.identification import learn_library
 
     scenarios = draw_interactive_scenarios(1, seed=3)
     return learn_library(generate_demonstrations([0.5, 0.95], scenarios, 1), workers=1)
@@ -86,7 +88,7 @@ def test_identify_reports_a_posterior_and_interval(tiny_library, paper_demo):
 
 
 def test_nearest_members_follow_the_scenario():
-    from irl.identification import StyleLibrary
+    from drivestyle.irl.identification import StyleLibrary
 
     train = [
         PAPER.with_overrides(ev_speed=v, tv_gap=g).to_dict()

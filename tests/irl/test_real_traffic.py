@@ -4,15 +4,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from envs.real_data import load_cats, load_ngsim
-from irl.metrics import trajectory_errors
-from irl.real_traffic import (
+from drivestyle.agents.studies.real_traffic import (
     classify_loo,
     constant_velocity,
     episode_feature_config,
     learn_personal,
 )
+from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.irl.metrics import trajectory_errors
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data"

@@ -3,18 +3,17 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from drivestyle.envs import LaneChangeEnv
+from drivestyle.irl import FeatureConfig, IRLConfig, feature_basis, feature_values
+from drivestyle.irl.reward import LearnedStyleReward
+from drivestyle.irl.spline import demo_control_points
+from drivestyle.irl.style import fit_style, load_style
 from gymnasium.utils.env_checker import check_env
-
-from envs import LaneChangeEnv
-from irl import FeatureConfig, IRLConfig, feature_basis, feature_values
-from irl.reward import LearnedStyleReward
-from irl.spline import demo_control_points
-from irl.style import fit_style, load_style
 
 
 @pytest.fixture(scope="module")
 def styles(tmp_path_factory, paper_demo):
-    from envs.io import write_json
+    from drivestyle.common.io import write_json
 
     out = {}
     for fs in ("base", "reactive"):
@@ -84,7 +83,7 @@ def test_bad_style_path():
 
 
 def test_a_style_names_its_demonstration_or_says_it_has_none(tmp_path):
-    from irl.style import Style, StyleError
+    from drivestyle.irl.style import Style, StyleError
 
     named = Style(("ax",), np.ones(1), None, "kinematic", {"demos": [{"path": "d/demo.npz"}]})
     assert str(named.demo_path()) == "d/demo.npz"

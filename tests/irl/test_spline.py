@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from irl.spline import (
+from drivestyle.irl.spline import (
     QuinticTrajectory,
     basis_matrix,
     demo_control_points,

@@ -5,15 +5,15 @@ import dataclasses
 import gymnasium as gym
 import numpy as np
 import pytest
+from drivestyle.agents.demo_generation import generate_traffic_demonstration
+from drivestyle.envs.demonstration import Demonstration, load_demonstration, save_demonstration
+from drivestyle.envs.traffic import TrafficScene, VehicleSpec
+from drivestyle.irl.features import FeatureConfig, event_times, feature_basis, tiv_reference
+from drivestyle.irl.inner import InnerProblem
+from drivestyle.irl.learner import IRLConfig
+from drivestyle.irl.style import fit_style
 
-from agents.rollout import generate_traffic_demonstration
-from envs.demonstration import Demonstration, load_demonstration, save_demonstration
-from envs.io import write_json
-from envs.traffic import TrafficScene, VehicleSpec
-from irl.features import FeatureConfig, event_times, feature_basis, tiv_reference
-from irl.inner import InnerProblem
-from irl.learner import IRLConfig
-from irl.style import fit_style
+from drivestyle.common.io import write_json
 
 
 @pytest.fixture(scope="module")
@@ -88,8 +88,8 @@ def test_a_custom_scene_with_a_slow_leader_keeps_the_ev_behind_it():
 
 
 def test_traffic_rollout_video_frames_show_the_expert_driving():
-    from agents.compare import policy_frames
-    from envs.traffic import DEFAULT_TRAFFIC
+    from drivestyle.agents.studies.compare import policy_frames
+    from drivestyle.envs.traffic import DEFAULT_TRAFFIC
 
     frames = policy_frames("expert", DEFAULT_TRAFFIC, 0.7)
     assert len(frames) == 31 and frames[0].std() > 5

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from envs.io import atomic_output_dir
+from drivestyle.common.io import atomic_output_dir
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = sorted((ROOT / "scripts").glob("*.py"))
+SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
 
 
 class _ParserCapturedError(Exception):

@@ -6,8 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from envs import save_demonstration
+from drivestyle.envs import save_demonstration
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC_KEYS = (
@@ -46,7 +45,7 @@ def _run(name, *args):
 
 @pytest.fixture(scope="module")
 def demo_file(tmp_path_factory, request):
-    from agents import generate_demonstration
+    from drivestyle.agents import generate_demonstration
 
     path = tmp_path_factory.mktemp("demo") / "demo.npz"
     save_demonstration(generate_demonstration(0.7, "paper")[0], path)

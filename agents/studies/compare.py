@@ -22,19 +22,19 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from drivestyle.agents.studies.figures import draw_lanes, save_figure
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.rollout import Policy, run_episode
+from drivestyle.envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
+from drivestyle.envs.traffic import TrafficEnv, TrafficScene
+from drivestyle.irl.features import feature_basis, feature_values
+from drivestyle.irl.inner import InnerProblem
+from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.irl.spline import demo_control_points, spline_eval
+from drivestyle.irl.style import Style
 
-from envs.demonstration import Demonstration
-from envs.io import fmt
-from envs.lane_change import LaneChangeEnv
-from envs.plotting import draw_lanes, save_figure
-from envs.rollout import Policy, run_episode
-from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
-from envs.traffic import TrafficEnv, TrafficScene
-from irl.features import feature_basis, feature_values
-from irl.inner import InnerProblem
-from irl.metrics import trajectory_errors
-from irl.spline import demo_control_points, spline_eval
-from irl.style import Style
+from drivestyle.common.io import fmt
 
 __all__ = [
     "LABELS",
@@ -86,7 +86,7 @@ def policy_frames(
 
     Args:
         kind: 'expert', 'spline' or 'sb3'.
-        scenario: scenario of the episode, or a :class:`envs.traffic.TrafficScene`
+        scenario: scenario of the episode, or a :class:`drivestyle.envs.traffic.TrafficScene`
             (expert and sb3 only).
         risk: SMPC risk (expert).
         style: learned style (spline).
@@ -97,7 +97,7 @@ def policy_frames(
     Returns:
         RGB frames (reset frame first).
     """
-    from envs.video import record_policy, record_states
+    from drivestyle.envs.video import record_policy, record_states
 
     traffic = isinstance(scenario, TrafficScene)
     if traffic and kind == "spline":
@@ -108,8 +108,8 @@ def policy_frames(
         env = LaneChangeEnv(scenario=scenario, render_mode="rgb_array")
     try:
         if kind == "expert":
-            from agents.rollout import TRAFFIC_VEHICLES
-            from agents.smpc import SMPCConfig, SMPCExpert
+            from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES
+            from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 
             vehicles = TRAFFIC_VEHICLES if traffic else 1
             expert = SMPCExpert(SMPCConfig(risk=risk, max_vehicles=vehicles), env.scenario)
@@ -117,7 +117,7 @@ def policy_frames(
         if kind == "sb3":
             if model is None:
                 raise ValueError("the sb3 policy needs a model folder")
-            from agents.sb3_baseline import SB3Policy
+            from drivestyle.agents.sb3_baseline import SB3Policy
 
             return record_policy(env, SB3Policy(model).act, seed)[0]
         if kind == "spline":
@@ -139,7 +139,9 @@ def policy_frames(
 
 
 def rollout_policy(policy: Policy, demo: Demonstration) -> tuple[Demonstration, float]:
-    """Roll a policy out in the demonstration's scenario (:func:`envs.rollout.run_episode`).
+    """Roll a policy out in the demonstration's scenario.
+
+    The loop is :func:`drivestyle.envs.rollout.run_episode`.
 
     Args:
         policy: (env, raw observation) → [a, δ].
@@ -233,7 +235,7 @@ def compare_methods(
         style: the learned style.
         demo: its demonstration (the SMPC's closed loop).
         smpc_solve_s: total SMPC solve time of that closed loop [s], if known.
-        sb3_folder: a :func:`agents.sb3_baseline.train_baseline` output folder.
+        sb3_folder: a :func:`drivestyle.agents.sb3_baseline.train_baseline` output folder.
 
     Returns:
         ``{"methods": {name: metrics}, "trajectories": {name: control points}}``.
@@ -258,7 +260,7 @@ def compare_methods(
     }
 
     if sb3_folder is not None:
-        from agents.sb3_baseline import SB3Policy
+        from drivestyle.agents.sb3_baseline import SB3Policy
 
         policy = SB3Policy(sb3_folder)
         rollout, wall = rollout_policy(policy.act, demo)
@@ -316,7 +318,7 @@ def heldout_comparison(
 ) -> dict[str, Any]:
     """SMPC(p), the spline reproduction and SB3 policies on K held-out random scenarios.
 
-    In each scenario drawn from :class:`envs.scenario.ScenarioRanges` with ``seed``, the
+    In each scenario drawn from :class:`drivestyle.envs.scenario.ScenarioRanges` with ``seed``, the
     SMPC(p) demonstration is the reference; the spline reproduction r*_θ is planned in that
     scenario (open loop); each SB3 policy drives it in closed loop. Per method: the learned
     cost θᵀf, rmse_y against SMPC(p), min d_k, collisions and the compute per decision
@@ -324,7 +326,7 @@ def heldout_comparison(
 
     Args:
         style: the learned style (its θ, features and control-point rule).
-        models: method name → :func:`agents.sb3_baseline.train_baseline` output folder.
+        models: method name → :func:`drivestyle.agents.sb3_baseline.train_baseline` output folder.
         k: held-out scenarios (≥ 1).
         seed: their seed (disjoint from training).
         risk: the demonstrator's risk p.
@@ -334,9 +336,9 @@ def heldout_comparison(
         ``per_scenario`` (per method: metrics) and ``summary`` (per method:
         ``median_rmse_y_m``, ``collisions``, ``median_cost``, ``decision_ms``, ``n``).
     """
-    from agents.rollout import generate_demonstration
-    from agents.sb3_baseline import SB3Policy
-    from envs.scenario import ScenarioRanges
+    from drivestyle.agents.demo_generation import generate_demonstration
+    from drivestyle.agents.sb3_baseline import SB3Policy
+    from drivestyle.envs.scenario import ScenarioRanges
 
     if k < 1:
         raise ValueError(f"need at least one held-out scenario, got {k}")

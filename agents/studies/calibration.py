@@ -3,7 +3,7 @@
 The paper gives no covariance for its TV prediction, yet the covariance decides whether the
 risk p changes the behaviour at all. :func:`uncertainty_scan` runs the SMPC closed loop on
 the paper scenario for every (scale, p) pair, the scale multiplying
-:data:`agents.prediction.PAPER_TV_UNCERTAINTY`, and :func:`plot_risk_sweep` draws the EV
+:data:`drivestyle.agents.prediction.PAPER_TV_UNCERTAINTY`, and :func:`plot_risk_sweep` draws the EV
 paths and s_e per risk.
 """
 
@@ -14,13 +14,13 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from agents.prediction import PAPER_TV_UNCERTAINTY
-from agents.rollout import generate_demonstration
-from agents.smpc import SMPCConfig
-from envs.demonstration import Demonstration
-from envs.plotting import draw_lanes, plt, save_figure
-from envs.safety import elliptical_index
-from envs.scenario import PAPER
+from drivestyle.agents.demo_generation import generate_demonstration
+from drivestyle.agents.prediction import PAPER_TV_UNCERTAINTY
+from drivestyle.agents.smpc import SMPCConfig
+from drivestyle.agents.studies.figures import draw_lanes, plt, save_figure
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.safety import elliptical_index
+from drivestyle.envs.scenario import PAPER
 
 __all__ = ["SCAN_KEYS", "plot_risk_sweep", "uncertainty_scan"]
 

@@ -16,17 +16,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.agents.demo_generation import generate_demonstration
+from drivestyle.agents.smpc import SMPCConfig
+from drivestyle.agents.studies.figures import plot_demonstration, plot_lateral, plot_reproductions
+from drivestyle.envs.demonstration import Demonstration, save_demonstration
+from drivestyle.irl.features import FeatureConfig, feature_basis, feature_values
+from drivestyle.irl.learner import IRLConfig, LearningResult
+from drivestyle.irl.spline import demo_control_points
+from drivestyle.irl.style import fit_style
 
-from agents.rollout import generate_demonstration
-from agents.smpc import SMPCConfig
-from envs.demonstration import Demonstration, save_demonstration
-from envs.io import command_line, fmt, write_json, write_text
-from envs.plotting import plot_demonstration
-from irl.features import FeatureConfig, feature_basis, feature_values
-from irl.learner import IRLConfig, LearningResult
-from irl.plotting import plot_lateral, plot_reproductions
-from irl.spline import demo_control_points
-from irl.style import fit_style
+from drivestyle.common.io import command_line, fmt, write_json, write_text
 
 __all__ = [
     "PAPER_REPORTED",
@@ -291,10 +290,15 @@ def baseline_study(
     Returns:
         ``train`` (training summary), ``compare`` (per-method measures), ``videos`` (paths).
     """
-    from agents.compare import compare_methods, comparison_markdown, plot_comparison, policy_frames
-    from agents.sb3_baseline import TrainConfig, train_baseline
-    from envs.video import write_video
-    from irl.style import load_style
+    from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
+    from drivestyle.agents.studies.compare import (
+        compare_methods,
+        comparison_markdown,
+        plot_comparison,
+        policy_frames,
+    )
+    from drivestyle.envs.video import write_video
+    from drivestyle.irl.style import load_style
 
     out = Path(out)
     style = load_style(style_path)

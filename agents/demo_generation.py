@@ -15,15 +15,15 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.rollout import run_episode
+from drivestyle.envs.safety import ellipse_constraint, elliptical_index, trigger_time
+from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
+from drivestyle.envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
 
-from agents.smpc import SMPCConfig, SMPCExpert
-from envs.demonstration import Demonstration
-from envs.lane_change import LaneChangeEnv
-from envs.parallel import parallel_map
-from envs.rollout import run_episode
-from envs.safety import ellipse_constraint, elliptical_index, trigger_time
-from envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
-from envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
+from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "demo_summary",
@@ -43,7 +43,9 @@ def rollout_expert(
     options: dict[str, Any] | None = None,
     progress: bool = False,
 ) -> tuple[Demonstration, list[dict[str, Any]]]:
-    """Run the expert in closed loop on ``env`` for one episode (:func:`envs.rollout.run_episode`).
+    """Run the expert in closed loop on ``env`` for one episode.
+
+    The loop is :func:`drivestyle.envs.rollout.run_episode`.
 
     Args:
         env: a drivestyle env (possibly wrapped).
@@ -179,15 +181,15 @@ def generate_traffic_demonstration(
     randomize: bool = False,
     progress: bool = False,
 ) -> tuple[Demonstration, dict[str, Any]]:
-    """Generate one SMPC demonstration among several vehicles (``envs.traffic``).
+    """Generate one SMPC demonstration among several vehicles (``drivestyle.envs.traffic``).
 
     Args:
         risk: p, overriding ``smpc.risk``.
-        scene: the traffic scene (default: :data:`envs.traffic.DEFAULT_TRAFFIC`).
+        scene: the traffic scene (default: :data:`drivestyle.envs.traffic.DEFAULT_TRAFFIC`).
         smpc: expert configuration (default: the paper's with a chance constraint for
             each of :data:`TRAFFIC_VEHICLES` vehicles).
         seed: env seed (with ``randomize``: draws the scene).
-        randomize: draw the scene from :class:`envs.traffic.TrafficRanges` with ``seed``.
+        randomize: draw the scene from :class:`drivestyle.envs.traffic.TrafficRanges` with ``seed``.
         progress: show a progress bar.
 
     Returns:
@@ -333,8 +335,8 @@ def smpc_robustness(
     """Count solver failures, retries and fallbacks of the SMPC over many demonstrations.
 
     Every risk drives every one of ``n_scenarios`` scenarios drawn from the random family
-    (:class:`envs.scenario.ScenarioRanges`) with ``seed``; one process per risk at a time,
-    the solver built once per risk.
+    (:class:`drivestyle.envs.scenario.ScenarioRanges`) with ``seed``; one process per risk at
+    a time, the solver built once per risk.
 
     Args:
         n_scenarios: scenarios (≥ 1).
@@ -343,7 +345,7 @@ def smpc_robustness(
         workers: processes.
         jit: compile the NLPs (faster steps).
         progress: called with each finished risk.
-        traffic: draw traffic scenes (:class:`envs.traffic.TrafficRanges`) and constrain
+        traffic: draw traffic scenes (:class:`drivestyle.envs.traffic.TrafficRanges`) and constrain
             :data:`TRAFFIC_VEHICLES` vehicles.
 
     Returns:

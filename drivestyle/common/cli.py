@@ -3,7 +3,7 @@
 :func:`run_cli` wraps a script's ``main``: a bad input (a missing or malformed file, an
 invalid value, a solver that cannot start) ends with one line ``error: …`` naming the
 problem and exit status 2; Ctrl-C ends with exit status 130 after the script's atomic
-writes (:mod:`envs.io`) have discarded the unfinished output; anything unexpected ends
+writes (:mod:`drivestyle.common.io`) have discarded the unfinished output; anything unexpected ends
 with one line and exit status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the traceback).
 
 The ``argparse`` types below reject out-of-range values at parse time, so a script never

@@ -1,12 +1,12 @@
 """A simulated population of vehicles with known risks: the ground truth for mining at scale.
 
 Vehicle i drives one SMPC demonstration with risk p_i ~ U(:data:`RISK_RANGE`) in a scene
-drawn from the random family (single TV, ``envs.scenario.ScenarioRanges``) or, with
-probability ``traffic_share``, from the traffic family (``envs.traffic.TrafficRanges``).
+drawn from the random family (single TV, ``drivestyle.envs.scenario.ScenarioRanges``) or, with
+probability ``traffic_share``, from the traffic family (``drivestyle.envs.traffic.TrafficRanges``).
 Every draw comes from ``numpy.random.default_rng([seed, i])``, so a vehicle's
 demonstration does not depend on how many vehicles are simulated or on the workers.
 Each worker process builds one SMPC solver per family and reuses it for every vehicle
-(the risk is a solver parameter, :meth:`agents.smpc.SMPCExpert.set_risk`).
+(the risk is a solver parameter, :meth:`drivestyle.agents.smpc.SMPCExpert.set_risk`).
 """
 
 from __future__ import annotations
@@ -16,14 +16,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, demo_summary, rollout_expert
+from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
+from drivestyle.envs.demonstration import save_demonstration
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
+from drivestyle.envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
 
-from agents.rollout import TRAFFIC_VEHICLES, demo_summary, rollout_expert
-from agents.smpc import SMPCConfig, SMPCExpert
-from envs.demonstration import save_demonstration
-from envs.lane_change import LaneChangeEnv
-from envs.parallel import parallel_map
-from envs.scenario import ScenarioConfig, ScenarioRanges
-from envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
+from drivestyle.common.parallel import parallel_map
 
 __all__ = ["RISK_RANGE", "draw_vehicle", "simulate_population"]
 

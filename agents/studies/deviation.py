@@ -1,7 +1,7 @@
 """When the TV deviates from its prediction: closed-loop control against open-loop plans.
 
 Every planner here predicts the TV at constant velocity. In the deviating episode
-(:class:`envs.lane_change.TVDeviation`: by default the TV brakes at 4 m/s² from t = 1.5 s
+(:class:`drivestyle.envs.lane_change.TVDeviation`: by default the TV brakes at 4 m/s² from t = 1.5 s
 for 1.5 s) four drivers of the same style are compared:
 
 - ``smpc``: the SMPC expert, re-planning every step (the demonstrator);
@@ -23,16 +23,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from agents.rollout import rollout_expert
-from agents.smpc import SMPCConfig, SMPCExpert
-from envs.demonstration import Demonstration
-from envs.lane_change import LaneChangeEnv, TVDeviation
-from envs.rollout import run_episode
-from envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
-from envs.scenario import ScenarioConfig, get_scenario
-from irl.inner import InnerProblem, InnerSolveError
-from irl.style import Style
+from drivestyle.agents.demo_generation import rollout_expert
+from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.lane_change import LaneChangeEnv, TVDeviation
+from drivestyle.envs.rollout import run_episode
+from drivestyle.envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
+from drivestyle.envs.scenario import ScenarioConfig, get_scenario
+from drivestyle.irl.inner import InnerProblem, InnerSolveError
+from drivestyle.irl.style import Style
 
 __all__ = ["deviating_tv_study", "plan_states"]
 
@@ -160,7 +159,7 @@ def deviating_tv_study(
 
 def write_videos(result: dict[str, Any], scenario: Any, folder: str | Path) -> dict[str, str]:
     """A gif per driver of the deviating episode (EV states replayed beside the TV's)."""
-    from envs.video import record_states, write_video
+    from drivestyle.envs.video import record_states, write_video
 
     sc = get_scenario(scenario)
     out = {}

@@ -14,12 +14,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.agents.demo_generation import generate_demonstration
+from drivestyle.agents.smpc import SMPCConfig
+from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.irl.identification import DEFAULT_SCORER, StyleLibrary, knn_baseline
 
-from agents.rollout import generate_demonstration
-from agents.smpc import SMPCConfig
-from envs.demonstration import Demonstration, load_demonstration
-from envs.io import fmt
-from irl.identification import DEFAULT_SCORER, StyleLibrary, knn_baseline
+from drivestyle.common.io import fmt
 
 __all__ = ["ceiling_identify", "identification_references", "references_markdown"]
 

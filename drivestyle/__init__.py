@@ -1,0 +1,24 @@
+"""drivestyle: identify the driving style of an automated vehicle from its trajectories.
+
+One installable root with four layers, each importing only those before it:
+
+- :mod:`drivestyle.common`: infrastructure (atomic files, the process pool, CLI helpers);
+- :mod:`drivestyle.envs`: the world and its data (Gymnasium envs, demonstrations,
+  recorded traffic);
+- :mod:`drivestyle.irl`: learning styles from trajectories (splines, features, ME-IRL,
+  style libraries, identification, the learned reward);
+- :mod:`drivestyle.agents`: drivers (the SMPC expert, SB3 policies) and
+  :mod:`drivestyle.agents.studies`, the evaluations that combine them;
+- :mod:`drivestyle.scripts`: the command-line entry points (``drivestyle --help``).
+
+Importing ``drivestyle`` registers the Gymnasium ids (``drivestyle/LaneChange-v0`` and
+the others in :data:`drivestyle.envs.ENV_IDS`).
+"""
+
+from __future__ import annotations
+
+from drivestyle.envs import ENV_IDS, register_envs
+
+__all__ = ["ENV_IDS", "__version__", "register_envs"]
+
+__version__ = "0.2.0"

@@ -1,0 +1,60 @@
+"""The command-line entry points, also installed as ``drivestyle <command>``.
+
+Each module here is a script (``python scripts/learn_style.py …`` works from a checkout)
+with a ``main(argv)``; :func:`main` dispatches ``drivestyle <command> [args]`` to it, so the
+installed command and the script take the same arguments.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+__all__ = ["COMMANDS", "main"]
+
+COMMANDS: dict[str, str] = {
+    "reproduce-paper": "the paper's whole study (the main job)",
+    "generate-demo": "an SMPC demonstration in the lane-change env",
+    "learn-style": "learn a style (θ) from one or more demonstrations",
+    "build-style-library": "a style library: θ per risk level over shared scenarios",
+    "identify-style": "identify a vehicle's risk level with a style library",
+    "evaluate-identification": "identification on held-out scenarios, risks and noise",
+    "mine-styles": "personal style and risk of many demonstrations (local or Ray)",
+    "simulate-population": "SMPC vehicles with known risks (ground truth for mining)",
+    "real-traffic": "styles of recorded lane changes (NGSIM, CATS)",
+    "train-baseline": "a stable-baselines3 policy on a learned style's reward",
+    "compare-baseline": "SMPC vs spline reproduction vs SB3 policy",
+    "deviating-tv": "drivers facing a TV that deviates from its prediction",
+    "render-rollout": "a rollout rendered to mp4/gif",
+    "calibrate-uncertainty": "the TV-uncertainty scale scan (DESIGN §3)",
+    "bench-smpc": "benchmark the SMPC expert",
+    "bench-irl": "benchmark ME-IRL and identification",
+    "bench-population": "benchmark mining a population",
+}
+"""Subcommand → what it does; the module is the name with ``_`` for ``-``."""
+
+
+def _usage() -> str:
+    width = max(map(len, COMMANDS))
+    lines = [f"  {name:<{width}}  {what}" for name, what in COMMANDS.items()]
+    return (
+        "usage: drivestyle <command> [options]   (drivestyle <command> --help for its options)\n\n"
+        "commands:\n" + "\n".join(lines)
+    )
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``drivestyle <command> [args]``: run one script's ``main`` with the CLI's error handling."""
+    from drivestyle.common.cli import run_cli
+
+    args = sys.argv[1:] if argv is None else list(argv)
+    if not args or args[0] in ("-h", "--help"):
+        print(_usage())
+        return
+    name, rest = args[0], args[1:]
+    if name not in COMMANDS:
+        print(f"error: unknown command {name!r}\n\n{_usage()}", file=sys.stderr)
+        sys.exit(2)
+    module = importlib.import_module(f"drivestyle.scripts.{name.replace('-', '_')}")
+    sys.argv[0] = f"drivestyle {name}"
+    run_cli(module.main, rest)
