@@ -1,0 +1,31 @@
+"""The design document's sections run in order and every "DESIGN §n" citation exists."""
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DESIGN = ROOT / "docs" / "DESIGN.md"
+
+
+def _sections() -> list[int]:
+    return [int(m) for m in re.findall(r"(?m)^## (\d+)\. ", DESIGN.read_text())]
+
+
+def test_design_sections_are_numbered_one_to_n_in_order():
+    numbers = _sections()
+    assert numbers == list(range(1, len(numbers) + 1)), numbers
+
+
+def test_every_design_citation_names_an_existing_section():
+    existing = set(_sections())
+    cite = re.compile(r"DESIGN(?:\.md)? *§ *(\d+)")
+    files = [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
+    for folder in ("drivestyle", "envs", "irl", "agents", "scripts", "tests"):
+        files += sorted((ROOT / folder).rglob("*.py"))
+    missing = [
+        f"{path.relative_to(ROOT)}: §{n}"
+        for path in files
+        for n in map(int, cite.findall(path.read_text()))
+        if n not in existing
+    ]
+    assert not missing, missing
