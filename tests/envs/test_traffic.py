@@ -86,10 +86,22 @@ def test_random_scenes_follow_the_seed_and_round_trip():
     assert TrafficScene.from_dict(a.to_dict()) == a
 
 
-def test_the_single_tv_env_is_unchanged():
-    env = gym.make("drivestyle/LaneChange-v0")
-    obs, _ = env.reset()
-    assert obs.shape == (8,)
+def test_traffic_without_other_vehicles_drives_exactly_as_the_single_tv_env():
+    # the single-TV env is the reference: traffic must add vehicles, not change the physics
+    single = gym.make("drivestyle/LaneChange-v0")
+    lone = TrafficEnv(others=[])
+    obs_s, _ = single.reset(seed=0)
+    obs_t, info_t = lone.reset(seed=0)
+    np.testing.assert_array_equal(obs_s[:4], obs_t[:4])
+    np.testing.assert_array_equal(obs_s[4:], info_t["vehicles"][0])
+    for k in range(12):
+        action = np.array([0.5 * np.sin(k), 0.01 * np.cos(k)])
+        obs_s, r_s, *_ = single.step(action)
+        obs_t, r_t, _, _, info_t = lone.step(action)
+        np.testing.assert_array_equal(obs_s[:4], obs_t[:4])
+        np.testing.assert_array_equal(obs_s[4:], info_t["vehicles"][0])
+        assert r_s == r_t
+    assert obs_s.shape == (8,)
 
 
 def test_rendering_draws_every_vehicle():
