@@ -3,8 +3,9 @@
 :func:`run_cli` wraps a script's ``main``: a bad input (a missing or malformed file, an
 invalid value, a solver that cannot start) ends with one line ``error: …`` naming the
 problem and exit status 2; Ctrl-C ends with exit status 130 after the script's atomic
-writes (:mod:`drivestyle.common.io`) have discarded the unfinished output; anything unexpected ends
-with one line and exit status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the traceback).
+writes (:mod:`drivestyle.common.io`) have discarded the unfinished output; anything
+unexpected ends with one line and exit status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the
+traceback).
 
 The ``argparse`` types below reject out-of-range values at parse time, so a script never
 starts long work on an argument it would ignore or misread.
@@ -20,14 +21,26 @@ from collections.abc import Callable
 from typing import Any
 
 __all__ = [
+    "EXIT_INTERRUPTED",
+    "EXIT_UNEXPECTED",
+    "EXIT_USER_ERROR",
     "USER_ERRORS",
+    "finite_float",
     "float_list",
     "nonnegative_int",
     "positive_float",
     "positive_int",
     "risk_list",
+    "risk_value",
     "run_cli",
 ]
+
+EXIT_USER_ERROR = 2
+"""Exit status of a bad input or environment (as ``argparse`` exits on a bad option)."""
+EXIT_UNEXPECTED = 1
+"""Exit status of an unexpected error (a bug)."""
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT, the shell's convention)."""
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     OSError,  # missing, unreadable or unwritable files and folders
@@ -48,13 +61,15 @@ def run_cli(main: Callable[[list[str] | None], Any], argv: list[str] | None = No
         main(argv)
     except KeyboardInterrupt:
         print("\ninterrupted: unfinished output was discarded", file=sys.stderr)
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
     except SystemExit:
         raise
     except USER_ERRORS as exc:
         if os.environ.get("DRIVESTYLE_TRACEBACK"):
             raise
-        sys.exit(f"error: {exc}")
+        # not sys.exit(message): that exits with status 1, the status of an unexpected error
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(EXIT_USER_ERROR)
     except Exception as exc:  # last resort: one line, not a traceback
         if os.environ.get("DRIVESTYLE_TRACEBACK"):
             raise
@@ -63,7 +78,7 @@ def run_cli(main: Callable[[list[str] | None], Any], argv: list[str] | None = No
             "(set DRIVESTYLE_TRACEBACK=1 to see where)",
             file=sys.stderr,
         )
-        sys.exit(1)
+        sys.exit(EXIT_UNEXPECTED)
 
 
 def _number(text: str, kind: type, what: str) -> Any:

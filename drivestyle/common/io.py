@@ -1,12 +1,23 @@
 """Result files: JSON with the command that produced it, atomic writes and output folders.
 
-Every file a script writes goes through here, so that an interrupted run (Ctrl-C, a
-crash) leaves either the previous complete output or none, never a half-written file:
+Every file a script writes goes through here, so that an interrupted or failed run (Ctrl-C,
+a crash, a full disk) leaves either the previous complete output or none, never a
+half-written file, and never a temporary file or folder behind:
 
-- :func:`write_json` and :func:`write_text` write to a temporary file beside the target
-  and rename it into place (``os.replace`` is atomic on POSIX and Windows);
-- :func:`atomic_output_dir` builds a whole output folder under a temporary name and swaps
-  it in only when the work completed.
+- :func:`check_output_dir` and :func:`check_output_file` are called by every script first
+  thing after parsing: an output location that cannot be written is reported (naming the
+  user's path) before any work starts;
+- :func:`write_json`, :func:`write_text` and :func:`atomic_output_file` write to a temporary
+  file beside the target and rename it into place (``os.replace`` is atomic on POSIX);
+- :func:`atomic_output_dir` builds a whole output folder under a temporary name beside it
+  and swaps it in only when the work completed: a new run replaces the folder as a whole, so
+  files of an earlier run (a figure it drew, a file it wrote) never sit beside the new ones.
+
+Because a replaced folder is deleted, only folders that drivestyle wrote (they hold the
+marker file :data:`OUTPUT_MARKER`), empty folders and absent ones are replaced; a folder
+with other files is refused with a message, as are the working folder and a folder holding
+the run's own inputs. Outputs get ordinary permissions (files 0666, folders 0777, less the
+umask: 0644 and 0755 with the usual umask 022).
 """
 
 from __future__ import annotations
@@ -14,11 +25,12 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import secrets
 import shlex
 import shutil
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -26,9 +38,12 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "OUTPUT_MARKER",
     "OutputPathError",
     "atomic_output_dir",
+    "atomic_output_file",
     "check_output_dir",
+    "check_output_file",
     "command_line",
     "fmt",
     "read_json",
@@ -36,9 +51,12 @@ __all__ = [
     "write_text",
 ]
 
+OUTPUT_MARKER = ".drivestyle-output"
+"""File in every output folder drivestyle writes: such a folder may be replaced by a new run."""
+
 
 class OutputPathError(ValueError):
-    """An output path cannot be used (e.g. a folder was asked for and a file is there)."""
+    """An output path cannot be used (a file where a folder is asked for, not writable, …)."""
 
 
 def read_json(
@@ -96,6 +114,159 @@ def _default(obj: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
 
 
+def _umask() -> int:
+    """The process's umask (read without changing it where the OS allows)."""
+    with contextlib.suppress(OSError, ValueError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    mask = os.umask(0o022)  # the only portable way to read it: set and restore at once
+    os.umask(mask)
+    return mask
+
+
+def _ordinary_mode(path: Path, folder: bool) -> None:
+    """Give a file made by ``mkstemp``/``mkdtemp`` (private: 0600/0700) the mode ``open`` gives."""
+    os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
+
+
+def _reason(exc: OSError) -> str:
+    return (exc.strerror or str(exc)).lower()
+
+
+def _probe(folder: Path, user: Path, option: str) -> None:
+    """Check that files can be created in ``folder`` (or where its missing parents would be).
+
+    A real probe (a temporary folder made and removed at once) rather than ``os.access``:
+    it also sees read-only file systems, ACLs and, for root, folders no one can write.
+    """
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise OutputPathError(f"{option} {user}: {existing} is not a folder")
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".drivestyle-probe.", dir=existing))
+    except OSError as exc:
+        raise OutputPathError(
+            f"{option} {user}: cannot create files in {existing} ({_reason(exc)})"
+        ) from None
+
+
+def check_output_file(path: str | Path, option: str = "--out") -> Path:
+    """Check, before the work, that a result file can be written at ``path``.
+
+    Args:
+        path: the output file (its missing parent folders will be created).
+        option: the command-line option that named it, for messages.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        OutputPathError: ``path`` is a folder, or its folder cannot be written.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise OutputPathError(f"{option} {path} is a folder (expected a file name)")
+    _probe(path.absolute().parent, path, option)
+    return path
+
+
+def check_output_dir(
+    path: str | Path,
+    option: str = "--out",
+    *,
+    replace: bool = True,
+    inputs: Iterable[str | Path | None] = (),
+) -> Path:
+    """Check, before the work, that ``path`` can be an output folder.
+
+    Args:
+        path: the output folder (absent, or an existing folder).
+        option: the command-line option that named it, for messages.
+        replace: the run replaces the folder as a whole (:func:`atomic_output_dir`); False:
+            it writes files into it and keeps the others.
+        inputs: the run's input files or folders (None entries are skipped): a folder that
+            holds one of them is not replaced.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        OutputPathError: ``path`` is a file, cannot be written, or (``replace``) holds files
+            not written by drivestyle, the working folder or an input.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputPathError(f"{option} {path} exists and is not a folder")
+    final = path.resolve()
+    _probe(final.parent, path, option)  # the temporary folder is made there
+    if final.is_dir():
+        _probe(final, path, option)  # its old files are deleted or new ones moved in
+    if not replace or not final.is_dir():
+        return path
+    here = Path.cwd().resolve()
+    if here == final or final in here.parents:
+        raise OutputPathError(
+            f"{option} {path} holds the working folder, which the run would replace; "
+            "choose a subfolder"
+        )
+    for item in inputs:
+        if item is not None:
+            source = Path(item).resolve()
+            if source == final or final in source.parents:
+                raise OutputPathError(
+                    f"{option} {path} holds the input {item}, which the run would replace; "
+                    "choose another folder"
+                )
+    if any(final.iterdir()) and not (final / OUTPUT_MARKER).is_file():
+        raise OutputPathError(
+            f"{option} {path} holds files not written by drivestyle, which the run would "
+            "replace as a whole; choose a new folder or empty this one"
+        )
+    return path
+
+
+@contextlib.contextmanager
+def atomic_output_file(path: str | Path, option: str = "--out") -> Iterator[Path]:
+    """Write one file under a temporary name beside ``path``; rename it into place on success.
+
+    Yields the temporary path, which keeps ``path``'s suffix (writers such as imageio pick
+    the format by it). When the block completes, the file gets ordinary permissions and
+    replaces ``path``; when the block or the rename fails, the temporary file is removed.
+
+    Args:
+        path: the output file; missing parent folders are created.
+        option: the command-line option that named it, for messages.
+
+    Raises:
+        OutputPathError: ``path`` is a folder, or the file cannot be created or moved.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise OutputPathError(f"{option} {path} is a folder (expected a file name)")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(
+            prefix=f".{path.stem}.", suffix=f".partial{path.suffix}", dir=path.parent
+        )
+    except OSError as exc:
+        raise OutputPathError(f"cannot write {path}: {_reason(exc)}") from None
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        _ordinary_mode(tmp, folder=False)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise OutputPathError(f"cannot write {path}: {_reason(exc)}") from None
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()  # only still there when something failed
+
+
 def write_text(path: str | Path, text: str) -> Path:
     """Write a text file atomically (temporary file in the same folder, then rename).
 
@@ -107,21 +278,11 @@ def write_text(path: str | Path, text: str) -> Path:
         The path written.
 
     Raises:
-        OutputPathError: ``path`` is an existing folder.
+        OutputPathError: ``path`` is an existing folder, or it cannot be written.
     """
     path = Path(path)
-    if path.is_dir():
-        raise OutputPathError(f"cannot write {path}: it is a folder")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_output_file(path) as tmp:
+        tmp.write_text(text)
     return path
 
 
@@ -144,60 +305,80 @@ def write_json(path: str | Path, payload: dict[str, Any], argv: list[str] | None
     return write_text(path, json.dumps(out, indent=2, default=_default) + "\n")
 
 
-def check_output_dir(path: str | Path) -> Path:
-    """Check that ``path`` can be an output folder (absent, or an existing folder).
+def _swap(tmp: Path, final: Path) -> None:
+    """Put the folder ``tmp`` at ``final``; an old ``final`` is deleted (restored on failure)."""
+    old = None
+    if final.exists():
+        old = final.with_name(f".{final.name}.{os.getpid()}-{secrets.token_hex(4)}.old")
+        os.replace(final, old)
+    try:
+        os.replace(tmp, final)
+    except BaseException:
+        if old is not None and not final.exists():
+            os.replace(old, final)  # the previous complete output stays
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
 
-    Raises:
-        OutputPathError: ``path`` exists and is not a folder.
-    """
-    path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise OutputPathError(f"--out {path} exists and is not a folder")
-    return path
+
+def _merge(tmp: Path, final: Path) -> None:
+    """Move the files of ``tmp`` into the existing folder ``final``, one by one."""
+    for item in sorted(tmp.rglob("*")):
+        if item.is_file() and item.name != OUTPUT_MARKER:  # a user's folder stays unmarked
+            target = final / item.relative_to(tmp)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(item, target)
 
 
 @contextlib.contextmanager
-def atomic_output_dir(path: str | Path, replace: bool = True) -> Iterator[Path]:
-    """Build an output folder under a temporary name; swap it in only on success.
+def atomic_output_dir(
+    path: str | Path, replace: bool = True, option: str = "--out"
+) -> Iterator[Path]:
+    """Build an output folder under a temporary name beside it; swap it in only on success.
 
     Yields a fresh temporary folder next to ``path``. When the block completes, an existing
     ``path`` is replaced as a whole by the new folder (``replace=True``: files of the old
     folder are not mixed with new ones), or the new files are moved into it one by one
-    (``replace=False``: for scripts whose outputs share a folder with other files, e.g. a
-    style written next to its demonstration). When the block raises (including
-    ``KeyboardInterrupt``), the temporary folder is removed and ``path`` keeps its previous
-    content (or stays absent).
+    (``replace=False``: for a style written next to its demonstration). When the block or
+    the final move fails (including ``KeyboardInterrupt``), the temporary folder is removed
+    and ``path`` keeps its previous content (or stays absent).
 
     Args:
-        path: the final output folder.
+        path: the final output folder; missing parent folders are created.
         replace: replace the folder as a whole (True) or merge the new files into it.
+        option: the command-line option that named it, for messages.
 
     Raises:
-        OutputPathError: ``path`` exists and is not a folder.
+        OutputPathError: ``path`` cannot be used (see :func:`check_output_dir`) or the
+            finished output cannot be moved into place.
     """
-    path = check_output_dir(path).resolve()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the output is an ordinary folder
+    path = check_output_dir(path, option, replace=replace)
+    final = path.resolve()
     try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".partial", dir=final.parent))
+    except OSError as exc:
+        raise OutputPathError(
+            f"{option} {path}: cannot create files in {final.parent} ({_reason(exc)})"
+        ) from None
+    try:
+        _ordinary_mode(tmp, folder=True)
         yield tmp
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    if not replace and path.exists():
-        for item in sorted(tmp.rglob("*")):
-            if item.is_file():
-                target = path / item.relative_to(tmp)
-                target.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(item, target)
-        shutil.rmtree(tmp, ignore_errors=True)
-        return
-    old = None
-    if path.exists():
-        old = path.with_name(f".{path.name}.old-{os.getpid()}")
-        os.replace(path, old)
-    os.replace(tmp, path)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+        merge = not replace and final.exists()
+        if not merge:
+            (tmp / OUTPUT_MARKER).write_text(
+                "written by drivestyle; a new run replaces this folder as a whole\n"
+            )
+            _ordinary_mode(tmp / OUTPUT_MARKER, folder=False)
+        try:
+            if merge:
+                _merge(tmp, final)
+            else:
+                _swap(tmp, final)
+        except OSError as exc:
+            raise OutputPathError(
+                f"{option} {path}: could not move the finished output into place "
+                f"({_reason(exc)})" + ("; some files may be the previous run's" if merge else "")
+            ) from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)  # only still there when something failed

@@ -1,0 +1,59 @@
+"""run_cli: the exit statuses and one-line messages its docstring documents."""
+
+import pytest
+
+from drivestyle.common.cli import run_cli
+from drivestyle.common.io import OutputPathError
+
+
+def _raises(exc: BaseException):
+    def main(argv):
+        raise exc
+
+    return main
+
+
+@pytest.mark.parametrize(
+    "exc",
+    [
+        ValueError("risk must lie in (0, 1)"),
+        OutputPathError("--out x exists and is not a folder"),
+        FileNotFoundError("demonstration not found: x.npz"),
+        RuntimeError("the solver could not start"),
+    ],
+    ids=["ValueError", "OutputPathError", "FileNotFoundError", "RuntimeError"],
+)
+def test_bad_input_exits_2_with_one_error_line(exc, capsys, monkeypatch):
+    monkeypatch.delenv("DRIVESTYLE_TRACEBACK", raising=False)
+    with pytest.raises(SystemExit) as info:
+        run_cli(_raises(exc), [])
+    assert info.value.code == 2
+    assert capsys.readouterr().err == f"error: {exc}\n"
+
+
+def test_an_unexpected_error_exits_1(capsys, monkeypatch):
+    monkeypatch.delenv("DRIVESTYLE_TRACEBACK", raising=False)
+    with pytest.raises(SystemExit) as info:
+        run_cli(_raises(KeyError("oops")), [])
+    assert info.value.code == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: unexpected KeyError")
+
+
+def test_ctrl_c_exits_130(capsys):
+    with pytest.raises(SystemExit) as info:
+        run_cli(_raises(KeyboardInterrupt()), [])
+    assert info.value.code == 130 and "interrupted" in capsys.readouterr().err
+
+
+def test_success_and_explicit_exits_pass_through():
+    run_cli(lambda argv: None, [])
+    with pytest.raises(SystemExit) as info:
+        run_cli(_raises(SystemExit(3)), [])
+    assert info.value.code == 3
+
+
+def test_traceback_on_request(monkeypatch):
+    monkeypatch.setenv("DRIVESTYLE_TRACEBACK", "1")
+    with pytest.raises(ValueError, match="shown"):
+        run_cli(_raises(ValueError("shown")), [])
