@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     if args.address and args.engine != "ray":
         raise ValueError("--address needs --engine ray")
-    check_output_dir(args.out)
+    check_output_dir(args.out, replace=False)  # resumable: rows of an earlier run are kept
     library = load_library(args.library)
     tasks = _tasks(args)
     args.out.mkdir(parents=True, exist_ok=True)
