@@ -3,113 +3,205 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.features import FEATURES, FeatureConfig
-from drivestyle.irl.learner import LearningResult, MaxEntIRL
+from drivestyle.irl.learner import (
+    IRLConfig,
+    IterationRecord,
+    LearningResult,
+    LearningStatus,
+    MaxEntIRL,
+    normalise_theta,
+)
 from drivestyle.irl.spline import spline_eval
 
 from drivestyle.common.io import read_json
 
-__all__ = ["Style", "StyleError", "fit_style", "load_style", "style_payload"]
+__all__ = [
+    "DemoFit",
+    "FittedStyle",
+    "ReproducedTrajectory",
+    "Style",
+    "StyleError",
+    "fit_style",
+    "load_style",
+]
 
 
 class StyleError(ValueError):
     """A style file is missing, malformed or inconsistent."""
 
 
-def _reproduced(C: np.ndarray, t: np.ndarray) -> dict[str, list[float]]:
-    pos, vel, acc = (spline_eval(C, t, t, d) for d in (0, 1, 2))
-    return {
-        "t": t.tolist(),
-        "x": pos[:, 0].tolist(),
-        "y": pos[:, 1].tolist(),
-        "vx": vel[:, 0].tolist(),
-        "vy": vel[:, 1].tolist(),
-        "ax": acc[:, 0].tolist(),
-        "ay": acc[:, 1].tolist(),
-    }
+@dataclass(frozen=True)
+class ReproducedTrajectory:
+    """r*_θ sampled at a demonstration's samples (``style.json`` → ``reproduced``)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    ax: np.ndarray
+    ay: np.ndarray
+
+    @classmethod
+    def sample(cls, C: np.ndarray, t: np.ndarray) -> ReproducedTrajectory:
+        """Sample the spline with control points C (S+1, 6) at the times t."""
+        pos, vel, acc = (spline_eval(C, t, t, d) for d in (0, 1, 2))
+        return cls(t, pos[:, 0], pos[:, 1], vel[:, 0], vel[:, 1], acc[:, 0], acc[:, 1])
+
+    def to_json(self) -> dict[str, list[float]]:
+        """``{t, x, y, vx, vy, ax, ay}`` as lists."""
+        return {k: getattr(self, k).tolist() for k in ("t", "x", "y", "vx", "vy", "ax", "ay")}
 
 
-def style_payload(
-    result: LearningResult, learner: MaxEntIRL, demo_paths: list[str] | None = None
-) -> dict[str, Any]:
-    """Everything ``learn_style.py`` writes to ``style.json``.
+@dataclass(frozen=True)
+class DemoFit:
+    """How the learned style reproduces one demonstration (``style.json`` → ``demos``)."""
 
-    Trajectory metrics are means over the demonstrations; ``demos`` lists them per
+    path: str | None
+    t_trg_s: float | None
+    t_turn_s: float | None
+    trigger_fired: bool
+    errors: dict[str, float | None]
+    """:func:`drivestyle.irl.metrics.trajectory_errors` of the reproduction."""
+    feature_values_demo: np.ndarray
+    feature_values_reproduced: np.ndarray
+
+    def to_json(self) -> dict[str, Any]:
+        """The entry of ``demos``: path, event times, errors and feature values."""
+        return {
+            "path": self.path,
+            "t_trg_s": self.t_trg_s,
+            "t_turn_s": self.t_turn_s,
+            "trigger_fired": self.trigger_fired,
+            **self.errors,
+            "feature_values_demo": self.feature_values_demo.tolist(),
+            "feature_values_reproduced": self.feature_values_reproduced.tolist(),
+        }
+
+
+@dataclass(frozen=True)
+class FittedStyle:
+    """A learned style with what ``style.json`` records about it (docs/DESIGN.md §7).
+
+    Trajectory metrics are means over the demonstrations; ``demos`` holds them per
     demonstration, and ``reproduced`` is the first demonstration's reproduction sampled at
     its own samples (every T_s).
-
-    Args:
-        result: the learning result.
-        learner: the learner that produced it (features, control-point rule, problems).
-        demo_paths: where the demonstrations came from.
-
-    Returns:
-        JSON-ready dict.
     """
-    fc = learner.features
-    p0 = learner.problems[0]
-    errs = result.errors
 
-    def mean(key):
-        return (
-            float(np.mean([e[key] for e in errs]))
-            if all(e[key] is not None for e in errs)
-            else None
+    result: LearningResult
+    method: str
+    """The update rule ('lm' or 'paper')."""
+    features: FeatureConfig
+    control_point_rule: str
+    demos: tuple[DemoFit, ...]
+    reproduced: ReproducedTrajectory
+
+    @classmethod
+    def of(
+        cls, result: LearningResult, learner: MaxEntIRL, demo_paths: Sequence[str] | None = None
+    ) -> FittedStyle:
+        """Describe a learning result.
+
+        Args:
+            result: the learning result.
+            learner: the learner that produced it (features, control-point rule, problems).
+            demo_paths: where the demonstrations came from.
+        """
+        demos = tuple(
+            DemoFit(
+                path=demo_paths[i] if demo_paths else None,
+                t_trg_s=p.basis.events.t_trg,
+                t_turn_s=p.basis.events.t_turn,
+                trigger_fired=p.basis.events.reactive_active,
+                errors=e,
+                feature_values_demo=p.f_demo,
+                feature_values_reproduced=sol.features,
+            )
+            for i, (p, sol, e) in enumerate(
+                zip(learner.problems, result.solutions, result.errors, strict=True)
+            )
+        )
+        p0 = learner.problems[0]
+        return cls(
+            result=result,
+            method=learner.config.method,
+            features=learner.features,
+            control_point_rule=p0.control_point_rule,
+            demos=demos,
+            reproduced=ReproducedTrajectory.sample(result.solutions[0].control_points, p0.demo.t),
         )
 
-    per_demo = []
-    for i, (p, sol, e) in enumerate(zip(learner.problems, result.solutions, errs, strict=True)):
-        events = p.basis.events
-        per_demo.append(
-            {
-                "path": demo_paths[i] if demo_paths else None,
-                "t_trg_s": events.t_trg,
-                "t_turn_s": events.t_turn,
-                "trigger_fired": events.reactive_active,
-                **e,
-                "feature_values_demo": p.f_demo.tolist(),
-                "feature_values_reproduced": sol.features.tolist(),
-            }
-        )
-    return {
-        "features": list(result.names),
-        "feature_set": fc.feature_set,
-        "theta": result.theta.tolist(),
-        "theta_normalised": result.theta_normalised.tolist(),
-        "iterations": result.iterations,
-        "converged": result.converged,
-        "method": learner.config.method,
-        "learning_error": result.learning_error,
-        "rmse_y_m": mean("rmse_y_m"),
-        "rmse_xy_m": mean("rmse_xy_m"),
-        "rmse_y_reaction_m": mean("rmse_y_reaction_m"),
-        "wall_time_s": result.wall_time_s,
-        "inner_solve_ms_median": float(np.median(result.inner_solve_ms)),
-        "t_trg_s": p0.basis.events.t_trg,
-        "trigger_fired": p0.basis.events.reactive_active,
-        "t_rct_s": fc.t_rct,
-        "omega": [fc.omega[FEATURES.index(n)] for n in result.names],
-        "control_point_rule": learner.problems[0].control_point_rule,
-        "feature_config": {k: getattr(fc, k) for k in fc.__dataclass_fields__},
-        "feature_values_demo": result.feature_values_demo.tolist(),
-        "feature_values_reproduced": result.feature_values_reproduced.tolist(),
-        "history": [
-            {
-                "iteration": h["iteration"],
-                "theta": h["theta"],
-                "epsilon": h["epsilon"],
-                "rmse_y_m": h["rmse_y_m"],
-            }
-            for h in result.history
-        ],
-        "reproduced": _reproduced(result.solutions[0].control_points, p0.demo.t),
-        "demos": per_demo,
-    }
+    def _mean(self, key: str) -> float | None:
+        values = [d.errors[key] for d in self.demos]
+        return None if any(v is None for v in values) else float(np.mean(values))
+
+    @property
+    def status(self) -> LearningStatus:
+        """How learning stopped (see :data:`drivestyle.irl.learner.LearningStatus`)."""
+        return self.result.status
+
+    @property
+    def rmse_y_m(self) -> float:
+        """Lateral RMSE, mean over the demonstrations [m]."""
+        return float(np.mean([d.errors["rmse_y_m"] for d in self.demos]))
+
+    @property
+    def rmse_xy_m(self) -> float:
+        """Position RMSE, mean over the demonstrations [m]."""
+        return float(np.mean([d.errors["rmse_xy_m"] for d in self.demos]))
+
+    @property
+    def rmse_y_reaction_m(self) -> float | None:
+        """Lateral RMSE in the reaction window (None if a demonstration has none) [m]."""
+        return self._mean("rmse_y_reaction_m")
+
+    @property
+    def t_trg_s(self) -> float | None:
+        """The first demonstration's trigger time [s]."""
+        return self.demos[0].t_trg_s
+
+    @property
+    def trigger_fired(self) -> bool:
+        """Whether the trigger fired in the first demonstration (reactive features active)."""
+        return self.demos[0].trigger_fired
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``style.json`` payload (keys of docs/DESIGN.md §7, plus ``status``)."""
+        fc = self.features
+        learning = self.result.to_json()
+        return {
+            "features": learning.pop("features"),
+            "feature_set": fc.feature_set,
+            "theta": learning.pop("theta"),
+            "theta_normalised": learning.pop("theta_normalised"),
+            "iterations": learning.pop("iterations"),
+            "converged": learning.pop("converged"),
+            "status": learning.pop("status"),
+            "method": self.method,
+            "learning_error": learning.pop("learning_error"),
+            "rmse_y_m": self.rmse_y_m,
+            "rmse_xy_m": self.rmse_xy_m,
+            "rmse_y_reaction_m": self.rmse_y_reaction_m,
+            "wall_time_s": learning.pop("wall_time_s"),
+            "inner_solve_ms_median": learning.pop("inner_solve_ms_median"),
+            "t_trg_s": self.t_trg_s,
+            "trigger_fired": self.trigger_fired,
+            "t_rct_s": fc.t_rct,
+            "omega": [fc.omega[FEATURES.index(n)] for n in self.result.names],
+            "control_point_rule": self.control_point_rule,
+            "feature_config": {k: getattr(fc, k) for k in fc.__dataclass_fields__},
+            **learning,  # stop_reason, inner_failures, feature values, history
+            "reproduced": self.reproduced.to_json(),
+            "demos": [d.to_json() for d in self.demos],
+        }
 
 
 @dataclass(frozen=True)
@@ -125,8 +217,6 @@ class Style:
     @property
     def theta_normalised(self) -> np.ndarray:
         """θ normalised per feature group."""
-        from drivestyle.irl.learner import normalise_theta
-
         return normalise_theta(self.theta, self.names)
 
     def demo_path(self, source: str | Path = "the style") -> Path:
@@ -177,26 +267,26 @@ def load_style(path: str | Path) -> Style:
 
 
 def fit_style(
-    demos,
+    demos: Demonstration | Sequence[Demonstration],
     features: FeatureConfig,
-    config=None,
+    config: IRLConfig | None = None,
     control_point_rule: str = "kinematic",
-    demo_paths: list[str] | None = None,
-    progress=None,
-) -> tuple[LearningResult, MaxEntIRL, dict[str, Any]]:
-    """Learn a style from demonstrations and describe it (the ``style.json`` payload).
+    demo_paths: Sequence[str] | None = None,
+    progress: Callable[[IterationRecord], None] | None = None,
+) -> FittedStyle:
+    """Learn a style from demonstrations and describe it.
 
     Args:
         demos: one demonstration or a list (features averaged).
         features: feature configuration.
-        config: :class:`drivestyle.irl.learner.IRLConfig`.
+        config: outer-loop settings.
         control_point_rule: control-point rule of the demonstrations.
-        demo_paths: recorded in the payload.
+        demo_paths: recorded in ``style.json``.
         progress: per-iteration callback (see :meth:`MaxEntIRL.learn`).
 
     Returns:
-        (result, learner, payload).
+        The fitted style: ``.result`` is the learning result, ``.to_json()`` the
+        ``style.json`` payload.
     """
     learner = MaxEntIRL(demos, features, config, control_point_rule)
-    result = learner.learn(progress=progress)
-    return result, learner, style_payload(result, learner, demo_paths)
+    return FittedStyle.of(learner.learn(progress=progress), learner, demo_paths)

@@ -1,9 +1,12 @@
 """Learn a driving style (feature weights θ) from one or more demonstrations by ME-IRL.
 
 Writes ``OUT/style.json`` (docs/DESIGN.md §7: features, theta, iterations, converged,
-learning_error, rmse_y_m, rmse_xy_m, rmse_y_reaction_m, wall_time_s,
+status, learning_error, rmse_y_m, rmse_xy_m, rmse_y_reaction_m, wall_time_s,
 inner_solve_ms_median, t_trg_s, t_rct_s, omega, feature values, history, reproduced) and,
-with ``--plot``, ``OUT/reproduction.png`` and ``OUT/lateral.png``.
+with ``--plot``, ``OUT/reproduction.png`` and ``OUT/lateral.png``. Learning is
+deterministic (no seed). When learning stalls (the inner problem fails at every trial θ),
+``style.json`` is still written, with ``"status": "stalled"`` and the last solved θ, and the
+script ends with an ``error:`` line and a non-zero exit status.
 
 Example:
     python scripts/learn_style.py runs/demo/demo.npz --features reactive --out runs/style
@@ -14,12 +17,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from drivestyle.agents.studies.figures import plot_lateral, plot_reproductions
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
 from drivestyle.irl.inner import InnerSolveError
-from drivestyle.irl.learner import UPDATE_RULES
+from drivestyle.irl.learner import UPDATE_RULES, IterationRecord
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.style import fit_style
 from tqdm import tqdm
@@ -62,14 +66,21 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--alpha", type=positive_float, default=3e-4, help="learning rate of the paper rule"
     )
     p.add_argument("--plot", action="store_true", help="write reproduction figures")
-    p.add_argument("--seed", type=int, default=0, help="unused: learning is deterministic")
     return p.parse_args(argv)
 
 
-def main(argv: list[str] | None = None) -> dict:
-    """Run the script; returns the style payload."""
+class LearningStalledError(RuntimeError):
+    """The inner problem failed at every trial θ: the written θ is not a learned style."""
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    """Run the script; returns the style payload.
+
+    Raises:
+        LearningStalledError: after writing ``style.json``, when learning stalled.
+    """
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, replace=False)  # a style may sit beside its demonstration
     demos = [load_demonstration(p) for p in args.demos]
     features = FeatureConfig(feature_set=args.features, t_rct=args.t_rct)
     max_iter = (
@@ -78,18 +89,19 @@ def main(argv: list[str] | None = None) -> dict:
     config = IRLConfig(method=args.method, max_iter=max_iter, alpha=args.alpha)
     bar = tqdm(total=max_iter, desc=f"ME-IRL ({args.features})", leave=False)
 
-    def progress(entry: dict) -> None:
+    def progress(entry: IterationRecord) -> None:
         bar.update(1)
-        bar.set_postfix(eps=f"{entry['epsilon']:.3f}", rmse_y=f"{entry['rmse_y_m']:.3f}")
+        bar.set_postfix(eps=f"{entry.epsilon:.3f}", rmse_y=f"{entry.rmse_y_m:.3f}")
 
     try:
-        result, _, payload = fit_style(
+        fitted = fit_style(
             demos, features, config, args.control_point_rule, [str(p) for p in args.demos], progress
         )
     except InnerSolveError as exc:
-        raise RuntimeError(f"learning failed: {exc}") from None
+        raise RuntimeError(f"learning failed at the initial theta: {exc}") from None
     finally:
         bar.close()
+    result, payload = fitted.result, fitted.to_json()
     with atomic_output_dir(args.out, replace=False) as tmp:
         write_json(tmp / "style.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         if args.plot:
@@ -103,19 +115,25 @@ def main(argv: list[str] | None = None) -> dict:
                 tmp / "lateral.png",
                 title=f"lateral motion, {args.features} features",
             )
-    if not payload["trigger_fired"]:
+    if not fitted.trigger_fired:
         print(
             "note: the trigger never fired in the (first) demonstration: "
             "the reactive features f_sd, f_ed, f_id are inactive"
         )
-    react = payload["rmse_y_reaction_m"]
+    react = fitted.rmse_y_reaction_m
+    status = {"converged": "converged", "max_iter": "NOT converged: max_iter reached"}
     print(
-        f"wrote {args.out / 'style.json'}: {payload['iterations']} iterations "
-        f"({'converged' if payload['converged'] else 'NOT converged'}), learning error "
-        f"{payload['learning_error']:.3f}, rmse_y {payload['rmse_y_m']:.3f} m"
+        f"wrote {args.out / 'style.json'}: {result.iterations} iterations "
+        f"({status.get(result.status, result.status.upper())}), learning error "
+        f"{result.learning_error:.3f}, rmse_y {fitted.rmse_y_m:.3f} m"
         + (f" (reaction window {react:.3f} m)" if react is not None else "")
-        + f", {payload['wall_time_s']:.2f} s"
+        + f", {result.wall_time_s:.2f} s"
     )
+    if result.status == "stalled":
+        raise LearningStalledError(
+            f"learning stalled after {result.iterations} iterations ({result.stop_reason}); "
+            f"{args.out / 'style.json'} holds the last solved theta with status 'stalled'"
+        )
     return payload
 
 

@@ -219,7 +219,7 @@ def plot_reproductions(
             ax.axvspan(*react_window, color="orange", alpha=0.12, label="reaction window")
         its = select_iterations(res)
         for k, it in enumerate(its):
-            C = res.history[it - 1]["control_points"][0]
+            C = res.history[it - 1].control_points[0]
             _, xy = _fine(C, demo.t, 0)
             ax.plot(
                 xy[:, 0],
@@ -272,7 +272,7 @@ def plot_lateral(
     cmap = plt.get_cmap("viridis")
     its = select_iterations(result)
     for k, it in enumerate(its):
-        C = result.history[it - 1]["control_points"][0]
+        C = result.history[it - 1].control_points[0]
         c = cmap(k / max(len(its) - 1, 1))
         tt, v = _fine(C, demo.t, 1)
         _, a = _fine(C, demo.t, 2)

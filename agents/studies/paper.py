@@ -100,9 +100,10 @@ def paper_study(
     styles: dict[str, dict[str, Any]] = {}
     for name in ("base", "reactive"):
         fc = FeatureConfig(feature_set=name, t_rct=t_rct)
-        results[name], _, styles[name] = fit_style(
+        fitted = fit_style(
             demo, fc, IRLConfig(), demo_paths=[str(demo_path)] if demo_path else None
         )
+        results[name], styles[name] = fitted.result, fitted.to_json()
         tick()
     ev = styles["reactive"]
     window = None
@@ -128,7 +129,7 @@ def paper_study(
         payload["paper_rule"] = {}
         for name in ("base", "reactive"):
             fc = FeatureConfig(feature_set=name, t_rct=t_rct)
-            _, _, p = fit_style(demo, fc, IRLConfig(method="paper", max_iter=400, alpha=alpha))
+            p = fit_style(demo, fc, IRLConfig(method="paper", max_iter=400, alpha=alpha)).to_json()
             payload["paper_rule"][name] = _summary(p)
             tick()
         payload["control_point_rule"] = {}
@@ -149,7 +150,7 @@ def paper_study(
                     entry[name] = payload["learning"][name]
                     continue
                 fc = FeatureConfig(feature_set=name, t_rct=t_rct, ay_first_segment_weight=weight)
-                _, _, p = fit_style(demo, fc, IRLConfig(), control_point_rule=rule)
+                p = fit_style(demo, fc, IRLConfig(), control_point_rule=rule).to_json()
                 entry[name] = _summary(p)
             payload["control_point_rule"][label] = entry
         tick()

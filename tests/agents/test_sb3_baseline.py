@@ -20,9 +20,9 @@ def style_file(tmp_path_factory, paper_demo):
 
     folder = tmp_path_factory.mktemp("style")
     demo_path = save_demonstration(paper_demo, folder / "demo.npz")
-    _, _, payload = fit_style(
+    payload = fit_style(
         paper_demo, FeatureConfig(feature_set="reactive"), IRLConfig(), demo_paths=[str(demo_path)]
-    )
+    ).to_json()
     return write_json(folder / "style.json", payload)
 
 

@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import pytest
 from drivestyle.irl import (
@@ -8,6 +10,7 @@ from drivestyle.irl import (
     newton_minimize,
     normalise_theta,
 )
+from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.style import StyleError, fit_style, load_style
 
 
@@ -99,13 +102,114 @@ def test_multi_demo_with_one_demo_equals_single(paper_demo):
     assert a.iterations == b.iterations
 
 
-def test_paper_rule_runs_and_keeps_theta_positive(paper_demo):
+@pytest.mark.parametrize("alpha", [1e-2, 5e-2])
+def test_paper_rule_first_update_is_the_papers_step(paper_demo, alpha):
+    # θ₁ = max(θ₀ + α (f(r*_θ₀) − f_D), θ_min) with θ₀ = 1, f(r*_θ₀) solved independently;
+    # α = 0.05 pushes f_l's weight below zero, so the floor θ_min must act
+    fc = FeatureConfig(feature_set="base")
+    cfg = IRLConfig(method="paper", max_iter=2, alpha=alpha)
+    ip = InnerProblem(paper_demo, fc)
+    f0 = ip.solve(np.ones(ip.f_demo.size), tol=cfg.inner_tol).features
+    expected = np.maximum(1.0 + alpha * (f0 - ip.f_demo), cfg.theta_min)
+    assert (expected == cfg.theta_min).any() == (alpha == 5e-2)
+    res = MaxEntIRL(paper_demo, fc, cfg).learn()
+    np.testing.assert_allclose(res.history[0].theta, 1.0)
+    np.testing.assert_allclose(res.history[1].theta, expected, rtol=1e-9)
+    np.testing.assert_array_equal(res.theta, res.history[-1].theta)
+
+
+def test_paper_rule_lowers_the_learning_error(paper_demo):
     res = MaxEntIRL(
         paper_demo,
         FeatureConfig(feature_set="base"),
-        IRLConfig(method="paper", max_iter=15, alpha=1e-2),
+        IRLConfig(method="paper", max_iter=8, alpha=1e-2),
     ).learn()
-    assert np.all(res.theta > 0) and len(res.history) <= 15
+    eps = [h.epsilon for h in res.history]
+    assert eps[-1] < 0.5 * eps[0], eps  # 31.7 -> 9.1 on the paper demo
+    assert res.learning_error == pytest.approx(eps[-1])
+    # |Δε| is still far above ε̄ after 8 iterations: the cap stopped it, not convergence
+    assert res.status == "max_iter" and not res.converged
+
+
+def _fail_after(monkeypatch, n_ok, error=None):
+    """Make every InnerProblem.solve after the first n_ok calls raise ``error``."""
+    error = error or InnerSolveError("Newton did not converge (forced)")
+    calls = {"n": 0}
+    solve = InnerProblem.solve
+
+    def failing(self, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > n_ok:
+            raise error
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(InnerProblem, "solve", failing)
+    return calls
+
+
+@pytest.mark.parametrize("method", ["lm", "paper"])
+def test_learning_whose_inner_solves_all_fail_is_stalled_not_converged(
+    paper_demo, monkeypatch, method
+):
+    learner = MaxEntIRL(paper_demo, FeatureConfig(feature_set="base"), IRLConfig(method=method))
+    calls = _fail_after(monkeypatch, 1)  # only the initial θ can be solved
+    res = learner.learn()
+    assert res.status == "stalled"
+    assert res.converged is False
+    assert "forced" in res.stop_reason and res.inner_failures == calls["n"] - 1 >= 1
+    assert res.iterations == 1  # nothing was accepted: θ is the initial one
+    assert res.to_json()["status"] == "stalled" and res.to_json()["converged"] is False
+
+
+@pytest.mark.parametrize(("failing_trial", "status"), [(1, "converged"), (12, "stalled")])
+def test_lm_stalls_only_when_its_smallest_step_cannot_be_solved(
+    paper_demo, monkeypatch, failing_trial, status
+):
+    # every solved trial reproduces the initial features (so none lowers the cost); one trial
+    # fails: a failed large first step still ends at a point no damped step improves
+    # ("converged"), a failed smallest (12th) step leaves it unknown ("stalled")
+    learner = MaxEntIRL(paper_demo, FeatureConfig(feature_set="base"))
+    solve, calls, first = InnerProblem.solve, {"n": 0}, []
+
+    def fake(self, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 1:
+            first.append(solve(self, *args, **kwargs))
+            return first[0]
+        if calls["n"] == 1 + failing_trial:
+            raise InnerSolveError("forced")
+        return first[0]
+
+    monkeypatch.setattr(InnerProblem, "solve", fake)
+    res = learner.learn()
+    assert calls["n"] == 1 + 12  # the initial θ and the 12 trials of iteration 2
+    assert res.status == status and res.inner_failures == 1
+    assert res.converged == (status == "converged")
+
+
+def test_only_inner_solve_errors_are_taken_as_failed_trials(paper_demo, monkeypatch):
+    learner = MaxEntIRL(paper_demo, FeatureConfig(feature_set="base"))
+    _fail_after(monkeypatch, 1, RuntimeError("a bug, not a failed solve"))
+    with pytest.raises(RuntimeError, match="a bug"):
+        learner.learn()
+
+
+def test_an_unsolvable_initial_theta_raises(paper_demo, monkeypatch):
+    learner = MaxEntIRL(paper_demo, FeatureConfig(feature_set="base"))
+    _fail_after(monkeypatch, 0)
+    with pytest.raises(InnerSolveError, match="forced"):
+        learner.learn()
+
+
+def test_learning_result_is_frozen_and_serialises(paper_demo):
+    res = MaxEntIRL(paper_demo, FeatureConfig(feature_set="base")).learn()
+    with pytest.raises(AttributeError):
+        res.status = "stalled"  # type: ignore[misc]
+    js = res.to_json()
+    assert js["iterations"] == res.iterations == len(js["history"])
+    assert js["status"] == res.status and js["converged"] == res.converged
+    assert js["history"][0]["iteration"] == 1 and "control_points" not in js["history"][0]
+    json.dumps(js)
 
 
 def test_normalise_theta_per_group():
@@ -128,7 +232,10 @@ def test_bad_inputs(inner, paper_demo):
 def test_style_round_trip(tmp_path, paper_demo):
     from drivestyle.common.io import write_json
 
-    result, _, payload = fit_style(paper_demo, FeatureConfig(feature_set="base"), IRLConfig())
+    fitted = fit_style(paper_demo, FeatureConfig(feature_set="base"), IRLConfig())
+    result, payload = fitted.result, fitted.to_json()
+    assert payload["status"] == result.status == fitted.status
+    assert payload["rmse_y_m"] == pytest.approx(result.errors[0]["rmse_y_m"])
     write_json(tmp_path / "style.json", payload)
     style = load_style(tmp_path)
     np.testing.assert_allclose(style.theta, result.theta)

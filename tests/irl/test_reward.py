@@ -17,7 +17,7 @@ def styles(tmp_path_factory, paper_demo):
 
     out = {}
     for fs in ("base", "reactive"):
-        _, _, payload = fit_style(paper_demo, FeatureConfig(feature_set=fs), IRLConfig())
+        payload = fit_style(paper_demo, FeatureConfig(feature_set=fs), IRLConfig()).to_json()
         path = write_json(tmp_path_factory.mktemp(fs) / "style.json", payload)
         out[fs] = path
     return out

@@ -60,7 +60,7 @@ def test_tiv_refers_to_the_leader_in_the_ev_lane_and_the_trigger_to_the_critical
 
 
 def test_learned_reward_telescopes_in_traffic(traffic_demo, tmp_path):
-    _, _, payload = fit_style(traffic_demo, FeatureConfig(), IRLConfig(max_iter=5))
+    payload = fit_style(traffic_demo, FeatureConfig(), IRLConfig(max_iter=5)).to_json()
     write_json(tmp_path / "style.json", payload)
     env = gym.make("drivestyle/Traffic-v0", style=str(tmp_path / "style.json"))
     env.reset()

@@ -62,7 +62,7 @@ def test_learn_style_writes_spec_fields(tmp_path, demo_file):
     assert set(js["reproduced"]) == {"t", "x", "y", "vx", "vy", "ax", "ay"}
     assert len(js["reproduced"]["t"]) == 31
     assert js["history"][0]["iteration"] == 1 and "epsilon" in js["history"][-1]
-    assert js["t_trg_s"] == pytest.approx(3.0) and js["converged"]
+    assert js["t_trg_s"] == pytest.approx(3.0) and js["converged"] and js["status"] == "converged"
     assert (out / "reproduction.png").exists() and (out / "lateral.png").exists()
 
 
@@ -125,10 +125,38 @@ def test_bench_irl(tmp_path, demo_file):
         assert js[fs]["learn_wall_s"] > 0 and js[fs]["inner_solve_ms_median"] > 0
 
 
-@pytest.mark.parametrize("name", ["learn_style", "reproduce_paper", "bench_irl"])
-def test_help(name):
+@pytest.mark.parametrize(
+    ("name", "seeded"), [("learn_style", False), ("reproduce_paper", True), ("bench_irl", True)]
+)
+def test_help(name, seeded):
     proc = _run(name, "--help")
-    assert proc.returncode == 0 and "--seed" in proc.stdout
+    assert proc.returncode == 0 and ("--seed" in proc.stdout) == seeded
+
+
+def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch, capsys):
+    from drivestyle.irl.inner import InnerProblem, InnerSolveError
+
+    from drivestyle.common.cli import run_cli
+
+    solve, calls = InnerProblem.solve, {"n": 0}
+
+    def fail_after_the_initial_theta(self, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > 1:
+            raise InnerSolveError("Newton did not converge (forced)")
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(InnerProblem, "solve", fail_after_the_initial_theta)
+    out = tmp_path / "style"
+    with pytest.raises(SystemExit) as info:
+        run_cli(_main("learn_style"), [str(demo_file), "--features", "base", "--out", str(out)])
+    assert info.value.code != 0
+    printed = capsys.readouterr()
+    assert "(STALLED)" in printed.out
+    error = printed.err.strip().splitlines()[-1]
+    assert error.startswith("error: learning stalled after 1 iterations") and "forced" in error
+    js = json.loads((out / "style.json").read_text())
+    assert js["status"] == "stalled" and js["converged"] is False
 
 
 def test_reproduce_paper_with_baseline(tmp_path):
