@@ -29,3 +29,19 @@ def test_every_design_citation_names_an_existing_section():
         if n not in existing
     ]
     assert not missing, missing
+
+
+def test_the_readme_layout_table_names_every_module_and_only_existing_ones():
+    readme = (ROOT / "README.md").read_text()
+    table = [line for line in readme.splitlines() if line.startswith("| `")]
+    named = {m for line in table for m in re.findall(r"`((?:\w+/)+\w+\.py)`", line.split("|")[1])}
+    missing = sorted(m for m in named if not (ROOT / m).is_file())
+    assert not missing, f"README names modules that do not exist: {missing}"
+    modules = {
+        str(path.relative_to(ROOT))
+        for folder in ("drivestyle", "envs", "irl", "agents")
+        for path in (ROOT / folder).rglob("*.py")
+        if path.name not in ("__init__.py", "__main__.py")
+    }
+    unlisted = sorted(modules - named)
+    assert not unlisted, f"modules missing from the README's layout table: {unlisted}"
