@@ -2,22 +2,89 @@
 
 On disk a demonstration is an ``.npz`` with arrays ``t`` (n,), ``ev`` (n, 4), ``tv``
 (n, 4) as [x, y, φ, v] in SI units, ``u`` (n−1, 2) as [a, δ], and ``meta``: a JSON string
-with at least the scenario's parameters (``meta["scenario"]``).
+with at least the scenario's parameters (``meta["scenario"]``) and, for generated
+demonstrations, the SMPC's risk level ``meta["risk"]`` in (0, 1).
+
+Construction checks the arrays' form (shapes, finiteness, time order);
+:func:`check_plausible` checks the physics against the model every learner and identifier
+assumes (one lane change to +y, forward driving, lateral speed within what the heading
+allows, lanes that fit the data, no vehicle overlapping the EV at t = 0). Its thresholds
+are deliberately generous: the SMPC's demonstrations sit far inside them and every recorded
+NGSIM and CATS episode passes; what they refuse cannot be a car on a road in the stated
+frame and units.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from drivestyle.envs.safety import rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig
 
-__all__ = ["Demonstration", "DemonstrationError", "load_demonstration", "save_demonstration"]
+__all__ = [
+    "Demonstration",
+    "DemonstrationError",
+    "check_plausible",
+    "load_demonstration",
+    "plausibility_problems",
+    "save_demonstration",
+]
 
 REQUIRED = ("t", "ev", "tv", "u")
+
+# ----------------------------------------------------------- plausibility thresholds
+LANE_WIDTH_RANGE_M = (2.0, 7.0)
+"""Lane widths a road can have [m]. Real lanes are 2.5–4 m (NGSIM 3.4–3.7, CATS 3.95), the
+paper's are 5.25 m; 12 ft = 3.66 m lanes read in feet give 12.1 — the usual unit slip."""
+
+BACKWARD_SPEED_MPS = 0.1
+"""A speed v below −this is driving backwards [m/s] (a little noise around standstill passes)."""
+
+BACKWARD_RATE_MPS = 0.5
+"""x falling faster than this between two samples is driving backwards [m/s]: generous
+for position noise of a (nearly) standing car, far from any real reversing manoeuvre."""
+
+SPEED_RATIO_MAX = 2.5
+"""The distance x advances and the distance the speeds v add up to may differ by at most
+this factor (either way). SMPC and recorded data agree within 1 % (ẋ = v cos(φ + β) with
+small angles); feet against m/s is 3.28, time in the wrong unit 10."""
+
+SPEED_CHECK_MIN_M = 5.0
+"""The position/speed comparison is made when either distance reaches this [m] (a standing
+EV has nothing to compare)."""
+
+HEADING_FACTOR = 6.0
+"""Lateral speed allowed per step: |ẏ| ≤ HEADING_FACTOR · v · tan(φ_max) + LATERAL_NOISE_MPS.
+The model bounds the heading by φ_max (0.05 rad in the paper, ``ScenarioConfig.phi_max``,
+the SMPC's |φ| ≤ φ_max) and the slip angle adds at most half of δ_max, so the SMPC's
+demonstrations stay below 1.5 × v tan(φ_max). Recorded drivers turn harder than the model:
+up to 0.22 rad (4.2 × v tan(0.05); NGSIM I-80 and CATS episodes at 4–6 m/s), so the bound
+is 6 × (≈ 0.3 rad, 17°), 1.4 × the hardest recorded lane change."""
+
+LATERAL_NOISE_MPS = 0.25
+"""Allowance for lateral position noise at any speed [m/s] (see :data:`HEADING_FACTOR`)."""
+
+STANDING_SPEED_MPS = 0.5
+"""Below this speed the EV counts as standing [m/s]: it cannot move sideways."""
+
+STANDING_DRIFT_M = 0.3
+"""Lateral displacement allowed in total over the samples where the EV stands [m]."""
+
+OVERLAP_SHRINK = 0.9
+"""At t = 0 two vehicles overlap when their rectangles shrunk to this fraction of the
+scenario's length and width intersect (recorded positions and sizes are approximate)."""
+
+LANE_TOLERANCE = 0.25
+"""How far (a fraction of the lane width) the EV may be outside its start lane at t = 0,
+or beyond its target lane's far edge or its start lane's near edge at any time. Recorded
+EVs start 0.22–1.10 lane widths from the start lane's near edge and reach at most 1.92."""
 
 
 class DemonstrationError(ValueError):
@@ -95,6 +162,17 @@ class Demonstration:
             object.__setattr__(self, name, a)
         if not isinstance(self.meta, dict):
             raise DemonstrationError(f"meta must be a dict, got {type(self.meta).__name__}")
+        risk = self.meta.get("risk")
+        if risk is not None:
+            # the risk in the metadata is read as the true risk (mining, identification)
+            if not isinstance(risk, (int, float, np.integer, np.floating)) or isinstance(
+                risk, bool
+            ):
+                raise DemonstrationError(f"meta 'risk' must be a number in (0, 1), got {risk!r}")
+            if not (math.isfinite(risk) and 0 < risk < 1):
+                raise DemonstrationError(
+                    f"meta 'risk' must lie in (0, 1) (the SMPC's risk level p), got {risk}"
+                )
 
     @property
     def vehicles(self) -> np.ndarray:
@@ -120,6 +198,224 @@ class Demonstration:
             return ScenarioConfig(**raw)
         except (TypeError, ValueError) as exc:
             raise DemonstrationError(f"invalid scenario in demonstration metadata: {exc}") from None
+
+
+def _fmt(value: float) -> str:
+    """A number for a message: 3 significant digits, no float noise (2.4000000000000004)."""
+    return f"{value:.3g}"
+
+
+def _lane_of(y: float, w: float) -> int:
+    return math.floor(y / w)
+
+
+def plausibility_problems(demo: Demonstration) -> list[str]:
+    """What makes a demonstration physically impossible or inconsistent with its metadata.
+
+    The checks, in order (module docstring; each threshold is a module constant that says
+    why it has its value):
+
+    1. the scenario's lane width is a road's (:data:`LANE_WIDTH_RANGE_M`; feet give 12 m);
+    2. the scenario is one lane change to +y (``target_lane = ev_lane + 1``), the only
+       manoeuvre the features, the SMPC and the library model;
+    3. the EV drives forward: no speed below −:data:`BACKWARD_SPEED_MPS`, no x falling
+       faster than :data:`BACKWARD_RATE_MPS`;
+    4. positions and speeds agree: the distance x advances and ∫v dt differ by at most
+       :data:`SPEED_RATIO_MAX` (positions in feet, speeds in km/h, times rescaled);
+    5. no lateral motion while standing (:data:`STANDING_SPEED_MPS`,
+       :data:`STANDING_DRIFT_M`) and no lateral speed beyond what the heading allows
+       (:data:`HEADING_FACTOR`, :data:`LATERAL_NOISE_MPS`);
+    6. no vehicle (TV or traffic) overlaps the EV at t = 0 (:data:`OVERLAP_SHRINK`);
+    7. the lanes fit the data: the EV starts in ``ev_lane`` (:data:`LANE_TOLERANCE`), the
+       TV — which keeps its lane — drives in ``tv_lane`` (its median y, no tolerance);
+    8. the data shows one lane change to +y: the EV does not end up more than half a lane
+       towards −y (a rightward change), nor go past the target lane's far edge (a
+       two-lane change) or its start lane's near edge, by more than
+       :data:`LANE_TOLERANCE` lanes.
+
+    Only the first failing check of 3–5 and of 7–8 is reported (a later one would repeat it).
+
+    Args:
+        demo: the demonstration (with ``meta["scenario"]``).
+
+    Returns:
+        One-line messages, each naming what is wrong and what to fix; empty when plausible.
+
+    Raises:
+        DemonstrationError: no (valid) scenario in the metadata.
+    """
+    sc = demo.scenario
+    problems: list[str] = []
+    w = sc.lane_width
+    lo, hi = LANE_WIDTH_RANGE_M
+    if not lo <= w <= hi:
+        hint = (
+            "positions in feet? (NGSIM's unit: its 12 ft lanes read as 12.1); convert "
+            "positions to metres and speeds to m/s"
+            if w > hi
+            else "positions in another unit?"
+        )
+        problems.append(
+            f"lanes {_fmt(w)} m wide (scenario lane_width): a road's lanes are "
+            f"{lo:g}–{hi:g} m wide; {hint}"
+        )
+        return problems  # every later check would repeat the unit error
+    if sc.target_lane != sc.ev_lane + 1:
+        kind = (
+            "towards −y (rightward)"
+            if sc.target_lane < sc.ev_lane
+            else f"across {sc.target_lane - sc.ev_lane} lanes"
+        )
+        problems.append(
+            f"the scenario's lane change goes from lane {sc.ev_lane} to lane "
+            f"{sc.target_lane}, {kind}; the model is one lane change to +y (target_lane = "
+            "ev_lane + 1): mirror y (and the lanes) of a rightward change, split a multi-lane one"
+        )
+    t, x, y, v = demo.t, demo.ev[:, 0], demo.ev[:, 1], demo.ev[:, 3]
+    dt = np.diff(t)
+    x_rate, y_rate = np.diff(x) / dt, np.diff(y) / dt
+    speed = np.maximum(np.abs(v[:-1]), np.abs(v[1:]))  # the larger end: generous
+    problems.extend(_motion_problems(t, x, v, x_rate) or _lateral_problems(t, y_rate, speed, sc))
+    problems.extend(_overlap_problems(demo))
+    problems.extend(_lane_problems(demo))
+    return problems
+
+
+def _motion_problems(t: np.ndarray, x: np.ndarray, v: np.ndarray, x_rate: np.ndarray) -> list[str]:
+    """Backward driving and positions that disagree with the speeds (checks 3–4)."""
+    if v.min() < -BACKWARD_SPEED_MPS:
+        k = int(np.argmin(v))
+        return [
+            f"the EV drives backwards: speed v = {_fmt(v[k])} m/s at t = {_fmt(t[k])} s; the "
+            "model's EV drives forward along +x (v ≥ 0): mirror x if the data runs along −x"
+        ]
+    if x_rate.min() < -BACKWARD_RATE_MPS:
+        k = int(np.argmin(x_rate))
+        return [
+            f"the EV drives backwards: x falls from {_fmt(x[k])} to {_fmt(x[k + 1])} m between "
+            f"t = {_fmt(t[k])} and {_fmt(t[k + 1])} s; the model's EV drives forward along +x: "
+            "mirror x if the data runs along −x"
+        ]
+    advance = float(x[-1] - x[0])
+    travelled = float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))
+    if max(advance, travelled) >= SPEED_CHECK_MIN_M:
+        ratio = advance / travelled if travelled > 0 else math.inf
+        if not 1 / SPEED_RATIO_MAX <= ratio <= SPEED_RATIO_MAX:
+            return [
+                f"positions and speeds disagree: the EV's x advances {_fmt(advance)} m in "
+                f"{_fmt(float(t[-1] - t[0]))} s while its speeds v add up to {_fmt(travelled)} m "
+                f"({_fmt(ratio)}×); use SI units throughout (m, m/s, s: positions in feet are "
+                "3.28×) and speeds along the path"
+            ]
+    return []
+
+
+def _lateral_problems(
+    t: np.ndarray, y_rate: np.ndarray, speed: np.ndarray, sc: ScenarioConfig
+) -> list[str]:
+    """Lateral motion without speed and beyond the heading bound (check 5)."""
+    standing = speed < STANDING_SPEED_MPS
+    drift = float(np.sum(np.abs(y_rate[standing]) * np.diff(t)[standing]))
+    allowed = HEADING_FACTOR * speed * math.tan(sc.phi_max) + LATERAL_NOISE_MPS
+    over = np.abs(y_rate) > allowed
+    if drift > STANDING_DRIFT_M or (over & standing).any():
+        k = int(np.argmax(np.abs(y_rate) * standing))
+        return [
+            f"lateral motion without speed: the EV moves sideways {_fmt(drift)} m while its "
+            f"speed is below {STANDING_SPEED_MPS:g} m/s (at t = {_fmt(t[k])} s: "
+            f"|ẏ| = {_fmt(abs(y_rate[k]))} m/s, v = {_fmt(speed[k])} m/s); a car cannot "
+            "move sideways standing: check y and v"
+        ]
+    if over.any():
+        k = int(np.argmax(np.abs(y_rate) - allowed))
+        heading = math.atan2(abs(y_rate[k]), speed[k])
+        return [
+            f"lateral speed beyond what the heading allows: |ẏ| = {_fmt(abs(y_rate[k]))} m/s at "
+            f"v = {_fmt(speed[k])} m/s (t = {_fmt(t[k])} s) needs a heading of "
+            f"{_fmt(heading)} rad; the model bounds it by phi_max = {_fmt(sc.phi_max)} rad and "
+            f"refuses beyond {HEADING_FACTOR:g}× v·tan(phi_max) + {LATERAL_NOISE_MPS:g} m/s "
+            "(y in another unit than x, or times too short?)"
+        ]
+    return []
+
+
+def _overlap_problems(demo: Demonstration) -> list[str]:
+    """Vehicles overlapping the EV at t = 0 (check 6)."""
+    sc = demo.scenario
+    length, width = OVERLAP_SHRINK * sc.vehicle_length, OVERLAP_SHRINK * sc.vehicle_width
+    ev = vehicle_corners(demo.ev[0], length, width)
+    for j, other in enumerate(demo.vehicles[0]):
+        if rectangles_overlap(ev, vehicle_corners(other, length, width)):
+            who = "the TV" if j == 0 else f"traffic vehicle {j - 1}"
+            dx, dy = other[0] - demo.ev[0, 0], other[1] - demo.ev[0, 1]
+            return [
+                f"{who} overlaps the EV at t = 0 (Δx = {_fmt(dx)} m, Δy = {_fmt(dy)} m; "
+                f"vehicles {_fmt(sc.vehicle_length)} × {_fmt(sc.vehicle_width)} m): "
+                "two cars cannot share a place; check the positions"
+            ]
+    return []
+
+
+def _lane_problems(demo: Demonstration) -> list[str]:
+    """Lanes that do not fit the data, rightward and two-lane changes (checks 7–8)."""
+    sc = demo.scenario
+    w, tol = sc.lane_width, LANE_TOLERANCE * sc.lane_width
+    y = demo.ev[:, 1]
+    fit = f"the lateral positions do not fit lanes {_fmt(w)} m wide (scenario lane_width)"
+    start_lo, start_hi = sc.ev_lane * w, (sc.ev_lane + 1) * w
+    if not start_lo - tol <= y[0] <= start_hi + tol:
+        return [
+            f"{fit}: the EV starts at y = {_fmt(y[0])} m, in lane {_lane_of(y[0], w)}, not in "
+            f"its lane {sc.ev_lane} [{_fmt(start_lo)}, {_fmt(start_hi)}) m; wrong lane_width "
+            "or ev_lane in the metadata, or y in another frame or unit?"
+        ]
+    tv_y = float(np.median(demo.tv[:, 1]))
+    tv_lo, tv_hi = sc.tv_lane * w, (sc.tv_lane + 1) * w
+    if not tv_lo <= tv_y <= tv_hi:
+        return [
+            f"{fit}: the TV, which keeps lane {sc.tv_lane} [{_fmt(tv_lo)}, {_fmt(tv_hi)}) m, "
+            f"drives at y ≈ {_fmt(tv_y)} m (median), in lane {_lane_of(tv_y, w)}; wrong "
+            "lane_width or tv_lane in the metadata, or y in another frame or unit?"
+        ]
+    if y[-1] - y[0] < -0.5 * w:
+        return [
+            f"the EV changes lane towards −y (rightward: y goes from {_fmt(y[0])} to "
+            f"{_fmt(y[-1])} m); the model is one lane change to +y: mirror y (y → −y, "
+            "and the lanes) before learning"
+        ]
+    far = (sc.target_lane + 1) * w
+    if y.max() > far + tol:
+        k = int(np.argmax(y))
+        return [
+            f"the EV reaches y = {_fmt(y[k])} m at t = {_fmt(demo.t[k])} s, lane "
+            f"{_lane_of(y[k], w)}, past its target lane {sc.target_lane} "
+            f"[{_fmt(far - w)}, {_fmt(far)}) m: a two-lane change? the model is one lane "
+            "change to +y (or the lane_width in the metadata is too small)"
+        ]
+    if y.min() < start_lo - tol:
+        k = int(np.argmin(y))
+        return [
+            f"the EV reaches y = {_fmt(y[k])} m at t = {_fmt(demo.t[k])} s, below its lane "
+            f"{sc.ev_lane} [{_fmt(start_lo)}, {_fmt(start_hi)}) m, away from the target lane; "
+            "the model is one lane change to +y"
+        ]
+    return []
+
+
+def check_plausible(demo: Demonstration) -> None:
+    """Refuse a physically impossible or inconsistent demonstration.
+
+    Args:
+        demo: the demonstration (with ``meta["scenario"]``).
+
+    Raises:
+        DemonstrationError: the first problem of :func:`plausibility_problems` (the
+            message counts any further ones).
+    """
+    problems = plausibility_problems(demo)
+    if problems:
+        more = f" (and {len(problems) - 1} more problem(s))" if len(problems) > 1 else ""
+        raise DemonstrationError(f"implausible demonstration: {problems[0]}{more}")
 
 
 def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
@@ -159,10 +455,18 @@ def load_demonstration(path: str | Path) -> Demonstration:
 
     Raises:
         FileNotFoundError: no such file.
-        DemonstrationError: unreadable file, missing arrays, wrong shapes, NaNs,
-            non-increasing times or fewer than 3 samples.
+        DemonstrationError: a folder instead of a file, an unreadable file (not a zip,
+            truncated, failed CRC, pickled objects), missing arrays, wrong shapes, NaNs,
+            non-increasing times, fewer than 3 samples or a metadata risk outside (0, 1);
+            the message starts with the path.
     """
     path = Path(path)
+    if path.is_dir():
+        held = len(list(path.glob("*.npz")))
+        raise DemonstrationError(
+            f"{path} is a folder, not a demonstration file: pass its .npz files (it holds "
+            f"{held}); a demonstration is one .npz with arrays {', '.join(REQUIRED)} and meta"
+        )
     if not path.is_file():
         raise FileNotFoundError(f"demonstration file not found: {path}")
     try:
@@ -178,8 +482,20 @@ def load_demonstration(path: str | Path) -> Demonstration:
             meta = json.loads(str(data["meta"])) if "meta" in data.files else {}
     except DemonstrationError:
         raise
-    except (OSError, ValueError, json.JSONDecodeError) as exc:
-        raise DemonstrationError(f"{path}: not a readable demonstration file ({exc})") from None
+    except (
+        OSError,
+        ValueError,
+        EOFError,
+        TypeError,
+        KeyError,
+        zipfile.BadZipFile,
+        zlib.error,
+    ) as exc:
+        # a truncated or CRC-corrupt archive raises zipfile/zlib errors, an object array
+        # ValueError, a truncated member EOFError: all mean "this file is not one"
+        raise DemonstrationError(
+            f"{path}: not a readable demonstration ({type(exc).__name__}: {exc})"
+        ) from None
     try:
         return Demonstration(**arrays, meta=meta)
     except DemonstrationError as exc:

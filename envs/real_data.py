@@ -23,6 +23,11 @@ paper's 15 m at 27.5 m/s, i.e. a 0.55 s gap, with a 5 m floor).
 Episodes without a target vehicle (CATS human-driven runs) get a phantom TV 1 km behind
 in the destination lane: the trigger can never fire, so the reactive features are
 inactive, and ``RecordedEpisode.flags["no_target"]`` says so.
+
+Units are checked: a lane width outside
+:data:`~drivestyle.envs.demonstration.LANE_WIDTH_RANGE_M` (NGSIM's native feet give 12.1)
+refuses the dataset with a message saying to convert; an episode that fails
+:func:`~drivestyle.envs.demonstration.check_plausible` is kept unused with the reason.
 """
 
 from __future__ import annotations
@@ -33,7 +38,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.demonstration import (
+    LANE_WIDTH_RANGE_M,
+    Demonstration,
+    plausibility_problems,
+)
 from drivestyle.envs.scenario import ScenarioConfig
 
 __all__ = ["RecordedEpisode", "load_cats", "load_ngsim", "scenario_from_episode"]
@@ -362,7 +371,8 @@ def _episode(
 ) -> RecordedEpisode:
     """Build one episode with ``_build(episode_id, *build_args)``.
 
-    An unusable episode is kept, marked unused, with the reason.
+    An unusable episode is kept, marked unused, with the reason; so is an implausible one
+    (:func:`~drivestyle.envs.demonstration.plausibility_problems`), with its demonstration.
     """
     try:
         demo = _build(episode_id, *build_args)
@@ -370,7 +380,29 @@ def _episode(
         return RecordedEpisode(
             episode_id, dataset, False, (*reasons, f"unusable: {exc}"), None, flags
         )
+    reasons = [*reasons, *(f"implausible: {p}" for p in plausibility_problems(demo))]
     return RecordedEpisode(episode_id, dataset, not reasons, tuple(reasons), demo, flags)
+
+
+def _check_lane_width(width: float, source: str) -> float:
+    """Refuse a lane width no road has: the data is in another unit (NGSIM's is feet).
+
+    Raises:
+        ValueError: the width lies outside ``LANE_WIDTH_RANGE_M``; the message names
+            ``source`` and says to convert.
+    """
+    lo, hi = LANE_WIDTH_RANGE_M
+    if lo <= width <= hi:
+        return width
+    unit = (
+        "positions in feet (NGSIM's native unit: its 12 ft lanes are 3.66 m)? convert "
+        "x_m, y_m to metres and v_mps to m/s (× 0.3048)"
+        if width > hi
+        else "positions in another unit than metres? convert x_m, y_m to metres"
+    )
+    raise ValueError(
+        f"{source}: lanes {width:.3g} m wide, but a road's lanes are {lo:g}–{hi:g} m wide: {unit}"
+    )
 
 
 def _lane_width_ngsim(tracks, recording: str, source: Path) -> float:
@@ -382,7 +414,8 @@ def _lane_width_ngsim(tracks, recording: str, source: Path) -> float:
             f"{source} has {centres.size} mainline lane(s) (lane_id 1–5) of recording "
             f"{recording!r}, named in episodes.csv; need 2 to measure its lane width"
         )
-    return float(np.median(np.diff(centres)))
+    width = float(np.median(np.diff(centres)))
+    return _check_lane_width(width, f"{source} (recording {recording!r}, lane centres' spacing)")
 
 
 def load_ngsim(
@@ -406,8 +439,9 @@ def load_ngsim(
     Raises:
         FileNotFoundError: ``data_dir`` is a file, or a dataset file is missing.
         ValueError: a malformed file (not gzip, truncated, empty, header only, missing
-            columns, non-numeric values, the other dataset's folder) or a bad ``dt``; the
-            message names the file and the problem.
+            columns, non-numeric values, the other dataset's folder), lanes no road has
+            (data in feet: convert to metres) or a bad ``dt``; the message names the file
+            and the problem.
     """
     dt = _check_dt(dt)
     data_dir = _dataset_dir(data_dir)
@@ -494,7 +528,7 @@ def _cats_lane_width(summary: Path, default: float) -> float:
     w = lanes[key]
     if not isinstance(w, (int, float)) or isinstance(w, bool) or not (math.isfinite(w) and w > 0):
         raise ValueError(f"{summary}: lanes.{key} must be a positive number [m], got {w!r}")
-    return float(w)
+    return _check_lane_width(float(w), f"{summary} (lanes.{key})")
 
 
 def load_cats(
@@ -519,8 +553,9 @@ def load_cats(
     Raises:
         FileNotFoundError: ``data_dir`` is a file, or a dataset file is missing.
         ValueError: a malformed file (not gzip, truncated, empty, header only, missing
-            columns, non-numeric values, the other dataset's folder) or a bad ``dt``; the
-            message names the file and the problem.
+            columns, non-numeric values, the other dataset's folder), lanes no road has
+            (data in feet: convert to metres) or a bad ``dt``; the message names the file
+            and the problem.
     """
     dt = _check_dt(dt)
     data_dir = _dataset_dir(data_dir)

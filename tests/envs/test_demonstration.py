@@ -68,3 +68,32 @@ def test_arrays_are_read_only():
     demo = Demonstration(**_arrays())
     with pytest.raises(ValueError):
         demo.ev[0, 0] = 1.0
+
+
+def _corrupt_files(tmp_path):
+    """A valid demonstration file, truncated and with a flipped byte in an array."""
+    demo = Demonstration(**_arrays(), meta={"scenario": PAPER.to_dict()})
+    raw = save_demonstration(demo, tmp_path / "good.npz").read_bytes()
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(raw[: len(raw) // 2])
+    flipped = bytearray(raw)
+    flipped[raw.find(b"ev.npy") + 200] ^= 0xFF  # inside the member's data: CRC fails
+    crc = tmp_path / "crc.npz"
+    crc.write_bytes(bytes(flipped))
+    return truncated, crc
+
+
+def test_corrupt_npz_names_the_file(tmp_path):
+    for path in _corrupt_files(tmp_path):
+        with pytest.raises(DemonstrationError) as exc:
+            load_demonstration(path)
+        message = str(exc.value)
+        assert message.startswith(f"{path}: not a readable demonstration (BadZipFile"), message
+        assert "\n" not in message
+
+
+def test_folder_passed_as_a_demonstration_says_so(tmp_path):
+    folder = tmp_path / "demos"
+    save_demonstration(Demonstration(**_arrays()), folder / "a.npz")
+    with pytest.raises(DemonstrationError, match=r"demos is a folder.*\.npz files \(it holds 1\)"):
+        load_demonstration(folder)

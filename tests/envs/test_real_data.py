@@ -227,3 +227,52 @@ def test_recorded_neighbours_become_others():
         assert np.all(gap <= NEIGHBOUR_RANGE)
     cats = {e.episode_id: e for e in load_cats(DATA / "cats-av-lanechange") if e.used}
     assert max(e.demo.others.shape[1] for e in cats.values()) >= 1
+
+
+# ------------------------------------------------------------------- plausibility
+def test_every_recorded_episode_is_plausible(ngsim, cats):
+    from drivestyle.envs.demonstration import plausibility_problems
+
+    for e in ngsim + cats:
+        assert plausibility_problems(e.demo) == [], e.episode_id
+        assert not any(r.startswith("implausible") for r in e.reasons)
+
+
+def test_ngsim_in_feet_is_refused_with_convert(tmp_path):
+    folder = _copy(tmp_path)
+    feet = 1 / 0.3048
+    for f in ("episode_tracks.csv.gz", "tracks.csv.gz"):
+
+        def to_feet(df):
+            for c in ("x_m", "y_m", "v_mps"):
+                if c in df:
+                    df[c] = df[c] * feet
+            return df
+
+        _rewrite(folder / f, to_feet)
+    with pytest.raises(ValueError, match=r"tracks\.csv\.gz.*lanes 1[12]\.\d m wide.*feet.*convert"):
+        load_ngsim(folder)
+
+
+def test_cats_lane_width_in_feet_is_refused(tmp_path):
+    folder = _copy(tmp_path, "cats-av-lanechange")
+    (folder / "summary.json").write_text('{"lanes": {"width_m": 12.1}}')
+    with pytest.raises(ValueError, match=r"summary\.json.*lanes 12.1 m wide.*feet.*convert"):
+        load_cats(folder)
+
+
+def test_implausible_episode_is_kept_unused_with_the_reason(tmp_path):
+    folder = _copy(tmp_path)
+    first = "us101_scene_ego320_v323_t16.7"
+
+    def reverse(df):  # the ego drives backwards along its recorded track
+        ego = (df.episode_id == first) & (df.role == "ego")
+        df.loc[ego, "x_m"] = -df.loc[ego, "x_m"]
+        return df
+
+    _rewrite(folder / "episode_tracks.csv.gz", reverse)
+    episodes = {e.episode_id: e for e in load_ngsim(folder, neighbours=False)}
+    bad = episodes[first]
+    assert not bad.used and bad.demo is not None
+    assert any(r.startswith("implausible: the EV drives backwards") for r in bad.reasons)
+    assert sum(e.used for e in episodes.values()) == 11
