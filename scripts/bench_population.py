@@ -31,7 +31,7 @@ from drivestyle.irl.mining import mine
 from tqdm import tqdm
 
 from drivestyle.common.cli import positive_int, run_cli
-from drivestyle.common.io import fmt, write_json
+from drivestyle.common.io import check_output_file, fmt, write_json
 
 TARGET_VEHICLES = 110_000
 """A drone-recorded highway dataset's size (the issue's scale)."""
@@ -75,6 +75,7 @@ def _timed_mining(tasks: list, library, engine: str, workers: int) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark; returns the JSON payload."""
     args = parse_args(argv)
+    check_output_file(args.out)
     library = load_library(args.library)
     with tempfile.TemporaryDirectory() as tmp:
         with tqdm(total=args.vehicles, desc="simulate") as bar:

@@ -34,7 +34,7 @@ from drivestyle.envs import LaneChangeEnv, ScenarioRanges
 from tqdm import tqdm
 
 from drivestyle.common.cli import nonnegative_int, positive_int, risk_value, run_cli
-from drivestyle.common.io import write_json
+from drivestyle.common.io import check_output_file, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -176,6 +176,7 @@ def robustness(args: argparse.Namespace, jit: bool, argv: list[str]) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark; returns the JSON payload."""
     args = parse_args(argv)
+    check_output_file(args.out)
     jit = not args.no_jit
     if args.robustness:
         return robustness(args, jit, [sys.argv[0], *(argv or sys.argv[1:])])

@@ -18,6 +18,7 @@ from pathlib import Path
 from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, generate_traffic_demonstration
 from drivestyle.agents.studies.figures import plot_demonstration
+from drivestyle.agents.studies.reports import seconds
 from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC
 
@@ -41,7 +42,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "a scene drawn with --seed",
     )
     p.add_argument(
-        "--out", type=Path, default=Path("runs/demo"), help="output folder (other files kept)"
+        "--out", type=Path, default=Path("runs/demo"), help="output folder (replaced whole)"
     )
     p.add_argument(
         "--ev-speed", type=positive_float, help="EV initial speed [m/s] (default: the scenario's)"
@@ -102,7 +103,8 @@ def main(argv: list[str] | None = None) -> dict:
         )
     summary["scenario"] = scenario.to_dict()
     summary["seed"] = args.seed
-    with atomic_output_dir(args.out, replace=False) as tmp:
+    # replaced whole: a demo.png (or a style) of an earlier run must not sit beside this demo
+    with atomic_output_dir(args.out) as tmp:
         save_demonstration(demo, tmp / "demo.npz")
         write_json(tmp / "demo.json", summary, [sys.argv[0], *(argv or sys.argv[1:])])
         if args.plot:
@@ -112,7 +114,7 @@ def main(argv: list[str] | None = None) -> dict:
     trg = summary["t_trg_s"]
     print(f"wrote {args.out / 'demo.npz'} and demo.json" + (" and demo.png" if args.plot else ""))
     print(
-        f"  t_trg = {trg if trg is not None else 'never'} s, min s_e = "
+        f"  t_trg = {seconds(trg)}, min s_e = "
         f"{summary['min_s_e']:.3f} at x = {summary['x_at_min_s_e']:.1f} m, min d_k = "
         f"{summary['min_d_k']:.3f}, collision = {summary['collision']}, final lane = "
         f"{summary['final_lane']}"

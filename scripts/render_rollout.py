@@ -23,7 +23,7 @@ from drivestyle.envs.video import write_video
 from drivestyle.irl.style import load_style
 
 from drivestyle.common.cli import positive_int, risk_value, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.common.io import atomic_output_file, check_output_file, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -60,11 +60,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Render; returns a small summary (also written next to the video as JSON)."""
     args = parse_args(argv)
+    check_output_file(args.video, "--video")
     if args.video.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"--video must end in .mp4 or .gif, got {args.video.name}")
-    check_output_dir(args.video.parent)
-    if args.video.is_dir():
-        raise ValueError(f"--video {args.video} is a folder")
+    check_output_file(args.video.with_suffix(".json"), "--video")  # its summary beside it
     style = None
     if args.style is not None:
         style = load_style(args.style)
@@ -88,13 +87,11 @@ def main(argv: list[str] | None = None) -> dict:
         "fps": args.fps,
         "frame_shape": list(frames[0].shape),
     }
-    with atomic_output_dir(args.video.parent, replace=False) as tmp:
-        write_video(frames, tmp / args.video.name, args.fps)
-        write_json(
-            tmp / args.video.with_suffix(".json").name,
-            summary,
-            [sys.argv[0], *(argv or sys.argv[1:])],
-        )
+    # two files beside each other in a folder that may hold other videos: each is written
+    # atomically in place (a folder swap would replace or mix the folder's other files)
+    with atomic_output_file(args.video, "--video") as tmp:
+        write_video(frames, tmp, args.fps)
+    write_json(args.video.with_suffix(".json"), summary, [sys.argv[0], *(argv or sys.argv[1:])])
     print(f"wrote {args.video} ({len(frames)} frames at {args.fps} fps)")
     return summary
 

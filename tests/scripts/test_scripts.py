@@ -50,6 +50,32 @@ def test_generate_demo_scenario_flags(tmp_path):
     assert js["n_steps"] == 20
 
 
+def test_generate_demo_replaces_its_folder_whole(tmp_path):
+    out = tmp_path / "demo"
+    short = ["--out", str(out), "--horizon-s", "2"]
+    _main("generate_demo")([*short, "--risk", "0.5", "--plot"])
+    assert (out / "demo.png").is_file()
+    _main("generate_demo")([*short, "--risk", "0.7"])
+    # no demo.png of p = 0.5 beside the p = 0.7 demonstration
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "demo.json",
+        "demo.npz",
+    ]
+    assert json.loads((out / "demo.json").read_text())["risk"] == 0.7
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]  # no temporary folder
+    mode = 0o666 & ~_umask()
+    assert (out / "demo.json").stat().st_mode & 0o777 == mode  # not private
+    assert (out / "demo.npz").stat().st_mode & 0o777 == mode
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def test_generate_demo_bad_input_exits_cleanly(tmp_path):
     for args in (["--risk", "1.2"], ["--horizon-s", "-1"], ["--tv-lane", "0", "--tv-gap", "-3"]):
         proc = subprocess.run(
