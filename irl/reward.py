@@ -41,7 +41,7 @@ from drivestyle.irl.features import (
     tv_control_points,
 )
 from drivestyle.irl.spline import spline_eval, state_control_points
-from drivestyle.irl.style import Style, load_style
+from drivestyle.irl.style import Style, StyleError, load_style
 from gymnasium.utils import RecordConstructorArgs
 
 __all__ = ["CRASH_FACTOR", "LearnedStyleReward", "StyleReward"]
@@ -61,6 +61,10 @@ class StyleReward:
     Args:
         style: a loaded :class:`drivestyle.irl.style.Style` or the path of a ``style.json``.
         crash_penalty: cost of a collision or leaving the road; None: CRASH_FACTOR·θᵀ f(r_D).
+
+    Raises:
+        StyleError: θ overflows the style's cost, or ``feature_values_demo`` is malformed.
+        ValueError: ``crash_penalty`` is negative or not finite.
     """
 
     # control points settle two samples late (central differences of velocities that
@@ -75,13 +79,44 @@ class StyleReward:
         self.idx = np.array([FEATURES.index(n) for n in self.names])
         self.omega = np.asarray(self.config.omega, float)
         self.control_point_rule = self.style.control_point_rule
-        f_demo = self.style.raw.get("feature_values_demo")
-        ref_cost = float(self.theta @ np.asarray(f_demo)) if f_demo is not None else 100.0
+        source = "" if isinstance(style, Style) else f"{style}: "
+        ref_cost = self._reference_cost(source)
         self.crash_penalty = (
             CRASH_FACTOR * abs(ref_cost) if crash_penalty is None else float(crash_penalty)
         )
         if not (np.isfinite(self.crash_penalty) and self.crash_penalty >= 0):
             raise ValueError(f"crash_penalty must be finite and >= 0, got {crash_penalty}")
+
+    def _reference_cost(self, source: str) -> float:
+        """The style's cost of its own demonstration, θᵀ f(r_D) (100 when not recorded).
+
+        Raises:
+            StyleError: ``feature_values_demo`` is malformed, or θ is so large that this cost
+                (times CRASH_FACTOR, the default crash penalty) overflows: every reward of
+                such a style would be infinite or lose all precision.
+        """
+        f_demo = self.style.raw.get("feature_values_demo")
+        if f_demo is None:
+            return 100.0
+        try:
+            f = np.asarray(f_demo, dtype=float)
+        except (TypeError, ValueError):
+            f = np.empty(0)
+        if f.shape != self.theta.shape or not np.all(np.isfinite(f)):
+            raise StyleError(
+                f"{source}feature_values_demo must be {len(self.theta)} finite numbers "
+                f"(one per feature), got {f_demo}"
+            )
+        with np.errstate(over="ignore", invalid="ignore"):
+            cost = float(self.theta @ f)
+            penalty = CRASH_FACTOR * abs(cost)
+        if not np.isfinite(penalty):
+            raise StyleError(
+                f"{source}style θ overflows: its cost of its own demonstration θᵀ f(r_D) = "
+                f"{cost:.3g} (largest θ {np.max(np.abs(self.theta)):.3g}) times the crash "
+                f"factor {CRASH_FACTOR:g} is not a finite number; relearn or rescale θ"
+            )
+        return cost
 
     def reset(
         self,

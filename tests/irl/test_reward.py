@@ -89,3 +89,36 @@ def test_a_style_names_its_demonstration_or_says_it_has_none(tmp_path):
     assert str(named.demo_path()) == "d/demo.npz"
     with pytest.raises(StyleError, match=r"s\.json names no demonstration: pass --demo"):
         Style(("ax",), np.ones(1), None, "kinematic", {"demos": []}).demo_path("s.json")
+
+
+def _scaled_style(path, tmp_path, theta_scale, f_demo=None):
+    import json
+
+    raw = json.loads(path.read_text())
+    raw["theta"] = [t * theta_scale for t in raw["theta"]]
+    if f_demo is not None:
+        raw["feature_values_demo"] = f_demo
+    out = tmp_path / "style.json"
+    out.write_text(json.dumps(raw))
+    return out
+
+
+def test_an_overflowing_theta_says_what_is_wrong_with_the_style(styles, tmp_path):
+    from drivestyle.irl.style import StyleError
+
+    # finite θ (load_style accepts it) whose cost of its own demonstration overflows
+    path = _scaled_style(styles["base"], tmp_path, 5e306)  # largest θ about 1e308
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy overflow warning on the way
+        with pytest.raises(StyleError, match=r"style θ overflows: .*relearn or rescale"):
+            LearnedStyleReward(LaneChangeEnv(), path)
+        with pytest.raises(StyleError, match="overflows"):  # also with an explicit penalty
+            LearnedStyleReward(LaneChangeEnv(), path, crash_penalty=5.0)
+
+
+def test_a_malformed_demo_feature_vector_is_a_style_error(styles, tmp_path):
+    from drivestyle.irl.style import StyleError
+
+    path = _scaled_style(styles["base"], tmp_path, 1.0, f_demo=[1.0, 2.0])
+    with pytest.raises(StyleError, match="feature_values_demo"):
+        LearnedStyleReward(LaneChangeEnv(), path)
