@@ -16,7 +16,6 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from drivestyle.agents.studies.figures import plt, save_figure
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from drivestyle.envs.scenario import ScenarioConfig
@@ -251,40 +250,6 @@ def train_baseline(
     }
     (out / "train_summary.json").write_text(json.dumps(summary, indent=2))
     return summary
-
-
-def plot_learning_curve(out: str | Path, title: str) -> Path:
-    """Training episode returns (``monitor.csv``) and evaluation returns (``evaluations.npz``).
-
-    Args:
-        out: a :func:`train_baseline` output folder; the figure is written there as
-            ``learning_curve.png``.
-        title: figure title.
-
-    Returns:
-        The figure's path.
-    """
-    out = Path(out)
-    fig, ax = plt.subplots(figsize=(7, 4))
-    monitor = out / "monitor.csv"
-    if monitor.is_file():
-        data = np.atleast_2d(np.genfromtxt(monitor, delimiter=",", skip_header=2, usecols=(0, 1)))
-        if data.size:
-            steps = np.cumsum(data[:, 1])
-            ax.plot(steps, data[:, 0], ".", ms=2, alpha=0.4, label="training episodes")
-            k = min(25, len(data))
-            smooth = np.convolve(data[:, 0], np.ones(k) / k, mode="valid")
-            ax.plot(steps[k - 1 :], smooth, lw=1.5, label=f"training, mean of {k}")
-    evals = out / "evaluations.npz"
-    if evals.is_file():
-        with np.load(evals) as ev:
-            ax.plot(ev["timesteps"], ev["results"].mean(axis=1), "o-", label="evaluation")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("episode return (−learned cost)")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend()
-    return save_figure(fig, out / "learning_curve.png", dpi=120)
 
 
 class SB3Policy:

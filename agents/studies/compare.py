@@ -13,16 +13,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
-from drivestyle.agents.studies.figures import draw_lanes, save_figure
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rollout import Policy, run_episode
@@ -34,41 +29,75 @@ from drivestyle.irl.metrics import trajectory_errors
 from drivestyle.irl.spline import demo_control_points, spline_eval
 from drivestyle.irl.style import Style
 
-from drivestyle.common.io import fmt
-
 __all__ = [
     "LABELS",
+    "Comparison",
+    "HeldoutComparison",
+    "HeldoutSummary",
     "compare_methods",
-    "comparison_markdown",
-    "plot_comparison",
+    "heldout_comparison",
     "policy_frames",
     "rollout_policy",
     "trajectory_metrics",
 ]
 
 LABELS = {"smpc": "SMPC demonstration", "spline": "spline reproduction r*_θ", "sb3": "SB3 policy"}
+"""Display name per compared method."""
 
 
-def comparison_markdown(methods: dict[str, dict[str, Any]], command: str) -> str:
-    """compare.md: one row per method."""
-    lines = [
-        "# SMPC vs spline reproduction vs SB3 on the learned reward",
-        "",
-        f"Command: `{command}`",
-        "",
-        "| method | learned cost θᵀf | feature error | rmse_y [m] | rmse_xy [m] | "
-        "rmse_y reaction [m] | min d_k | collision | compute | time [s] |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for name, m in methods.items():
-        lines.append(
-            f"| {LABELS.get(name, name)} | {fmt(m['learned_cost'])} | "
-            f"{fmt(m['feature_error'])} | {fmt(m['rmse_y_m'])} | {fmt(m['rmse_xy_m'])} | "
-            f"{fmt(m['rmse_y_reaction_m'])} | {m['min_d_k']:.3f} | {m['collision']} | "
-            f"{m['compute']} | {fmt(m['compute_time_s'], 2)} |"
-        )
-    lines += ["", "Figure: `compare.png`.", ""]
-    return "\n".join(lines)
+@dataclass(frozen=True)
+class Comparison:
+    """The methods driving one learned style in its demonstration's scenario.
+
+    Attributes:
+        methods: method name ('smpc', 'spline', 'sb3') → JSON-ready metrics of
+            :func:`trajectory_metrics` plus ``compute`` and ``compute_time_s``.
+        trajectories: method name → control points at the demonstration's samples.
+    """
+
+    methods: dict[str, dict[str, Any]]
+    trajectories: dict[str, np.ndarray]
+
+    def to_json(self) -> dict[str, Any]:
+        """``compare.json``'s study keys: ``methods``."""
+        return {"methods": self.methods}
+
+
+@dataclass(frozen=True)
+class HeldoutSummary:
+    """One method over the held-out scenarios (``heldout.json``'s ``summary`` entry)."""
+
+    median_rmse_y_m: float | None
+    collisions: int
+    median_cost: float | None
+    decision_ms: float | None
+    min_d_k: float
+    n: int
+
+    def to_json(self) -> dict[str, Any]:
+        """The entry's keys."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class HeldoutComparison:
+    """SMPC(p), the spline reproduction and SB3 policies on held-out random scenarios.
+
+    Attributes:
+        per_scenario: per scenario, ``scenario`` (its parameters) and ``methods``
+            (method name → metrics with ``decision_ms``).
+        summary: method name → its summary; the first is the SMPC (the reference).
+    """
+
+    per_scenario: list[dict[str, Any]]
+    summary: dict[str, HeldoutSummary]
+
+    def to_json(self) -> dict[str, Any]:
+        """``heldout.json``'s study keys: ``per_scenario`` and ``summary``."""
+        return {
+            "per_scenario": self.per_scenario,
+            "summary": {name: s.to_json() for name, s in self.summary.items()},
+        }
 
 
 def policy_frames(
@@ -228,7 +257,7 @@ def compare_methods(
     demo: Demonstration,
     smpc_solve_s: float | None = None,
     sb3_folder: str | Path | None = None,
-) -> dict[str, Any]:
+) -> Comparison:
     """Score the SMPC demonstration, the spline reproduction and (optionally) an SB3 policy.
 
     Args:
@@ -238,7 +267,7 @@ def compare_methods(
         sb3_folder: a :func:`drivestyle.agents.sb3_baseline.train_baseline` output folder.
 
     Returns:
-        ``{"methods": {name: metrics}, "trajectories": {name: control points}}``.
+        The comparison (metrics and control points per method).
     """
     C_demo = demo_control_points(demo, style.control_point_rule)
     methods: dict[str, Any] = {}
@@ -274,38 +303,7 @@ def compare_methods(
             "algo": policy.summary["algo"],
             "timesteps": policy.summary["timesteps"],
         }
-    return {"methods": methods, "trajectories": trajectories}
-
-
-def plot_comparison(
-    demo: Demonstration, trajectories: dict[str, np.ndarray], path: str | Path, title: str = ""
-) -> Path:
-    """x–y paths and lateral velocity of the compared trajectories."""
-    styles = {
-        "smpc": ("r--", "SMPC demonstration"),
-        "spline": ("b-", "spline reproduction r*_θ"),
-        "sb3": ("g-", "SB3 policy on the learned reward"),
-    }
-    sc = demo.scenario
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6))
-    draw_lanes(a1, sc)
-    a1.plot(demo.tv[:, 0], demo.tv[:, 1], color="0.3", lw=1, label="TV")
-    for name, C in trajectories.items():
-        fmt, label = styles.get(name, ("k-", name))
-        t = demo.t[: C.shape[0]]
-        tt = np.linspace(t[0], t[-1], 10 * (t.size - 1) + 1)
-        pos = spline_eval(C, t, tt, 0)
-        vel = spline_eval(C, t, tt, 1)
-        a1.plot(pos[:, 0], pos[:, 1], fmt, lw=1.6, label=label)
-        a2.plot(tt, vel[:, 1], fmt, lw=1.6, label=label)
-    a1.set_xlabel("x [m]")
-    a1.set_ylabel("y [m]")
-    a1.set_ylim(0, sc.road_width)
-    a1.legend(fontsize=8, loc="upper left", ncol=2)
-    a2.set_xlabel("t [s]")
-    a2.set_ylabel("lateral velocity [m/s]")
-    a2.grid(alpha=0.3)
-    return save_figure(fig, path, title, dpi=120)
+    return Comparison(methods, trajectories)
 
 
 def heldout_comparison(
@@ -315,7 +313,7 @@ def heldout_comparison(
     seed: int,
     risk: float,
     progress: Callable[[int], Any] | None = None,
-) -> dict[str, Any]:
+) -> HeldoutComparison:
     """SMPC(p), the spline reproduction and SB3 policies on K held-out random scenarios.
 
     In each scenario drawn from :class:`drivestyle.envs.scenario.ScenarioRanges` with ``seed``, the
@@ -333,8 +331,7 @@ def heldout_comparison(
         progress: called with 1 after each scenario.
 
     Returns:
-        ``per_scenario`` (per method: metrics) and ``summary`` (per method:
-        ``median_rmse_y_m``, ``collisions``, ``median_cost``, ``decision_ms``, ``n``).
+        The per-scenario metrics and a summary per method.
     """
     from drivestyle.agents.demo_generation import generate_demonstration
     from drivestyle.agents.sb3_baseline import SB3Policy
@@ -384,33 +381,14 @@ def heldout_comparison(
 
     names = list(per_scenario[0]["methods"])
     summary = {
-        name: {
-            "median_rmse_y_m": median([s["methods"][name]["rmse_y_m"] for s in per_scenario]),
-            "collisions": sum(s["methods"][name]["collision"] for s in per_scenario),
-            "median_cost": median([s["methods"][name]["learned_cost"] for s in per_scenario]),
-            "decision_ms": median([s["methods"][name]["decision_ms"] for s in per_scenario]),
-            "min_d_k": min(s["methods"][name]["min_d_k"] for s in per_scenario),
-            "n": len(per_scenario),
-        }
+        name: HeldoutSummary(
+            median_rmse_y_m=median([s["methods"][name]["rmse_y_m"] for s in per_scenario]),
+            collisions=sum(s["methods"][name]["collision"] for s in per_scenario),
+            median_cost=median([s["methods"][name]["learned_cost"] for s in per_scenario]),
+            decision_ms=median([s["methods"][name]["decision_ms"] for s in per_scenario]),
+            min_d_k=min(s["methods"][name]["min_d_k"] for s in per_scenario),
+            n=len(per_scenario),
+        )
         for name in names
     }
-    return {"per_scenario": per_scenario, "summary": summary}
-
-
-def plot_heldout(result: dict[str, Any], path: str | Path) -> Path:
-    """rmse_y against SMPC(p) per method over the held-out scenarios (box plot)."""
-    names = list(result["summary"])[1:]  # the SMPC is the reference (0 by definition)
-    data = [
-        [
-            s["methods"][n]["rmse_y_m"]
-            for s in result["per_scenario"]
-            if s["methods"][n]["rmse_y_m"] is not None
-        ]
-        for n in names
-    ]
-    fig, ax = plt.subplots(figsize=(6, 3.8))
-    ax.boxplot(data, tick_labels=names)
-    ax.set_ylabel("rmse_y against SMPC(p) [m]")
-    ax.set_title(f"{result['summary'][names[0]]['n']} held-out scenarios")
-    ax.grid(alpha=0.3)
-    return save_figure(fig, path, dpi=120)
+    return HeldoutComparison(per_scenario, summary)

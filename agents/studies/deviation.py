@@ -19,6 +19,7 @@ in the same deviating episode.
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +34,55 @@ from drivestyle.envs.scenario import ScenarioConfig, get_scenario
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.style import Style
 
-__all__ = ["deviating_tv_study", "plan_states"]
+__all__ = ["DeviationStudy", "DriverMeasures", "deviating_tv_study", "plan_states", "write_videos"]
+
+
+@dataclass(frozen=True)
+class DriverMeasures:
+    """One driver in the deviating episode (``deviation.json``'s ``methods`` entry).
+
+    Attributes:
+        collision: its vehicle box overlapped the deviating TV's.
+        min_d_k: least ellipse-constraint value d_k over the episode.
+        rmse_y_vs_smpc_m: RMS lateral distance to the SMPC's path [m].
+        n_samples: samples compared.
+    """
+
+    collision: bool
+    min_d_k: float
+    rmse_y_vs_smpc_m: float
+    n_samples: int
+
+    def to_json(self) -> dict[str, Any]:
+        """The entry's keys."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class DeviationStudy:
+    """The four drivers (module docstring) in one deviating episode.
+
+    Attributes:
+        deviation: the TV's deviation.
+        replan_every: samples between re-plans of the receding-horizon spline.
+        methods: driver name → its measures.
+        ev: driver name → EV states per sample.
+        tv: the deviating TV's states per sample.
+    """
+
+    deviation: TVDeviation
+    replan_every: int
+    methods: dict[str, DriverMeasures]
+    ev: dict[str, np.ndarray]
+    tv: np.ndarray
+
+    def to_json(self) -> dict[str, Any]:
+        """``deviation.json``'s study keys: ``deviation``, ``replan_every``, ``methods``."""
+        return {
+            "deviation": asdict(self.deviation),
+            "replan_every": self.replan_every,
+            "methods": {name: m.to_json() for name, m in self.methods.items()},
+        }
 
 
 def plan_states(C: np.ndarray) -> np.ndarray:
@@ -55,7 +104,9 @@ def _tv_path(sc: ScenarioConfig, deviation: TVDeviation) -> np.ndarray:
     return np.array(path)
 
 
-def _measures(ev: np.ndarray, tv: np.ndarray, ref: np.ndarray, sc: ScenarioConfig) -> dict:
+def _measures(
+    ev: np.ndarray, tv: np.ndarray, ref: np.ndarray, sc: ScenarioConfig
+) -> DriverMeasures:
     n = min(len(ev), len(tv))
     ev, tv = ev[:n], tv[:n]
     d_k = ellipse_constraint(ev[:, 0] - tv[:, 0], ev[:, 1] - tv[:, 1], sc.l_a, sc.l_b)
@@ -67,12 +118,12 @@ def _measures(ev: np.ndarray, tv: np.ndarray, ref: np.ndarray, sc: ScenarioConfi
         for e, t in zip(ev, tv, strict=True)
     )
     m = min(n, len(ref))
-    return {
-        "collision": bool(crash),
-        "min_d_k": float(d_k.min()),
-        "rmse_y_vs_smpc_m": float(np.sqrt(np.mean((ev[:m, 1] - ref[:m, 1]) ** 2))),
-        "n_samples": n,
-    }
+    return DriverMeasures(
+        collision=bool(crash),
+        min_d_k=float(d_k.min()),
+        rmse_y_vs_smpc_m=float(np.sqrt(np.mean((ev[:m, 1] - ref[:m, 1]) ** 2))),
+        n_samples=n,
+    )
 
 
 def _replan(
@@ -115,7 +166,7 @@ def deviating_tv_study(
     policy: Any = None,
     replan_every: int = 5,
     risk: float = 0.7,
-) -> dict[str, Any]:
+) -> DeviationStudy:
     """Run the four drivers (module docstring) in one deviating episode.
 
     Args:
@@ -128,8 +179,7 @@ def deviating_tv_study(
         risk: the SMPC's risk.
 
     Returns:
-        ``methods`` (name → measures), ``ev`` (name → EV states per sample), ``tv`` (the
-        deviating TV's states).
+        The measures per driver, the EV states per driver and the TV's states.
     """
     if replan_every < 1:
         raise ValueError(f"replan_every must be >= 1, got {replan_every}")
@@ -154,10 +204,10 @@ def deviating_tv_study(
         executed.append(plan[k])
     ev["spline_receding"] = np.array(executed)
     methods = {name: _measures(states, tv, smpc_demo.ev, sc) for name, states in ev.items()}
-    return {"methods": methods, "ev": ev, "tv": tv, "deviation": deviation.__dict__}
+    return DeviationStudy(deviation, replan_every, methods, ev, tv)
 
 
-def write_videos(result: dict[str, Any], scenario: Any, folder: str | Path) -> dict[str, str]:
+def write_videos(result: DeviationStudy, scenario: Any, folder: str | Path) -> dict[str, str]:
     """A gif per driver of the deviating episode (EV states replayed beside the TV's)."""
     from drivestyle.envs.video import record_states, write_video
 
@@ -165,9 +215,9 @@ def write_videos(result: dict[str, Any], scenario: Any, folder: str | Path) -> d
     out = {}
     env = LaneChangeEnv(scenario=sc, render_mode="rgb_array")
     try:
-        for name, states in result["ev"].items():
-            n = min(len(states), len(result["tv"]))
-            frames = record_states(env, states[:n], result["tv"][:n])
+        for name, states in result.ev.items():
+            n = min(len(states), len(result.tv))
+            frames = record_states(env, states[:n], result.tv[:n])
             out[name] = str(write_video(frames, Path(folder) / f"deviating_{name}.gif"))
     finally:
         env.close()

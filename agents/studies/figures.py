@@ -1,26 +1,48 @@
-"""Every figure the studies draw: demonstrations (the paper's Fig. 2), learning (Figs. 3 and 4)."""
+"""Every figure the project draws (the only module that imports matplotlib).
+
+Demonstrations (the paper's Fig. 2), learning (Figs. 3 and 4), the comparisons of the
+learned style's drivers, the uncertainty calibration, the RL learning curve, identification
+and mining, recorded episodes. Every function takes data and a path and returns the path.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from drivestyle.agents.studies.reports import seconds
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index, trigger_time, vehicle_corners
 from drivestyle.irl.learner import LearningResult
 from drivestyle.irl.spline import spline_eval
 from matplotlib.patches import Ellipse, Polygon
+from matplotlib.ticker import MaxNLocator
+
+if TYPE_CHECKING:
+    from drivestyle.agents.studies.compare import HeldoutComparison
+    from drivestyle.agents.studies.identification import EvaluationRecord
 
 __all__ = [
     "draw_lanes",
+    "first_segment_note",
+    "plot_comparison",
+    "plot_confusion",
     "plot_demonstration",
+    "plot_episode",
+    "plot_heldout",
     "plot_lateral",
+    "plot_learning_curve",
+    "plot_noise_curve",
+    "plot_population",
     "plot_reproductions",
+    "plot_risk_sweep",
+    "plot_theta_vs_risk",
     "save_figure",
     "select_iterations",
 ]
@@ -85,7 +107,16 @@ def plot_demonstration(
         ev[:, None, 0] - veh[:, :, 0], ev[:, None, 1] - veh[:, :, 1], sc.l_a, sc.l_b
     ).min(axis=1)
     t_trg = trigger_time(demo.t, s_e, sc.trigger_lambda)
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6.5), height_ratios=(1, 1.3))
+    x_lo = min(ev[:, 0].min(), tv[:, 0].min()) - sc.l_a * 1.5
+    x_hi = max(ev[:, 0].max(), tv[:, 0].max()) + sc.l_a * 1.5
+    y_lo, y_hi = -0.5, sc.road_width + 0.5
+    # the road panel is drawn to scale (equal axes: cars and ellipses keep their true
+    # shape), so its height follows from the road's width over the x span
+    width = 11.0
+    road_h = max(width * 0.9 * (y_hi - y_lo) / (x_hi - x_lo), 0.6)
+    fig, (ax1, ax2) = plt.subplots(
+        2, 1, figsize=(width, 2.8 + road_h + 1.4), height_ratios=(2.8, road_h + 0.6)
+    )
 
     ax1.plot(ev[:, 0], s_e, "-o", color=EV_RED, ms=3, label="$s_e$")
     ax1.axhline(
@@ -99,7 +130,7 @@ def plot_demonstration(
             s_e[i],
             "k*",
             ms=12,
-            label=f"$t_{{trg}}$ = {t_trg:.1f} s (x = {ev[i, 0]:.0f} m)",
+            label=f"$t_{{trg}}$ = {seconds(t_trg)} (x = {ev[i, 0]:.0f} m)",
         )
     else:
         ax1.text(
@@ -115,8 +146,6 @@ def plot_demonstration(
     ax1.legend(loc="upper right", fontsize=8)
     ax1.grid(alpha=0.3)
 
-    x_lo = min(ev[:, 0].min(), tv[:, 0].min()) - sc.l_a * 1.5
-    x_hi = max(ev[:, 0].max(), tv[:, 0].max()) + sc.l_a * 1.5
     for j in range(others.shape[1]):
         ax2.plot(
             others[:, j, 0],
@@ -160,10 +189,11 @@ def plot_demonstration(
             ax2.add_patch(Polygon(corners, closed=True, fc=color, ec="k", lw=0.5, alpha=0.8))
         ax2.annotate(f"k={s}", (ev[i, 0], ev[i, 1] - 1.6), ha="center", fontsize=8)
     ax2.set_xlim(x_lo, x_hi)
-    ax2.set_ylim(-0.5, sc.road_width + 0.5)
-    ax2.set_xlabel("x [m]")
+    ax2.set_ylim(y_lo, y_hi)
+    ax2.set_aspect("equal", adjustable="box")
+    ax2.set_xlabel("x [m] (to scale)")
     ax2.set_ylabel("y [m]")
-    ax2.legend(loc="upper left", fontsize=8, ncol=4)
+    ax2.legend(loc="upper center", bbox_to_anchor=(0.5, -0.45), fontsize=8, ncol=7, frameon=False)
     ax1.set_xlim(x_lo, x_hi)
     return save_figure(fig, path, title)
 
@@ -256,7 +286,9 @@ def plot_lateral(
 ) -> Path:
     """Lateral velocity and acceleration at iterations 1, 11, 21 and the last (Fig. 4).
 
-    The demonstration's are overlaid.
+    The demonstration's are overlaid. When the demonstration's largest lateral
+    acceleration lies in its first segment, the figure says why (see
+    :func:`first_segment_note`).
 
     Args:
         demo: the demonstration.
@@ -282,6 +314,19 @@ def plot_lateral(
     _, a = _fine(demo_C, demo.t, 2)
     a1.plot(tt, v[:, 1], "r--", lw=2, label="demonstration")
     a2.plot(tt, a[:, 1], "r--", lw=2)
+    note = first_segment_note(demo, demo_C)
+    if note is not None:
+        i = int(np.argmax(np.abs(a[:, 1])))
+        a2.annotate(
+            note,
+            (tt[i], a[i, 1]),
+            xytext=(0.12, 0.93),
+            textcoords="axes fraction",
+            va="top",
+            fontsize=7.5,
+            arrowprops={"arrowstyle": "->", "lw": 0.8},
+            bbox={"boxstyle": "round", "fc": "white", "ec": "0.6"},
+        )
     a1.set_ylabel("lateral velocity [m/s]")
     a2.set_ylabel("lateral acceleration [m/s²]")
     a2.set_xlabel("t [s]")
@@ -289,6 +334,37 @@ def plot_lateral(
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
     return save_figure(fig, path, title)
+
+
+def first_segment_note(demo: Demonstration, demo_C: np.ndarray) -> str | None:
+    """Why the demonstration's lateral acceleration peaks in its first segment, or None.
+
+    The SMPC steers to its heading bound within its first step, so the EV's lateral
+    velocity jumps across segment 0 (v·φ̇ of the bicycle model) and the quintic segment
+    interpolating that jump between the knots' accelerations overshoots it. This is the
+    demonstration as the learner sees it, not a plotting artefact (DESIGN §4).
+
+    Args:
+        demo: the demonstration.
+        demo_C: its control points.
+
+    Returns:
+        The note (peak value, its time, the first step's heading change and v·φ̇), or None
+        when segment 0 holds no spike (a peak over twice the largest |a_y| after it).
+    """
+    tt, a = _fine(demo_C, demo.t, 2)
+    i = int(np.argmax(np.abs(a[:, 1])))
+    dt = float(demo.t[1] - demo.t[0])
+    later = np.abs(a[tt >= demo.t[1], 1]).max()
+    if tt[i] >= demo.t[1] or abs(a[i, 1]) <= 2.0 * later:  # no spike in segment 0
+        return None
+    dphi = float(demo.ev[1, 2] - demo.ev[0, 2])
+    v_phidot = float(demo.ev[0, 3]) * dphi / dt
+    return (
+        f"{a[i, 1]:.1f} m/s² at t = {tt[i]:.2f} s: in its first step (0–{dt:g} s) the SMPC\n"
+        f"turns to its heading bound (Δφ = {dphi:.3f} rad, v·φ̇ ≈ {v_phidot:.1f} m/s²);\n"
+        "the spline's segment 0 interpolating that jump overshoots it (DESIGN §4)"
+    )
 
 
 def plot_theta_vs_risk(libraries: dict, path: str | Path) -> Path:
@@ -309,14 +385,18 @@ def plot_theta_vs_risk(libraries: dict, path: str | Path) -> Path:
 
 
 def plot_confusion(
-    records: list[dict], grid: Sequence[float], scorer: str, path: str | Path, title: str = ""
+    records: Sequence[EvaluationRecord],
+    grid: Sequence[float],
+    scorer: str,
+    path: str | Path,
+    title: str = "",
 ) -> Path:
     """Confusion matrix of true vs estimated grid risk."""
     grid = list(grid)
     M = np.zeros((len(grid), len(grid)))
     for r in records:
-        if r["grid"] and "error" not in r:
-            M[grid.index(r["risk"]), grid.index(r[f"{scorer}_estimate"])] += 1
+        if r.grid and r.ok:
+            M[grid.index(r.risk), grid.index(r.estimate(scorer))] += 1
     fig, ax = plt.subplots(figsize=(5, 4.2))
     im = ax.imshow(M, cmap="Blues")
     for i in range(len(grid)):
@@ -338,6 +418,21 @@ def plot_confusion(
     return save_figure(fig, path, title, dpi=120)
 
 
+EPISODE_STYLES = {
+    "personal reactive": {"color": "C0", "ls": "-", "lw": 2.6, "alpha": 0.8},
+    "personal base": {"color": "C1", "ls": "--", "lw": 1.6},
+    "general (leave-one-out)": {"color": "C2", "ls": "-.", "lw": 1.4},
+    "constant velocity": {"color": "C3", "ls": ":", "lw": 1.4},
+}
+"""Line style per reproduction in :func:`plot_episode` (the names of the recorded-traffic study)."""
+EPISODE_STYLES_FALLBACK = (
+    {"color": "C4", "ls": "-", "lw": 2.0},
+    {"color": "C5", "ls": "--", "lw": 1.4},
+    {"color": "C6", "ls": "-.", "lw": 1.4},
+    {"color": "C7", "ls": ":", "lw": 1.4},
+)
+
+
 def plot_episode(
     demo: Demonstration, paths: dict[str, np.ndarray], path: str | Path, title: str = ""
 ) -> Path:
@@ -353,13 +448,17 @@ def plot_episode(
         The path written.
     """
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5))
-    a1.plot(demo.ev[:, 0], demo.ev[:, 1], "k-", lw=2.2, label="recorded")
-    a2.plot(demo.t, np.gradient(demo.ev[:, 1], demo.t), "k-", lw=2.2, label="recorded")
+    a1.plot(demo.ev[:, 0], demo.ev[:, 1], "k-", lw=2.2, label="recorded", zorder=2)
+    a2.plot(demo.t, np.gradient(demo.ev[:, 1], demo.t), "k-", lw=2.2, label="recorded", zorder=2)
     if np.abs(demo.tv[:, 0] - demo.ev[:, 0]).min() < 500:
         a1.plot(demo.tv[:, 0], demo.tv[:, 1], color="0.6", lw=1, label="target vehicle")
-    for name, xy in paths.items():
-        a1.plot(xy[:, 0], xy[:, 1], lw=1.4, label=name)
-        a2.plot(demo.t, np.gradient(xy[:, 1], demo.t), lw=1.4, label=name)
+    for k, (name, xy) in enumerate(paths.items()):
+        # reproductions often coincide (personal reactive and base): each its own
+        # line style, later ones thinner and on top, so none hides another
+        fallback = EPISODE_STYLES_FALLBACK[k % len(EPISODE_STYLES_FALLBACK)]
+        line = {**EPISODE_STYLES.get(name, fallback), "zorder": 3 + k, "label": name}
+        a1.plot(xy[:, 0], xy[:, 1], **line)
+        a2.plot(demo.t, np.gradient(xy[:, 1], demo.t), **line)
     draw_lanes(a1, demo.scenario)
     a1.set_ylim(-0.5, 2.5 * demo.scenario.lane_width)
     a1.set_xlabel("x [m]")
@@ -435,7 +534,135 @@ def plot_population(rows: Sequence[dict], path: str | Path, title: str = "") -> 
         ax1.text(0.5, 0.5, "no true risks (recorded data)", ha="center", transform=ax1.transAxes)
     ax1.grid(alpha=0.3)
     ax2.hist(est[np.isfinite(est)], bins=np.linspace(0.45, 1.0, 23), color="C1", alpha=0.8)
+    ax2.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: no fractional ticks
     ax2.set_xlabel("estimated risk (posterior mean)")
     ax2.set_ylabel("vehicles")
     ax2.grid(alpha=0.3)
     return save_figure(fig, path, title, dpi=120)
+
+
+COMPARISON_STYLES = {
+    "smpc": ("r--", "SMPC demonstration"),
+    "spline": ("b-", "spline reproduction r*_θ"),
+    "sb3": ("g-", "SB3 policy on the learned reward"),
+}
+"""Line format and label per method of :func:`plot_comparison`."""
+
+
+def plot_comparison(
+    demo: Demonstration, trajectories: dict[str, np.ndarray], path: str | Path, title: str = ""
+) -> Path:
+    """x–y paths and lateral velocity of compared trajectories (``compare.png``).
+
+    Args:
+        demo: the reference demonstration (scenario and sample times).
+        trajectories: method name → control points at the samples (may be shorter).
+        path: output PNG.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    sc = demo.scenario
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6))
+    draw_lanes(a1, sc)
+    a1.plot(demo.tv[:, 0], demo.tv[:, 1], color="0.3", lw=1, label="TV")
+    for name, C in trajectories.items():
+        line, label = COMPARISON_STYLES.get(name, ("k-", name))
+        t = demo.t[: C.shape[0]]
+        tt = np.linspace(t[0], t[-1], 10 * (t.size - 1) + 1)
+        pos = spline_eval(C, t, tt, 0)
+        vel = spline_eval(C, t, tt, 1)
+        a1.plot(pos[:, 0], pos[:, 1], line, lw=1.6, label=label)
+        a2.plot(tt, vel[:, 1], line, lw=1.6, label=label)
+    a1.set_xlabel("x [m]")
+    a1.set_ylabel("y [m]")
+    a1.set_ylim(0, sc.road_width)
+    a1.legend(fontsize=8, loc="upper left", ncol=2)
+    a2.set_xlabel("t [s]")
+    a2.set_ylabel("lateral velocity [m/s]")
+    a2.grid(alpha=0.3)
+    return save_figure(fig, path, title, dpi=120)
+
+
+def plot_heldout(result: HeldoutComparison, path: str | Path) -> Path:
+    """rmse_y against SMPC(p) per method over the held-out scenarios (``heldout.png``)."""
+    names = list(result.summary)[1:]  # the SMPC is the reference (0 by definition)
+    data = [
+        [
+            s["methods"][n]["rmse_y_m"]
+            for s in result.per_scenario
+            if s["methods"][n]["rmse_y_m"] is not None
+        ]
+        for n in names
+    ]
+    fig, ax = plt.subplots(figsize=(6, 3.8))
+    ax.boxplot(data, tick_labels=names)
+    ax.set_ylabel("rmse_y against SMPC(p) [m]")
+    ax.set_title(f"{result.summary[names[0]].n} held-out scenarios")
+    ax.grid(alpha=0.3)
+    return save_figure(fig, path, dpi=120)
+
+
+def plot_risk_sweep(demos: dict[float, Demonstration], path: str | Path) -> Path:
+    """s_e and the EV path against x for each risk's demonstration (``risk_sweep.png``).
+
+    Args:
+        demos: risk p → SMPC demonstration of one scenario (all the same scenario).
+        path: output PNG.
+
+    Returns:
+        The path written.
+    """
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    cmap = plt.get_cmap("viridis")
+    sc = next(iter(demos.values())).scenario
+    for i, (p, demo) in enumerate(sorted(demos.items())):
+        c = cmap(i / max(len(demos) - 1, 1))
+        s_e = elliptical_index(
+            demo.ev[:, 0] - demo.tv[:, 0], demo.ev[:, 1] - demo.tv[:, 1], sc.l_a, sc.l_b
+        )
+        ax1.plot(demo.ev[:, 0], s_e, color=c, label=f"p = {p:g}")
+        ax2.plot(demo.ev[:, 0], demo.ev[:, 1], color=c)
+    ax1.axhline(sc.trigger_lambda, color="k", ls="--", lw=0.8, label="$\\lambda$")
+    ax1.set_ylabel("$s_e$")
+    ax1.set_ylim(0, 6)
+    ax1.legend(fontsize=8, ncol=4)
+    draw_lanes(ax2, sc)
+    ax2.set_xlabel("EV x [m]")
+    ax2.set_ylabel("EV y [m]")
+    return save_figure(fig, path, "SMPC demonstrations on the paper scenario by risk p", dpi=120)
+
+
+def plot_learning_curve(out: str | Path, title: str) -> Path:
+    """Training episode returns (``monitor.csv``) and evaluation returns (``evaluations.npz``).
+
+    Args:
+        out: a :func:`drivestyle.agents.sb3_baseline.train_baseline` output folder; the
+            figure is written there as ``learning_curve.png``.
+        title: figure title.
+
+    Returns:
+        The figure's path.
+    """
+    out = Path(out)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    monitor = out / "monitor.csv"
+    if monitor.is_file():
+        data = np.atleast_2d(np.genfromtxt(monitor, delimiter=",", skip_header=2, usecols=(0, 1)))
+        if data.size:
+            steps = np.cumsum(data[:, 1])
+            ax.plot(steps, data[:, 0], ".", ms=2, alpha=0.4, label="training episodes")
+            k = min(25, len(data))
+            smooth = np.convolve(data[:, 0], np.ones(k) / k, mode="valid")
+            ax.plot(steps[k - 1 :], smooth, lw=1.5, label=f"training, mean of {k}")
+    evals = out / "evaluations.npz"
+    if evals.is_file():
+        with np.load(evals) as ev:
+            ax.plot(ev["timesteps"], ev["results"].mean(axis=1), "o-", label="evaluation")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("episode return (−learned cost)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return save_figure(fig, out / "learning_curve.png", dpi=120)

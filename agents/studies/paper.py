@@ -6,33 +6,42 @@
 4. Ablations: the paper's own update rule and the control-point rule (DESIGN §4, §6).
 5. Optionally, the SB3 baseline trained on the reactive style, compared and rendered.
 
-:func:`paper_study` returns data; :func:`write_paper_study` draws and writes it.
+:func:`paper_study` returns a :class:`PaperStudy`; :func:`write_paper_study` draws and
+writes its artefacts, :func:`write_paper_results` its ``results.json`` and ``results.md``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
-from drivestyle.agents.studies.figures import plot_demonstration, plot_lateral, plot_reproductions
+from drivestyle.agents.studies.figures import (
+    plot_comparison,
+    plot_demonstration,
+    plot_lateral,
+    plot_reproductions,
+)
+from drivestyle.agents.studies.reports import comparison_markdown, paper_markdown
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.irl.features import FeatureConfig, feature_basis, feature_values
 from drivestyle.irl.learner import IRLConfig, LearningResult
 from drivestyle.irl.spline import demo_control_points
 from drivestyle.irl.style import fit_style
 
-from drivestyle.common.io import command_line, fmt, write_json, write_text
+from drivestyle.common.io import command_line, write_json, write_text
 
 __all__ = [
     "PAPER_REPORTED",
+    "BaselineStudy",
+    "PaperStudy",
     "ay_first_segment_share",
     "baseline_study",
     "paper_study",
-    "study_markdown",
     "write_paper_results",
     "write_paper_study",
 ]
@@ -70,6 +79,99 @@ def _summary(payload: dict[str, Any]) -> dict[str, Any]:
     return {k: payload[k] for k in SUMMARY_KEYS} | {"theta_normalised": payload["theta_normalised"]}
 
 
+DEMO_KEYS = ("risk", "t_trg_s", "min_s_e", "x_at_min_s_e", "min_d_k", "collision", "final_lane")
+"""The demonstration summary's keys kept in ``results.json``."""
+
+
+@dataclass(frozen=True)
+class BaselineStudy:
+    """The SB3 baseline trained on the reactive style, compared and rendered.
+
+    Attributes:
+        train: the training summary (``train_summary.json``).
+        compare: method name → metrics (``compare.json``'s ``methods``).
+        videos: video name → path written.
+    """
+
+    train: dict[str, Any]
+    compare: dict[str, dict[str, Any]]
+    videos: dict[str, str]
+
+    def to_json(self) -> dict[str, Any]:
+        """``results.json``'s ``baseline`` entry: ``train``, ``compare``, ``videos``."""
+        return {"train": self.train, "compare": self.compare, "videos": self.videos}
+
+
+@dataclass(frozen=True)
+class PaperStudy:
+    """The paper's study: the demonstration, its two learned styles, the ablations.
+
+    Attributes:
+        demo: the SMPC demonstration.
+        demo_summary: its summary (``demo/demo.json``).
+        results: feature set ('base', 'reactive') → learning result.
+        styles: feature set → ``style.json`` payload.
+        learning: feature set → summary (:data:`SUMMARY_KEYS` and ``theta_normalised``).
+        reaction_window_x_m: EV x at t_trg and at t_trg + T_rct (None: no trigger).
+        paper_rule_alpha: step size of the paper's update rule (None: no ablations).
+        paper_rule: feature set → summary with the paper's update rule (empty: none).
+        control_point_rule: rule label → f_ay share of segment 0 and summaries per
+            feature set (empty: no ablations).
+        baseline: the SB3 baseline, if run (:func:`baseline_study`).
+        wall_time_total_s: wall time of the whole run, if the caller measured it.
+    """
+
+    demo: Demonstration
+    demo_summary: dict[str, Any]
+    results: dict[str, LearningResult]
+    styles: dict[str, dict[str, Any]]
+    learning: dict[str, dict[str, Any]]
+    reaction_window_x_m: tuple[float, float] | None
+    paper_rule_alpha: float | None = None
+    paper_rule: dict[str, dict[str, Any]] = field(default_factory=dict)
+    control_point_rule: dict[str, dict[str, Any]] = field(default_factory=dict)
+    baseline: BaselineStudy | None = None
+    wall_time_total_s: float | None = None
+
+    @property
+    def reactive_closer_in_reaction_window(self) -> bool:
+        """The reactive style reproduces the reaction window better than the base one."""
+        react, base = self.learning["reactive"], self.learning["base"]
+        return (
+            react["rmse_y_reaction_m"] is not None
+            and react["rmse_y_reaction_m"] < base["rmse_y_reaction_m"]
+        )
+
+    @property
+    def reactive_closer_overall(self) -> bool:
+        """The reactive style reproduces the whole path better than the base one."""
+        return self.learning["reactive"]["rmse_y_m"] < self.learning["base"]["rmse_y_m"]
+
+    def to_json(self) -> dict[str, Any]:
+        """``results.json`` (without ``command``): the keys documented in DESIGN §7."""
+        out: dict[str, Any] = {
+            "paper": PAPER_REPORTED,
+            "demo": {k: self.demo_summary[k] for k in DEMO_KEYS},
+            "learning": self.learning,
+            "reaction_window_x_m": (
+                None if self.reaction_window_x_m is None else list(self.reaction_window_x_m)
+            ),
+            "reactive_closer_in_reaction_window": self.reactive_closer_in_reaction_window,
+            "reactive_closer_overall": self.reactive_closer_overall,
+        }
+        if self.paper_rule_alpha is not None:
+            out |= {
+                "paper_rule_alpha": self.paper_rule_alpha,
+                "paper_rule": self.paper_rule,
+                "control_point_rule": self.control_point_rule,
+            }
+        if self.baseline is not None:
+            out["baseline"] = self.baseline.to_json()
+        if self.wall_time_total_s is not None:
+            out["wall_time_total_s"] = self.wall_time_total_s
+        return out
+
+
 def paper_study(
     risk: float = 0.7,
     t_rct: float = 2.0,
@@ -77,8 +179,8 @@ def paper_study(
     ablations: bool = True,
     progress: Callable[[], None] | None = None,
     demo_path: str | Path | None = None,
-) -> dict[str, Any]:
-    """Run the paper's study and return its data.
+) -> PaperStudy:
+    """Run the paper's study and return its result.
 
     Args:
         risk: the SMPC's risk p.
@@ -90,8 +192,7 @@ def paper_study(
         demo_path: where the demonstration will be saved, recorded in the styles.
 
     Returns:
-        ``payload`` (results.json without the command), ``demo``, ``demo_summary``,
-        ``results`` (LearningResult per feature set) and ``styles`` (style.json payloads).
+        The study (:class:`PaperStudy`; its ``to_json()`` is ``results.json``).
     """
     tick = progress or (lambda: None)
     demo, summary = generate_demonstration(risk, "paper", SMPCConfig(risk=risk), seed=seed)
@@ -111,28 +212,17 @@ def paper_study(
         i0 = int(np.argmin(np.abs(demo.t - ev["t_trg_s"])))
         i1 = int(np.argmin(np.abs(demo.t - min(ev["t_trg_s"] + t_rct, demo.t[-1]))))
         window = (float(demo.ev[i0, 0]), float(demo.ev[i1, 0]))
-    demo_keys = ("risk", "t_trg_s", "min_s_e", "x_at_min_s_e", "min_d_k", "collision", "final_lane")
-    payload: dict[str, Any] = {
-        "paper": PAPER_REPORTED,
-        "demo": {k: summary[k] for k in demo_keys},
-        "learning": {n: _summary(p) for n, p in styles.items()},
-        "reaction_window_x_m": window,
-        "reactive_closer_in_reaction_window": (
-            ev["rmse_y_reaction_m"] is not None
-            and ev["rmse_y_reaction_m"] < styles["base"]["rmse_y_reaction_m"]
-        ),
-        "reactive_closer_overall": ev["rmse_y_m"] < styles["base"]["rmse_y_m"],
-    }
+    learning = {n: _summary(p) for n, p in styles.items()}
+    alpha: float | None = None
+    paper_rule: dict[str, dict[str, Any]] = {}
+    control_point_rule: dict[str, dict[str, Any]] = {}
     if ablations:
         alpha = IRLConfig().alpha
-        payload["paper_rule_alpha"] = alpha
-        payload["paper_rule"] = {}
         for name in ("base", "reactive"):
             fc = FeatureConfig(feature_set=name, t_rct=t_rct)
             p = fit_style(demo, fc, IRLConfig(method="paper", max_iter=400, alpha=alpha)).to_json()
-            payload["paper_rule"][name] = _summary(p)
+            paper_rule[name] = _summary(p)
             tick()
-        payload["control_point_rule"] = {}
         for rule, weight in (
             ("kinematic", 1.0),
             ("paper", 1.0),
@@ -147,130 +237,60 @@ def paper_study(
             }
             for name in ("base", "reactive"):
                 if rule == "kinematic" and weight == 1.0:
-                    entry[name] = payload["learning"][name]
+                    entry[name] = learning[name]
                     continue
                 fc = FeatureConfig(feature_set=name, t_rct=t_rct, ay_first_segment_weight=weight)
                 p = fit_style(demo, fc, IRLConfig(), control_point_rule=rule).to_json()
                 entry[name] = _summary(p)
-            payload["control_point_rule"][label] = entry
+            control_point_rule[label] = entry
         tick()
-    return {
-        "payload": payload,
-        "demo": demo,
-        "demo_summary": summary,
-        "results": results,
-        "styles": styles,
-    }
+    return PaperStudy(
+        demo=demo,
+        demo_summary=summary,
+        results=results,
+        styles=styles,
+        learning=learning,
+        reaction_window_x_m=window,
+        paper_rule_alpha=alpha,
+        paper_rule=paper_rule,
+        control_point_rule=control_point_rule,
+    )
 
 
-def write_paper_study(study: dict[str, Any], out: str | Path, argv: list[str]) -> None:
+def write_paper_study(study: PaperStudy, out: str | Path, argv: list[str]) -> None:
     """Write a :func:`paper_study`'s artefacts into ``out``: demo/, base/, reactive/, figures.
 
     The results themselves are written by :func:`write_paper_results`.
     """
     out = Path(out)
-    demo, payload = study["demo"], study["payload"]
+    demo = study.demo
     save_demonstration(demo, out / "demo" / "demo.npz")
-    write_json(out / "demo" / "demo.json", study["demo_summary"], argv)
+    write_json(out / "demo" / "demo.json", study.demo_summary, argv)
     plot_demonstration(
         demo,
         out / "demo" / "demo.png",
-        title=f"SMPC demonstration, p = {payload['demo']['risk']:g} (Fig. 2)",
+        title=f"SMPC demonstration, p = {study.demo_summary['risk']:g} (Fig. 2)",
     )
-    for name, style in study["styles"].items():
+    for name, style in study.styles.items():
         write_json(out / name / "style.json", style, argv)
     C = demo_control_points(demo)
     plot_reproductions(
-        demo, study["results"], C, out / "fig3_reproductions.png", payload["reaction_window_x_m"]
+        demo, study.results, C, out / "fig3_reproductions.png", study.reaction_window_x_m
     )
     plot_lateral(
         demo,
-        study["results"]["reactive"],
+        study.results["reactive"],
         C,
         out / "fig4_lateral.png",
         title="lateral motion with the reactive features (Fig. 4)",
     )
 
 
-def write_paper_results(payload: dict[str, Any], out: str | Path, argv: list[str]) -> None:
+def write_paper_results(study: PaperStudy, out: str | Path, argv: list[str]) -> None:
     """``out/results.json`` and ``out/results.md`` of a :func:`paper_study`."""
     out = Path(out)
-    write_json(out / "results.json", payload, argv)
-    write_text(out / "results.md", study_markdown(payload | {"command": command_line(argv)}))
-
-
-def study_markdown(res: dict[str, Any]) -> str:
-    """``results.md``: the study beside the paper's numbers.
-
-    Args:
-        res: the payload of :func:`paper_study` (as written to JSON, with ``command``).
-    """
-    lm, paper_rule = res["learning"], res.get("paper_rule", {})
-    lines = [
-        "# Reproduction of the paper's simulation study",
-        "",
-        f"Command: `{res['command']}`",
-        "",
-        "## Demonstration (p = 0.7)",
-        "",
-        f"t_trg = {fmt(res['demo']['t_trg_s'], 1)} s (paper: 3.0 s); min s_e = "
-        f"{res['demo']['min_s_e']:.2f} at x = {res['demo']['x_at_min_s_e']:.0f} m; min d_k = "
-        f"{res['demo']['min_d_k']:.2f}; collision: {res['demo']['collision']}.",
-        "",
-        "## Learning (default: Levenberg–Marquardt in log θ)",
-        "",
-        "| features | iterations (paper) | converged | learning error | rmse_y [m] | "
-        "rmse_y reaction window [m] | rmse_xy [m] | wall time [s] | inner solve median [ms] |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for name in ("base", "reactive"):
-        s = lm[name]
-        lines.append(
-            f"| {name} | {s['iterations']} ({PAPER_REPORTED['iterations'][name]}) | "
-            f"{s['converged']} | "
-            f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | {fmt(s['rmse_y_reaction_m'])} | "
-            f"{s['rmse_xy_m']:.3f} | {s['wall_time_s']:.2f} | {s['inner_solve_ms_median']:.2f} |"
-        )
-    if paper_rule:
-        lines += [
-            "",
-            f"## The paper's update rule (α = {res['paper_rule_alpha']:g}, "
-            "ε̄ = 0.01, at most 400 iterations)",
-            "",
-            "| features | iterations | converged | learning error | rmse_y [m] | "
-            "rmse_y reaction [m] | wall time [s] |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for name in ("base", "reactive"):
-            s = paper_rule[name]
-            lines.append(
-                f"| {name} | {s['iterations']} | {s['converged']} | "
-                f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | "
-                f"{fmt(s['rmse_y_reaction_m'])} | {s['wall_time_s']:.2f} |"
-            )
-    if "control_point_rule" in res:
-        cp = res["control_point_rule"]
-        lines += [
-            "",
-            "## Control-point rule (DESIGN §4)",
-            "",
-            "| rule | share of f_ay in segment 0 | base rmse_y [m] | reactive rmse_y [m] "
-            "| reactive rmse_y reaction [m] |",
-            "|---|---|---|---|---|",
-        ]
-        for rule, s in cp.items():
-            lines.append(
-                f"| {rule} | {s['ay_first_segment_share']:.0%} | "
-                f"{s['base']['rmse_y_m']:.3f} | {s['reactive']['rmse_y_m']:.3f} | "
-                f"{fmt(s['reactive']['rmse_y_reaction_m'])} |"
-            )
-    lines += [
-        "",
-        "Figures: `demo/demo.png` (Fig. 2), `fig3_reproductions.png` (Fig. 3), "
-        "`fig4_lateral.png` (Fig. 4).",
-        "",
-    ]
-    return "\n".join(lines)
+    write_json(out / "results.json", study.to_json(), argv)
+    write_text(out / "results.md", paper_markdown(study, command_line(argv)))
 
 
 def baseline_study(
@@ -282,22 +302,17 @@ def baseline_study(
     timesteps: int = 60_000,
     seed: int = 0,
     argv: list[str] | None = None,
-) -> dict[str, Any]:
+) -> BaselineStudy:
     """Train the SB3 baseline on a style, compare it with the spline and the SMPC, render videos.
 
     Needs the ``rl`` and ``video`` extras. Writes ``out/baseline/``, ``out/compare/`` and
     ``out/videos/``.
 
     Returns:
-        ``train`` (training summary), ``compare`` (per-method measures), ``videos`` (paths).
+        The training summary, per-method measures and the videos' paths.
     """
     from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
-    from drivestyle.agents.studies.compare import (
-        compare_methods,
-        comparison_markdown,
-        plot_comparison,
-        policy_frames,
-    )
+    from drivestyle.agents.studies.compare import compare_methods, policy_frames
     from drivestyle.envs.video import write_video
     from drivestyle.irl.style import load_style
 
@@ -309,14 +324,12 @@ def baseline_study(
     res = compare_methods(style, demo, smpc_solve_s, out / "baseline")
     plot_comparison(
         demo,
-        res["trajectories"],
+        res.trajectories,
         out / "compare" / "compare.png",
         "driving the learned reactive style",
     )
-    write_json(out / "compare" / "compare.json", {"methods": res["methods"]}, argv)
-    write_text(
-        out / "compare" / "compare.md", comparison_markdown(res["methods"], command_line(argv))
-    )
+    write_json(out / "compare" / "compare.json", res.to_json(), argv)
+    write_text(out / "compare" / "compare.md", comparison_markdown(res, command_line(argv)))
     risk = demo.meta.get("risk", 0.7)
     videos = {}
     for kind in ("expert", "spline", "sb3"):
@@ -325,4 +338,4 @@ def baseline_study(
     videos["expert_gif"] = str(
         write_video(policy_frames("expert", demo.scenario, risk), out / "videos" / "expert.gif")
     )
-    return {"train": train, "compare": res["methods"], "videos": videos}
+    return BaselineStudy(train, res.methods, videos)

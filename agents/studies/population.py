@@ -11,7 +11,9 @@ Each worker process builds one SMPC solver per family and reuses it for every ve
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,10 +27,54 @@ from drivestyle.envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
 
 from drivestyle.common.parallel import parallel_map
 
-__all__ = ["RISK_RANGE", "draw_vehicle", "simulate_population"]
+__all__ = ["RISK_RANGE", "Population", "draw_vehicle", "simulate_population"]
 
 RISK_RANGE = (0.5, 0.95)
 """Risks are drawn uniformly from this interval."""
+
+
+@dataclass(frozen=True)
+class Population:
+    """A simulated population (``population.json``).
+
+    Attributes:
+        seed: the population seed.
+        n: vehicles simulated.
+        traffic_share: probability of a traffic scene.
+        vehicles: per vehicle, in id order: ``id``, ``risk`` (the true risk), ``traffic``,
+            ``status`` ('ok' or 'failed') and either ``file``, ``t_trg_s``, ``collision``,
+            ``final_lane``, ``n_solver_failures`` or ``error``.
+        wall_s: wall time of the simulation [s].
+    """
+
+    seed: int
+    n: int
+    traffic_share: float
+    vehicles: list[dict[str, Any]]
+    wall_s: float
+
+    @property
+    def n_ok(self) -> int:
+        """Vehicles whose demonstration was simulated and saved."""
+        return sum(v["status"] == "ok" for v in self.vehicles)
+
+    @property
+    def n_failed(self) -> int:
+        """Vehicles whose simulation failed (kept as rows with the error)."""
+        return self.n - self.n_ok
+
+    def to_json(self) -> dict[str, Any]:
+        """``population.json``'s keys (without ``command``)."""
+        return {
+            "seed": self.seed,
+            "n": self.n,
+            "risk_distribution": f"uniform on [{RISK_RANGE[0]}, {RISK_RANGE[1]}]",
+            "traffic_share": self.traffic_share,
+            "n_ok": self.n_ok,
+            "n_failed": self.n_failed,
+            "vehicles": self.vehicles,
+            "wall_s": self.wall_s,
+        }
 
 
 def draw_vehicle(seed: int, i: int, traffic_share: float = 0.0) -> dict[str, Any]:
@@ -87,8 +133,8 @@ def simulate_population(
     jit: bool = False,
     chunk: int = 25,
     progress: Callable[[int], None] | None = None,
-) -> dict[str, Any]:
-    """Simulate n vehicles into ``out/demos/`` and return ``population.json``'s payload.
+) -> Population:
+    """Simulate n vehicles into ``out/demos/``.
 
     Args:
         n: vehicles (≥ 1).
@@ -101,7 +147,7 @@ def simulate_population(
         progress: called with the number of vehicles finished by each chunk.
 
     Returns:
-        ``vehicles`` (id, true risk, traffic, file, status, …), the distribution, counts.
+        The population (its ``to_json()`` is ``population.json``).
 
     Raises:
         ValueError: a bad n, traffic_share or chunk.
@@ -112,6 +158,7 @@ def simulate_population(
         raise ValueError(f"traffic_share must lie in [0, 1], got {traffic_share}")
     if chunk < 1:
         raise ValueError(f"chunk must be >= 1, got {chunk}")
+    t0 = time.perf_counter()
     folder = Path(out) / "demos"
     folder.mkdir(parents=True, exist_ok=True)
     drawn = [draw_vehicle(seed, i, traffic_share) for i in range(n)]
@@ -123,12 +170,4 @@ def simulate_population(
         None if progress is None else lambda _, rows: progress(len(rows)),
     )
     rows = [r for part in done for r in part]
-    return {
-        "seed": seed,
-        "n": n,
-        "risk_distribution": f"uniform on [{RISK_RANGE[0]}, {RISK_RANGE[1]}]",
-        "traffic_share": traffic_share,
-        "n_ok": sum(r["status"] == "ok" for r in rows),
-        "n_failed": sum(r["status"] != "ok" for r in rows),
-        "vehicles": rows,
-    }
+    return Population(seed, n, traffic_share, rows, time.perf_counter() - t0)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,11 +33,11 @@ from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL, normalise_theta
 from drivestyle.irl.metrics import trajectory_errors
 
-from drivestyle.common.io import fmt
 from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "REPRODUCTIONS",
+    "RealTrafficStudy",
     "av_vs_hv",
     "classify_loo",
     "constant_velocity",
@@ -45,11 +46,47 @@ __all__ = [
     "learn_personal",
     "reproduce_with",
     "run_study",
-    "study_markdown",
 ]
 
 REPRODUCTIONS = ("personal_reactive", "personal_base", "general", "constant_velocity")
 """The reproductions compared with each recorded lane change (module docstring)."""
+
+
+@dataclass(frozen=True)
+class RealTrafficStudy:
+    """Every reproduction on every used recorded episode (``real_traffic.json``, DESIGN §7).
+
+    Attributes:
+        dataset: 'ngsim' or 'cats'.
+        n_episodes: episodes loaded (used and unused).
+        n_used: episodes studied.
+        medians: reproduction (:data:`REPRODUCTIONS`, in order) → median ``rmse_y_m``,
+            ``rmse_xy_m`` and ``fde_m`` over the used episodes (None: no episode).
+        episodes: per loaded episode: ``episode_id``, ``used``, ``reasons``, ``flags``
+            and, if used, ``methods`` (reproduction → errors) and ``stats``.
+        av_vs_hv: CATS only: the computer- against the human-driven lane changes.
+    """
+
+    dataset: str
+    n_episodes: int
+    n_used: int
+    medians: dict[str, dict[str, float | None]]
+    episodes: list[dict[str, Any]]
+    av_vs_hv: dict[str, Any] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """``real_traffic.json``'s study keys (the script adds the neighbour counts)."""
+        out: dict[str, Any] = {
+            "dataset": self.dataset,
+            "n_episodes": self.n_episodes,
+            "n_used": self.n_used,
+            "median_rmse_y_m": {m: v["rmse_y_m"] for m, v in self.medians.items()},
+            "medians": self.medians,
+            "episodes": self.episodes,
+        }
+        if self.av_vs_hv is not None:
+            out["av_vs_hv"] = self.av_vs_hv
+        return out
 
 
 def episode_feature_config(
@@ -221,29 +258,6 @@ def av_vs_hv(records: list[dict]) -> dict:
     return out
 
 
-def _av_hv_markdown(d: dict) -> str:
-    c = d["classifier_base_features"]
-    rows = [
-        "| set | n | median rmse_y (personal reactive) | median peak lateral accel | "
-        "median 10–90 % duration |",
-        "|---|---|---|---|---|",
-    ]
-    for s in ("AV", "HV"):
-        if s in d:
-            rows.append(
-                f"| {s} | {d['n'][s]} | {d[s]['rmse_y_personal_reactive_median_m']:.3f} m "
-                f"| {d[s]['peak_lateral_accel_mps2']:.2f} m/s² | "
-                f"{d[s]['duration_10_90_s']:.1f} s |"
-            )
-    rows += [
-        "",
-        f"Leave-one-out nearest-centroid classifier on the base-feature styles: "
-        f"{c['accuracy']:.0%} of {c['n']} (majority rate {c['majority_rate']:.0%}, "
-        f"one-sided binomial p = {c['p_value_vs_majority']:.2f}).",
-    ]
-    return "\n".join(rows)
-
-
 def run_study(
     episodes: Sequence[RecordedEpisode],
     dataset: str,
@@ -251,7 +265,7 @@ def run_study(
     figure_dir: str | Path | None = None,
     limit: int | None = None,
     progress: Callable[[int], Any] | None = None,
-) -> dict[str, Any]:
+) -> RealTrafficStudy:
     """The recorded-traffic study: every method on every used episode, with medians.
 
     Args:
@@ -263,7 +277,7 @@ def run_study(
         progress: called with 1 after each episode.
 
     Returns:
-        The ``real_traffic.json`` payload (DESIGN §7).
+        The study (its ``to_json()`` is ``real_traffic.json``'s study part).
 
     Raises:
         ValueError: fewer than 2 usable episodes (the general style leaves one out).
@@ -301,48 +315,11 @@ def run_study(
             k: float(np.median([v[k] for v in vals])) if vals else None
             for k in ("rmse_y_m", "rmse_xy_m", "fde_m")
         }
-    payload: dict[str, Any] = {
-        "dataset": dataset,
-        "n_episodes": len(episodes),
-        "n_used": len(used),
-        "median_rmse_y_m": {m: medians[m]["rmse_y_m"] for m in REPRODUCTIONS},
-        "medians": medians,
-        "episodes": records,
-    }
-    if dataset == "cats":
-        payload["av_vs_hv"] = av_vs_hv(records)
-    return payload
-
-
-def study_markdown(payload: dict[str, Any]) -> str:
-    """``real_traffic.md``: medians per method, AV vs human (CATS), rmse_y per episode."""
-    medians = payload["medians"]
-    lines = [
-        f"# Real traffic: {payload['dataset']}",
-        "",
-        f"{payload['n_used']} of {payload['n_episodes']} episodes used "
-        "(selection in envs/real_data.py).",
-        "",
-        "| method | median rmse_y [m] | median rmse_xy [m] | median fde [m] |",
-        "|---|---|---|---|",
-    ]
-    for m in REPRODUCTIONS:
-        lines.append(
-            f"| {m} | {fmt(medians[m]['rmse_y_m'])} | {fmt(medians[m]['rmse_xy_m'])} "
-            f"| {fmt(medians[m]['fde_m'])} |"
-        )
-    if "av_vs_hv" in payload:
-        lines += ["", "## AV vs human", "", _av_hv_markdown(payload["av_vs_hv"])]
-    lines += [
-        "",
-        "| episode | " + " | ".join(f"{m} rmse_y" for m in REPRODUCTIONS) + " |",
-        "|---|" + "---|" * len(REPRODUCTIONS),
-    ]
-    for r in payload["episodes"]:
-        if "methods" in r:
-            lines.append(
-                f"| {r['episode_id']} | "
-                + " | ".join(fmt(r["methods"].get(m, {}).get("rmse_y_m")) for m in REPRODUCTIONS)
-                + " |"
-            )
-    return "\n".join(lines) + "\n"
+    return RealTrafficStudy(
+        dataset=dataset,
+        n_episodes=len(episodes),
+        n_used=len(used),
+        medians=medians,
+        episodes=records,
+        av_vs_hv=av_vs_hv(records) if dataset == "cats" else None,
+    )

@@ -142,15 +142,27 @@ def test_scripts_train_compare_render(tmp_path, style_file):
 
 
 def test_heldout_comparison_scores_every_method(style_file, tmp_path):
-    from drivestyle.agents.studies.compare import heldout_comparison, plot_heldout
+    from drivestyle.agents.studies.compare import HeldoutComparison, heldout_comparison
+    from drivestyle.agents.studies.figures import plot_heldout
     from drivestyle.irl.style import load_style
 
     res = heldout_comparison(load_style(style_file), {}, k=2, seed=3000, risk=0.7)
-    summary = res["summary"]
+    assert isinstance(res, HeldoutComparison)
+    summary = res.summary
     assert set(summary) == {"smpc", "spline"}
-    assert summary["smpc"]["median_rmse_y_m"] == pytest.approx(0.0, abs=1e-12)
-    assert 0 < summary["spline"]["median_rmse_y_m"] < 5
-    assert summary["smpc"]["collisions"] == 0 and summary["spline"]["n"] == 2
+    assert summary["smpc"].median_rmse_y_m == pytest.approx(0.0, abs=1e-12)
+    assert 0 < summary["spline"].median_rmse_y_m < 5
+    assert summary["smpc"].collisions == 0 and summary["spline"].n == 2
+    js = res.to_json()  # heldout.json's keys
+    assert list(js) == ["per_scenario", "summary"]
+    assert set(js["summary"]["spline"]) == {
+        "median_rmse_y_m",
+        "collisions",
+        "median_cost",
+        "decision_ms",
+        "min_d_k",
+        "n",
+    }
     assert plot_heldout(res, tmp_path / "h.png").stat().st_size > 5_000
     with pytest.raises(ValueError, match="held-out"):
         heldout_comparison(load_style(style_file), {}, k=0, seed=1, risk=0.7)
@@ -172,11 +184,16 @@ def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
     style = load_style(style_file)
     nominal = generate_demonstration(0.7)[0]
     res = deviating_tv_study(style, nominal, TVDeviation())
-    assert set(res["methods"]) == {"smpc", "spline_open_loop", "spline_receding"}
-    assert res["methods"]["smpc"]["rmse_y_vs_smpc_m"] == 0.0
-    assert not res["methods"]["smpc"]["collision"] and res["methods"]["smpc"]["min_d_k"] > 0
+    assert set(res.methods) == {"smpc", "spline_open_loop", "spline_receding"}
+    smpc = res.methods["smpc"]
+    assert smpc.rmse_y_vs_smpc_m == 0.0
+    assert not smpc.collision and smpc.min_d_k > 0
     braking_steps = sum(1.5 <= k * 0.2 < 3.0 for k in range(30))  # steps starting inside
-    assert res["tv"][-1, 3] == pytest.approx(28.0 - 4.0 * 0.2 * braking_steps)
+    assert res.tv[-1, 3] == pytest.approx(28.0 - 4.0 * 0.2 * braking_steps)
+    js = res.to_json()  # deviation.json's study keys
+    assert list(js) == ["deviation", "replan_every", "methods"]
+    assert js["deviation"] == {"t_start": 1.5, "accel": -4.0, "duration": 1.5}
+    assert set(js["methods"]["smpc"]) == {"collision", "min_d_k", "rmse_y_vs_smpc_m", "n_samples"}
 
 
 def test_traffic_training_env_passes_sb3_check_and_a_policy_trains(style_file, tmp_path):

@@ -129,3 +129,37 @@ def test_draw_bad_input_is_a_clear_error(change, exc, match):
             r.draw(**args)
     finally:
         r.close()
+
+
+def test_gymnasium_record_video_records_an_episode(tmp_path):
+    # the `video` extra brings moviepy, which gymnasium's RecordVideo writes with
+    pytest.importorskip("moviepy")
+    from gymnasium.wrappers import RecordVideo
+
+    env = RecordVideo(
+        gym.make(ID, render_mode="rgb_array"),
+        str(tmp_path),
+        episode_trigger=lambda episode: True,
+        disable_logger=True,
+    )
+    env.reset(seed=0)
+    done, steps = False, 0
+    while not done:
+        _, _, terminated, truncated, _ = env.step(np.zeros(2))
+        done, steps = terminated or truncated, steps + 1
+    env.close()
+    videos = list(tmp_path.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1_000
+    import imageio.v3 as iio
+
+    assert iio.imread(videos[0]).shape[0] == steps + 1  # the reset frame and one per step
+
+
+def test_the_video_extra_brings_what_record_video_needs():
+    from pathlib import Path
+
+    import tomllib
+
+    pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
+    video = tomllib.loads(pyproject.read_text())["project"]["optional-dependencies"]["video"]
+    assert any(req.startswith("moviepy") for req in video), video

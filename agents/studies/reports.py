@@ -1,0 +1,211 @@
+"""Every Markdown report the studies write, and how they print times.
+
+Each function takes a study's typed result (or, for the identification evaluation, its
+JSON-ready records) and returns the Markdown text; the scripts write it beside the JSON.
+Numbers are rounded here once, so a time reads ``2.4 s`` and never ``2.4000000000000004 s``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from drivestyle.agents.studies.compare import LABELS
+
+from drivestyle.common.io import fmt
+
+if TYPE_CHECKING:
+    from drivestyle.agents.studies.compare import Comparison
+    from drivestyle.agents.studies.paper import PaperStudy
+    from drivestyle.agents.studies.real_traffic import RealTrafficStudy
+
+__all__ = [
+    "comparison_markdown",
+    "paper_console",
+    "paper_markdown",
+    "real_traffic_markdown",
+    "seconds",
+]
+
+
+def seconds(t: float | None, digits: int = 1) -> str:
+    """A time for people to read: ``2.4 s`` (rounded to ``digits`` decimals), ``never`` for None.
+
+    Sample times are multiples of the step (k·0.2 s) and carry floating-point residue;
+    every print, caption and report shows them through this function.
+    """
+    return "never" if t is None else f"{t:.{digits}f} s"
+
+
+def paper_markdown(study: PaperStudy, command: str) -> str:
+    """``results.md``: the paper study beside the paper's numbers.
+
+    Args:
+        study: the study's result.
+        command: the command that produced it (shown in the report).
+    """
+    res = study.to_json()
+    paper = res["paper"]
+    demo = res["demo"]
+    lm, paper_rule = res["learning"], res.get("paper_rule", {})
+    lines = [
+        "# Reproduction of the paper's simulation study",
+        "",
+        f"Command: `{command}`",
+        "",
+        f"## Demonstration (p = {demo['risk']:g})",
+        "",
+        f"t_trg = {seconds(demo['t_trg_s'])} (paper: {seconds(paper['t_trg_s'])}); "
+        f"min s_e = {demo['min_s_e']:.2f} at x = {demo['x_at_min_s_e']:.0f} m; min d_k = "
+        f"{demo['min_d_k']:.2f}; collision: {demo['collision']}.",
+        "",
+        "## Learning (default: Levenberg–Marquardt in log θ)",
+        "",
+        "| features | iterations (paper) | converged | learning error | rmse_y [m] | "
+        "rmse_y reaction window [m] | rmse_xy [m] | wall time [s] | inner solve median [ms] |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name in ("base", "reactive"):
+        s = lm[name]
+        lines.append(
+            f"| {name} | {s['iterations']} ({paper['iterations'][name]}) | "
+            f"{s['converged']} | "
+            f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | {fmt(s['rmse_y_reaction_m'])} | "
+            f"{s['rmse_xy_m']:.3f} | {s['wall_time_s']:.2f} | {s['inner_solve_ms_median']:.2f} |"
+        )
+    if paper_rule:
+        lines += [
+            "",
+            f"## The paper's update rule (α = {res['paper_rule_alpha']:g}, "
+            "ε̄ = 0.01, at most 400 iterations)",
+            "",
+            "| features | iterations | converged | learning error | rmse_y [m] | "
+            "rmse_y reaction [m] | wall time [s] |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for name in ("base", "reactive"):
+            s = paper_rule[name]
+            lines.append(
+                f"| {name} | {s['iterations']} | {s['converged']} | "
+                f"{s['learning_error']:.3f} | {s['rmse_y_m']:.3f} | "
+                f"{fmt(s['rmse_y_reaction_m'])} | {s['wall_time_s']:.2f} |"
+            )
+    if "control_point_rule" in res:
+        lines += [
+            "",
+            "## Control-point rule (DESIGN §4)",
+            "",
+            "| rule | share of f_ay in segment 0 | base rmse_y [m] | reactive rmse_y [m] "
+            "| reactive rmse_y reaction [m] |",
+            "|---|---|---|---|---|",
+        ]
+        for rule, s in res["control_point_rule"].items():
+            lines.append(
+                f"| {rule} | {s['ay_first_segment_share']:.0%} | "
+                f"{s['base']['rmse_y_m']:.3f} | {s['reactive']['rmse_y_m']:.3f} | "
+                f"{fmt(s['reactive']['rmse_y_reaction_m'])} |"
+            )
+    lines += [
+        "",
+        "Figures: `demo/demo.png` (Fig. 2), `fig3_reproductions.png` (Fig. 3), "
+        "`fig4_lateral.png` (Fig. 4).",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def paper_console(study: PaperStudy) -> str:
+    """The lines ``reproduce_paper.py`` prints after the study (t_trg and each style)."""
+    res = study.to_json()
+    demo, paper = res["demo"], res["paper"]
+    lines = [f"  t_trg = {seconds(demo['t_trg_s'])} (paper {seconds(paper['t_trg_s'])})"]
+    for name in ("base", "reactive"):
+        s = res["learning"][name]
+        lines.append(
+            f"  {name:8s}: {s['iterations']:3d} iterations, rmse_y {s['rmse_y_m']:.3f} m, "
+            f"reaction window {fmt(s['rmse_y_reaction_m'])} m, {s['wall_time_s']:.2f} s"
+        )
+    return "\n".join(lines)
+
+
+def comparison_markdown(comparison: Comparison, command: str) -> str:
+    """``compare.md``: one row per method of a :class:`~.compare.Comparison`.
+
+    Args:
+        comparison: the comparison.
+        command: the command that produced it.
+    """
+    lines = [
+        "# SMPC vs spline reproduction vs SB3 on the learned reward",
+        "",
+        f"Command: `{command}`",
+        "",
+        "| method | learned cost θᵀf | feature error | rmse_y [m] | rmse_xy [m] | "
+        "rmse_y reaction [m] | min d_k | collision | compute | time [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, m in comparison.methods.items():
+        lines.append(
+            f"| {LABELS.get(name, name)} | {fmt(m['learned_cost'])} | "
+            f"{fmt(m['feature_error'])} | {fmt(m['rmse_y_m'])} | {fmt(m['rmse_xy_m'])} | "
+            f"{fmt(m['rmse_y_reaction_m'])} | {m['min_d_k']:.3f} | {m['collision']} | "
+            f"{m['compute']} | {fmt(m['compute_time_s'], 2)} |"
+        )
+    lines += ["", "Figure: `compare.png`.", ""]
+    return "\n".join(lines)
+
+
+def _av_hv_markdown(d: dict[str, Any]) -> str:
+    c = d["classifier_base_features"]
+    rows = [
+        "| set | n | median rmse_y (personal reactive) | median peak lateral accel | "
+        "median 10–90 % duration |",
+        "|---|---|---|---|---|",
+    ]
+    for s in ("AV", "HV"):
+        if s in d:
+            rows.append(
+                f"| {s} | {d['n'][s]} | {d[s]['rmse_y_personal_reactive_median_m']:.3f} m "
+                f"| {d[s]['peak_lateral_accel_mps2']:.2f} m/s² | "
+                f"{seconds(d[s]['duration_10_90_s'])} |"
+            )
+    rows += [
+        "",
+        f"Leave-one-out nearest-centroid classifier on the base-feature styles: "
+        f"{c['accuracy']:.0%} of {c['n']} (majority rate {c['majority_rate']:.0%}, "
+        f"one-sided binomial p = {c['p_value_vs_majority']:.2f}).",
+    ]
+    return "\n".join(rows)
+
+
+def real_traffic_markdown(study: RealTrafficStudy) -> str:
+    """``real_traffic.md``: medians per method, AV vs human (CATS), rmse_y per episode."""
+    medians = study.medians
+    methods = list(medians)  # REPRODUCTIONS, in its order
+    lines = [
+        f"# Real traffic: {study.dataset}",
+        "",
+        f"{study.n_used} of {study.n_episodes} episodes used (selection in envs/real_data.py).",
+        "",
+        "| method | median rmse_y [m] | median rmse_xy [m] | median fde [m] |",
+        "|---|---|---|---|",
+    ]
+    for m in methods:
+        lines.append(
+            f"| {m} | {fmt(medians[m]['rmse_y_m'])} | {fmt(medians[m]['rmse_xy_m'])} "
+            f"| {fmt(medians[m]['fde_m'])} |"
+        )
+    if study.av_vs_hv is not None:
+        lines += ["", "## AV vs human", "", _av_hv_markdown(study.av_vs_hv)]
+    lines += [
+        "",
+        "| episode | " + " | ".join(f"{m} rmse_y" for m in methods) + " |",
+        "|---|" + "---|" * len(methods),
+    ]
+    for r in study.episodes:
+        if "methods" in r:
+            lines.append(
+                f"| {r['episode_id']} | "
+                + " | ".join(fmt(r["methods"].get(m, {}).get("rmse_y_m")) for m in methods)
+                + " |"
+            )
+    return "\n".join(lines) + "\n"
