@@ -26,7 +26,7 @@ from drivestyle.agents.demo_generation import draw_interactive_scenarios, genera
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.envs.tracking import observe
-from drivestyle.irl.identification import learn_library
+from drivestyle.irl.library import learn_library
 from tqdm import tqdm
 
 from drivestyle.common.cli import positive_int, risk_list, run_cli
@@ -86,8 +86,7 @@ def main(argv: list[str] | None = None) -> dict:
         args.features,
         args.workers,
         progress,
-        meta={
-            "training_scenarios": [sc.to_dict() for sc in scenarios],
+        meta={  # the training scenarios are recorded from the demonstrations themselves
             "uncertainty": asdict(SMPCConfig().uncertainty),
             "observation": "tracked" if args.tracked else "true",
         },

@@ -26,19 +26,21 @@ import numpy as np
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.agents.studies.ceiling import identification_references, references_markdown
 from drivestyle.agents.studies.figures import plot_confusion, plot_noise_curve, plot_theta_vs_risk
-from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.envs.traffic import TrafficRanges
-from drivestyle.irl.identification import (
-    DEFAULT_SCORER,
-    LibraryError,
+from drivestyle.agents.studies.identification import (
+    Evaluation,
     evaluate_identification,
     evaluation_markdown,
-    load_library,
+    noise_curve_json,
+    noise_markdown,
 )
+from drivestyle.envs.scenario import ScenarioRanges
+from drivestyle.envs.traffic import TrafficRanges
+from drivestyle.irl.identification import DEFAULT_SCORER
+from drivestyle.irl.library import LibraryError, load_library
 from tqdm import tqdm
 
 from drivestyle.common.cli import float_list, positive_int, risk_list, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json, write_text
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -117,7 +119,8 @@ def main(argv: list[str] | None = None) -> dict:
     risks = [*grid, *[p for p in between if p not in grid]]
     demos_by_risk = generate_demonstrations(risks, scenarios, args.workers)
     demos = [d for p in risks for d in demos_by_risk[p]]
-    results, curves = {}, {}
+    results: dict[str, Evaluation] = {}
+    curves: dict[str, list[Evaluation]] = {}
     for name, lib in libraries.items():
         curves[name] = []
         for sigma in args.noise:
@@ -125,62 +128,43 @@ def main(argv: list[str] | None = None) -> dict:
                 res = evaluate_identification(
                     lib, demos, grid, bar.update, args.workers, sigma, args.seed
                 )
-            if sigma == args.noise[0]:
-                results[name] = res
-            curves[name].append(
-                {
-                    "noise_sigma_m": sigma,
-                    **res["summary"][DEFAULT_SCORER],
-                    "summary": res["summary"],
-                }
-            )
+            results.setdefault(name, res)  # the first noise level is the headline
+            curves[name].append(res)
     payload = {
         "grid_risks": grid,
         "between_risks": between,
         "seed": args.seed,
         "draw": args.draw,
         "held_out_scenarios": [sc.to_dict() for sc in scenarios],
-        "summary": {n: r["summary"] for n, r in results.items()},
-        "noise_curve": {
-            n: [{k: v for k, v in c.items() if k != "summary"} for c in cs]
-            for n, cs in curves.items()
-        },
-        "records": {n: r["records"] for n, r in results.items()},
+        "summary": {n: r.summary.to_json() for n, r in results.items()},
+        "noise_curve": {n: noise_curve_json(cs) for n, cs in curves.items()},
+        "records": {n: [rec.to_json() for rec in r.records] for n, r in results.items()},
     }
-    extra = []
-    if len(args.noise) > 1:
-        extra += [
-            "## Measurement noise (default scorer)",
-            "",
-            "| features | σ [m] | grid acc. (informative) | coverage |",
-            "|---|---|---|---|",
-        ]
-        for n, cs in curves.items():
-            extra += [
-                f"| {n} | {c['noise_sigma_m']:g} | {fmt(c['grid_accuracy_informative'], 2)} | "
-                f"{fmt(c['interval_coverage'], 2)} |"
-                for c in cs
-            ]
-        extra.append("")
+    extra = noise_markdown(curves) if len(args.noise) > 1 else []
     if args.references:
         dirs = {
             n: Path(p).parent if Path(p).suffix else Path(p)
             for n, p in zip(libraries, args.library, strict=True)
         }
-        payload["references"] = identification_references(libraries, dirs, demos, grid)
-        extra += references_markdown(payload["references"], results)
+        refs = identification_references(libraries, dirs, demos, grid)
+        payload["references"] = refs.to_json()
+        extra += references_markdown(refs, results)
     markdown = evaluation_markdown(results, extra)
     with atomic_output_dir(args.out) as tmp:
         for name in results:
             plot_confusion(
-                results[name]["records"],
+                results[name].records,
                 grid,
                 DEFAULT_SCORER,
                 tmp / f"confusion_{name}.png",
                 title=f"{name} features, scorer {DEFAULT_SCORER}",
             )
             if len(args.noise) > 1:
-                plot_noise_curve(curves[name], tmp / f"noise_curve_{name}.png", f"{name} features")
+                plot_noise_curve(
+                    noise_curve_json(curves[name]),
+                    tmp / f"noise_curve_{name}.png",
+                    f"{name} features",
+                )
         plot_theta_vs_risk(libraries, tmp / "theta_vs_risk.png")
         write_json(tmp / "evaluation.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "evaluation.md", markdown)

@@ -22,7 +22,8 @@ import time
 from pathlib import Path
 
 from drivestyle.envs.demonstration import load_demonstration
-from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify, load_library
+from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify
+from drivestyle.irl.library import load_library
 
 from drivestyle.common.cli import run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
@@ -41,12 +42,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--out", type=Path, default=Path("runs/identify"), help="output folder (replaced whole)"
     )
-    p.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help="accepted for a uniform interface; the work is deterministic",
-    )
     return p.parse_args(argv)
 
 
@@ -57,37 +52,35 @@ def main(argv: list[str] | None = None) -> dict:
     library = load_library(args.library)
     demos = [load_demonstration(p) for p in args.demos]
     t0 = time.perf_counter()
-    result = identify(demos, library, scorer=args.scorer)
-    true = [d.meta.get("risk") for d in demos]
-    result |= {
+    ident = identify(demos, library, scorer=args.scorer)
+    payload = ident.to_json() | {
         "identify_s": time.perf_counter() - t0,
         "library": str(args.library),
         "demos": [str(p) for p in args.demos],
-        "true_risk": true,
     }
     with atomic_output_dir(args.out) as tmp:
-        write_json(tmp / "identify.json", result, [sys.argv[0], *(argv or sys.argv[1:])])
-    known = sorted({float(p) for p in true if p is not None})
-    lo, hi = result["risk_interval"]
+        write_json(tmp / "identify.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    known = sorted({p for p in ident.true_risks if p is not None})
+    lo, hi = ident.risk_interval
     print(
-        f"risk estimate {result['risk_estimate']:g}, 90 % interval [{lo:g}, {hi:g}], "
-        f"posterior mean {result['risk_interpolated']:.3f} ({args.scorer} scorer, "
+        f"risk estimate {ident.risk_estimate:g}, 90 % interval [{lo:g}, {hi:g}], "
+        f"posterior mean {ident.risk_interpolated:.3f} ({args.scorer} scorer, "
         f"{len(demos)} demonstration{'s' if len(demos) > 1 else ''}"
         + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
     )
     print(
-        "  posterior: "
-        + ", ".join(f"p={float(p):g}: {q:.2f}" for p, q in result["posterior"].items())
+        "  posterior: " + ", ".join(f"p={p:g}: {q:.2f}" for p, q in ident.posterior_by_risk.items())
     )
-    if not result["informative"]:
+    if not ident.informative:
+        min_s_e = min(d.min_s_e for d in ident.per_demo)
         print(
             "  not informative: the TV never came near enough for the risk to matter "
-            f"(min s_e {min(result['min_s_e_per_demo']):.1f}); the interval is the whole grid"
+            f"(min s_e {min_s_e:.1f}); the interval is the whole grid"
         )
-    if not result["trigger_fired"]:
+    if not ident.trigger_fired:
         print("  note: the trigger never fired (the reactive features are inactive)")
-    print(f"  {result['identify_s']:.2f} s; wrote {args.out}/identify.json")
-    return result
+    print(f"  {payload['identify_s']:.2f} s; wrote {args.out}/identify.json")
+    return payload
 
 
 if __name__ == "__main__":

@@ -9,31 +9,87 @@ which is what the IRL route is for (docs/RESULTS.md §6).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
+from drivestyle.agents.studies.identification import Evaluation, knn_baseline
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.irl.identification import DEFAULT_SCORER, StyleLibrary, knn_baseline
+from drivestyle.irl.identification import DEFAULT_SCORER
+from drivestyle.irl.library import StyleLibrary
 
 from drivestyle.common.io import fmt
 
-__all__ = ["ceiling_identify", "identification_references", "references_markdown"]
+__all__ = [
+    "CeilingResult",
+    "CeilingSummary",
+    "KnnSummary",
+    "References",
+    "ceiling_identify",
+    "identification_references",
+    "references_markdown",
+]
 
 
-def ceiling_identify(demo: Demonstration, risks: Sequence[float]) -> dict[str, Any]:
+@dataclass(frozen=True)
+class CeilingResult:
+    """The ceiling's answer for one demonstration."""
+
+    risk_estimate: float
+    """The grid risk whose SMPC trajectory is closest."""
+    distances: Mapping[float, float]
+    """Risk → RMS position distance of its SMPC trajectory to the demonstration [m]."""
+    tied: tuple[float, ...]
+    """Risks within 1 cm of the best (the expert drives them identically here)."""
+
+
+@dataclass(frozen=True)
+class CeilingSummary:
+    """The ceiling on the grid demonstrations."""
+
+    grid_accuracy: float
+    tied_fraction: float
+    """Share of demonstrations the expert drives identically at another risk."""
+    grid_accuracy_untied: float | None
+    """Accuracy on the others (None: every demonstration is tied)."""
+
+
+@dataclass(frozen=True)
+class KnnSummary:
+    """The k-NN reference of one feature set on the grid demonstrations."""
+
+    grid_accuracy: float
+    grid_mae: float
+    n_train: int
+    """Training demonstrations (the library's own)."""
+
+
+@dataclass(frozen=True)
+class References:
+    """The two references of the identification evaluation."""
+
+    ceiling: CeilingSummary
+    knn: Mapping[str, KnnSummary]
+    """Feature-set name → k-NN on that library's training demonstrations."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict: ``ceiling`` and ``knn_<feature set>``."""
+        return {
+            "ceiling": asdict(self.ceiling),
+            **{f"knn_{name}": asdict(k) for name, k in self.knn.items()},
+        }
+
+
+def ceiling_identify(demo: Demonstration, risks: Sequence[float]) -> CeilingResult:
     """The grid risk whose SMPC trajectory in the demonstration's scenario is closest.
 
     Args:
         demo: the demonstration (its ``meta["scenario"]`` is simulated).
         risks: candidate risks.
-
-    Returns:
-        ``risk_estimate``, ``distances`` (risk → RMS position distance [m]) and
-        ``tied`` (risks within 1 cm of the best: the expert drives them identically here).
     """
     dist = {}
     for p in risks:
@@ -41,68 +97,58 @@ def ceiling_identify(demo: Demonstration, risks: Sequence[float]) -> dict[str, A
         n = min(sim.n, demo.n)
         diff = sim.ev[:n, :2] - demo.ev[:n, :2]
         dist[float(p)] = float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))
-    best = min(dist, key=dist.get)
-    return {
-        "risk_estimate": best,
-        "distances": dist,
-        "tied": [p for p, d in dist.items() if d <= dist[best] + 0.01],
-    }
+    best = min(dist, key=lambda p: dist[p])
+    return CeilingResult(
+        risk_estimate=best,
+        distances=dist,
+        tied=tuple(p for p, d in dist.items() if d <= dist[best] + 0.01),
+    )
 
 
 def identification_references(
-    libraries: dict[str, StyleLibrary],
-    library_dirs: dict[str, Path],
+    libraries: Mapping[str, StyleLibrary],
+    library_dirs: Mapping[str, Path],
     demos: Sequence[Demonstration],
     grid: Sequence[float],
-) -> dict[str, Any]:
+) -> References:
     """The ceiling and a k-NN baseline without IRL on the grid demonstrations.
 
     Args:
         libraries: feature-set name → library (its training demonstrations are read from
-            ``library_dirs[name] / "demos"`` for the k-NN baseline).
+            ``library_dirs[name] / "demos"`` for the k-NN baseline; a library without them
+            gets no k-NN).
         library_dirs: feature-set name → library folder.
         demos: held-out demonstrations with ``meta["risk"]``.
         grid: the grid risks (only their demonstrations are used).
-
-    Returns:
-        ``ceiling`` (grid accuracy, share of demonstrations the expert drives identically
-        at a neighbouring risk, accuracy on the others) and ``knn_<name>`` per library.
     """
     grid_demos = [d for d in demos if float(d.meta["risk"]) in set(grid)]
     ceiling = [ceiling_identify(d, grid) for d in grid_demos]
     truth = [float(d.meta["risk"]) for d in grid_demos]
-    out = {
-        "ceiling": {
-            "grid_accuracy": float(
-                np.mean([c["risk_estimate"] == p for c, p in zip(ceiling, truth, strict=True)])
-            ),
-            "tied_fraction": float(np.mean([len(c["tied"]) > 1 for c in ceiling])),
-            "grid_accuracy_untied": float(
-                np.mean(
-                    [
-                        c["risk_estimate"] == p
-                        for c, p in zip(ceiling, truth, strict=True)
-                        if len(c["tied"]) == 1
-                    ]
-                )
-            ),
-        }
-    }
+    hits = [c.risk_estimate == p for c, p in zip(ceiling, truth, strict=True)]
+    untied = [h for h, c in zip(hits, ceiling, strict=True) if len(c.tied) == 1]
+    knn = {}
     for name, lib in libraries.items():
         train_files = sorted((Path(library_dirs[name]) / "demos").glob("*.npz"))
         if not train_files:
             continue
         train = [load_demonstration(f) for f in train_files]
         est = knn_baseline(train, grid_demos, lib.features)
-        out[f"knn_{name}"] = {
-            "grid_accuracy": float(np.mean([e == p for e, p in zip(est, truth, strict=True)])),
-            "grid_mae": float(np.mean([abs(e - p) for e, p in zip(est, truth, strict=True)])),
-            "n_train": len(train),
-        }
-    return out
+        knn[name] = KnnSummary(
+            grid_accuracy=float(np.mean([e == p for e, p in zip(est, truth, strict=True)])),
+            grid_mae=float(np.mean([abs(e - p) for e, p in zip(est, truth, strict=True)])),
+            n_train=len(train),
+        )
+    return References(
+        ceiling=CeilingSummary(
+            grid_accuracy=float(np.mean(hits)),
+            tied_fraction=float(np.mean([len(c.tied) > 1 for c in ceiling])),
+            grid_accuracy_untied=float(np.mean(untied)) if untied else None,
+        ),
+        knn=knn,
+    )
 
 
-def references_markdown(refs: dict[str, Any], results: dict[str, Any]) -> list[str]:
+def references_markdown(refs: References, results: Mapping[str, Evaluation]) -> list[str]:
     """Markdown lines comparing IRL identification with the two references."""
     lines = [
         "## References on the same grid demonstrations",
@@ -113,18 +159,16 @@ def references_markdown(refs: dict[str, Any], results: dict[str, Any]) -> list[s
     for name, r in results.items():
         lines.append(
             f"| IRL library ({name}, {DEFAULT_SCORER}) | "
-            f"{fmt(r['summary'][DEFAULT_SCORER]['grid_accuracy'], 2)} |"
+            f"{fmt(r.summary.by_scorer[DEFAULT_SCORER].grid_accuracy, 2)} |"
         )
-    for key, r in refs.items():
-        if key.startswith("knn"):
-            lines.append(
-                f"| k-NN on features + scenario ({key[4:]}), no IRL | "
-                f"{fmt(r['grid_accuracy'], 2)} |"
-            )
-    c = refs["ceiling"]
+    for name, k in refs.knn.items():
+        lines.append(
+            f"| k-NN on features + scenario ({name}), no IRL | {fmt(k.grid_accuracy, 2)} |"
+        )
+    c = refs.ceiling
     lines.append(
-        f"| ceiling: simulate SMPC(p) in the demo's scenario | {fmt(c['grid_accuracy'], 2)} "
-        f"({fmt(c['tied_fraction'], 2)} of demos tied with a neighbour; untied "
-        f"{fmt(c['grid_accuracy_untied'], 2)}) |"
+        f"| ceiling: simulate SMPC(p) in the demo's scenario | {fmt(c.grid_accuracy, 2)} "
+        f"({fmt(c.tied_fraction, 2)} of demos tied with a neighbour; untied "
+        f"{fmt(c.grid_accuracy_untied, 2)}) |"
     )
     return [*lines, ""]

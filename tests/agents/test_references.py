@@ -8,15 +8,15 @@ from drivestyle.agents.demo_generation import (
     smpc_robustness,
 )
 from drivestyle.agents.studies.ceiling import ceiling_identify
-from drivestyle.irl.identification import knn_baseline
+from drivestyle.agents.studies.identification import knn_baseline
 
 
 def test_the_ceiling_recovers_the_expert_risk():
     scenario = draw_interactive_scenarios(1, seed=11)[0]
     demo, _ = generate_demonstration(0.8, scenario)
     res = ceiling_identify(demo, [0.5, 0.8, 0.95])
-    assert res["risk_estimate"] == 0.8
-    assert res["distances"][0.8] == pytest.approx(0.0, abs=1e-9)
+    assert res.risk_estimate == 0.8 and 0.8 in res.tied
+    assert res.distances[0.8] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_knn_with_one_neighbour_returns_a_training_demo_label():

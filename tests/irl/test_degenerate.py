@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from drivestyle.envs.demonstration import DemonstrationError
+from drivestyle.envs.scenario import PAPER
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl.identification import (
     DEFAULT_SCORER,
@@ -57,7 +58,11 @@ def test_degenerate_demonstrations_are_rejected(paper_demo, make, message):
     with pytest.raises(DemonstrationError, match=message):
         MaxEntIRL(bad, FeatureConfig(), IRLConfig(max_iter=2))
     library = StyleLibrary(
-        "reactive", (0.5, 0.9), ((1.0,) * 10, (2.0,) * 10), members=(((1.0,) * 10,),) * 2
+        "reactive",
+        (0.5, 0.9),
+        ((1.0,) * 10, (2.0,) * 10),
+        members=(((1.0,) * 10,),) * 2,
+        training_scenarios=(PAPER.to_dict(),),
     )
     with pytest.raises(LibraryError, match=message):
         identify(bad, library)
@@ -83,7 +88,11 @@ def test_learn_style_cli_refuses_a_demo_without_lane_change(tmp_path, paper_demo
 
 def test_library_without_members_is_rejected(tmp_path):
     lib = StyleLibrary(
-        "reactive", (0.5, 0.9), ((1.0,) * 10, (2.0,) * 10), members=(((1.0,) * 10,),) * 2
+        "reactive",
+        (0.5, 0.9),
+        ((1.0,) * 10, (2.0,) * 10),
+        members=(((1.0,) * 10,),) * 2,
+        training_scenarios=(PAPER.to_dict(),),
     )
     raw = lib.to_json()
     raw["members"] = {}

@@ -1,89 +1,124 @@
+"""Identification with a small library: typed results, identify.json's keys, refusals."""
+
 import json
 import runpy
+from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 import pytest
 from drivestyle.agents import generate_demonstration
-from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
+from drivestyle.agents.demo_generation import draw_interactive_scenarios
 from drivestyle.envs import Demonstration
 from drivestyle.irl.identification import (
-    LibraryError,
-    StyleLibrary,
+    DEFAULT_SCORER,
+    MIN_MEMBERS,
+    SCORERS,
+    Identification,
     identify,
     identify_all,
-    learn_library,
-    load_library,
 )
+from drivestyle.irl.library import LibraryError, StyleLibrary
 
 from drivestyle.common.io import write_json
 
 ROOT = Path(__file__).resolve().parents[2]
+IDENTIFY_JSON_KEYS = {
+    "scorer",
+    "risk_estimate",
+    "risk_interpolated",
+    "risk_interval",
+    "interval_mass",
+    "posterior",
+    "informative",
+    "informative_per_demo",
+    "min_s_e_per_demo",
+    "scores",
+    "all_scores",
+    "ranking",
+    "n_demos",
+    "trigger_fired",
+    "trigger_fired_per_demo",
+    "true_risk",
+}
 
 
-@pytest.fixture(scope="module")
-def small_library():
-    scenarios = draw_interactive_scenarios(2, seed=0)
-    demos = generate_demonstrations([0.5, 0.95], scenarios, workers=1)
-    return learn_library(
-        demos, "reactive", workers=1, meta={"training_scenarios": [s.to_dict() for s in scenarios]}
-    )
-
-
-def test_small_library_identifies_fresh_demos(small_library):
+def test_small_library_identifies_fresh_demos(style_library):
     held_out = draw_interactive_scenarios(1, seed=123)[0]
     for p in (0.5, 0.95):
         demo, _ = generate_demonstration(p, held_out)
-        results = identify_all(demo, small_library)
-        assert results["suboptimality"]["risk_estimate"] == p, results["suboptimality"]
-        assert results["suboptimality"]["ranking"][0] == p
-        assert set(results["rmse_y"]["scores"]) == {"0.5", "0.95"}
+        results = identify_all(demo, style_library)
+        assert set(results) == set(SCORERS)
+        sub = results["suboptimality"]
+        assert sub.risk_estimate == p == sub.ranking[0], sub
+        assert sub.true_risks == (p,) and sub.covers(p)
 
 
-def test_library_round_trip(tmp_path, small_library):
-    path = write_json(tmp_path / "library.json", small_library.to_json())
-    back = load_library(tmp_path)
-    assert back.risks == small_library.risks
-    np.testing.assert_allclose(np.array(back.thetas), np.array(small_library.thetas))
-    assert back.features == small_library.features
-    assert back.meta["training_scenarios"] == small_library.meta["training_scenarios"]
-    assert path.exists()
+def test_identify_returns_a_typed_result_with_the_documented_json(style_library, paper_demo):
+    res = identify([paper_demo, paper_demo], style_library)
+    assert isinstance(res, Identification) and res.scorer == DEFAULT_SCORER
+    assert res.risks == style_library.risks and sum(res.posterior) == pytest.approx(1.0)
+    js = res.to_json()
+    assert set(js) == IDENTIFY_JSON_KEYS
+    assert js["risk_interval"] == list(res.risk_interval)
+    assert set(js["posterior"]) == set(js["scores"]) == {"0.5", "0.95"}
+    assert (
+        set(js["all_scores"]) == set(SCORERS) and js["all_scores"][DEFAULT_SCORER] == js["scores"]
+    )
+    assert js["n_demos"] == 2 and js["true_risk"] == [0.7, 0.7]
+    assert js["ranking"] == [
+        js["risk_estimate"],
+        *(p for p in (0.5, 0.95) if p != res.risk_estimate),
+    ]
+    json.dumps(js)  # JSON-ready
 
 
-def test_empty_or_corrupt_library(tmp_path, small_library):
-    with pytest.raises(LibraryError, match="empty"):
-        StyleLibrary("reactive", (), ())
-    raw = small_library.to_json()
-    raw["theta"].pop("0.95")
-    (tmp_path / "library.json").write_text(json.dumps(raw))
-    with pytest.raises(LibraryError, match="corrupt"):
-        load_library(tmp_path)
-    (tmp_path / "bad.json").write_text("{not json")
-    with pytest.raises(LibraryError, match="not valid JSON"):
-        load_library(tmp_path / "bad.json")
-    with pytest.raises(FileNotFoundError):
-        load_library(tmp_path / "missing")
+def _first_scenarios(library: StyleLibrary, k: int) -> StyleLibrary:
+    """The same library learned in only its first k training scenarios."""
+    return replace(
+        library,
+        members=tuple(ms[:k] for ms in library.members),
+        training_scenarios=library.training_scenarios[:k],
+    )
 
 
-def test_demo_of_another_kind_is_rejected(small_library, paper_demo):
+def test_a_library_with_too_few_scenarios_is_refused(style_library, paper_demo):
+    # a 3-scenario library answered the paper demo of p = 0.7 with posterior 0.996 on p = 0.5
+    # (irl.identification.MIN_MEMBERS); it now says how many scenarios it needs
+    small = _first_scenarios(style_library, 3)
+    with pytest.raises(LibraryError, match=f"has 3 training scenarios .* at least {MIN_MEMBERS}"):
+        identify(paper_demo, small)
+    with pytest.raises(LibraryError, match="at least 10"):
+        identify(paper_demo, style_library, nearest=10)
+    assert identify(paper_demo, _first_scenarios(style_library, MIN_MEMBERS)).informative
+
+
+def test_demo_of_another_kind_is_rejected(style_library, paper_demo):
     tv = paper_demo.tv.copy()
     tv[:, 0] = tv[0, 0]
     tv[:, 3] = 0.0  # a TV that never moves: no interaction partner
     no_tv = Demonstration(paper_demo.t, paper_demo.ev, tv, paper_demo.u, dict(paper_demo.meta))
     with pytest.raises(LibraryError, match="no target vehicle"):
-        identify(no_tv, small_library)
+        identify(no_tv, style_library)
     with pytest.raises(ValueError, match="scorer"):
-        identify(paper_demo, small_library, scorer="likelihood")
+        identify(paper_demo, style_library, scorer="likelihood")
+    with pytest.raises(ValueError, match="at least one"):
+        identify([], style_library)
 
 
-def test_identify_script(tmp_path, small_library, paper_demo):
+def test_identify_script(tmp_path, style_library, paper_demo):
     from drivestyle.envs import save_demonstration
 
-    write_json(tmp_path / "lib" / "library.json", small_library.to_json())
+    write_json(tmp_path / "lib" / "library.json", style_library.to_json())
     demo = save_demonstration(paper_demo, tmp_path / "demo.npz")
     main = runpy.run_path(str(ROOT / "scripts" / "identify_style.py"), run_name="x")["main"]
     res = main([str(demo), "--library", str(tmp_path / "lib"), "--out", str(tmp_path / "o")])
     js = json.loads((tmp_path / "o" / "identify.json").read_text())
-    for key in ("risk_estimate", "scores", "ranking"):
-        assert key in js
-    assert res["risk_estimate"] in (0.5, 0.95)
+    assert set(js) >= IDENTIFY_JSON_KEYS | {"identify_s", "library", "demos"}
+    assert js["true_risk"] == [0.7] and res["risk_estimate"] in (0.5, 0.95)
+
+
+def test_identify_script_has_no_seed_option():
+    # --seed was accepted and did nothing (the work is deterministic)
+    parse = runpy.run_path(str(ROOT / "scripts" / "identify_style.py"), run_name="x")["parse_args"]
+    with pytest.raises(SystemExit):
+        parse(["demo.npz", "--library", "lib", "--seed", "3"])

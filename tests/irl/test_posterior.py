@@ -56,50 +56,21 @@ def test_bad_posterior_input():
         posterior_from_scores([], [])
 
 
-@pytest.fixture(scope="module")
-def tiny_library():
-    from drivestyle.agents.demo_generation import (
-        draw_interactive_scenarios,
-        generate_demonstrations,
-    )
-    from drivestyle.irl.identification import learn_library
-
-    scenarios = draw_interactive_scenarios(1, seed=3)
-    return learn_library(generate_demonstrations([0.5, 0.95], scenarios, 1), workers=1)
-
-
-def test_a_far_tv_gives_a_wide_interval_and_not_informative(tiny_library):
+def test_a_far_tv_gives_a_wide_interval_and_not_informative(style_library):
     far = PAPER.with_overrides(tv_gap=-150.0, tv_speed=28.0, ev_speed=25.0)
     demo, summary = generate_demonstration(0.7, far)
     assert summary["min_s_e"] >= S_E_INFORMATIVE
-    res = identify(demo, tiny_library)
-    assert res["informative"] is False
-    assert res["risk_interval"] == [0.5, 0.95]
-    assert res["posterior"] == {"0.5": 0.5, "0.95": 0.5}
+    res = identify(demo, style_library)
+    assert res.informative is False
+    assert res.risk_interval == (0.5, 0.95)
+    assert res.posterior_by_risk == {0.5: 0.5, 0.95: 0.5}
+    assert res.to_json()["posterior"] == {"0.5": 0.5, "0.95": 0.5}
 
 
-def test_identify_reports_a_posterior_and_interval(tiny_library, paper_demo):
-    res = identify(paper_demo, tiny_library)
-    assert res["informative"] is True
-    assert sum(res["posterior"].values()) == pytest.approx(1.0)
-    lo, hi = res["risk_interval"]
-    assert lo <= res["risk_estimate"] <= hi
-    assert min(tiny_library.risks) <= res["risk_interpolated"] <= max(tiny_library.risks)
-
-
-def test_nearest_members_follow_the_scenario():
-    from drivestyle.irl.identification import StyleLibrary
-
-    train = [
-        PAPER.with_overrides(ev_speed=v, tv_gap=g).to_dict()
-        for v, g in ((22.0, -30.0), (28.0, -10.0), (25.0, -20.0))
-    ]
-    members = (((1.0,) * 10, (2.0,) * 10, (3.0,) * 10),)
-    lib = StyleLibrary(
-        "reactive", (0.7,), ((1.0,) * 10,), meta={"training_scenarios": train}, members=members
-    )
-    here = PAPER.with_overrides(ev_speed=27.5, tv_gap=-11.0)
-    assert lib.styles(0, 1, here) == ((2.0,) * 10,)
-    assert lib.styles(0, 2, here) == ((2.0,) * 10, (3.0,) * 10)
-    assert lib.styles(0, None, here) == members[0]
-    assert lib.styles(0, 1, None) == ((1.0,) * 10,)  # no scenario: the first members
+def test_identify_reports_a_posterior_and_interval(style_library, paper_demo):
+    res = identify(paper_demo, style_library)
+    assert res.informative is True
+    assert sum(res.posterior) == pytest.approx(1.0)
+    lo, hi = res.risk_interval
+    assert lo <= res.risk_estimate <= hi
+    assert min(style_library.risks) <= res.risk_interpolated <= max(style_library.risks)

@@ -1,0 +1,352 @@
+"""Style libraries: learned styles by risk level, their file ``library.json`` and learning one.
+
+A *library* holds, per SMPC risk level p, one θ learned jointly from K demonstrations of
+that risk in shared scenarios of the random family and one θ per demonstration
+(*members*, in the order of the K ``training_scenarios``). Identification
+(:mod:`drivestyle.irl.identification`) scores, per risk, the members learned in the training
+scenarios nearest to an unseen demonstration's (DESIGN §8).
+
+A library is validated whole when it is built or loaded (:class:`LibraryError`, one line
+naming the problem): risks in (0, 1), increasing and distinct; one joint θ and K member θs per
+risk, each positive and of the feature set's length; K training scenarios, each with the
+quantities the scenario distance needs. A library that cannot answer honestly is refused
+rather than answered from.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.features import FeatureConfig
+from drivestyle.irl.learner import IRLConfig, MaxEntIRL
+
+from drivestyle.common.io import read_json
+from drivestyle.common.parallel import parallel_map
+
+__all__ = [
+    "SCENARIO_SCALE",
+    "LibraryError",
+    "StyleLibrary",
+    "learn_library",
+    "load_library",
+]
+
+SCENARIO_SCALE = {"ev_speed": 3.0, "tv_speed": 3.5, "tv_gap": 10.0}
+"""Units of the scenario distance: half the random family's range of each quantity."""
+_RESERVED = ("feature_set", "features", "risks", "theta", "feature_config", "members")
+"""Keys of ``library.json`` that are not metadata (besides ``training_scenarios``)."""
+
+
+class LibraryError(ValueError):
+    """A style library is empty, corrupt or inconsistent, or cannot answer a question."""
+
+
+def _check_theta(theta: Sequence[float], m: int, what: str) -> None:
+    if len(theta) != m or not all(math.isfinite(v) and v > 0 for v in theta):
+        raise LibraryError(f"{what} must be {m} positive numbers, got {list(theta)}")
+
+
+@dataclass(frozen=True)
+class StyleLibrary:
+    """Learned styles by risk level (module docstring), validated whole on construction."""
+
+    feature_set: str
+    """'base' or 'reactive'."""
+    risks: tuple[float, ...]
+    """Risk levels p in (0, 1), strictly increasing."""
+    thetas: tuple[tuple[float, ...], ...]
+    """Joint θ per risk (active features, FEATURES order)."""
+    features: FeatureConfig = field(default_factory=FeatureConfig)
+    """Feature configuration the styles were learned with."""
+    meta: dict[str, Any] = field(default_factory=dict)
+    """Per-risk fit, timings, seeds (``library.json``'s other keys)."""
+    members: tuple[tuple[tuple[float, ...], ...], ...] = ()
+    """Per risk, one θ per training scenario (in ``training_scenarios`` order)."""
+    training_scenarios: tuple[Mapping[str, Any], ...] = ()
+    """The K scenarios the members were learned in (their JSON form, ``ScenarioConfig``
+    fields); identification picks members by the distance of these to a demonstration's."""
+
+    def __post_init__(self) -> None:
+        if not self.risks:
+            raise LibraryError("the library is empty (no risk levels)")
+        for p in self.risks:
+            if not (isinstance(p, int | float) and 0 < p < 1):
+                raise LibraryError(f"library risk {p!r} is not in (0, 1)")
+        if list(self.risks) != sorted(self.risks) or len(set(self.risks)) != len(self.risks):
+            raise LibraryError(f"library risks must be distinct and increasing, got {self.risks}")
+        if self.feature_set != self.features.feature_set:
+            raise LibraryError(
+                f"feature_set {self.feature_set!r} but the feature configuration is "
+                f"{self.features.feature_set!r}"
+            )
+        if len(self.thetas) != len(self.risks):
+            raise LibraryError(f"{len(self.risks)} risks but {len(self.thetas)} joint thetas")
+        if len(self.members) != len(self.risks):
+            raise LibraryError(
+                f"{len(self.risks)} risks but {len(self.members)} member sets (one set of "
+                "per-demonstration styles per risk is needed)"
+            )
+        k = len(self.training_scenarios)
+        if k == 0:
+            raise LibraryError("the library records no training_scenarios")
+        m = len(self.features.names)
+        for p, theta, members in zip(self.risks, self.thetas, self.members, strict=True):
+            _check_theta(theta, m, f"joint theta of p={p:g}")
+            if len(members) != k:
+                raise LibraryError(
+                    f"p={p:g} has {len(members)} member styles but the library has {k} "
+                    "training_scenarios (one member per scenario)"
+                )
+            for j, theta_j in enumerate(members):
+                _check_theta(theta_j, m, f"member {j} of p={p:g}")
+        for j, sc in enumerate(self.training_scenarios):
+            bad = [
+                key
+                for key in SCENARIO_SCALE
+                if not (
+                    isinstance(sc, Mapping)
+                    and isinstance(sc.get(key), int | float)
+                    and math.isfinite(sc[key])
+                )
+            ]
+            if bad:
+                raise LibraryError(f"training scenario {j} has no finite {', '.join(bad)}")
+
+    @property
+    def n_scenarios(self) -> int:
+        """K: training scenarios, and member styles per risk."""
+        return len(self.training_scenarios)
+
+    def styles(
+        self, i: int, nearest: int | None = None, scenario: ScenarioConfig | None = None
+    ) -> tuple[tuple[float, ...], ...]:
+        """The member styles that represent risk i in a scenario.
+
+        The members learned in the ``nearest`` training scenarios closest to ``scenario``
+        (distance in :data:`SCENARIO_SCALE` units over EV speed, TV speed and TV gap); all
+        members if ``nearest`` is None or not smaller than K.
+
+        Raises:
+            ValueError: ``nearest`` is given without a scenario, or is < 1.
+        """
+        members = self.members[i]
+        if nearest is None or nearest >= len(members):
+            return members
+        if nearest < 1:
+            raise ValueError(f"nearest must be >= 1, got {nearest}")
+        if scenario is None:
+            raise ValueError("choosing the nearest members needs the demonstration's scenario")
+        keys = list(SCENARIO_SCALE)
+        scale = np.array([SCENARIO_SCALE[k] for k in keys])
+        here = np.array([getattr(scenario, k) for k in keys])
+        there = np.array([[float(sc[k]) for k in keys] for sc in self.training_scenarios])
+        order = np.argsort(np.linalg.norm((there - here) / scale, axis=1), kind="stable")
+        return tuple(members[j] for j in order[:nearest])
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (``library.json``)."""
+        fc = self.features
+        return {
+            "feature_set": self.feature_set,
+            "features": list(fc.names),
+            "risks": list(self.risks),
+            "theta": {str(p): list(t) for p, t in zip(self.risks, self.thetas, strict=True)},
+            "members": {
+                str(p): [list(t) for t in self.members[i]] for i, p in enumerate(self.risks)
+            },
+            "feature_config": {k: getattr(fc, k) for k in fc.__dataclass_fields__},
+            "training_scenarios": [dict(sc) for sc in self.training_scenarios],
+            **self.meta,
+        }
+
+    @classmethod
+    def from_json(cls, raw: Mapping[str, Any]) -> StyleLibrary:
+        """From :meth:`to_json`'s form, validated whole.
+
+        Raises:
+            LibraryError: a key is missing, malformed or inconsistent with the others.
+        """
+        try:
+            features = FeatureConfig.from_dict(raw["feature_config"])
+        except KeyError:
+            raise LibraryError("no 'feature_config'") from None
+        except (TypeError, ValueError) as exc:
+            raise LibraryError(f"invalid 'feature_config' ({exc})") from None
+        names = raw.get("features")
+        if names is not None and list(names) != list(features.names):
+            raise LibraryError(
+                f"'features' {names} are not those of the {features.feature_set!r} feature set"
+            )
+        raw_risks = _get_list(raw, "risks")
+        risks = tuple(_number(p, "risk") for p in raw_risks)
+        thetas = _per_risk(raw, "theta", raw_risks)
+        if not raw.get("members"):
+            raise LibraryError(
+                "the library has no per-demonstration 'members'; identification needs them "
+                "(rebuild it with build_style_library.py)"
+            )
+        members = _per_risk(raw, "members", raw_risks)
+        scenarios = _get_list(raw, "training_scenarios")
+        try:
+            members_t = tuple(tuple(tuple(_vector(t, "member")) for t in ms) for ms in members)
+            thetas_t = tuple(tuple(_vector(t, "theta")) for t in thetas)
+        except TypeError as exc:
+            raise LibraryError(str(exc)) from None
+        return cls(
+            feature_set=raw.get("feature_set", features.feature_set),
+            risks=risks,
+            thetas=thetas_t,
+            features=features,
+            meta={k: v for k, v in raw.items() if k not in (*_RESERVED, "training_scenarios")},
+            members=members_t,
+            training_scenarios=tuple(scenarios),
+        )
+
+
+def _get_list(raw: Mapping[str, Any], key: str) -> list:
+    value = raw.get(key)
+    if value is None:
+        raise LibraryError(f"no {key!r}")
+    if not isinstance(value, list):
+        raise LibraryError(f"{key!r} must be a list, got {type(value).__name__}")
+    return value
+
+
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise LibraryError(f"{what} {value!r} is not a number")
+    return float(value)
+
+
+def _vector(values: Any, what: str) -> list[float]:
+    if not isinstance(values, list):
+        raise TypeError(f"a {what} style must be a list of numbers, got {values!r}")
+    return [_number(v, f"{what} style entry") for v in values]
+
+
+def _per_risk(raw: Mapping[str, Any], key: str, risks: list) -> list:
+    """``raw[key]``'s entry of every risk (keyed by the risk as written, e.g. "0.5")."""
+    table = raw.get(key)
+    if not isinstance(table, dict):
+        raise LibraryError(f"no {key!r} table (risk → values)")
+    missing = [str(p) for p in risks if str(p) not in table]
+    if missing:
+        raise LibraryError(f"{key!r} has no entry for risk {', '.join(missing)}")
+    extra = sorted(set(table) - {str(p) for p in risks})
+    if extra:
+        raise LibraryError(f"{key!r} has entries for risks not in 'risks': {', '.join(extra)}")
+    return [table[str(p)] for p in risks]
+
+
+def load_library(path: str | Path) -> StyleLibrary:
+    """Read ``library.json`` (or a folder holding it), validated whole.
+
+    Raises:
+        FileNotFoundError: no such file.
+        LibraryError: malformed, empty or inconsistent library (one line naming the file and
+            the problem).
+    """
+    path, raw = read_json(path, "library.json", LibraryError, "style library")
+    try:
+        return StyleLibrary.from_json(raw)
+    except LibraryError as exc:
+        raise LibraryError(f"{path}: {exc}") from None
+
+
+def _learn_risk(risk: float, demos: list[Demonstration], feature_set: str) -> dict[str, Any]:
+    """Worker: one θ learned jointly from a risk's demonstrations and one per demonstration."""
+    t0 = time.perf_counter()
+    features = FeatureConfig(feature_set=feature_set)
+    learner = MaxEntIRL(demos, features, IRLConfig())
+    result = learner.learn()
+    members = [MaxEntIRL(d, features, IRLConfig()).learn().theta.tolist() for d in demos]
+    per_demo = [
+        {
+            "rmse_y_m": e["rmse_y_m"],
+            "rmse_y_reaction_m": e["rmse_y_reaction_m"],
+            "trigger_fired": p.basis.events.reactive_active,
+        }
+        for e, p in zip(result.errors, learner.problems, strict=True)
+    ]
+    return {
+        "risk": risk,
+        "theta": result.theta.tolist(),
+        "members": members,
+        "theta_normalised": result.theta_normalised.tolist(),
+        "iterations": result.iterations,
+        "converged": result.converged,
+        "learning_error": result.learning_error,
+        "per_demo": per_demo,
+        "learn_s": time.perf_counter() - t0,
+    }
+
+
+def learn_library(
+    demos_by_risk: Mapping[float, Sequence[Demonstration]],
+    feature_set: str = "reactive",
+    workers: int = 2,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+    meta: dict[str, Any] | None = None,
+) -> StyleLibrary:
+    """Learn a style library from demonstrations grouped by risk (in parallel processes).
+
+    Args:
+        demos_by_risk: risk p → its demonstrations, one per training scenario, the same
+            scenarios in the same order for every risk (so that the styles differ only by p).
+        feature_set: 'reactive' or 'base'.
+        workers: processes (1: in this process).
+        progress: called with each finished risk's record.
+        meta: stored in the library (seeds, observation, …).
+
+    Returns:
+        The library; its training scenarios are the demonstrations' own, and
+        ``meta["per_risk"]`` holds each risk's fit and timing.
+
+    Raises:
+        ValueError: no risks, a risk without demonstrations, or risks demonstrated in
+            different scenarios.
+    """
+    risks = sorted(float(p) for p in demos_by_risk)
+    if not risks:
+        raise ValueError("need demonstrations of at least one risk level")
+    by_risk = {float(p): list(ds) for p, ds in demos_by_risk.items()}
+    if any(not by_risk[p] for p in risks):
+        raise ValueError("every risk level needs at least one demonstration")
+    scenarios = [d.scenario.to_dict() for d in by_risk[risks[0]]]
+    for p in risks[1:]:
+        if [d.scenario.to_dict() for d in by_risk[p]] != scenarios:
+            raise ValueError(
+                f"the demonstrations of p={p:g} are not in the same scenarios (same order) as "
+                f"those of p={risks[0]:g}; a library compares risks in shared scenarios"
+            )
+    given = (meta or {}).get("training_scenarios")
+    if given is not None and list(given) != scenarios:
+        raise ValueError("meta['training_scenarios'] are not the demonstrations' scenarios")
+    args = [(p, by_risk[p], feature_set) for p in risks]
+    done = parallel_map(
+        _learn_risk, args, workers, None if progress is None else lambda _, rec: progress(rec)
+    )
+    records = {rec["risk"]: rec for rec in done}
+    return StyleLibrary(
+        feature_set=feature_set,
+        risks=tuple(risks),
+        thetas=tuple(tuple(records[p]["theta"]) for p in risks),
+        members=tuple(tuple(tuple(t) for t in records[p]["members"]) for p in risks),
+        features=FeatureConfig(feature_set=feature_set),
+        meta={
+            **{k: v for k, v in (meta or {}).items() if k != "training_scenarios"},
+            "per_risk": {
+                str(p): {k: v for k, v in records[p].items() if k not in ("theta", "members")}
+                for p in risks
+            },
+        },
+        training_scenarios=tuple(scenarios),
+    )
