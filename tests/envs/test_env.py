@@ -142,3 +142,128 @@ def test_human_mode_runs_headless():
         env.step(np.zeros(2))
     assert env.render() is None
     env.close()
+
+
+# ------------------------------------------------------------ gymnasium conformance
+@pytest.mark.parametrize("render_mode", [None, "rgb_array"])
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_check_env_passes_on_every_registered_id(env_id, render_mode):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # advisory: unbounded Box, wrapped env
+        check_env(gym.make(env_id, render_mode=render_mode))
+
+
+# ------------------------------------------------------------ step after the end
+class CountingReward:
+    """A RewardModel stub that counts its calls."""
+
+    crash_penalty = 5.0
+
+    def __init__(self):
+        self.steps = 0
+
+    def reset(self, scenario, ev, tv):
+        self.steps = 0
+
+    def step(self, u, ev, tv, dt):
+        self.steps += 1
+        return -1.0, np.zeros(1)
+
+
+def test_step_after_truncation_raises_until_reset():
+    env = LaneChangeEnv()
+    env.reset(seed=0)
+    trunc = False
+    while not trunc:
+        _, _, term, trunc, _ = env.step(np.zeros(2))
+        assert not term
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(np.zeros(2))
+    env.reset(seed=0)
+    env.step(np.zeros(2))  # a new episode steps again
+
+
+def test_step_after_termination_raises_and_charges_the_crash_once():
+    model = CountingReward()
+    # TV in the EV's lane, 20 m behind and much faster: a collision within a few steps
+    env = LaneChangeEnv(tv_lane=0, tv_speed=60.0, ev_speed=20.0, reward=model)
+    env.reset(seed=0)
+    rewards = []
+    for _ in range(20):
+        _, r, term, trunc, info = env.step(np.zeros(2))
+        rewards.append(r)
+        if term:
+            break
+    assert term and not trunc and info["collision"]
+    assert rewards[-1] == -1.0 - model.crash_penalty  # charged on the crash step
+    assert all(r == -1.0 for r in rewards[:-1])
+    n = model.steps
+    for _ in range(2):
+        with pytest.raises(RuntimeError, match="reset"):
+            env.step(np.zeros(2))
+    assert model.steps == n  # the reward model saw no further step: no second penalty
+
+
+def test_step_after_termination_through_gym_make_raises():
+    env = gym.make(ENV_IDS[0], tv_lane=0, tv_speed=60.0, ev_speed=20.0)
+    env.reset(seed=0)
+    term = False
+    while not term:
+        _, _, term, _, _ = env.step(np.zeros(2))
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(np.zeros(2))
+
+
+# ------------------------------------------------------------ clear errors on bad input
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "match"),
+    [
+        ({"ev_speed": "fast"}, TypeError, "ev_speed must be a number"),
+        ({"ev_speed": float("nan")}, ValueError, "ev_speed must be finite"),
+        ({"tv_speed": float("inf")}, ValueError, "tv_speed must be finite"),
+        ({"n_lanes": 3.0}, TypeError, "n_lanes must be an integer"),
+        ({"scenario": 123}, KeyError, "unknown scenario 123"),
+        ({"randomize": "yes"}, TypeError, "randomize"),
+        ({"show_ellipse": "no"}, TypeError, "show_ellipse"),
+        ({"reward": object()}, TypeError, "reward must be a RewardModel"),
+        ({"render_mode": "video"}, ValueError, "render_mode"),
+    ],
+)
+def test_bad_make_kwargs_are_clear_errors(kwargs, exc, match):
+    with warnings.catch_warnings(), pytest.raises(exc, match=match):
+        warnings.simplefilter("ignore")  # gymnasium's own warning about render_mode
+        gym.make(ENV_IDS[0], **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("options", "exc", "match"),
+    [
+        ({"scenario": "nope"}, KeyError, r"options\['scenario'\].*'nope'.*paper"),
+        ({"scenario": 5}, KeyError, r"options\['scenario'\].*unknown scenario 5"),
+        ({"scenario": None}, KeyError, r"options\['scenario'\]"),
+        ({"scenaro": "paper"}, ValueError, "unknown reset option"),
+        (["scenario"], TypeError, "options must be a dict"),
+        ("paper", TypeError, "options must be a dict"),
+    ],
+)
+def test_bad_reset_options_are_clear_errors(options, exc, match):
+    env = LaneChangeEnv()
+    with pytest.raises(exc, match=match):
+        env.reset(seed=0, options=options)
+    _, info = env.reset(seed=0, options={"scenario": "paper"})  # still usable
+    assert info["scenario"] == PAPER
+
+
+@pytest.mark.parametrize(
+    "action",
+    ["abc", {"a": 1.0}, None, np.array([1j, 0.0]), ["1.0", "0.0"], object()],
+    ids=["str", "dict", "None", "complex", "numeric-strings", "object"],
+)
+def test_non_numeric_action_is_a_clear_error(action):
+    env = LaneChangeEnv()
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # e.g. numpy's ComplexWarning: no silent casting
+        with pytest.raises(ValueError, match="action must be"):
+            env.step(action)
+    env.step(np.zeros(2))  # the episode goes on
