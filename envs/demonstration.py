@@ -465,7 +465,8 @@ def load_demonstration(path: str | Path) -> Demonstration:
         held = len(list(path.glob("*.npz")))
         raise DemonstrationError(
             f"{path} is a folder, not a demonstration file: pass its .npz files (it holds "
-            f"{held}); a demonstration is one .npz with arrays {', '.join(REQUIRED)} and meta"
+            f"{held or 'none'}); a demonstration is one .npz with arrays "
+            f"{', '.join(REQUIRED)} and meta"
         )
     if not path.is_file():
         raise FileNotFoundError(f"demonstration file not found: {path}")

@@ -71,7 +71,7 @@ def test_arrays_are_read_only():
 
 
 def _corrupt_files(tmp_path):
-    """A valid demonstration file, truncated and with a flipped byte in an array."""
+    """A valid demonstration file truncated, with a flipped byte in an array, and empty."""
     demo = Demonstration(**_arrays(), meta={"scenario": PAPER.to_dict()})
     raw = save_demonstration(demo, tmp_path / "good.npz").read_bytes()
     truncated = tmp_path / "truncated.npz"
@@ -80,15 +80,17 @@ def _corrupt_files(tmp_path):
     flipped[raw.find(b"ev.npy") + 200] ^= 0xFF  # inside the member's data: CRC fails
     crc = tmp_path / "crc.npz"
     crc.write_bytes(bytes(flipped))
-    return truncated, crc
+    empty = tmp_path / "empty.npz"
+    empty.write_bytes(b"")
+    return {truncated: "BadZipFile", crc: "BadZipFile: Bad CRC", empty: "EOFError"}
 
 
 def test_corrupt_npz_names_the_file(tmp_path):
-    for path in _corrupt_files(tmp_path):
+    for path, cause in _corrupt_files(tmp_path).items():
         with pytest.raises(DemonstrationError) as exc:
             load_demonstration(path)
         message = str(exc.value)
-        assert message.startswith(f"{path}: not a readable demonstration (BadZipFile"), message
+        assert message.startswith(f"{path}: not a readable demonstration ({cause}"), message
         assert "\n" not in message
 
 
