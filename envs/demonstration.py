@@ -96,7 +96,9 @@ class Demonstration:
     """One recorded or generated lane change, sampled at times ``t``.
 
     Arrays are validated on construction (shapes, finiteness, strictly increasing time,
-    at least 3 samples) and stored as read-only float64 copies.
+    at least 3 samples) and stored as read-only float64 copies; a ``meta["risk"]`` must lie
+    in (0, 1), since it is read as the true risk. The physics is checked separately
+    (:func:`check_plausible`), so that any demonstration can still be loaded and drawn.
     """
 
     t: np.ndarray
