@@ -323,6 +323,7 @@ class MaxEntIRL:
         self.f_demo = np.mean([p.f_demo for p in self.problems], axis=0)
         self._scale = np.maximum(np.abs(self.f_demo), self.config.f_floor)
         """Denominators of the relative feature errors (LM; the default initial θ is 1/scale)."""
+        # the state of the run in progress (one at a time: the problems' warm starts are shared)
         self._history: list[IterationRecord] = []
         self._inner_ms: list[float] = []
         self._inner_failures = 0
@@ -343,7 +344,8 @@ class MaxEntIRL:
         Returns:
             The learning result; ``history[i].control_points`` holds the reproduction at
             iteration i + 1 (iteration 1 is the initial θ). Its ``status`` is ``"stalled"``
-            when the inner problem failed at every trial θ of an iteration.
+            when the inner problem could not be solved at the next θ (paper rule) or at the
+            smallest of an iteration's trial steps (LM); θ is then the last solved one.
 
         Raises:
             InnerSolveError: the inner problem cannot be solved at the initial θ.

@@ -140,8 +140,9 @@ class FittedStyle:
         )
 
     def _mean(self, key: str) -> float | None:
-        values = [d.errors[key] for d in self.demos]
-        return None if any(v is None for v in values) else float(np.mean(values))
+        """Mean of an error over the demonstrations; None if one of them has none."""
+        values = [v for d in self.demos if (v := d.errors[key]) is not None]
+        return float(np.mean(values)) if len(values) == len(self.demos) else None
 
     @property
     def status(self) -> LearningStatus:
