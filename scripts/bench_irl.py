@@ -26,11 +26,12 @@ from drivestyle.agents import generate_demonstration
 from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
-from drivestyle.irl.identification import identify, load_library
+from drivestyle.irl.identification import identify
+from drivestyle.irl.library import load_library
 from tqdm import tqdm
 
 from drivestyle.common.cli import positive_int, run_cli
-from drivestyle.common.io import write_json
+from drivestyle.common.io import check_output_file, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -73,6 +74,7 @@ def time_identification(library_dir: Path, n: int, seed: int) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark; returns the JSON payload."""
     args = parse_args(argv)
+    check_output_file(args.out)
     demo = load_demonstration(args.demo) if args.demo else generate_demonstration(0.7)[0]
     result = {
         "repeats": args.repeats,

@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> dict:
     rate_per_core = one["demos_per_s"]
     result = {
         "vehicles": args.vehicles,
-        "simulate_wall_s_2_workers": pop.get("wall_s"),
+        "simulate_wall_s_2_workers": pop.wall_s,
         "runs": runs,
         "scaling_1_to_2": two["demos_per_s"] / one["demos_per_s"],
         "ray_overhead": (two["demos_per_s"] / runs[2]["demos_per_s"] - 1)

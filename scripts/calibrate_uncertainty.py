@@ -15,7 +15,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.calibration import plot_risk_sweep, uncertainty_scan
+from drivestyle.agents.studies.calibration import uncertainty_scan
+from drivestyle.agents.studies.figures import plot_risk_sweep
 from tqdm import tqdm
 
 from drivestyle.common.cli import float_list, risk_list, run_cli
@@ -50,12 +51,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Run the scan; returns the JSON payload."""
     args = parse_args(argv)
+    check_output_dir(args.out)
     if any(not s > 0 for s in args.scales):
         raise ValueError(f"--scales must be > 0, got {args.scales}")
-    check_output_dir(args.out)
     bar = tqdm(total=len(args.scales) * len(args.risks), desc="scale x risk")
-    payload, demos = uncertainty_scan(args.scales, args.risks, args.seed, lambda: bar.update(1))
+    scan = uncertainty_scan(args.scales, args.risks, args.seed, lambda: bar.update(1))
     bar.close()
+    payload, demos = scan.to_json(), scan.demos
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "calibration.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         if args.plot and demos:

@@ -18,14 +18,9 @@ import sys
 from pathlib import Path
 
 from drivestyle.agents import SMPCConfig, generate_demonstration
-from drivestyle.agents.studies.compare import (
-    LABELS,
-    compare_methods,
-    comparison_markdown,
-    heldout_comparison,
-    plot_comparison,
-    plot_heldout,
-)
+from drivestyle.agents.studies.compare import LABELS, compare_methods, heldout_comparison
+from drivestyle.agents.studies.figures import plot_comparison, plot_heldout
+from drivestyle.agents.studies.reports import comparison_markdown
 from drivestyle.envs import load_demonstration
 from drivestyle.irl.style import load_style
 from tqdm import tqdm
@@ -77,15 +72,15 @@ def heldout(args: argparse.Namespace, argv_full: list[str]) -> dict:
             models[name] = folder
     with tqdm(total=args.heldout, desc="held-out scenarios") as bar:
         res = heldout_comparison(style, models, args.heldout, args.seed, args.risk, bar.update)
-    payload = {"style": str(args.style), "seed": args.seed, "risk": args.risk, **res}
+    payload = {"style": str(args.style), "seed": args.seed, "risk": args.risk, **res.to_json()}
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "heldout.json", payload, argv_full)
         plot_heldout(res, tmp / "heldout.png")
-    for name, m in res["summary"].items():
+    for name, m in res.summary.items():
         print(
-            f"{name:7s} median rmse_y {fmt(m['median_rmse_y_m'])} m, collisions "
-            f"{m['collisions']}/{m['n']}, median cost {fmt(m['median_cost'])}, decision "
-            f"{fmt(m['decision_ms'], 3)} ms"
+            f"{name:7s} median rmse_y {fmt(m.median_rmse_y_m)} m, collisions "
+            f"{m.collisions}/{m.n}, median cost {fmt(m.median_cost)}, decision "
+            f"{fmt(m.decision_ms, 3)} ms"
         )
     return payload
 
@@ -94,7 +89,7 @@ def main(argv: list[str] | None = None) -> dict:
     """Run the comparison; returns the compare.json payload."""
     args = parse_args(argv)
     argv_full = [sys.argv[0], *(argv or sys.argv[1:])]
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=[args.style, args.model, args.sac_model, args.demo])
     if args.heldout:
         return heldout(args, argv_full)
     style = load_style(args.style)
@@ -107,17 +102,17 @@ def main(argv: list[str] | None = None) -> dict:
         if rerun.n == demo.n and abs(rerun.ev - demo.ev).max() < 1e-6:
             smpc_s = summary["solve_ms_total"] / 1e3
     res = compare_methods(style, demo, smpc_s, args.model)
-    payload = {"style": str(args.style), "demo": str(demo_path), "methods": res["methods"]}
+    payload = {"style": str(args.style), "demo": str(demo_path), **res.to_json()}
     with atomic_output_dir(args.out) as tmp:
         plot_comparison(
             demo,
-            res["trajectories"],
+            res.trajectories,
             tmp / "compare.png",
             title=f"driving the learned style ({', '.join(style.names[:3])}, …)",
         )
         write_json(tmp / "compare.json", payload, argv_full)
-        write_text(tmp / "compare.md", comparison_markdown(res["methods"], command_line(argv_full)))
-    for name, m in res["methods"].items():
+        write_text(tmp / "compare.md", comparison_markdown(res, command_line(argv_full)))
+    for name, m in res.methods.items():
         print(
             f"{LABELS.get(name, name):28s} cost {fmt(m['learned_cost']):>8s}  rmse_y "
             f"{fmt(m['rmse_y_m']):>6s} m  min d_k {m['min_d_k']:.2f}  collision "

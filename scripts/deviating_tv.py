@@ -56,7 +56,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Run the study; returns deviation.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=[args.style, args.model, args.demo])
     style = load_style(args.style)
     nominal = load_demonstration(args.demo or style.demo_path(args.style))
     if nominal.meta.get("risk") not in (None, args.risk):
@@ -71,18 +71,16 @@ def main(argv: list[str] | None = None) -> dict:
     payload = {
         "style": str(args.style),
         "model": None if args.model is None else str(args.model),
-        "deviation": res["deviation"],
-        "replan_every": args.replan_every,
-        "methods": res["methods"],
+        **res.to_json(),
     }
     with atomic_output_dir(args.out) as tmp:
         if not args.no_videos:
             payload["videos"] = write_videos(res, nominal.scenario, tmp)
         write_json(tmp / "deviation.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
-    for name, m in res["methods"].items():
+    for name, m in res.methods.items():
         print(
-            f"{name:17s} collision {m['collision']!s:5s} min d_k {m['min_d_k']:6.2f}  "
-            f"rmse_y vs SMPC {fmt(m['rmse_y_vs_smpc_m'])} m"
+            f"{name:17s} collision {m.collision!s:5s} min d_k {m.min_d_k:6.2f}  "
+            f"rmse_y vs SMPC {fmt(m.rmse_y_vs_smpc_m)} m"
         )
     return payload
 

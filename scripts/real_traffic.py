@@ -4,7 +4,8 @@ For every used episode: a personal style (reactive and base features), a general
 learned from the other episodes (leave-one-out) and constant-velocity extrapolation are
 compared with the recording (rmse_y, rmse_xy, final displacement error). Writes
 ``OUT/real_traffic.json``, ``OUT/real_traffic.md`` and one figure per episode under
-``OUT/episodes/`` (the study itself: irl/real_traffic.py). On CATS it also compares the
+``OUT/episodes/`` (the study itself: agents/studies/real_traffic.py; deterministic, so
+there is no ``--seed``). On CATS it also compares the
 computer-driven (AV) and human-driven (HV) lane changes and runs a leave-one-out
 classifier on the learned styles.
 
@@ -20,7 +21,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.real_traffic import run_study, study_markdown
+from drivestyle.agents.studies.real_traffic import run_study
+from drivestyle.agents.studies.reports import real_traffic_markdown
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from tqdm import tqdm
 
@@ -47,32 +49,27 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="drop the further vehicles (only the EV and its target vehicle, as before traffic)",
     )
-    p.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help="accepted for a uniform interface; the work is deterministic",
-    )
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Run the study; returns real_traffic.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=[args.data])
     loader = load_ngsim if args.dataset == "ngsim" else load_cats
     episodes = loader(args.data, neighbours=not args.no_neighbours)
     with atomic_output_dir(args.out) as tmp:
         n = sum(e.used for e in episodes) if args.limit is None else args.limit
         with tqdm(total=n, desc=f"{args.dataset} episodes") as bar:
-            payload = run_study(
+            study = run_study(
                 episodes, args.dataset, args.workers, tmp / "episodes", args.limit, bar.update
             )
+        payload = study.to_json()
         payload["neighbours"] = not args.no_neighbours
         payload["n_neighbours_per_episode"] = [
             int(e.demo.others.shape[1]) for e in episodes if e.used and e.demo is not None
         ]
-        markdown = study_markdown(payload)
+        markdown = real_traffic_markdown(study)
         write_json(tmp / "real_traffic.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "real_traffic.md", markdown)
     print("\n".join(markdown.splitlines()[:10]))

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from drivestyle.agents.studies.paper import (
@@ -24,10 +25,11 @@ from drivestyle.agents.studies.paper import (
     write_paper_results,
     write_paper_study,
 )
+from drivestyle.agents.studies.reports import paper_console
 from tqdm import tqdm
 
 from drivestyle.common.cli import positive_float, positive_int, risk_value, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt
+from drivestyle.common.io import atomic_output_dir, check_output_dir
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -86,35 +88,27 @@ def main(argv: list[str] | None = None) -> dict:
         demo_path=args.out / "demo" / "demo.npz",
     )
     steps.close()
-    payload = study["payload"]
     with atomic_output_dir(args.out) as tmp:
         write_paper_study(study, tmp, argv_full)
         if args.with_baseline:
-            payload["baseline"] = baseline_study(
+            baseline = baseline_study(
                 tmp / "reactive" / "style.json",
-                study["demo"],
-                study["demo_summary"]["solve_ms_total"] / 1e3,
+                study.demo,
+                study.demo_summary["solve_ms_total"] / 1e3,
                 tmp,
                 args.baseline_algo,
                 args.baseline_timesteps,
                 args.seed,
                 argv_full,
             )
-        payload["wall_time_total_s"] = time.perf_counter() - t_start
-        write_paper_results(payload, tmp, argv_full)
-    lm = payload["learning"]
+            study = replace(study, baseline=baseline)
+        study = replace(study, wall_time_total_s=time.perf_counter() - t_start)
+        write_paper_results(study, tmp, argv_full)
     print(
-        f"wrote {args.out}/results.json, results.md and figures "
-        f"({payload['wall_time_total_s']:.1f} s)"
+        f"wrote {args.out}/results.json, results.md and figures ({study.wall_time_total_s:.1f} s)"
     )
-    print(f"  t_trg = {study['demo_summary']['t_trg_s']} s (paper 3.0 s)")
-    for name in ("base", "reactive"):
-        s = lm[name]
-        print(
-            f"  {name:8s}: {s['iterations']:3d} iterations, rmse_y {s['rmse_y_m']:.3f} m, "
-            f"reaction window {fmt(s['rmse_y_reaction_m'])} m, {s['wall_time_s']:.2f} s"
-        )
-    return payload
+    print(paper_console(study))
+    return study.to_json()
 
 
 if __name__ == "__main__":

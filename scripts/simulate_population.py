@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> dict:
                 args.traffic_share,
                 args.jit,
                 progress=bar.update,
-            )
+            ).to_json()
         payload["wall_s"] = time.perf_counter() - t0
         write_json(tmp / "population.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
     print(

@@ -70,9 +70,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Run the training; returns the summary written to train.json."""
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=[args.style])
     try:
-        from drivestyle.agents.sb3_baseline import TrainConfig, plot_learning_curve, train_baseline
+        from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
+        from drivestyle.agents.studies.figures import plot_learning_curve
     except ImportError as exc:
         raise RuntimeError(
             f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"

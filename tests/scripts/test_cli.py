@@ -1,19 +1,24 @@
 """Every script: help on every option, and bad input ends in one `error:` line, no traceback."""
 
 import argparse
+import importlib
 import importlib.util
 import os
+import signal
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from drivestyle.common.io import atomic_output_dir
+from drivestyle.common.io import OutputPathError
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
+NO_SEED = {"identify_style", "learn_style", "real_traffic"}
+"""Deterministic scripts: a --seed there would do nothing, so they have none."""
 
 
 class _ParserCapturedError(Exception):
@@ -45,7 +50,8 @@ def test_every_option_says_what_it_does(script, monkeypatch):
         if not isinstance(a, argparse._HelpAction) and not a.help
     ]
     assert not undocumented, f"{script.name}: options without help: {undocumented}"
-    assert any("--seed" in a.option_strings for a in parser._actions), script.name
+    has_seed = any("--seed" in a.option_strings for a in parser._actions)
+    assert has_seed == (script.stem not in NO_SEED), script.name
 
 
 def _run(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
@@ -97,26 +103,75 @@ CASES = {
 def test_bad_input_ends_in_one_error_line(case, bad_files):
     args = [a.format(d=bad_files) for a in CASES[case]]
     run = _run(*args)
-    assert run.returncode != 0, run.stdout
+    assert run.returncode == 2, (run.returncode, run.stderr)  # cli.py: 2 for bad input
     assert "Traceback" not in run.stderr, run.stderr
     last = run.stderr.strip().splitlines()[-1]
     assert "error:" in last, run.stderr
     assert not any(p.name.startswith(".o") and "partial" in p.name for p in bad_files.iterdir())
 
 
-def test_an_interrupted_output_leaves_the_previous_folder(tmp_path):
-    out = tmp_path / "out"
-    with atomic_output_dir(out) as tmp:
-        (tmp / "a.json").write_text("old")
-    with pytest.raises(KeyboardInterrupt), atomic_output_dir(out) as tmp:
-        (tmp / "a.json").write_text("new, half")
-        raise KeyboardInterrupt
-    assert (out / "a.json").read_text() == "old"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+# ------------------------------------------------------------ outputs checked before the work
+UNWRITABLE = Path("/sys")  # no one, root included, can create files there
+MISSING = "/nonexistent/drivestyle-input"
+# every script that writes, with its output option pointing into UNWRITABLE and its inputs
+# missing: the output must be reported first (a later check would report the input, or run)
+WRITES = {
+    "bench_irl": ("--out", "b.json", ["--demo", MISSING]),
+    "bench_population": ("--out", "b.json", ["--library", MISSING]),
+    "bench_smpc": ("--out", "b.json", []),
+    "build_style_library": ("--out", "lib", []),
+    "calibrate_uncertainty": ("--out", "cal", []),
+    "compare_baseline": ("--out", "cmp", ["--style", MISSING]),
+    "deviating_tv": ("--out", "dev", ["--style", MISSING]),
+    "evaluate_identification": ("--out", "ev", ["--library", MISSING]),
+    "generate_demo": ("--out", "demo", []),
+    "identify_style": ("--out", "id", [f"{MISSING}.npz", "--library", MISSING]),
+    "learn_style": ("--out", "style", [f"{MISSING}.npz"]),
+    "mine_styles": ("--out", "mined", [MISSING, "--library", MISSING]),
+    "real_traffic": ("--out", "rt", ["--dataset", "ngsim", "--data", MISSING]),
+    "render_rollout": ("--video", "v.gif", ["--policy", "expert"]),
+    "reproduce_paper": ("--out", "paper", []),
+    "simulate_population": ("--out", "pop", ["--vehicles", "2"]),
+    "train_baseline": ("--out", "model", ["--style", MISSING]),
+}
 
 
-def test_merged_output_keeps_other_files(tmp_path):
-    (tmp_path / "demo.npz").write_text("demo")
-    with atomic_output_dir(tmp_path, replace=False) as tmp:
-        (tmp / "style.json").write_text("{}")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.npz", "style.json"]
+def test_every_script_that_writes_is_listed():
+    assert sorted(WRITES) == [p.stem for p in SCRIPTS]
+
+
+@pytest.fixture
+def time_limit():
+    """Fail (instead of running a whole job) when a script starts its work."""
+
+    def expire(signum, frame):
+        raise TimeoutError("the script started its work before checking its output")
+
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(60)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
+
+
+def _partials(folder: Path) -> set[str]:
+    return {p.name for p in folder.iterdir() if "partial" in p.name}
+
+
+@pytest.mark.parametrize("name", sorted(WRITES))
+def test_an_unwritable_output_is_reported_before_the_work(name, time_limit):
+    try:
+        os.rmdir(tempfile.mkdtemp(dir=UNWRITABLE))
+        pytest.skip(f"{UNWRITABLE} is writable here")
+    except OSError:
+        pass
+    option, leaf, rest = WRITES[name]
+    target = UNWRITABLE / f"drivestyle-test-{leaf}"
+    main = importlib.import_module(f"drivestyle.scripts.{name}").main
+    before = _partials(Path("/"))
+    with pytest.raises(OutputPathError) as info:
+        main([*rest, option, str(target)])
+    message = str(info.value)
+    assert message.startswith(f"{option} {target}: cannot create files in"), message
+    assert "partial" not in message  # the user's path, not a temporary one
+    assert _partials(Path("/")) == before  # nothing left at the root
