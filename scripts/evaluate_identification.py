@@ -24,14 +24,17 @@ from pathlib import Path
 
 import numpy as np
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
-from drivestyle.agents.studies.ceiling import identification_references, references_markdown
+from drivestyle.agents.studies.ceiling import identification_references
 from drivestyle.agents.studies.figures import plot_confusion, plot_noise_curve, plot_theta_vs_risk
 from drivestyle.agents.studies.identification import (
     Evaluation,
     evaluate_identification,
-    evaluation_markdown,
     noise_curve_json,
+)
+from drivestyle.agents.studies.reports import (
+    evaluation_markdown,
     noise_markdown,
+    references_markdown,
 )
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges

@@ -17,12 +17,9 @@ from typing import Any
 import numpy as np
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
-from drivestyle.agents.studies.identification import Evaluation, knn_baseline
+from drivestyle.agents.studies.identification import knn_baseline
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.irl.identification import DEFAULT_SCORER
 from drivestyle.irl.library import StyleLibrary
-
-from drivestyle.common.io import fmt
 
 __all__ = [
     "CeilingResult",
@@ -31,7 +28,6 @@ __all__ = [
     "References",
     "ceiling_identify",
     "identification_references",
-    "references_markdown",
 ]
 
 
@@ -146,29 +142,3 @@ def identification_references(
         ),
         knn=knn,
     )
-
-
-def references_markdown(refs: References, results: Mapping[str, Evaluation]) -> list[str]:
-    """Markdown lines comparing IRL identification with the two references."""
-    lines = [
-        "## References on the same grid demonstrations",
-        "",
-        "| method | grid accuracy |",
-        "|---|---|",
-    ]
-    for name, r in results.items():
-        lines.append(
-            f"| IRL library ({name}, {DEFAULT_SCORER}) | "
-            f"{fmt(r.summary.by_scorer[DEFAULT_SCORER].grid_accuracy, 2)} |"
-        )
-    for name, k in refs.knn.items():
-        lines.append(
-            f"| k-NN on features + scenario ({name}), no IRL | {fmt(k.grid_accuracy, 2)} |"
-        )
-    c = refs.ceiling
-    lines.append(
-        f"| ceiling: simulate SMPC(p) in the demo's scenario | {fmt(c.grid_accuracy, 2)} "
-        f"({fmt(c.tied_fraction, 2)} of demos tied with a neighbour; untied "
-        f"{fmt(c.grid_accuracy_untied, 2)}) |"
-    )
-    return [*lines, ""]

@@ -21,7 +21,6 @@ from drivestyle.envs.tracking import observe
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.identification import (
     DEFAULT_SCORER,
-    INTERVAL_MASS,
     SCORERS,
     DemoScores,
     Identification,
@@ -33,7 +32,6 @@ from drivestyle.irl.identification import (
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.library import LibraryError, StyleLibrary
 
-from drivestyle.common.io import fmt
 from drivestyle.common.parallel import parallel_map
 
 __all__ = [
@@ -43,10 +41,8 @@ __all__ = [
     "PooledAccuracy",
     "ScorerSummary",
     "evaluate_identification",
-    "evaluation_markdown",
     "knn_baseline",
     "noise_curve_json",
-    "noise_markdown",
     "pooled_accuracy",
 ]
 
@@ -403,67 +399,3 @@ def noise_curve_json(evaluations: Sequence[Evaluation]) -> list[dict[str, Any]]:
         }
         for e in evaluations
     ]
-
-
-def evaluation_markdown(results: Mapping[str, Evaluation], extra: Sequence[str] = ()) -> str:
-    """``evaluation.md``: per feature set and scorer, accuracy, MAE, intervals, pooling, timing.
-
-    Args:
-        results: feature-set name → its evaluation.
-        extra: further Markdown lines (references, noise curve).
-    """
-    lines = [
-        "# Style identification on held-out scenarios",
-        "",
-        f"Default scorer: {DEFAULT_SCORER}; interval: {INTERVAL_MASS:.0%} posterior mass.",
-        "",
-        "Demonstrations refused (not identifiable, e.g. no lane change): "
-        + ", ".join(f"{n} {r.summary.n_failed} of {r.summary.n}" for n, r in results.items()),
-        "",
-        "| features | scorer | grid acc. (informative) | grid acc. (all) | grid MAE "
-        "(informative) | between MAE (posterior mean) | interval coverage | interval width |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for name, r in results.items():
-        sm = r.summary
-        for s, m in sm.by_scorer.items():
-            lines.append(
-                f"| {name} | {s} | {fmt(m.grid_accuracy_informative, 2)} "
-                f"({sm.n_grid_informative}) | {fmt(m.grid_accuracy, 2)} ({sm.n_grid}) | "
-                f"{fmt(m.grid_mae_informative)} | {fmt(m.between_mae_interpolated)} | "
-                f"{fmt(m.interval_coverage, 2)} | {fmt(m.interval_width, 2)} |"
-            )
-    lines += [
-        "",
-        "| features | pooled 3 demos: accuracy single → pooled | interval width single → "
-        "pooled | transfer | identify s (median) |",
-        "|---|---|---|---|---|",
-    ]
-    for name, r in results.items():
-        sm, pl = r.summary, r.summary.pooled
-        lines.append(
-            f"| {name} | {fmt(pl.single_accuracy, 2)} → {fmt(pl.pooled_accuracy, 2)} "
-            f"({pl.n_pools} pools) | {fmt(pl.single_interval_width, 2)} → "
-            f"{fmt(pl.pooled_interval_width, 2)} | {fmt(sm.transfer_own_risk_best, 2)} "
-            f"(own style's median rmse_y {fmt(sm.own_style_rmse_y_median_m, 2)} m) | "
-            f"{fmt(sm.identify_s_median, 2)} |"
-        )
-    return "\n".join([*lines, "", *extra, ""])
-
-
-def noise_markdown(curves: Mapping[str, Sequence[Evaluation]]) -> list[str]:
-    """Markdown lines: the default scorer's accuracy and coverage per noise level."""
-    lines = [
-        "## Measurement noise (default scorer)",
-        "",
-        "| features | σ [m] | grid acc. (informative) | coverage |",
-        "|---|---|---|---|",
-    ]
-    for name, evaluations in curves.items():
-        for e in evaluations:
-            m = e.summary.by_scorer[DEFAULT_SCORER]
-            lines.append(
-                f"| {name} | {e.summary.noise_sigma_m:g} | "
-                f"{fmt(m.grid_accuracy_informative, 2)} | {fmt(m.interval_coverage, 2)} |"
-            )
-    return [*lines, ""]

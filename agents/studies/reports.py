@@ -1,28 +1,35 @@
 """Every Markdown report the studies write, and how they print times.
 
-Each function takes a study's typed result (or, for the identification evaluation, its
-JSON-ready records) and returns the Markdown text; the scripts write it beside the JSON.
+Each function takes a study's typed result and returns the Markdown text (or, for the
+parts of ``evaluation.md``, its lines); the scripts write it beside the JSON.
 Numbers are rounded here once, so a time reads ``2.4 s`` and never ``2.4000000000000004 s``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from drivestyle.agents.studies.compare import LABELS
+from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS
 
 from drivestyle.common.io import fmt
 
 if TYPE_CHECKING:
+    from drivestyle.agents.studies.ceiling import References
     from drivestyle.agents.studies.compare import Comparison
+    from drivestyle.agents.studies.identification import Evaluation
     from drivestyle.agents.studies.paper import PaperStudy
     from drivestyle.agents.studies.real_traffic import RealTrafficStudy
 
 __all__ = [
     "comparison_markdown",
+    "evaluation_markdown",
+    "noise_markdown",
     "paper_console",
     "paper_markdown",
     "real_traffic_markdown",
+    "references_markdown",
     "seconds",
 ]
 
@@ -209,3 +216,93 @@ def real_traffic_markdown(study: RealTrafficStudy) -> str:
                 + " |"
             )
     return "\n".join(lines) + "\n"
+
+
+def evaluation_markdown(results: Mapping[str, Evaluation], extra: Sequence[str] = ()) -> str:
+    """``evaluation.md``: per feature set and scorer, accuracy, MAE, intervals, pooling, timing.
+
+    Args:
+        results: feature-set name → its evaluation.
+        extra: further Markdown lines (references, noise curve).
+    """
+    lines = [
+        "# Style identification on held-out scenarios",
+        "",
+        f"Default scorer: {DEFAULT_SCORER}; interval: {INTERVAL_MASS:.0%} posterior mass.",
+        "",
+        "Demonstrations refused (not identifiable, e.g. no lane change): "
+        + ", ".join(f"{n} {r.summary.n_failed} of {r.summary.n}" for n, r in results.items()),
+        "",
+        "| features | scorer | grid acc. (informative) | grid acc. (all) | grid MAE "
+        "(informative) | between MAE (posterior mean) | interval coverage | interval width |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, r in results.items():
+        sm = r.summary
+        for s, m in sm.by_scorer.items():
+            lines.append(
+                f"| {name} | {s} | {fmt(m.grid_accuracy_informative, 2)} "
+                f"({sm.n_grid_informative}) | {fmt(m.grid_accuracy, 2)} ({sm.n_grid}) | "
+                f"{fmt(m.grid_mae_informative)} | {fmt(m.between_mae_interpolated)} | "
+                f"{fmt(m.interval_coverage, 2)} | {fmt(m.interval_width, 2)} |"
+            )
+    lines += [
+        "",
+        "| features | pooled 3 demos: accuracy single → pooled | interval width single → "
+        "pooled | transfer | identify s (median) |",
+        "|---|---|---|---|---|",
+    ]
+    for name, r in results.items():
+        sm, pl = r.summary, r.summary.pooled
+        lines.append(
+            f"| {name} | {fmt(pl.single_accuracy, 2)} → {fmt(pl.pooled_accuracy, 2)} "
+            f"({pl.n_pools} pools) | {fmt(pl.single_interval_width, 2)} → "
+            f"{fmt(pl.pooled_interval_width, 2)} | {fmt(sm.transfer_own_risk_best, 2)} "
+            f"(own style's median rmse_y {fmt(sm.own_style_rmse_y_median_m, 2)} m) | "
+            f"{fmt(sm.identify_s_median, 2)} |"
+        )
+    return "\n".join([*lines, "", *extra, ""])
+
+
+def noise_markdown(curves: Mapping[str, Sequence[Evaluation]]) -> list[str]:
+    """Markdown lines: the default scorer's accuracy and coverage per noise level."""
+    lines = [
+        "## Measurement noise (default scorer)",
+        "",
+        "| features | σ [m] | grid acc. (informative) | coverage |",
+        "|---|---|---|---|",
+    ]
+    for name, evaluations in curves.items():
+        for e in evaluations:
+            m = e.summary.by_scorer[DEFAULT_SCORER]
+            lines.append(
+                f"| {name} | {e.summary.noise_sigma_m:g} | "
+                f"{fmt(m.grid_accuracy_informative, 2)} | {fmt(m.interval_coverage, 2)} |"
+            )
+    return [*lines, ""]
+
+
+def references_markdown(refs: References, results: Mapping[str, Evaluation]) -> list[str]:
+    """Markdown lines comparing IRL identification with the two references."""
+    lines = [
+        "## References on the same grid demonstrations",
+        "",
+        "| method | grid accuracy |",
+        "|---|---|",
+    ]
+    for name, r in results.items():
+        lines.append(
+            f"| IRL library ({name}, {DEFAULT_SCORER}) | "
+            f"{fmt(r.summary.by_scorer[DEFAULT_SCORER].grid_accuracy, 2)} |"
+        )
+    for name, k in refs.knn.items():
+        lines.append(
+            f"| k-NN on features + scenario ({name}), no IRL | {fmt(k.grid_accuracy, 2)} |"
+        )
+    c = refs.ceiling
+    lines.append(
+        f"| ceiling: simulate SMPC(p) in the demo's scenario | {fmt(c.grid_accuracy, 2)} "
+        f"({fmt(c.tied_fraction, 2)} of demos tied with a neighbour; untied "
+        f"{fmt(c.grid_accuracy_untied, 2)}) |"
+    )
+    return [*lines, ""]

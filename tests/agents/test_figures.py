@@ -81,3 +81,25 @@ def test_every_plot_writes_a_png(paper_demo, tmp_path):
     path = figures.plot_risk_sweep({0.7: paper_demo}, tmp_path / "r.png")
     assert path.stat().st_size > 5_000
     assert np.isfinite(C).all()
+
+
+def test_only_the_figures_module_imports_matplotlib():
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    importers = []
+    for folder in ("drivestyle", "envs", "irl", "agents", "scripts"):
+        for path in (root / folder).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                names = (
+                    [a.name for a in node.names]
+                    if isinstance(node, ast.Import)
+                    else [node.module or ""]
+                    if isinstance(node, ast.ImportFrom)
+                    else []
+                )
+                if any(n.split(".")[0] == "matplotlib" for n in names):
+                    importers.append(str(path.relative_to(root)))
+                    break
+    assert importers == ["agents/studies/figures.py"], importers

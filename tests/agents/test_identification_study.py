@@ -5,12 +5,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
-from drivestyle.agents.studies.ceiling import CeilingSummary, References, references_markdown
-from drivestyle.agents.studies.identification import (
-    evaluate_identification,
+from drivestyle.agents.studies.ceiling import CeilingSummary, References
+from drivestyle.agents.studies.identification import evaluate_identification, noise_curve_json
+from drivestyle.agents.studies.reports import (
     evaluation_markdown,
-    noise_curve_json,
     noise_markdown,
+    references_markdown,
 )
 from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS
 

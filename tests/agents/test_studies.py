@@ -68,3 +68,17 @@ def test_population_is_typed_and_keeps_the_population_keys(tmp_path):
         "wall_s",
     ]
     assert js["wall_s"] > 0 and js["vehicles"][1]["id"] == "v000001"
+
+
+def test_every_markdown_writer_lives_in_reports():
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    writers = []
+    for folder in ("drivestyle", "envs", "irl", "agents"):
+        for path in (root / folder).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.FunctionDef) and "markdown" in node.name:
+                    writers.append(f"{path.relative_to(root)}:{node.name}")
+    assert writers and all(w.startswith("agents/studies/reports.py:") for w in writers), writers
