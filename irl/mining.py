@@ -1,10 +1,12 @@
 """Styles of a whole population: per demonstration a personal style and an identified risk.
 
-:class:`Miner` (a stateful shell holding one style library) turns one demonstration into one row of
-:data:`COLUMNS`: the personal style learned by ME-IRL (θ normalised per group, fit errors), the
-identified risk with its 90 % interval (:func:`drivestyle.irl.identification.identify`) and timings.
-A demonstration that cannot be mined (malformed, no lane change, a solver failure) becomes a row
-with ``status = "failed"`` and the error, never a crashed job.
+:class:`Miner` (a stateful shell holding one style library) turns one demonstration into one
+:class:`MinedRow` (a row of ``styles.csv``, columns :data:`COLUMNS`): the personal style
+learned by ME-IRL (θ normalised per group, fit errors), the identified risk with its 90 %
+interval (:func:`drivestyle.irl.identification.identify`) and timings. A demonstration that
+cannot be mined (an unreadable file, malformed data, no lane change, a solver failure, any
+error at all) becomes a row with ``status = "failed"`` and a one-line error naming the file,
+never a crashed job.
 
 Engines run the rows in parallel and hand each finished row to a callback (so callers can
 write them as they come and resume after an interruption):
@@ -12,49 +14,71 @@ write them as they come and resume after an interruption):
 - ``local`` (default): worker processes on this machine
   (:func:`drivestyle.common.parallel.parallel_map`), one :class:`Miner` per worker;
 - ``ray``: Ray actors, one :class:`Miner` each, on ``ray.init()`` here or a cluster at
-  ``address``; an actor that dies is restarted and its task retried (``max_restarts``,
-  ``max_task_retries``), so a killed worker does not lose the job. Ray is an optional
-  extra (``pip install -e '.[ray]'``).
+  ``address`` (reached within a timeout, else a one-line error); an actor that dies is
+  restarted and its task retried (:data:`RAY_TASK_RETRIES` times, then the demonstration
+  is a failed row), so a killed worker does not lose the job and a demonstration that kills
+  every worker does not stall it. Ray is an optional extra (``pip install -e '.[ray]'``).
 
 Both engines compute identical rows (timings aside): the work is deterministic.
+
+:class:`MiningOutput` is the output folder of a resumable run: ``styles.csv`` appended row
+by row, ``fingerprint.json`` (which input and which library the rows come from; a run with
+another input or library is refused unless it starts over), a lock held while a run writes
+(a second run into the same folder is refused), and repair of a last row torn by a kill.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
+import io
 import json
 import math
 import os
+import socket
 import time
-from collections.abc import Callable, Iterable, Sequence
-from pathlib import Path
+from collections import Counter, deque
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path, PurePath
+from types import TracebackType
 from typing import Any
 
 import numpy as np
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.irl.identification import StyleLibrary, identify
-from drivestyle.irl.inner import InnerSolveError
+from drivestyle.irl.identification import identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
+from drivestyle.irl.library import StyleLibrary
 
+from drivestyle.common.io import write_text
 from drivestyle.common.parallel import parallel_map
+
+try:  # POSIX; elsewhere the output folder is not locked
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None  # type: ignore[assignment]
 
 __all__ = [
     "COLUMNS",
+    "CONNECT_TIMEOUT_S",
     "ENGINES",
-    "FAULT_ONCE_ENV",
+    "RAY_TASK_RETRIES",
     "TIMING_COLUMNS",
+    "MinedRow",
     "Miner",
+    "MiningOutput",
+    "MiningOutputError",
     "MiningTask",
+    "RunFingerprint",
     "finished_ids",
+    "library_digest",
     "mine",
     "read_rows",
     "summary_numbers",
 ]
 
 ENGINES = ("local", "ray")
-FAULT_ONCE_ENV = "DRIVESTYLE_FAULT_ONCE"
-"""Fault injection for the fault-tolerance tests: if this environment variable names a file
-that does not exist, the first worker to mine creates it and kills its own process."""
+STATUSES = ("ok", "failed")
 COLUMNS = (
     "id",
     "source",
@@ -79,9 +103,190 @@ COLUMNS = (
 order, the interval is [risk_lo, risk_hi]."""
 TIMING_COLUMNS = ("learn_s", "identify_s")
 """Columns that differ between runs (wall times)."""
+MAX_ERROR_CHARS = 500
+"""A failed row's error is one line of at most this many characters."""
+RAY_TASK_RETRIES = 2
+"""Retries of a demonstration whose Ray worker died (then it is a failed row): a worker
+killed once loses nothing, and a demonstration that kills every worker cannot stall the job."""
+CONNECT_TIMEOUT_S = 10.0
+"""Time to reach a Ray head at ``address`` before giving up [s] (Ray itself retries for
+minutes without a word)."""
 
-MiningTask = tuple[str, str, Demonstration | str]
+MiningTask = tuple[str, str, "Demonstration | str | os.PathLike[str]"]
 """(id, source, demonstration or the path of its ``.npz``)."""
+
+
+def _one_line(text: str) -> str:
+    """``text`` on one line (whitespace runs collapsed), cut to :data:`MAX_ERROR_CHARS`."""
+    flat = " ".join(text.split())
+    return flat if len(flat) <= MAX_ERROR_CHARS else flat[: MAX_ERROR_CHARS - 1] + "…"
+
+
+def _opt_float(text: str) -> float | None:
+    return None if text == "" else float(text)
+
+
+def _opt_int(text: str) -> int | None:
+    return None if text == "" else int(text)
+
+
+def _opt_bool(text: str) -> bool | None:
+    if text == "":
+        return None
+    if text not in ("True", "False"):
+        raise ValueError(f"expected True or False, got {text!r}")
+    return text == "True"
+
+
+def _opt_theta(text: str) -> tuple[float, ...] | None:
+    if text == "":
+        return None
+    values = json.loads(text)
+    if not isinstance(values, list):
+        raise ValueError(f"theta_normalised must be a JSON list, got {text!r}")
+    return tuple(float(v) for v in values)
+
+
+@dataclass(frozen=True)
+class MinedRow:
+    """One demonstration's mining result: a row of ``styles.csv`` (fields = :data:`COLUMNS`).
+
+    An ``ok`` row has every estimate; a ``failed`` row has its one-line ``error`` and only
+    what was known before the failure (the true risk, at most). Missing values are None
+    (empty cells in the CSV).
+    """
+
+    id: str
+    """The demonstration's id (its file's stem, or its path under the input folder when
+    stems repeat; a recorded episode's id)."""
+    source: str
+    """The input folder or dataset it came from."""
+    status: str
+    """"ok" or "failed"."""
+    error: str = ""
+    """Why mining failed (one line naming the file), empty when ok."""
+    true_risk: float | None = None
+    """The risk in the demonstration's metadata (simulated vehicles), else None."""
+    risk_estimate: float | None = None
+    """Posterior mode."""
+    risk_lo: float | None = None
+    """Lower end of the 90 % interval."""
+    risk_hi: float | None = None
+    """Upper end of the 90 % interval."""
+    risk_mean: float | None = None
+    """Posterior mean."""
+    informative: bool | None = None
+    """Whether the TV came near enough for the risk to matter."""
+    trigger_fired: bool | None = None
+    """Whether the reaction trigger fired."""
+    theta_normalised: tuple[float, ...] | None = None
+    """The personal style, normalised per feature group (the library's feature order)."""
+    rmse_y_m: float | None = None
+    """Lateral fit error of the personal style [m]."""
+    rmse_xy_m: float | None = None
+    """Position fit error of the personal style [m]."""
+    iterations: int | None = None
+    """ME-IRL outer iterations."""
+    converged: bool | None = None
+    """Whether ME-IRL reached its stopping criterion."""
+    learn_s: float | None = None
+    """Wall time of learning the style [s]."""
+    identify_s: float | None = None
+    """Wall time of identification [s]."""
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.id, str) and self.id):
+            raise ValueError(f"a mined row needs a non-empty id, got {self.id!r}")
+        if self.status not in STATUSES:
+            raise ValueError(
+                f"row {self.id}: status must be one of {STATUSES}, got {self.status!r}"
+            )
+        if "\n" in self.error or "\r" in self.error:
+            raise ValueError(f"row {self.id}: the error must be one line")
+        if self.status == "failed":
+            if not self.error:
+                raise ValueError(f"row {self.id}: a failed row needs its error")
+            return
+        if self.error:
+            raise ValueError(f"row {self.id}: an ok row has no error, got {self.error!r}")
+        needed = ("risk_estimate", "risk_lo", "risk_hi", "risk_mean", "theta_normalised")
+        missing = [k for k in needed if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"row {self.id}: an ok row needs {', '.join(missing)}")
+        assert self.risk_lo is not None and self.risk_hi is not None  # checked above
+        if not self.risk_lo <= self.risk_hi:
+            raise ValueError(f"row {self.id}: interval [{self.risk_lo}, {self.risk_hi}] is empty")
+
+    @classmethod
+    def failed(
+        cls, demo_id: str, source: str, error: str, true_risk: float | None = None
+    ) -> MinedRow:
+        """A failed row (``error`` is flattened to one line)."""
+        return cls(demo_id, source, "failed", _one_line(error) or "unknown error", true_risk)
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict keyed by :data:`COLUMNS` (missing values None, θ a list)."""
+        out = asdict(self)
+        if self.theta_normalised is not None:
+            out["theta_normalised"] = list(self.theta_normalised)
+        return out
+
+    def to_csv(self) -> dict[str, str]:
+        """The ``styles.csv`` cells (missing values empty, θ as a JSON list)."""
+        cells = {}
+        for key, value in asdict(self).items():
+            if value is None:
+                cells[key] = ""
+            elif key == "theta_normalised":
+                cells[key] = json.dumps(list(value))
+            else:
+                cells[key] = str(value)
+        return cells
+
+    @classmethod
+    def from_csv(cls, record: Mapping[str | None, Any]) -> MinedRow:
+        """A row from ``styles.csv``'s cells (a ``csv.DictReader`` record).
+
+        Raises:
+            ValueError: a torn or malformed row (cells missing or extra, a value that does
+                not parse, an inconsistent row).
+        """
+        if None in record or any(record.get(c) is None for c in COLUMNS):
+            raise ValueError("torn row (wrong number of cells)")
+        cell = {c: str(record[c]) for c in COLUMNS}
+        return cls(
+            id=cell["id"],
+            source=cell["source"],
+            status=cell["status"],
+            error=cell["error"],
+            true_risk=_opt_float(cell["true_risk"]),
+            risk_estimate=_opt_float(cell["risk_estimate"]),
+            risk_lo=_opt_float(cell["risk_lo"]),
+            risk_hi=_opt_float(cell["risk_hi"]),
+            risk_mean=_opt_float(cell["risk_mean"]),
+            informative=_opt_bool(cell["informative"]),
+            trigger_fired=_opt_bool(cell["trigger_fired"]),
+            theta_normalised=_opt_theta(cell["theta_normalised"]),
+            rmse_y_m=_opt_float(cell["rmse_y_m"]),
+            rmse_xy_m=_opt_float(cell["rmse_xy_m"]),
+            iterations=_opt_int(cell["iterations"]),
+            converged=_opt_bool(cell["converged"]),
+            learn_s=_opt_float(cell["learn_s"]),
+            identify_s=_opt_float(cell["identify_s"]),
+        )
+
+    def without_timings(self) -> MinedRow:
+        """The row with the wall times removed (what two runs must agree on)."""
+        return replace(self, learn_s=None, identify_s=None)
+
+
+def _round(value: float | None) -> float | None:
+    return None if value is None else round(float(value), 6)
+
+
+def _describe(exc: BaseException, where: str | None) -> str:
+    text = f"{type(exc).__name__}: {exc}"
+    return text if where is None or where in text else f"{type(exc).__name__}: {where}: {exc}"
 
 
 class Miner:
@@ -96,44 +301,46 @@ class Miner:
         self.library = library
         self.irl = irl or IRLConfig()
 
-    def mine(self, demo_id: str, source: str, demo: Demonstration | str) -> dict[str, Any]:
-        """One row of :data:`COLUMNS` (``status`` "ok" or "failed" with ``error``)."""
-        marker = os.environ.get(FAULT_ONCE_ENV)
-        if marker and not os.path.exists(marker):
-            Path(marker).write_text(str(os.getpid()))
-            os._exit(1)  # a worker killed mid-run (tests only)
-        row: dict[str, Any] = dict.fromkeys(COLUMNS, "")
-        row |= {"id": demo_id, "source": source, "status": "failed"}
+    def mine(
+        self, demo_id: str, source: str, demo: Demonstration | str | os.PathLike[str]
+    ) -> MinedRow:
+        """One row: ``status`` "ok", or "failed" with a one-line error naming the file."""
+        where: str | None = None
+        true_risk: float | None = None
         try:
             if not isinstance(demo, Demonstration):
-                demo = load_demonstration(demo)
+                where = os.fspath(demo)
+                demo = load_demonstration(where)
             true = demo.meta.get("risk")
-            row["true_risk"] = "" if true is None else float(true)
+            true_risk = None if true is None else float(true)
             t0 = time.perf_counter()
             result = MaxEntIRL(demo, self.library.features, self.irl).learn()
-            row["learn_s"] = time.perf_counter() - t0
+            learn_s = time.perf_counter() - t0
             t0 = time.perf_counter()
             ident = identify(demo, self.library)
-            row["identify_s"] = time.perf_counter() - t0
-        except (OSError, ValueError, RuntimeError, InnerSolveError) as exc:
-            row["error"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")
-            return row
-        lo, hi = ident["risk_interval"]
-        row |= {
-            "status": "ok",
-            "risk_estimate": ident["risk_estimate"],
-            "risk_lo": lo,
-            "risk_hi": hi,
-            "risk_mean": round(ident["risk_interpolated"], 6),
-            "informative": ident["informative"],
-            "trigger_fired": ident["trigger_fired"],
-            "theta_normalised": json.dumps([round(v, 6) for v in result.theta_normalised]),
-            "rmse_y_m": round(result.errors[0]["rmse_y_m"], 6),
-            "rmse_xy_m": round(result.errors[0]["rmse_xy_m"], 6),
-            "iterations": result.iterations,
-            "converged": result.converged,
-        }
-        return row
+            identify_s = time.perf_counter() - t0
+            lo, hi = ident.risk_interval
+            return MinedRow(
+                id=demo_id,
+                source=source,
+                status="ok",
+                true_risk=true_risk,
+                risk_estimate=ident.risk_estimate,
+                risk_lo=lo,
+                risk_hi=hi,
+                risk_mean=round(ident.risk_interpolated, 6),
+                informative=ident.informative,
+                trigger_fired=ident.trigger_fired,
+                theta_normalised=tuple(round(float(v), 6) for v in result.theta_normalised),
+                rmse_y_m=_round(result.errors[0]["rmse_y_m"]),
+                rmse_xy_m=_round(result.errors[0]["rmse_xy_m"]),
+                iterations=result.iterations,
+                converged=result.converged,
+                learn_s=learn_s,
+                identify_s=identify_s,
+            )
+        except Exception as exc:  # any error is this demonstration's row, never the job's
+            return MinedRow.failed(demo_id, source, _describe(exc, where), true_risk)
 
 
 _MINER: Miner | None = None
@@ -144,7 +351,7 @@ def _init_miner(library: StyleLibrary) -> None:
     _MINER = Miner(library)
 
 
-def _mine_task(demo_id: str, source: str, demo: Demonstration | str) -> dict[str, Any]:
+def _mine_task(demo_id: str, source: str, demo: Demonstration | str) -> MinedRow:
     assert _MINER is not None, "worker not initialised"
     return _MINER.mine(demo_id, source, demo)
 
@@ -153,7 +360,7 @@ def _run_local(
     tasks: Sequence[MiningTask],
     library: StyleLibrary,
     workers: int,
-    on_row: Callable[[dict[str, Any]], None],
+    on_row: Callable[[MinedRow], None],
 ) -> None:
     parallel_map(
         _mine_task,
@@ -165,16 +372,64 @@ def _run_local(
     )
 
 
+def _head_endpoint(address: str) -> tuple[str, int] | None:
+    """(host, port) of a Ray head address; None for ``auto``/``local`` (Ray finds those)."""
+    if address in ("auto", "local"):
+        return None
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "", address
+    rest = rest.split("/", 1)[0]
+    default = 10001 if scheme == "ray" else 6379  # Ray client / GCS ports
+    if rest.startswith("["):  # [IPv6]:port
+        host, _, tail = rest[1:].partition("]")
+        port_text = tail.removeprefix(":")
+    else:
+        host, _, port_text = rest.rpartition(":") if ":" in rest else (rest, "", "")
+    if not port_text:
+        return host, default
+    try:
+        return host, int(port_text)
+    except ValueError:
+        raise ValueError(f"Ray address {address!r}: port {port_text!r} is not a number") from None
+
+
+def _check_reachable(address: str, timeout_s: float) -> None:
+    """Raise ConnectionError unless a TCP connection to the Ray head opens within the time."""
+    endpoint = _head_endpoint(address)
+    if endpoint is None:
+        return
+    try:
+        with socket.create_connection(endpoint, timeout=timeout_s):
+            pass
+    except OSError as exc:
+        why = exc.strerror or str(exc) or type(exc).__name__
+        raise ConnectionError(
+            f"cannot reach the Ray head at {address} within {timeout_s:g} s ({why}); "
+            "is the cluster running and the address right?"
+        ) from None
+
+
+def _ray_failure(exc: Exception) -> str:
+    """One line for a task that Ray could not complete."""
+    cause = getattr(exc, "cause", None)  # RayTaskError carries the worker's exception
+    if isinstance(cause, BaseException):
+        return f"{type(cause).__name__}: {cause}"
+    lines = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {lines[0] if lines else ''}"
+
+
 def _run_ray(
     tasks: Sequence[MiningTask],
     library: StyleLibrary,
     workers: int,
-    on_row: Callable[[dict[str, Any]], None],
+    on_row: Callable[[MinedRow], None],
     address: str | None,
+    connect_timeout_s: float,
 ) -> None:
     try:
         import ray
-        from ray.util import ActorPool
+        from ray.exceptions import RayActorError, RayError
     except ImportError:
         raise RuntimeError(
             "the ray engine needs Ray: pip install -c constraints-cpu.txt -e '.[ray]'"
@@ -183,14 +438,34 @@ def _run_ray(
     if started:
         kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
         if address:
+            _check_reachable(address, connect_timeout_s)
             ray.init(address=address, **kwargs)
         else:
             ray.init(num_cpus=workers, **kwargs)
     try:
-        actor = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=-1)(Miner)
+        retried = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=RAY_TASK_RETRIES)
+        actor: Any = retried(Miner)
         # the library travels with each actor (small), so a restarted actor rebuilds itself
-        pool = ActorPool([actor.remote(library) for _ in range(workers)])
-        for row in pool.map_unordered(lambda a, t: a.mine.remote(*t), list(tasks)):
+        free: list[Any] = [actor.remote(library) for _ in range(min(workers, len(tasks)))]
+        queue = deque(tasks)
+        running: dict[Any, tuple[Any, MiningTask]] = {}
+        while queue or running:
+            while free and queue:
+                a, task = free.pop(), queue.popleft()
+                running[a.mine.remote(*task)] = (a, task)
+            (ref,), _ = ray.wait(list(running), num_returns=1)
+            a, (demo_id, source, demo) = running.pop(ref)
+            free.append(a)
+            try:
+                row = ray.get(ref)
+            except RayError as exc:  # the worker died on every try, or Ray failed: a row
+                where = (
+                    str(demo) if isinstance(demo, str | PurePath) else f"demonstration {demo_id}"
+                )
+                tries = f" ({RAY_TASK_RETRIES + 1} tries)" if isinstance(exc, RayActorError) else ""
+                row = MinedRow.failed(
+                    demo_id, source, f"{where}: the Ray worker failed{tries}: {_ray_failure(exc)}"
+                )
             on_row(row)
     finally:
         if started:
@@ -202,84 +477,351 @@ def mine(
     library: StyleLibrary,
     engine: str = "local",
     workers: int = 2,
-    on_row: Callable[[dict[str, Any]], None] | None = None,
+    on_row: Callable[[MinedRow], None] | None = None,
     address: str | None = None,
-) -> list[dict[str, Any]]:
+    connect_timeout_s: float = CONNECT_TIMEOUT_S,
+) -> list[MinedRow]:
     """Mine every task's demonstration; rows are handed to ``on_row`` as they finish.
 
     Args:
-        tasks: (id, source, demonstration or path).
+        tasks: (id, source, demonstration or path); ids must be unique.
         library: the style library.
         engine: ``"local"`` or ``"ray"``.
         workers: processes (local) or actors (ray).
         on_row: called with each finished row (completion order).
         address: Ray cluster address (``ray`` only; None: start Ray on this machine).
+        connect_timeout_s: time to reach the head at ``address`` [s].
 
     Returns:
-        The rows, in task order.
+        The rows, in task order; a demonstration that could not be mined is a failed row.
 
     Raises:
-        ValueError: an unknown engine or a bad worker count.
+        ValueError: an unknown engine, a bad worker count or repeated ids (rows are matched
+            to demonstrations by id).
         RuntimeError: ``ray`` without Ray installed.
+        ConnectionError: the Ray head at ``address`` cannot be reached.
     """
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    if not (connect_timeout_s > 0 and math.isfinite(connect_timeout_s)):
+        raise ValueError(f"connect_timeout_s must be a finite number > 0, got {connect_timeout_s}")
     tasks = list(tasks)
-    rows: dict[str, dict[str, Any]] = {}
+    ids = [t[0] for t in tasks]
+    if len(set(ids)) < len(ids):
+        repeated = sorted(i for i, n in Counter(ids).items() if n > 1)
+        raise ValueError(
+            f"demonstration ids must be unique (rows are matched by id), repeated: "
+            f"{', '.join(repeated[:5])}{' …' if len(repeated) > 5 else ''}"
+        )
+    rows: dict[str, MinedRow] = {}
 
-    def collect(row: dict[str, Any]) -> None:
-        rows[row["id"]] = row
+    def collect(row: MinedRow) -> None:
+        rows[row.id] = row
         if on_row is not None:
             on_row(row)
 
+    if not tasks:
+        return []
     if engine == "local":
         _run_local(tasks, library, workers, collect)
     else:
-        _run_ray(tasks, library, workers, collect, address)
-    return [rows[t[0]] for t in tasks]
+        _run_ray(tasks, library, workers, collect, address, connect_timeout_s)
+    return [rows[i] for i in ids]
 
 
-def read_rows(path: str | Path) -> list[dict[str, str]]:
-    """Rows of an existing ``styles.csv`` (empty if there is none).
+# ------------------------------------------------------------------- the output folder
+TABLE = "styles.csv"
+FINGERPRINT = "fingerprint.json"
+LOCK = ".lock"
+RESULTS = (TABLE, "summary.json", "population.png", FINGERPRINT)
+"""The files a run writes in its output folder (``force`` removes exactly these)."""
+
+
+class MiningOutputError(ValueError):
+    """An output folder cannot take this run (another run's rows, in use, not a mining table)."""
+
+
+def library_digest(library: StyleLibrary) -> str:
+    """SHA-256 of a library's content (its ``library.json`` form, keys sorted)."""
+    text = json.dumps(library.to_json(), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class RunFingerprint:
+    """Which input and which library the rows of an output folder come from."""
+
+    input: str
+    """The input folder (resolved), or ``dataset:FOLDER`` for a recorded dataset."""
+    library: str
+    """Where the library was read from (resolved; for messages)."""
+    library_sha256: str
+    """The library's identity (:func:`library_digest`): a moved copy is the same library,
+    one rebuilt in place is not."""
+
+    @classmethod
+    def of(cls, input_id: str, library_path: str | Path, library: StyleLibrary) -> RunFingerprint:
+        """The fingerprint of mining ``input_id`` with ``library`` read from ``library_path``."""
+        return cls(input_id, str(Path(library_path).resolve()), library_digest(library))
+
+    def same_run(self, other: RunFingerprint) -> bool:
+        """Whether rows of ``other`` belong to this run (same input, same library content)."""
+        return self.input == other.input and self.library_sha256 == other.library_sha256
+
+    def to_json(self) -> dict[str, str]:
+        """JSON-ready dict (``fingerprint.json``)."""
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, raw: Any) -> RunFingerprint:
+        """From :meth:`to_json`'s form.
+
+        Raises:
+            ValueError: not such a dict.
+        """
+        if not isinstance(raw, dict) or not all(isinstance(raw.get(k), str) for k in cls.keys()):
+            raise ValueError(f"not a mining fingerprint: {raw!r}")
+        return cls(**{k: raw[k] for k in cls.keys()})
+
+    @classmethod
+    def keys(cls) -> tuple[str, ...]:
+        """The JSON keys."""
+        return tuple(cls.__dataclass_fields__)
+
+
+def _parse_table(text: str, what: str) -> tuple[list[MinedRow], int, bool]:
+    """(valid rows, first of each id; rows dropped; whether there was a header).
 
     Raises:
-        ValueError: the file's header is not :data:`COLUMNS` (another file).
+        MiningOutputError: the header is not :data:`COLUMNS`.
+    """
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    if reader.fieldnames is None:
+        return [], 0, False
+    if tuple(reader.fieldnames) != COLUMNS:
+        raise MiningOutputError(
+            f"{what} is not a styles.csv of this version (columns {reader.fieldnames})"
+        )
+    rows: list[MinedRow] = []
+    seen: set[str] = set()
+    dropped = 0
+    for record in reader:
+        try:
+            row = MinedRow.from_csv(record)
+        except (ValueError, TypeError):
+            dropped += 1
+            continue
+        if row.id in seen:  # written twice (an older version's concurrent runs)
+            dropped += 1
+            continue
+        seen.add(row.id)
+        rows.append(row)
+    return rows, dropped, True
+
+
+def _csv_line(row: MinedRow | None) -> str:
+    """The header (None) or one row as CSV text."""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=COLUMNS)
+    if row is None:
+        writer.writeheader()
+    else:
+        writer.writerow(row.to_csv())
+    return buf.getvalue()
+
+
+def read_rows(path: str | Path) -> list[MinedRow]:
+    """The valid rows of an existing ``styles.csv`` (empty if there is none).
+
+    A torn last line, malformed rows and repeated ids (all but the first) are skipped.
+
+    Raises:
+        MiningOutputError: the file's header is not :data:`COLUMNS` (another file).
     """
     path = Path(path)
     if not path.is_file():
         return []
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        if tuple(reader.fieldnames or ()) != COLUMNS:
-            raise ValueError(
-                f"{path} is not a styles.csv of this version (columns {reader.fieldnames})"
-            )
-        return [r for r in reader if r.get("id") and r.get("status") in ("ok", "failed")]
+    raw = path.read_bytes()
+    text = raw[: raw.rfind(b"\n") + 1].decode("utf-8", errors="replace")
+    return _parse_table(text, str(path))[0]
 
 
-def finished_ids(rows: Iterable[dict[str, Any]]) -> set[str]:
+def finished_ids(rows: Iterable[MinedRow]) -> set[str]:
     """Ids of rows that are complete (ok or failed): a resumed job skips them."""
-    return {r["id"] for r in rows if r.get("status") in ("ok", "failed")}
+    return {r.id for r in rows}
 
 
-def summary_numbers(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """Accuracy of the estimates where the true risk is known (ok rows)."""
+class MiningOutput:
+    """The output folder of a resumable mining run (module docstring); a context manager.
 
-    def num(v: Any) -> float:
+    On entering: takes the folder's lock (a second run is refused; a lock left by a dead
+    process is free again, the kernel releases it), checks ``fingerprint.json`` against this
+    run's (``force``: delete the earlier run's results first), repairs ``styles.csv`` (drops
+    a torn last row, malformed rows and repeated ids, so those demonstrations are mined
+    again) and opens it for appending. On leaving: closes the table and releases the lock.
+
+    Args:
+        folder: the output folder (created).
+        fingerprint: this run's input and library.
+        force: start over, deleting the results of any earlier run (:data:`RESULTS`).
+
+    Raises (on entering):
+        MiningOutputError: the folder is in use by another run, holds the rows of another
+            input or library (or of a version without fingerprints), or its ``styles.csv``
+            is another file.
+    """
+
+    def __init__(
+        self, folder: str | Path, fingerprint: RunFingerprint, force: bool = False
+    ) -> None:
+        self.folder = Path(folder)
+        self.fingerprint = fingerprint
+        self.force = force
+        self.table = self.folder / TABLE
+        self.repaired = 0
+        """Rows dropped from the table on entering (torn, malformed or repeated)."""
+        self._rows: dict[str, MinedRow] = {}
+        self._lock_fd: int | None = None
+        self._fh: io.TextIOWrapper | None = None
+
+    # -- context manager
+    def __enter__(self) -> MiningOutput:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self._acquire_lock()
         try:
-            return float(v)
-        except (TypeError, ValueError):
-            return math.nan
+            if self.force:
+                for name in RESULTS:
+                    (self.folder / name).unlink(missing_ok=True)
+            self._check_fingerprint()
+            self._load_table()
+            write_text(
+                self.folder / FINGERPRINT, json.dumps(self.fingerprint.to_json(), indent=2) + "\n"
+            )
+            self._fh = self.table.open("a", newline="")
+        except BaseException:
+            self._release_lock()
+            raise
+        return self
 
-    ok = [r for r in rows if r["status"] == "ok" and not math.isnan(num(r["true_risk"]))]
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+        self._release_lock()
+
+    # -- rows
+    @property
+    def rows(self) -> list[MinedRow]:
+        """Every row of the table (the earlier runs' and this one's), in file order."""
+        return list(self._rows.values())
+
+    def finished_ids(self) -> set[str]:
+        """Ids already in the table (a resumed run skips them)."""
+        return set(self._rows)
+
+    def append(self, row: MinedRow) -> bool:
+        """Write a row and flush it (a row on disk is a row a rerun skips).
+
+        Returns:
+            False if a row of this id is already in the table (it is not written twice).
+        """
+        if self._fh is None:
+            raise RuntimeError("MiningOutput.append outside its with-block")
+        if row.id in self._rows:
+            return False
+        self._fh.write(_csv_line(row))
+        self._fh.flush()
+        self._rows[row.id] = row
+        return True
+
+    # -- internals
+    def _acquire_lock(self) -> None:
+        if fcntl is None:  # pragma: no cover - no flock on this platform
+            return
+        fd = os.open(self.folder / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise MiningOutputError(
+                f"{self.folder} is in use by another mining run (pid {holder}); wait for it "
+                "to finish or choose another --out"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        self._lock_fd = fd
+
+    def _release_lock(self) -> None:
+        if self._lock_fd is not None and fcntl is not None:
+            fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
+            os.close(self._lock_fd)
+        self._lock_fd = None
+
+    def _check_fingerprint(self) -> None:
+        path = self.folder / FINGERPRINT
+        has_rows = self.table.is_file() and self.table.stat().st_size > 0
+        if not path.is_file():
+            if has_rows:
+                raise MiningOutputError(
+                    f"{self.table} has no {FINGERPRINT} beside it (an older version's output): "
+                    "its input and library are unknown; choose another --out or pass --force "
+                    "to start over"
+                )
+            return
+        try:
+            old = RunFingerprint.from_json(json.loads(path.read_text()))
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise MiningOutputError(
+                f"{path} is malformed ({exc}); pass --force to start over"
+            ) from None
+        if not has_rows or old.same_run(self.fingerprint):
+            return
+        new = self.fingerprint
+        diff = []
+        if old.input != new.input:
+            diff.append(f"input {old.input} (this run: {new.input})")
+        if old.library_sha256 != new.library_sha256:
+            diff.append(
+                f"library {old.library} sha256 {old.library_sha256[:12]} (this run: "
+                f"{new.library} sha256 {new.library_sha256[:12]})"
+            )
+        raise MiningOutputError(
+            f"{self.folder} holds the rows of another run: {'; '.join(diff)}; choose another "
+            "--out or pass --force to start over"
+        )
+
+    def _load_table(self) -> None:
+        if not self.table.is_file():
+            write_text(self.table, _csv_line(None))
+            return
+        raw = self.table.read_bytes()
+        complete = raw[: raw.rfind(b"\n") + 1]  # a last line without its end was torn by a kill
+        text = complete.decode("utf-8", errors="replace")
+        rows, dropped, has_header = _parse_table(text, str(self.table))
+        self.repaired = dropped + (len(complete) < len(raw))
+        self._rows = {r.id: r for r in rows}
+        if self.repaired or not has_header:
+            # rewritten whole (atomically): appending after a torn line would glue rows
+            write_text(self.table, _csv_line(None) + "".join(_csv_line(r) for r in rows))
+
+
+def summary_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
+    """Accuracy of the estimates where the true risk is known (ok rows)."""
+    ok = [r for r in rows if r.status == "ok" and r.true_risk is not None]
     if not ok:
         return {"n_with_truth": 0}
-    true = np.array([num(r["true_risk"]) for r in ok])
-    mean = np.array([num(r["risk_mean"]) for r in ok])
-    lo = np.array([num(r["risk_lo"]) for r in ok])
-    hi = np.array([num(r["risk_hi"]) for r in ok])
+    true = np.array([r.true_risk for r in ok], float)
+    mean = np.array([r.risk_mean for r in ok], float)
+    lo = np.array([r.risk_lo for r in ok], float)
+    hi = np.array([r.risk_hi for r in ok], float)
     return {
         "n_with_truth": len(ok),
         "mae_posterior_mean": float(np.mean(np.abs(mean - true))),

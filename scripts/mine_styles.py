@@ -5,12 +5,18 @@ INPUT is a folder of demonstrations (``*.npz``, searched recursively, e.g. a
 dataset. Writes ``OUT/styles.csv`` (one row per demonstration: id, source, status, error,
 true risk where known, risk estimate, 90 % interval, posterior mean, θ normalised, fit
 errors, timings), ``OUT/summary.json`` (n, n_ok, n_failed, wall_s, demos_per_s, engine,
-workers, …) and ``OUT/population.png`` (estimated vs true risk; the risk distribution).
+workers, the input and library, the failed rows with their errors, …) and
+``OUT/population.png`` (estimated vs true risk; the risk distribution). A demonstration that
+cannot be mined (an unreadable file, any error) is a failed row, never a crashed job.
 
 Rows are appended to ``styles.csv`` as they finish, so the job is resumable: a rerun with
-the same OUT skips the rows already there, and an interruption loses at most the rows in
-flight. ``--engine ray`` runs the same work on Ray actors (``--address`` of a cluster, else
-Ray on this machine); install the extra with ``pip install -e '.[ray]'``.
+the same INPUT, library and OUT skips the rows already there, and an interruption loses at
+most the rows in flight (a row torn by a kill is dropped and mined again). OUT remembers its
+input and library (``OUT/fingerprint.json``): a run with another one is refused, ``--force``
+starts over. A run locks OUT; a second run into the same OUT is refused while it lasts.
+``--engine ray`` runs the same work on Ray actors (``--address`` of a cluster, reached
+within ``--connect-timeout``, else Ray on this machine); install the extra with
+``pip install -e '.[ray]'``.
 
 Examples:
     python scripts/mine_styles.py runs/population --library runs/library_reactive --out runs/mined
@@ -21,7 +27,6 @@ Examples:
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 from pathlib import Path
@@ -29,10 +34,19 @@ from pathlib import Path
 from drivestyle.agents.studies.figures import plot_population
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.identification import load_library
-from drivestyle.irl.mining import COLUMNS, ENGINES, finished_ids, mine, read_rows, summary_numbers
+from drivestyle.irl.mining import (
+    CONNECT_TIMEOUT_S,
+    ENGINES,
+    MinedRow,
+    MiningOutput,
+    MiningTask,
+    RunFingerprint,
+    mine,
+    summary_numbers,
+)
 from tqdm import tqdm
 
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import check_output_dir, write_json
 
 
@@ -51,20 +65,34 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--engine", default="local", choices=ENGINES, help="where the work runs")
     p.add_argument("--address", help="Ray cluster address (--engine ray; default: start locally)")
     p.add_argument("--workers", type=positive_int, default=2, help="processes or Ray actors")
+    p.add_argument(
+        "--connect-timeout",
+        type=positive_float,
+        default=CONNECT_TIMEOUT_S,
+        help="seconds to reach the Ray head at --address before giving up",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="start over: delete the rows and results of an earlier run in OUT (needed when "
+        "OUT was mined from another input or library)",
+    )
     p.add_argument("--seed", type=int, default=0, help="unused: mining is deterministic")
     return p.parse_args(argv)
 
 
-def _tasks(args: argparse.Namespace) -> list[tuple]:
+def _tasks(args: argparse.Namespace) -> tuple[list[MiningTask], str]:
+    """The tasks and the input's identity (for the output folder's fingerprint)."""
     if args.dataset:
         if args.data is None or args.input is not None:
             raise ValueError("--dataset needs --data DIR and no INPUT folder")
         loader = load_ngsim if args.dataset == "ngsim" else load_cats
-        return [
+        tasks: list[MiningTask] = [
             (e.episode_id, args.dataset, e.demo)
             for e in loader(args.data)
             if e.used and e.demo is not None
         ]
+        return tasks, f"{args.dataset}:{args.data.resolve()}"
     if args.input is None:
         raise ValueError("give an INPUT folder of demonstrations or --dataset with --data")
     if not args.input.is_dir():
@@ -76,7 +104,8 @@ def _tasks(args: argparse.Namespace) -> list[tuple]:
     ids = [f.stem for f in files]
     if len(set(ids)) < len(ids):  # same names in different folders: keep the path
         ids = [str(f.relative_to(args.input).with_suffix("")) for f in files]
-    return [(i, root, str(f)) for i, f in zip(ids, files, strict=True)]
+    tasks = [(i, root, str(f)) for i, f in zip(ids, files, strict=True)]
+    return tasks, str(args.input.resolve())
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -84,52 +113,56 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     if args.address and args.engine != "ray":
         raise ValueError("--address needs --engine ray")
-    check_output_dir(args.out, replace=False)  # resumable: rows of an earlier run are kept
+    check_output_dir(args.out, replace=False)  # rows are appended: the folder is resumed
     library = load_library(args.library)
-    tasks = _tasks(args)
-    args.out.mkdir(parents=True, exist_ok=True)
-    table = args.out / "styles.csv"
-    previous = read_rows(table)
-    done = finished_ids(previous)
-    todo = [t for t in tasks if t[0] not in done]
-    new_file = not table.exists()
-    t0 = time.perf_counter()
-    with table.open("a", newline="") as fh, tqdm(total=len(todo), desc="demonstrations") as bar:
-        writer = csv.DictWriter(fh, fieldnames=COLUMNS)
-        if new_file:
-            writer.writeheader()
+    tasks, input_id = _tasks(args)
+    fingerprint = RunFingerprint.of(input_id, args.library, library)
+    with MiningOutput(args.out, fingerprint, force=args.force) as store:
+        if store.repaired:
+            print(
+                f"repaired {store.table}: dropped {store.repaired} torn, malformed or repeated "
+                "row(s); their demonstrations are mined again"
+            )
+        done = store.finished_ids()
+        todo = [t for t in tasks if t[0] not in done]
+        t0 = time.perf_counter()
+        with tqdm(total=len(todo), desc="demonstrations") as bar:
+            failed = 0
 
-        failed = 0
+            def on_row(row: MinedRow) -> None:
+                nonlocal failed
+                store.append(row)
+                failed += row.status == "failed"
+                bar.update(1)
+                bar.set_postfix(failed=failed)
 
-        def on_row(row: dict) -> None:
-            nonlocal failed
-            writer.writerow(row)
-            fh.flush()  # a row on disk is a row a rerun skips
-            failed += row["status"] == "failed"
-            bar.update(1)
-            bar.set_postfix(failed=failed)
-
-        mine(todo, library, args.engine, args.workers, on_row, args.address)
-    wall = time.perf_counter() - t0
-    rows = read_rows(table)
-    payload = {
-        "n": len(rows),
-        "n_ok": sum(r["status"] == "ok" for r in rows),
-        "n_failed": sum(r["status"] == "failed" for r in rows),
-        "n_this_run": len(todo),
-        "n_skipped_finished": len(tasks) - len(todo),
-        "wall_s": wall,
-        "demos_per_s": len(todo) / wall if todo else None,
-        "engine": args.engine,
-        "workers": args.workers,
-        "library": str(args.library),
-        "input": str(args.data if args.dataset else args.input),
-        **summary_numbers(rows),
-    }
-    write_json(args.out / "summary.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
-    plot_population(rows, args.out / "population.png", f"{payload['n_ok']} mined styles")
+            mine(
+                todo, library, args.engine, args.workers, on_row, args.address, args.connect_timeout
+            )
+        wall = time.perf_counter() - t0
+        rows = store.rows
+        payload = {
+            "n": len(rows),
+            "n_ok": sum(r.status == "ok" for r in rows),
+            "n_failed": sum(r.status == "failed" for r in rows),
+            "n_this_run": len(todo),
+            "n_skipped_finished": len(tasks) - len(todo),
+            "wall_s": wall,
+            "demos_per_s": len(todo) / wall if todo else None,
+            "engine": args.engine,
+            "workers": args.workers,
+            **fingerprint.to_json(),
+            **summary_numbers(rows),
+            "failed": [{"id": r.id, "error": r.error} for r in rows if r.status == "failed"],
+        }
+        write_json(args.out / "summary.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+        plot_population(
+            [r.to_json() for r in rows],
+            args.out / "population.png",
+            f"{payload['n_ok']} mined styles",
+        )
     print(
-        f"wrote {table}: {payload['n']} rows ({payload['n_ok']} ok, {payload['n_failed']} "
+        f"wrote {store.table}: {payload['n']} rows ({payload['n_ok']} ok, {payload['n_failed']} "
         f"failed; {payload['n_skipped_finished']} already there), {len(todo)} in {wall:.1f} s "
         f"on {args.engine} x{args.workers}"
     )

@@ -1,0 +1,194 @@
+"""mine_styles.py: one bad file never ends the job, and an output folder belongs to one run.
+
+Fast: the inputs here are files that cannot be mined (each a failed row in milliseconds) and
+the library is a valid stand-in, so the resume, fingerprint, repair and lock logic runs
+without a solver. Mining real demonstrations is in ``tests/irl/test_mining.py`` (slow).
+"""
+
+import csv
+import json
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from drivestyle.agents import generate_demonstration
+from drivestyle.envs.demonstration import save_demonstration
+from drivestyle.irl.features import FeatureConfig
+from drivestyle.irl.library import StyleLibrary
+from drivestyle.irl.mining import COLUMNS, MiningOutput, MiningOutputError, RunFingerprint
+from drivestyle.scripts.mine_styles import main
+
+from drivestyle.common.io import write_json
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _library(risks=(0.5, 0.9)) -> StyleLibrary:
+    """A valid library whose styles are placeholders (nothing here gets as far as scoring)."""
+    fc = FeatureConfig()
+    one = (1.0,) * len(fc.names)
+    scenario = {"ev_speed": 20.0, "tv_speed": 18.0, "tv_gap": 20.0}
+    return StyleLibrary(
+        fc.feature_set,
+        tuple(risks),
+        tuple(one for _ in risks),
+        fc,
+        {},
+        tuple((one,) * 5 for _ in risks),
+        (scenario,) * 5,
+    )
+
+
+@pytest.fixture()
+def lib(tmp_path) -> Path:
+    path = tmp_path / "lib"
+    write_json(path / "library.json", _library().to_json())
+    return path
+
+
+def _unminable(folder: Path, names) -> Path:
+    """Files that load_demonstration rejects cleanly (a failed row each)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for n in names:
+        (folder / f"{n}.npz").write_bytes(b"not a demonstration " + n.encode())
+    return folder
+
+
+def _table(out: Path) -> list[dict]:
+    with (out / "styles.csv").open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _mine(inp: Path, lib: Path, out: Path, *extra: str) -> dict:
+    return main([str(inp), "--library", str(lib), "--out", str(out), "--workers", "1", *extra])
+
+
+@pytest.fixture(scope="module")
+def corrupt(tmp_path_factory) -> Path:
+    """Files whose loading raised exceptions that escaped the failed-row path."""
+    d = tmp_path_factory.mktemp("corrupt")
+    demo = generate_demonstration(0.7, "paper")[0]
+    save_demonstration(demo, d / "good.npz")
+    raw = (d / "good.npz").read_bytes()
+    (d / "good.npz").unlink()
+    (d / "truncated.npz").write_bytes(raw[: len(raw) // 2])  # BadZipFile
+    (d / "empty.npz").write_bytes(b"")  # EOFError
+    return d
+
+
+def test_corrupt_files_become_failed_rows_naming_the_file(corrupt, lib, tmp_path):
+    out = tmp_path / "mined"
+    payload = _mine(corrupt, lib, out)
+    rows = {r["id"]: r for r in _table(out)}
+    assert sorted(rows) == ["empty", "truncated"]
+    for name, row in rows.items():
+        assert row["status"] == "failed"
+        assert str(corrupt / f"{name}.npz") in row["error"] and "\n" not in row["error"]
+    assert payload["n_failed"] == 2
+    # the failed rows are listed in summary.json, each with its error
+    summary = json.loads((out / "summary.json").read_text())
+    assert sorted(f["id"] for f in summary["failed"]) == ["empty", "truncated"]
+    assert all(f["error"] == rows[f["id"]]["error"] for f in summary["failed"])
+    # a rerun does not crash either: it skips the finished rows
+    assert _mine(corrupt, lib, out)["n_this_run"] == 0
+
+
+def test_another_input_or_library_is_refused_unless_forced(lib, tmp_path):
+    a = _unminable(tmp_path / "a", ["v1", "v2"])
+    b = _unminable(tmp_path / "b", ["v1", "v2", "v3"])  # same stems, other files
+    out = tmp_path / "mined"
+    _mine(a, lib, out)
+    with pytest.raises(MiningOutputError, match=r"--force") as info:
+        _mine(b, lib, out)
+    assert str(a.resolve()) in str(info.value) and "\n" not in str(info.value)
+    other = tmp_path / "lib2"
+    write_json(other / "library.json", _library((0.5, 0.8)).to_json())
+    with pytest.raises(MiningOutputError, match=r"library"):
+        _mine(a, other, out)
+    assert len(_table(out)) == 2  # nothing was written by the refused runs
+    # --force starts over: only b's rows, credited to b
+    payload = _mine(b, lib, out, "--force")
+    rows = _table(out)
+    assert sorted(r["id"] for r in rows) == ["v1", "v2", "v3"]
+    assert {r["source"] for r in rows} == {str(b)}
+    assert payload["n"] == 3 and payload["n_this_run"] == 3
+    assert json.loads((out / "summary.json").read_text())["input"] == str(b.resolve())
+
+
+def test_an_output_folder_of_an_older_version_is_refused(lib, tmp_path):
+    a = _unminable(tmp_path / "a", ["v1"])
+    out = tmp_path / "mined"
+    out.mkdir()
+    (out / "styles.csv").write_text(",".join(COLUMNS) + "\n")
+    with pytest.raises(MiningOutputError, match=r"--force"):
+        _mine(a, lib, out)
+    assert _mine(a, lib, out, "--force")["n"] == 1
+
+
+def test_a_torn_last_row_is_dropped_and_mined_again(lib, tmp_path):
+    a = _unminable(tmp_path / "a", ["v1", "v2", "v3"])
+    out = tmp_path / "mined"
+    _mine(a, lib, out)
+    text = (out / "styles.csv").read_text()
+    # killed while writing the last row: a prefix of it, without its line end
+    (out / "styles.csv").write_text(text[: text.rstrip().rfind("\n") + 12])
+    payload = _mine(a, lib, out)
+    rows = _table(out)
+    assert sorted(r["id"] for r in rows) == ["v1", "v2", "v3"]
+    assert all(r["status"] == "failed" and None not in r for r in rows)
+    assert payload["n_this_run"] == 1 and payload["n"] == 3
+
+
+def test_duplicate_rows_in_the_table_count_once(lib, tmp_path):
+    a = _unminable(tmp_path / "a", ["v1", "v2"])
+    out = tmp_path / "mined"
+    _mine(a, lib, out)
+    lines = (out / "styles.csv").read_text().splitlines(keepends=True)
+    (out / "styles.csv").write_text("".join([*lines, lines[1]]))  # a row written twice
+    payload = _mine(a, lib, out)
+    assert payload["n"] == 2 and payload["n_this_run"] == 0
+    assert sorted(r["id"] for r in _table(out)) == ["v1", "v2"]
+
+
+def test_a_running_job_locks_its_output_folder(lib, tmp_path):
+    a = _unminable(tmp_path / "a", ["v1"])
+    out = tmp_path / "mined"
+    _mine(a, lib, out)
+    fingerprint = RunFingerprint.from_json(json.loads((out / "fingerprint.json").read_text()))
+    with MiningOutput(out, fingerprint):
+        with pytest.raises(MiningOutputError, match=r"another mining run") as info:
+            _mine(a, lib, out)
+        assert str(os.getpid()) in str(info.value)
+    # a lock file left by a process that died is no obstacle (the kernel released its lock)
+    (out / ".lock").write_text("999999999")
+    assert _mine(a, lib, out)["n"] == 1
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_ray_head_is_one_error_line(lib, tmp_path):
+    pytest.importorskip("ray")
+    a = _unminable(tmp_path / "a", ["v1"])
+    address = f"127.0.0.1:{_free_port()}"  # nothing listens there
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "MPLBACKEND": "Agg"}
+    env.pop("DRIVESTYLE_TRACEBACK", None)
+    env.pop("RAY_ADDRESS", None)
+    args = [str(a), "--library", str(lib), "--out", str(tmp_path / "o"), "--engine", "ray"]
+    run = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "mine_styles.py"), *args, "--address", address],
+        capture_output=True,
+        text=True,
+        timeout=60,  # before the fix, Ray retried for minutes
+        env=env,
+    )
+    assert run.returncode == 2, run.stderr
+    lines = [line for line in run.stderr.splitlines() if line.strip()]
+    assert lines[-1].startswith("error: ") and address in lines[-1], run.stderr
+    assert "Traceback" not in run.stderr
