@@ -58,7 +58,7 @@ def _timed_mining(tasks: list, library, engine: str, workers: int) -> dict:
     rows = mine(tasks, library, engine, workers, lambda _: bar.update(1))
     wall = time.perf_counter() - t0
     bar.close()
-    ok = [r for r in rows if r["status"] == "ok"]
+    ok = [r for r in rows if r.status == "ok"]
     return {
         "engine": engine,
         "workers": workers,
@@ -67,8 +67,8 @@ def _timed_mining(tasks: list, library, engine: str, workers: int) -> dict:
         "demos_per_s_per_core": len(rows) / wall / workers,
         "n_ok": len(ok),
         "n_failed": len(rows) - len(ok),
-        "learn_s_median": float(np.median([r["learn_s"] for r in ok])) if ok else None,
-        "identify_s_median": float(np.median([r["identify_s"] for r in ok])) if ok else None,
+        "learn_s_median": float(np.median([r.learn_s for r in ok])) if ok else None,
+        "identify_s_median": float(np.median([r.identify_s for r in ok])) if ok else None,
     }
 
 
