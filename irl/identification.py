@@ -257,8 +257,10 @@ def demo_scores(
             err = trajectory_errors(
                 sol.control_points[:, [0, 3]], demo, events.t_trg, events.t_rct_end
             )
-            member_scores["rmse_y"].append(err["rmse_y_m"])
-            member_scores["rmse_xy"].append(err["rmse_xy_m"])
+            rmse_y, rmse_xy = err["rmse_y_m"], err["rmse_xy_m"]
+            assert rmse_y is not None and rmse_xy is not None  # None: reaction window only
+            member_scores["rmse_y"].append(rmse_y)
+            member_scores["rmse_xy"].append(rmse_xy)
             gap = 0.0
             for names in problem.groups.values():
                 idx = [problem.names.index(n) for n in names]
@@ -312,8 +314,8 @@ def posterior_from_scores(
     if n == 0:
         raise ValueError("need the scores of at least one demonstration")
     log_lik = np.zeros(n)
-    for s, info in zip(scores, informative, strict=True):
-        s = np.asarray(s, float)
+    for row, info in zip(scores, informative, strict=True):
+        s = np.asarray(row, float)
         if not info or not np.any(np.isfinite(s)):
             continue
         best = max(float(np.min(s[np.isfinite(s)])), 1e-9)
@@ -324,7 +326,7 @@ def posterior_from_scores(
 
 
 def risk_interval(
-    risks: Sequence[float], posterior: np.ndarray, mass: float = INTERVAL_MASS
+    risks: Sequence[float] | np.ndarray, posterior: np.ndarray, mass: float = INTERVAL_MASS
 ) -> tuple[float, float]:
     """The smallest set of risks holding ``mass`` of the posterior, as the [lo, hi] it spans."""
     risks_a = np.asarray(risks, float)

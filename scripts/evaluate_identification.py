@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -36,8 +37,8 @@ from drivestyle.agents.studies.reports import (
     noise_markdown,
     references_markdown,
 )
-from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.envs.traffic import TrafficRanges
+from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
+from drivestyle.envs.traffic import TrafficRanges, TrafficScene
 from drivestyle.irl.identification import DEFAULT_SCORER
 from drivestyle.irl.library import LibraryError, load_library
 from tqdm import tqdm
@@ -113,6 +114,7 @@ def main(argv: list[str] | None = None) -> dict:
     if any(list(lib.risks) != grid for lib in libraries.values()):
         raise LibraryError("the libraries have different risk grids; compare like with like")
     between = args.between or [round((a + b) / 2, 4) for a, b in itertools.pairwise(grid)]
+    scenarios: Sequence[ScenarioConfig | TrafficScene]
     if args.draw == "interactive":
         scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(grid))
     else:
