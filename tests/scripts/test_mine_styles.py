@@ -162,8 +162,31 @@ def test_a_running_job_locks_its_output_folder(lib, tmp_path):
         with pytest.raises(MiningOutputError, match=r"another mining run") as info:
             _mine(a, lib, out)
         assert str(os.getpid()) in str(info.value)
-    # a lock file left by a process that died is no obstacle (the kernel released its lock)
-    (out / ".lock").write_text("999999999")
+    # a lock left by a process that was killed while holding it is no obstacle
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import json, sys, time\n"
+            "from drivestyle.irl.mining import MiningOutput, RunFingerprint\n"
+            "fp = RunFingerprint.from_json(json.loads(open(sys.argv[2]).read()))\n"
+            "with MiningOutput(sys.argv[1], fp):\n"
+            "    print('locked', flush=True)\n"
+            "    time.sleep(60)\n",
+            str(out),
+            str(out / "fingerprint.json"),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(MiningOutputError, match=rf"pid {holder.pid}\b"):
+            _mine(a, lib, out)
+    finally:
+        holder.kill()
+        holder.wait()
+    assert (out / ".lock").read_text() == str(holder.pid)  # stale: its holder is dead
     assert _mine(a, lib, out)["n"] == 1
 
 
