@@ -21,17 +21,12 @@ write them as they come and resume after an interruption):
 
 Both engines compute identical rows (timings aside): the work is deterministic.
 
-:class:`MiningOutput` is the output folder of a resumable run: ``styles.csv`` appended row
-by row, ``fingerprint.json`` (which input and which library the rows come from; a run with
-another input or library is refused unless it starts over), a lock held while a run writes
-(a second run into the same folder is refused), and repair of a last row torn by a kill.
+The output folder of a resumable run (fingerprint, lock, repair) is
+:mod:`drivestyle.irl.mining_output`.
 """
 
 from __future__ import annotations
 
-import csv
-import hashlib
-import io
 import json
 import math
 import os
@@ -40,8 +35,7 @@ import time
 from collections import Counter, deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
-from pathlib import Path, PurePath
-from types import TracebackType
+from pathlib import PurePath
 from typing import Any
 
 import numpy as np
@@ -50,13 +44,7 @@ from drivestyle.irl.identification import identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import StyleLibrary
 
-from drivestyle.common.io import write_text
 from drivestyle.common.parallel import parallel_map
-
-try:  # POSIX; elsewhere the output folder is not locked
-    import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None  # type: ignore[assignment]
 
 __all__ = [
     "COLUMNS",
@@ -66,14 +54,8 @@ __all__ = [
     "TIMING_COLUMNS",
     "MinedRow",
     "Miner",
-    "MiningOutput",
-    "MiningOutputError",
     "MiningTask",
-    "RunFingerprint",
-    "finished_ids",
-    "library_digest",
     "mine",
-    "read_rows",
     "summary_numbers",
 ]
 
@@ -112,7 +94,7 @@ CONNECT_TIMEOUT_S = 10.0
 """Time to reach a Ray head at ``address`` before giving up [s] (Ray itself retries for
 minutes without a word)."""
 
-MiningTask = tuple[str, str, "Demonstration | str | os.PathLike[str]"]
+MiningTask = tuple[str, str, Demonstration | str | os.PathLike[str]]
 """(id, source, demonstration or the path of its ``.npz``)."""
 
 
@@ -529,288 +511,6 @@ def mine(
     else:
         _run_ray(tasks, library, workers, collect, address, connect_timeout_s)
     return [rows[i] for i in ids]
-
-
-# ------------------------------------------------------------------- the output folder
-TABLE = "styles.csv"
-FINGERPRINT = "fingerprint.json"
-LOCK = ".lock"
-RESULTS = (TABLE, "summary.json", "population.png", FINGERPRINT)
-"""The files a run writes in its output folder (``force`` removes exactly these)."""
-
-
-class MiningOutputError(ValueError):
-    """An output folder cannot take this run (another run's rows, in use, not a mining table)."""
-
-
-def library_digest(library: StyleLibrary) -> str:
-    """SHA-256 of a library's content (its ``library.json`` form, keys sorted)."""
-    text = json.dumps(library.to_json(), sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-@dataclass(frozen=True)
-class RunFingerprint:
-    """Which input and which library the rows of an output folder come from."""
-
-    input: str
-    """The input folder (resolved), or ``dataset:FOLDER`` for a recorded dataset."""
-    library: str
-    """Where the library was read from (resolved; for messages)."""
-    library_sha256: str
-    """The library's identity (:func:`library_digest`): a moved copy is the same library,
-    one rebuilt in place is not."""
-
-    @classmethod
-    def of(cls, input_id: str, library_path: str | Path, library: StyleLibrary) -> RunFingerprint:
-        """The fingerprint of mining ``input_id`` with ``library`` read from ``library_path``."""
-        return cls(input_id, str(Path(library_path).resolve()), library_digest(library))
-
-    def same_run(self, other: RunFingerprint) -> bool:
-        """Whether rows of ``other`` belong to this run (same input, same library content)."""
-        return self.input == other.input and self.library_sha256 == other.library_sha256
-
-    def to_json(self) -> dict[str, str]:
-        """JSON-ready dict (``fingerprint.json``)."""
-        return asdict(self)
-
-    @classmethod
-    def from_json(cls, raw: Any) -> RunFingerprint:
-        """From :meth:`to_json`'s form.
-
-        Raises:
-            ValueError: not such a dict.
-        """
-        if not isinstance(raw, dict) or not all(isinstance(raw.get(k), str) for k in cls.keys()):
-            raise ValueError(f"not a mining fingerprint: {raw!r}")
-        return cls(**{k: raw[k] for k in cls.keys()})
-
-    @classmethod
-    def keys(cls) -> tuple[str, ...]:
-        """The JSON keys."""
-        return tuple(cls.__dataclass_fields__)
-
-
-def _parse_table(text: str, what: str) -> tuple[list[MinedRow], int, bool]:
-    """(valid rows, first of each id; rows dropped; whether there was a header).
-
-    Raises:
-        MiningOutputError: the header is not :data:`COLUMNS`.
-    """
-    reader = csv.DictReader(io.StringIO(text, newline=""))
-    if reader.fieldnames is None:
-        return [], 0, False
-    if tuple(reader.fieldnames) != COLUMNS:
-        raise MiningOutputError(
-            f"{what} is not a styles.csv of this version (columns {reader.fieldnames})"
-        )
-    rows: list[MinedRow] = []
-    seen: set[str] = set()
-    dropped = 0
-    for record in reader:
-        try:
-            row = MinedRow.from_csv(record)
-        except (ValueError, TypeError):
-            dropped += 1
-            continue
-        if row.id in seen:  # written twice (an older version's concurrent runs)
-            dropped += 1
-            continue
-        seen.add(row.id)
-        rows.append(row)
-    return rows, dropped, True
-
-
-def _csv_line(row: MinedRow | None) -> str:
-    """The header (None) or one row as CSV text."""
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS)
-    if row is None:
-        writer.writeheader()
-    else:
-        writer.writerow(row.to_csv())
-    return buf.getvalue()
-
-
-def read_rows(path: str | Path) -> list[MinedRow]:
-    """The valid rows of an existing ``styles.csv`` (empty if there is none).
-
-    A torn last line, malformed rows and repeated ids (all but the first) are skipped.
-
-    Raises:
-        MiningOutputError: the file's header is not :data:`COLUMNS` (another file).
-    """
-    path = Path(path)
-    if not path.is_file():
-        return []
-    raw = path.read_bytes()
-    text = raw[: raw.rfind(b"\n") + 1].decode("utf-8", errors="replace")
-    return _parse_table(text, str(path))[0]
-
-
-def finished_ids(rows: Iterable[MinedRow]) -> set[str]:
-    """Ids of rows that are complete (ok or failed): a resumed job skips them."""
-    return {r.id for r in rows}
-
-
-class MiningOutput:
-    """The output folder of a resumable mining run (module docstring); a context manager.
-
-    On entering: takes the folder's lock (a second run is refused; a lock left by a dead
-    process is free again, the kernel releases it), checks ``fingerprint.json`` against this
-    run's (``force``: delete the earlier run's results first), repairs ``styles.csv`` (drops
-    a torn last row, malformed rows and repeated ids, so those demonstrations are mined
-    again) and opens it for appending. On leaving: closes the table and releases the lock.
-
-    Args:
-        folder: the output folder (created).
-        fingerprint: this run's input and library.
-        force: start over, deleting the results of any earlier run (:data:`RESULTS`).
-
-    Raises (on entering):
-        MiningOutputError: the folder is in use by another run, holds the rows of another
-            input or library (or of a version without fingerprints), or its ``styles.csv``
-            is another file.
-    """
-
-    def __init__(
-        self, folder: str | Path, fingerprint: RunFingerprint, force: bool = False
-    ) -> None:
-        self.folder = Path(folder)
-        self.fingerprint = fingerprint
-        self.force = force
-        self.table = self.folder / TABLE
-        self.repaired = 0
-        """Rows dropped from the table on entering (torn, malformed or repeated)."""
-        self._rows: dict[str, MinedRow] = {}
-        self._lock_fd: int | None = None
-        self._fh: io.TextIOWrapper | None = None
-
-    # -- context manager
-    def __enter__(self) -> MiningOutput:
-        self.folder.mkdir(parents=True, exist_ok=True)
-        self._acquire_lock()
-        try:
-            if self.force:
-                for name in RESULTS:
-                    (self.folder / name).unlink(missing_ok=True)
-            self._check_fingerprint()
-            self._load_table()
-            write_text(
-                self.folder / FINGERPRINT, json.dumps(self.fingerprint.to_json(), indent=2) + "\n"
-            )
-            self._fh = self.table.open("a", newline="")
-        except BaseException:
-            self._release_lock()
-            raise
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
-        self._release_lock()
-
-    # -- rows
-    @property
-    def rows(self) -> list[MinedRow]:
-        """Every row of the table (the earlier runs' and this one's), in file order."""
-        return list(self._rows.values())
-
-    def finished_ids(self) -> set[str]:
-        """Ids already in the table (a resumed run skips them)."""
-        return set(self._rows)
-
-    def append(self, row: MinedRow) -> bool:
-        """Write a row and flush it (a row on disk is a row a rerun skips).
-
-        Returns:
-            False if a row of this id is already in the table (it is not written twice).
-        """
-        if self._fh is None:
-            raise RuntimeError("MiningOutput.append outside its with-block")
-        if row.id in self._rows:
-            return False
-        self._fh.write(_csv_line(row))
-        self._fh.flush()
-        self._rows[row.id] = row
-        return True
-
-    # -- internals
-    def _acquire_lock(self) -> None:
-        if fcntl is None:  # pragma: no cover - no flock on this platform
-            return
-        fd = os.open(self.folder / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
-            os.close(fd)
-            raise MiningOutputError(
-                f"{self.folder} is in use by another mining run (pid {holder}); wait for it "
-                "to finish or choose another --out"
-            ) from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, str(os.getpid()).encode(), 0)
-        self._lock_fd = fd
-
-    def _release_lock(self) -> None:
-        if self._lock_fd is not None and fcntl is not None:
-            fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
-            os.close(self._lock_fd)
-        self._lock_fd = None
-
-    def _check_fingerprint(self) -> None:
-        path = self.folder / FINGERPRINT
-        has_rows = self.table.is_file() and self.table.stat().st_size > 0
-        if not path.is_file():
-            if has_rows:
-                raise MiningOutputError(
-                    f"{self.table} has no {FINGERPRINT} beside it (an older version's output): "
-                    "its input and library are unknown; choose another --out or pass --force "
-                    "to start over"
-                )
-            return
-        try:
-            old = RunFingerprint.from_json(json.loads(path.read_text()))
-        except (ValueError, UnicodeDecodeError) as exc:
-            raise MiningOutputError(
-                f"{path} is malformed ({exc}); pass --force to start over"
-            ) from None
-        if not has_rows or old.same_run(self.fingerprint):
-            return
-        new = self.fingerprint
-        diff = []
-        if old.input != new.input:
-            diff.append(f"input {old.input} (this run: {new.input})")
-        if old.library_sha256 != new.library_sha256:
-            diff.append(
-                f"library {old.library} sha256 {old.library_sha256[:12]} (this run: "
-                f"{new.library} sha256 {new.library_sha256[:12]})"
-            )
-        raise MiningOutputError(
-            f"{self.folder} holds the rows of another run: {'; '.join(diff)}; choose another "
-            "--out or pass --force to start over"
-        )
-
-    def _load_table(self) -> None:
-        if not self.table.is_file():
-            write_text(self.table, _csv_line(None))
-            return
-        raw = self.table.read_bytes()
-        complete = raw[: raw.rfind(b"\n") + 1]  # a last line without its end was torn by a kill
-        text = complete.decode("utf-8", errors="replace")
-        rows, dropped, has_header = _parse_table(text, str(self.table))
-        self.repaired = dropped + (len(complete) < len(raw))
-        self._rows = {r.id: r for r in rows}
-        if self.repaired or not has_header:
-            # rewritten whole (atomically): appending after a torn line would glue rows
-            write_text(self.table, _csv_line(None) + "".join(_csv_line(r) for r in rows))
 
 
 def summary_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:

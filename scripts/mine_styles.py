@@ -38,12 +38,11 @@ from drivestyle.irl.mining import (
     CONNECT_TIMEOUT_S,
     ENGINES,
     MinedRow,
-    MiningOutput,
     MiningTask,
-    RunFingerprint,
     mine,
     summary_numbers,
 )
+from drivestyle.irl.mining_output import MiningOutput, RunFingerprint
 from tqdm import tqdm
 
 from drivestyle.common.cli import positive_float, positive_int, run_cli

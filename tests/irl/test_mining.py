@@ -20,6 +20,7 @@ from drivestyle.irl import mining
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
 from drivestyle.irl.mining import COLUMNS, MinedRow, mine, summary_numbers
+from drivestyle.irl.mining_output import read_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -79,7 +80,7 @@ def test_a_row_round_trips_through_csv_and_keeps_the_documented_columns(tmp_path
         writer.writeheader()
         writer.writerows([OK_ROW.to_csv(), failed.to_csv()])
     assert path.read_text().splitlines()[0] == ",".join(COLUMNS)
-    assert mining.read_rows(path) == [OK_ROW, failed]
+    assert read_rows(path) == [OK_ROW, failed]
     assert tuple(OK_ROW.to_json()) == COLUMNS
     assert json.loads(json.dumps(OK_ROW.to_json()))["theta_normalised"] == [0.25, 1.5e-05, 3.0]
     assert failed.to_json()["risk_estimate"] is None and failed.to_csv()["risk_estimate"] == ""
@@ -214,7 +215,7 @@ def test_a_rerun_skips_finished_rows(population, library, tmp_path):
     # an interruption after two rows: the rerun mines only the missing four
     (dest / "styles.csv").write_text("\n".join(lines[:3]) + "\n")
     _run_script(str(out), "--library", str(tmp_path / "lib"), "--out", str(dest), "--workers", "1")
-    rows = mining.read_rows(dest / "styles.csv")
+    rows = read_rows(dest / "styles.csv")
     assert sorted(r.id for r in rows) == sorted(p.stem for p in (out / "demos").glob("*.npz"))
     summary = json.loads((dest / "summary.json").read_text())
     assert summary["n_skipped_finished"] == 2 and summary["n_this_run"] == 4

@@ -18,7 +18,8 @@ from drivestyle.agents import generate_demonstration
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
-from drivestyle.irl.mining import COLUMNS, MiningOutput, MiningOutputError, RunFingerprint
+from drivestyle.irl.mining import COLUMNS
+from drivestyle.irl.mining_output import MiningOutput, MiningOutputError, RunFingerprint
 from drivestyle.scripts.mine_styles import main
 
 from drivestyle.common.io import write_json
@@ -122,7 +123,8 @@ def test_an_output_folder_of_an_older_version_is_refused(lib, tmp_path):
     a = _unminable(tmp_path / "a", ["v1"])
     out = tmp_path / "mined"
     out.mkdir()
-    (out / "styles.csv").write_text(",".join(COLUMNS) + "\n")
+    old_row = ["v0", "x", "failed", "DemonstrationError: v0.npz"] + [""] * (len(COLUMNS) - 4)
+    (out / "styles.csv").write_text(",".join(COLUMNS) + "\n" + ",".join(old_row) + "\n")
     with pytest.raises(MiningOutputError, match=r"--force"):
         _mine(a, lib, out)
     assert _mine(a, lib, out, "--force")["n"] == 1
@@ -168,7 +170,7 @@ def test_a_running_job_locks_its_output_folder(lib, tmp_path):
             sys.executable,
             "-c",
             "import json, sys, time\n"
-            "from drivestyle.irl.mining import MiningOutput, RunFingerprint\n"
+            "from drivestyle.irl.mining_output import MiningOutput, RunFingerprint\n"
             "fp = RunFingerprint.from_json(json.loads(open(sys.argv[2]).read()))\n"
             "with MiningOutput(sys.argv[1], fp):\n"
             "    print('locked', flush=True)\n"
