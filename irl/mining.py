@@ -321,7 +321,8 @@ class Miner:
                 learn_s=learn_s,
                 identify_s=identify_s,
             )
-        except Exception as exc:  # any error is this demonstration's row, never the job's
+        # any error is this demonstration's row, never the job's (Ctrl-C still stops it)
+        except Exception as exc:
             return MinedRow.failed(demo_id, source, _describe(exc, where), true_risk)
 
 
@@ -333,7 +334,7 @@ def _init_miner(library: StyleLibrary) -> None:
     _MINER = Miner(library)
 
 
-def _mine_task(demo_id: str, source: str, demo: Demonstration | str) -> MinedRow:
+def _mine_task(demo_id: str, source: str, demo: Demonstration | str | os.PathLike[str]) -> MinedRow:
     assert _MINER is not None, "worker not initialised"
     return _MINER.mine(demo_id, source, demo)
 
