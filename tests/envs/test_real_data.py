@@ -276,3 +276,11 @@ def test_implausible_episode_is_kept_unused_with_the_reason(tmp_path):
     assert not bad.used and bad.demo is not None
     assert any(r.startswith("implausible: the EV drives backwards") for r in bad.reasons)
     assert sum(e.used for e in episodes.values()) == 11
+
+
+# the loaders check dt before reading anything (moved from the former test_defects.py)
+@pytest.mark.parametrize("loader", [load_ngsim, load_cats])
+@pytest.mark.parametrize("dt", [0.0, -0.2, float("nan"), "0.2"])
+def test_loaders_reject_a_bad_dt(tmp_path, loader, dt):
+    with pytest.raises((ValueError, TypeError), match="dt must be"):
+        loader(tmp_path, dt=dt)
