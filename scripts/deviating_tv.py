@@ -49,7 +49,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--out", type=Path, default=Path("runs/deviating"), help="output folder (replaced whole)"
     )
-    p.add_argument("--seed", type=int, default=0, help="unused: the episode is deterministic")
     return p.parse_args(argv)
 
 

@@ -76,7 +76,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="start over: delete the rows and results of an earlier run in OUT (needed when "
         "OUT was mined from another input or library)",
     )
-    p.add_argument("--seed", type=int, default=0, help="unused: mining is deterministic")
     return p.parse_args(argv)
 
 

@@ -17,7 +17,7 @@ from drivestyle.common.io import OutputPathError
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
-NO_SEED = {"identify_style", "learn_style", "real_traffic"}
+NO_SEED = {"deviating_tv", "identify_style", "learn_style", "mine_styles", "real_traffic"}
 """Deterministic scripts: a --seed there would do nothing, so they have none."""
 
 
