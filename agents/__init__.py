@@ -8,13 +8,22 @@ from drivestyle.agents.prediction import (
     tv_covariance,
     tv_mean_prediction,
 )
-from drivestyle.agents.smpc import InfeasibleStartError, SMPCConfig, SMPCExpert, SolveReport
+from drivestyle.agents.smpc import (
+    InfeasibleStartError,
+    SMPCConfig,
+    SMPCDecision,
+    SMPCExpert,
+    SolveReport,
+)
+from drivestyle.agents.smpc_problem import SMPCProblem
 
 __all__ = [
     "PAPER_TV_UNCERTAINTY",
     "InfeasibleStartError",
     "SMPCConfig",
+    "SMPCDecision",
     "SMPCExpert",
+    "SMPCProblem",
     "SolveReport",
     "TVUncertainty",
     "chance_margin",

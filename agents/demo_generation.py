@@ -61,9 +61,9 @@ def rollout_expert(
     solves: list[dict[str, Any]] = []
 
     def policy(_env: gym.Env, obs: np.ndarray) -> np.ndarray:
-        action, solve = expert.act(obs, return_info=True)
-        solves.append(solve)
-        return action
+        decision = expert.plan(obs)
+        solves.append(decision.report.info())
+        return decision.action
 
     episode = run_episode(
         env,
