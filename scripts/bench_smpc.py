@@ -1,6 +1,6 @@
 """Benchmark the SMPC expert: milliseconds per closed-loop step.
 
-Times every solver call (``SMPCExpert.last_report.solve_ms``: the NLP solve including
+Times every solver call (``SMPCExpert.plan(obs).report.solve_ms``: the NLP solve including
 CasADi's argument handling, not the Python around it) over repeated closed loops of the
 paper scenario and over a batch of random scenarios, for fatrop (structure-exploiting)
 and, in the same run, plain warm-started IPOPT on the identical NLP. The whole measurement
