@@ -182,6 +182,13 @@ class Demonstration:
         return np.concatenate([self.tv[:, None, :], self.others], axis=1)
 
     @property
+    def other_vehicles(self) -> np.ndarray:
+        """``others`` as validated: shape (n, m, 4), m = 0 in the single-TV setting."""
+        if self.others is None:  # __post_init__ stores an (n, 0, 4) array for None
+            raise DemonstrationError("'others' is None: the demonstration was not validated")
+        return self.others
+
+    @property
     def n(self) -> int:
         """Number of samples."""
         return int(self.t.shape[0])
@@ -432,7 +439,8 @@ def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    extra = {"others": demo.others} if demo.others.shape[1] else {}
+    others = demo.other_vehicles
+    extra: dict[str, np.ndarray] = {"others": others} if others.shape[1] else {}
     np.savez(
         path,
         t=demo.t,
@@ -440,6 +448,7 @@ def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
         tv=demo.tv,
         u=demo.u,
         meta=np.array(json.dumps(demo.meta)),
+        allow_pickle=True,  # numpy's default, named so that **extra cannot stand for it
         **extra,
     )
     return path

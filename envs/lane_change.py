@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from importlib.metadata import entry_points
-from typing import Any, ClassVar, Protocol, SupportsFloat
+from typing import TYPE_CHECKING, Any, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -17,6 +17,9 @@ from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 from gymnasium import spaces
+
+if TYPE_CHECKING:
+    from drivestyle.envs.rendering import HighwayRenderer
 
 __all__ = [
     "COLLISION_PENALTY",
@@ -74,16 +77,27 @@ class RewardModel(Protocol):
 
     crash_penalty: float
 
-    def reset(self, scenario: ScenarioConfig, ev: np.ndarray, tv: np.ndarray) -> None:
+    def reset(
+        self,
+        scenario: ScenarioConfig,
+        ev: np.ndarray,
+        tv: np.ndarray,
+        others: np.ndarray | None = None,
+    ) -> None:
         """Start a trajectory at the episode's first sample."""
 
     def step(
-        self, u: np.ndarray, ev: np.ndarray, tv: np.ndarray, dt: float
+        self,
+        u: np.ndarray,
+        ev: np.ndarray,
+        tv: np.ndarray,
+        dt: float,
+        others: np.ndarray | None = None,
     ) -> tuple[float, np.ndarray]:
         """Add a sample; return (reward, per-feature increment).
 
         In traffic (:class:`drivestyle.envs.traffic.TrafficEnv`) ``reset`` and ``step`` also receive
-        ``others``: the further vehicles' states, shape (m, 4).
+        ``others``: the further vehicles' states, shape (m, 4); the single-TV env passes none.
         """
 
 
@@ -181,7 +195,11 @@ class LaneChangeEnv(gym.Env):
             an unknown ``render_mode``, or both ``style`` and ``reward``.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 5}
+    # gymnasium types Env.metadata as an instance variable: __init__ sets the env's render_fps
+    metadata: dict[str, Any] = {  # noqa: RUF012 (never mutated; __init__ assigns a copy)
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": 5,
+    }
 
     def __init__(
         self,
@@ -221,7 +239,7 @@ class LaneChangeEnv(gym.Env):
         self.scenario = base
         self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
 
-        self.action_space = spaces.Box(
+        self.action_space: spaces.Box = spaces.Box(
             low=np.array([base.a_min, -base.delta_max]),
             high=np.array([base.a_max, base.delta_max]),
             dtype=np.float64,
@@ -236,7 +254,7 @@ class LaneChangeEnv(gym.Env):
         self.tv = base.tv_initial_state
         self.k = 0
         self._done = False
-        self._renderer = None
+        self._renderer: HighwayRenderer | None = None
 
     # ------------------------------------------------------------------ helpers
     def _obs(self) -> np.ndarray:

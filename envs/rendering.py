@@ -24,9 +24,15 @@ import math
 import os
 import weakref
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from drivestyle.envs.scenario import ScenarioConfig
+
+if TYPE_CHECKING:  # imported lazily at run time (pygame starts up on import)
+    from highway_env.envs.common.graphics import EnvViewer
+    from highway_env.vehicle.kinematics import Vehicle
+    from pygame.font import Font
 
 __all__ = ["EV_COLOR", "OTHER_COLOR", "TV_COLOR", "HighwayRenderer"]
 
@@ -126,8 +132,8 @@ class HighwayRenderer:
             close=self.close,
         )
         self._geometry: tuple | None = None
-        self._font = None
-        self.viewer = None
+        self._font: Font | None = None
+        self.viewer: EnvViewer | None = None
         self._open()
 
     def _open(self) -> None:
@@ -147,6 +153,12 @@ class HighwayRenderer:
         )
         if self.viewer is None or window_lost:
             self._open()
+
+    def _live_viewer(self) -> EnvViewer:
+        """The open viewer (drawing runs after ``_ensure_open``)."""
+        if self.viewer is None:
+            raise RuntimeError("the renderer's viewer is closed; draw() reopens it")
+        return self.viewer
 
     def _caption_surface(self, caption: str):
         """The caption as a surface, drawn with a font valid in pygame's current session."""
@@ -188,7 +200,7 @@ class HighwayRenderer:
             road.vehicles.append(v)
         self._scene.road, self._scene.vehicle = road, ev
         self._tv = tv
-        self._others = []
+        self._others: list[Vehicle] = []
         self._geometry = (sc.n_lanes, sc.lane_width, sc.vehicle_length, sc.vehicle_width)
 
     def _ensure_other_vehicles(self, sc: ScenarioConfig, m: int) -> None:
@@ -207,7 +219,7 @@ class HighwayRenderer:
                 road.vehicles.append(v)
 
     def _to_screen(self, sc: ScenarioConfig, x: float, y: float) -> tuple[int, int]:
-        return self.viewer.sim_surface.pos2pix(x, sc.road_width - y)
+        return self._live_viewer().sim_surface.pos2pix(x, sc.road_width - y)
 
     def _draw_ellipse(
         self, sc: ScenarioConfig, centre: np.ndarray, scale: float, color: tuple[int, int, int]
@@ -219,7 +231,7 @@ class HighwayRenderer:
             )
             for t in th
         ]
-        self._pygame.draw.lines(self.viewer.sim_surface, color, True, pts, 2)
+        self._pygame.draw.lines(self._live_viewer().sim_surface, color, True, pts, 2)
 
     def draw(
         self,
@@ -269,7 +281,7 @@ class HighwayRenderer:
             vehicle.position = np.array([state[0], sc.road_width - state[1]])
             vehicle.heading = -float(state[2])
             vehicle.speed = float(state[3])
-        viewer = self.viewer
+        viewer = self._live_viewer()
         # camera: follow the EV along x, keep the road centred vertically
         viewer.observer_vehicle = SimpleNamespace(position=np.array([ev[0], sc.road_width / 2]))
         offscreen = viewer.offscreen

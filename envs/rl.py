@@ -158,6 +158,8 @@ class RLObservation(gym.ObservationWrapper, RecordConstructorArgs):
     def observation(self, observation: np.ndarray) -> np.ndarray:
         """Map the raw 8-vector to the RL observation."""
         env = self.env.unwrapped
+        if not (hasattr(env, "k") and hasattr(env, "scenario")):  # a gym.Env has neither
+            raise TypeError(f"RLObservation needs a drivestyle env (k, scenario), got {env!r}")
         return rl_observation(observation, env.k, env.scenario)
 
 
@@ -191,6 +193,8 @@ class NormalisedAction(gym.ActionWrapper, RecordConstructorArgs):
         if a.dtype.kind not in "iuf" or a.size != 2:
             raise ValueError(f"action must be 2 real numbers in [-1, 1], got {action!r}")
         space = self.env.action_space
+        if not isinstance(space, spaces.Box):  # checked in __init__; gym types it as any Space
+            raise TypeError(f"NormalisedAction needs a Box action space [a, δ]; got {space}")
         base = self.env.unwrapped
         if self.heading_bound and hasattr(base, "ev") and hasattr(base, "scenario"):
             return physical_action(a.reshape(2), space.low, space.high, base.ev, base.scenario)

@@ -111,7 +111,7 @@ def run_episode(
         on_reset(reset_info)
     n = reset_info["scenario"].n_steps if max_steps is None else max_steps
     observations, inputs, infos, rewards = [np.array(obs, float)], [], [], []
-    frames = [env.render()] if render else []
+    frames = [_rgb_frame(env)] if render else []
     terminated = False
     for _ in tqdm(range(n), desc=progress, disable=progress is None, leave=False):
         u = np.asarray(policy(env, obs), float)
@@ -121,7 +121,7 @@ def run_episode(
         infos.append(info)
         rewards.append(float(reward))
         if render:
-            frames.append(env.render())
+            frames.append(_rgb_frame(env))
         if terminated or truncated:
             break
     return Episode(
@@ -133,3 +133,14 @@ def run_episode(
         frames=frames,
         terminated=bool(terminated),
     )
+
+
+def _rgb_frame(env: gym.Env) -> np.ndarray:
+    """``env.render()`` as an RGB array (gymnasium types it as any frame, a list or None)."""
+    frame = env.render()
+    if not isinstance(frame, np.ndarray):
+        raise ValueError(
+            f"rendering a rollout needs render_mode='rgb_array', got {env.render_mode!r} "
+            f"(render() returned {type(frame).__name__})"
+        )
+    return frame

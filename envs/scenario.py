@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from drivestyle.envs.safety import elliptical_index
@@ -210,7 +211,10 @@ class ScenarioConfig:
             raise TypeError(
                 f"unknown scenario parameter(s) {unknown}; valid names: {sorted(names)}"
             )
-        return dataclasses.replace(self, **overrides)
+        # replace() types each keyword as its field (int lanes, bool check_start), which
+        # **float cannot promise statically; __post_init__ validates the values
+        changes: dict[str, Any] = dict(overrides)
+        return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, float]:
         """Plain dict of the fields (for JSON)."""
@@ -293,13 +297,15 @@ class ScenarioRanges:
             RuntimeError: no feasible draw within ``max_tries``.
         """
         for _ in range(max_tries):
-            values = {
-                name: float(rng.uniform(*getattr(self, name)))
-                for name in ("ev_speed", "tv_speed", "tv_gap")
-            }
-            values["tv_lane"] = int(self.tv_lanes[rng.integers(len(self.tv_lanes))])
+            # drawn in this order (ev_speed, tv_speed, tv_gap, tv_lane): the seed's stream
+            ev_speed = float(rng.uniform(*self.ev_speed))
+            tv_speed = float(rng.uniform(*self.tv_speed))
+            tv_gap = float(rng.uniform(*self.tv_gap))
+            tv_lane = int(self.tv_lanes[rng.integers(len(self.tv_lanes))])
             try:
-                return dataclasses.replace(self.base, **values)
+                return dataclasses.replace(
+                    self.base, ev_speed=ev_speed, tv_speed=tv_speed, tv_gap=tv_gap, tv_lane=tv_lane
+                )
             except ValueError:
                 continue
         raise RuntimeError(

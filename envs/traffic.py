@@ -25,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from drivestyle.envs.lane_change import LaneChangeEnv
@@ -176,7 +176,7 @@ class TrafficScene:
     def initial_states(self) -> np.ndarray:
         """States [x, y, φ, v] of every other vehicle at t = 0, TV first, shape (m, 4)."""
         sc = self.base
-        rows = [sc.tv_initial_state]
+        rows: list[np.ndarray | list[float]] = [sc.tv_initial_state]
         rows += [[sc.ev_x + o.gap, sc.lane_centres[o.lane], 0.0, o.speed] for o in self.others]
         return np.array(rows, dtype=float)
 
@@ -292,7 +292,11 @@ class TrafficEnv(LaneChangeEnv):
         **overrides: fields of the base scenario (e.g. ``ev_speed=27``).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 5}
+    # gymnasium types Env.metadata as an instance variable: __init__ sets the env's render_fps
+    metadata: dict[str, Any] = {  # noqa: RUF012 (never mutated; __init__ assigns a copy)
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": 5,
+    }
 
     def __init__(
         self,

@@ -27,11 +27,15 @@ def write_video(frames: list[np.ndarray], path: str | Path, fps: int = 5) -> Pat
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() == ".gif":
-        imageio.mimsave(path, frames, duration=1000 / fps, loop=0)
+        # a list of ArrayLike for imageio's annotation (list is invariant)
+        imageio.mimsave(path, list(frames), duration=1000 / fps, loop=0)
     elif path.suffix.lower() == ".mp4":
-        with imageio.get_writer(
+        # not `with get_writer(...) as writer`: imageio's stub types __enter__ as the base
+        # class, which lacks append_data (it returns the writer itself)
+        writer = imageio.get_writer(
             path, fps=fps, codec="libx264", macro_block_size=1, ffmpeg_log_level="error"
-        ) as writer:
+        )
+        with writer:
             for f in frames:
                 writer.append_data(f)
     else:
@@ -74,5 +78,10 @@ def record_states(
     frames = []
     for k, (ev, tv) in enumerate(zip(ev_states, tv_states, strict=True)):
         env.ev, env.tv, env.k = np.asarray(ev, float), np.asarray(tv, float), k
-        frames.append(env.render())
+        frame = env.render()
+        if frame is None:  # render_mode None or "human": nothing to record
+            raise ValueError(
+                f"record_states needs an env with render_mode='rgb_array', got {env.render_mode!r}"
+            )
+        frames.append(frame)
     return frames

@@ -99,3 +99,10 @@ def test_folder_passed_as_a_demonstration_says_so(tmp_path):
     save_demonstration(Demonstration(**_arrays()), folder / "a.npz")
     with pytest.raises(DemonstrationError, match=r"demos is a folder.*\.npz files \(it holds 1\)"):
         load_demonstration(folder)
+
+
+def test_other_vehicles_is_the_validated_array():
+    single = Demonstration(**_arrays())
+    assert single.other_vehicles.shape == (5, 0, 4)
+    others = np.zeros((5, 2, 4))
+    assert Demonstration(**_arrays(), others=others).other_vehicles.shape == (5, 2, 4)
