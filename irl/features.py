@@ -155,6 +155,16 @@ class EventTimes:
         """Whether the trigger fired."""
         return self.t_trg is not None
 
+    def reactive_window(self) -> tuple[float, float]:
+        """(t_trg, t_rct_end) of the fired trigger [s].
+
+        Raises:
+            ValueError: the trigger did not fire (:attr:`reactive_active` is False).
+        """
+        if self.t_trg is None or self.t_rct_end is None:
+            raise ValueError("no reactive window: the trigger did not fire (t_trg is None)")
+        return self.t_trg, self.t_rct_end
+
 
 @functools.lru_cache(maxsize=32)
 def _leggauss(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -453,16 +463,17 @@ def feature_basis(demo: Demonstration, config: FeatureConfig | None = None) -> F
     segment = np.clip(np.searchsorted(t, t_all, side="right") - 1, 0, len(t) - 2)
     x_all = np.array([B_all @ C[:, :3].ravel() for C in vehicle_C])
     x_tv = x_all[ref[segment], np.arange(t_all.size)]
-    extra = {}
+    extra: dict[str, Any] = {}  # FeatureBasis's reactive fields (arrays and floats)
     if events.reactive_active:
-        t_id, w_id = gauss_legendre_nodes(t, events.t_trg, events.t_rct_end, n)
+        t_trg, t_rct_end = events.reactive_window()
+        t_id, w_id = gauss_legendre_nodes(t, t_trg, t_rct_end, n)
         tv_C = vehicle_C[events.critical]
-        y_tv = basis_matrix(t, [events.t_trg, events.t_rct_end]) @ tv_C[:, 3:].ravel()
+        y_tv = basis_matrix(t, [t_trg, t_rct_end]) @ tv_C[:, 3:].ravel()
         extra = {
             "B_id": basis_matrix(t, t_id),
             "w_id": w_id,
-            "B_trg": basis_matrix(t, [events.t_trg]),
-            "B_rct": basis_matrix(t, [events.t_rct_end]),
+            "B_trg": basis_matrix(t, [t_trg]),
+            "B_rct": basis_matrix(t, [t_rct_end]),
             "y_tv_trg": float(y_tv[0]),
             "y_tv_rct": float(y_tv[1]),
         }
@@ -632,5 +643,5 @@ def segment_integrals(
         "id": 0.0,
     }
     if events.reactive_active and y_trg is not None:
-        out["id"] = integral("id", cy, 0, events.t_trg, events.t_rct_end, y_trg)
+        out["id"] = integral("id", cy, 0, *events.reactive_window(), y_trg)
     return out

@@ -48,10 +48,13 @@ class _Buffered:
         self.outputs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
         self.shapes = [fn.size_out(i) for i in range(fn.n_out())]
         self._buf, self._eval = fn.buffer()
+        # a.data: the array's memoryview (numpy's stubs give ndarray no __buffer__ before
+        # Python 3.12). casadi's stub also lists the byte size, which its SWIG wrapper reads
+        # from the buffer itself and refuses as a third argument.
         for i, a in enumerate(self.inputs):
-            self._buf.set_arg(i, memoryview(a))
+            self._buf.set_arg(i, a.data)  # type: ignore[call-arg]
         for i, a in enumerate(self.outputs):
-            self._buf.set_res(i, memoryview(a))
+            self._buf.set_res(i, a.data)  # type: ignore[call-arg]
 
     def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
         for dst, src in zip(self.inputs, args, strict=True):

@@ -163,7 +163,7 @@ class StyleReward:
         ref = tiv_reference(ev, tv, self.sc, others)
         y_trg = None
         if events.reactive_active:
-            y_trg = float(spline_eval(C, t, [events.t_trg])[0, 1])
+            y_trg = float(spline_eval(C, t, [events.reactive_window()[0]])[0, 1])
         first_tail = max(0, n - 1 - self.TAIL)
         del self.segments[first_tail:]
         for j in range(first_tail, n - 1):
@@ -187,8 +187,9 @@ class StyleReward:
         # f_el is f_l's integrand over the last segment (DESIGN §5)
         f["el"] = self.segments[-1]["l"]
         if events.reactive_active:
-            at = spline_eval(C, t, [events.t_trg, events.t_rct_end])[:, 1]
-            at_tv = spline_eval(Ts[events.critical], t, [events.t_trg, events.t_rct_end])[:, 1]
+            window = list(events.reactive_window())  # [t_trg, t_rct_end]
+            at = spline_eval(C, t, window)[:, 1]
+            at_tv = spline_eval(Ts[events.critical], t, window)[:, 1]
             f["sd"] = float(instant_feature(at[0], at_tv[0], np.exp, np.abs))
             f["ed"] = float(instant_feature(at[1], at_tv[1], np.exp, np.abs))
         return self.omega * np.array([f[k] for k in FEATURES])
@@ -250,8 +251,18 @@ class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
         """Reset the env and the style's trajectory."""
         obs, info = self.env.reset(**kwargs)
         tv, others = self._vehicles(obs, info)
-        self.style_reward.reset(self.env.unwrapped.scenario, obs[:4], tv, others)
+        self.style_reward.reset(self._scenario(), obs[:4], tv, others)
         return obs, info
+
+    def _scenario(self) -> ScenarioConfig:
+        """The drivestyle env's current scenario (a gym.Env in general has none)."""
+        base = self.env.unwrapped
+        scenario = getattr(base, "scenario", None)
+        if not isinstance(scenario, ScenarioConfig):
+            raise TypeError(
+                f"the style reward needs a drivestyle env with a scenario, got {base!r}"
+            )
+        return scenario
 
     @staticmethod
     def _vehicles(obs: np.ndarray, info: dict) -> tuple[np.ndarray, np.ndarray | None]:
@@ -264,9 +275,7 @@ class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
         """Step the env; the reward becomes −θᵀΔf (minus the crash penalty on a crash)."""
         obs, reward, terminated, truncated, info = self.env.step(action)
         tv, others = self._vehicles(obs, info)
-        r, df = self.style_reward.step(
-            info["action"], obs[:4], tv, self.env.unwrapped.scenario.dt, others
-        )
+        r, df = self.style_reward.step(info["action"], obs[:4], tv, self._scenario().dt, others)
         if info.get("collision") or info.get("off_road"):
             r -= self.style_reward.crash_penalty
         info = {**info, "original_env_rew": reward, "style_feature_increment": df}

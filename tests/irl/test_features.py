@@ -3,6 +3,7 @@ import pytest
 from drivestyle.envs import PAPER, Demonstration
 from drivestyle.irl.features import (
     FEATURES,
+    EventTimes,
     FeatureConfig,
     feature_basis,
     feature_values,
@@ -136,3 +137,11 @@ def test_bad_feature_config():
         FeatureConfig(omega=(1.0,) * 6)
     with pytest.raises(ValueError, match="t_rct"):
         FeatureConfig(t_rct=-1.0)
+
+
+def test_reactive_window_only_when_the_trigger_fired():
+    fired = EventTimes(t_end=6.0, t_last=5.8, t_turn=3.0, t_trg=1.2, t_rct_end=2.2)
+    assert fired.reactive_window() == (1.2, 2.2)
+    silent = EventTimes(t_end=6.0, t_last=5.8, t_turn=3.0, t_trg=None, t_rct_end=None)
+    with pytest.raises(ValueError, match="trigger did not fire"):
+        silent.reactive_window()
