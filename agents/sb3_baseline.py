@@ -216,10 +216,11 @@ def train_baseline(
     # sized for 30-step episodes (PPO n_steps 512 = 17 episodes per update, batch 128; SAC
     # learning_starts 500, batch 256) and a 128 × 128 network as in the RL Zoo's
     # continuous-control settings
-    algo, extra = (
-        (SAC, {"learning_starts": 500, "batch_size": 256})
-        if cfg.algo == "sac"
-        else (PPO, {"n_steps": 512, "batch_size": 128})
+    sac = cfg.algo == "sac"
+    algo: type[SAC] | type[PPO] = SAC if sac else PPO
+    # per-algorithm keywords, checked by SB3's constructors
+    extra: dict[str, Any] = (
+        {"learning_starts": 500, "batch_size": 256} if sac else {"n_steps": 512, "batch_size": 128}
     )
     model = algo(
         "MlpPolicy",
@@ -274,7 +275,8 @@ class SB3Policy:
                 "train_summary.json expected; run train_baseline.py)"
             )
         self.summary = json.loads(summary_path.read_text())
-        algo = {"sac": SAC, "ppo": PPO}[self.summary["algo"]]
+        algos: dict[str, type[SAC] | type[PPO]] = {"sac": SAC, "ppo": PPO}
+        algo = algos[self.summary["algo"]]
         self.model = algo.load(folder / "model.zip", device="cpu")
         with open(folder / "vecnormalize.pkl", "rb") as fh:
             import pickle
@@ -307,12 +309,16 @@ class SB3Policy:
         normalised with the stored VecNormalize statistics, as ``predict`` would see them.
         """
         import torch
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.running_mean_std import RunningMeanStd
 
-        policy = self.model.policy
-        if self.summary["algo"] == "ppo":
+        model = self.model
+        if isinstance(model, PPO):  # loaded as summary["algo"]
+            policy = model.policy
             body, head, self._squash = policy.mlp_extractor.policy_net, policy.action_net, False
         else:
-            body, head, self._squash = policy.actor.latent_pi, policy.actor.mu, True
+            actor = model.policy.actor
+            body, head, self._squash = actor.latent_pi, actor.mu, True
         layers: list[tuple[str, Any]] = []
         for module in [*body, head]:
             if isinstance(module, torch.nn.Linear):
@@ -327,9 +333,11 @@ class SB3Policy:
                 raise TypeError(f"unsupported layer {module!r} in the policy network")
         self._layers = layers
         rms = self.norm.obs_rms
-        self._obs_mean = np.asarray(rms.mean, float)
-        self._obs_scale = 1.0 / np.sqrt(np.asarray(rms.var, float) + self.norm.epsilon)
-        self._clip_obs = float(self.norm.clip_obs)
+        if not isinstance(rms, RunningMeanStd):  # a dict: a Dict observation space
+            raise TypeError("the baseline expects one Box observation, not a Dict space")
+        self._obs_mean: np.ndarray = np.asarray(rms.mean, float)
+        self._obs_scale: np.ndarray = 1.0 / np.sqrt(np.asarray(rms.var, float) + self.norm.epsilon)
+        self._clip_obs: float = float(self.norm.clip_obs)
 
     def forward(self, observation: np.ndarray) -> np.ndarray:
         """Deterministic normalised action in [−1, 1]² of an RL observation (numpy only)."""

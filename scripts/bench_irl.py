@@ -86,7 +86,10 @@ def main(argv: list[str] | None = None) -> dict:
         },
     }
     for name in ("base", "reactive"):
-        walls, inner, builds, iters = [], [], [], []
+        walls: list[float] = []
+        inner: list[float] = []
+        builds: list[float] = []
+        iters: list[int] = []
         for _ in tqdm(range(args.repeats), desc=name, leave=False):
             t0 = time.perf_counter()
             learner = MaxEntIRL(demo, FeatureConfig(feature_set=name), IRLConfig())

@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> dict:
                 runs.append(_timed_mining(tasks, library, "ray", 2))
             finally:
                 ray.shutdown()
-        inner = []
+        inner: list[float] = []
         for d in demos[:20]:
             try:
                 inner += MaxEntIRL(d, library.features, IRLConfig()).learn().inner_solve_ms

@@ -99,7 +99,9 @@ def time_solvers(
     ranges = ScenarioRanges()
     rng = np.random.default_rng(seed)
     jobs = [None] * repeats + [ranges.sample(rng) for _ in range(n_random)]
-    times = {name: {"paper": [], "random": []} for name in solvers}
+    times: dict[str, dict[str, list[float]]] = {
+        name: {"paper": [], "random": []} for name in solvers
+    }
     failures = dict.fromkeys(solvers, 0)
     build_s = {}
     for name in solvers:

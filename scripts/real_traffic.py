@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> dict:
         payload = study.to_json()
         payload["neighbours"] = not args.no_neighbours
         payload["n_neighbours_per_episode"] = [
-            int(e.demo.others.shape[1]) for e in episodes if e.used and e.demo is not None
+            int(e.demo.other_vehicles.shape[1]) for e in episodes if e.used and e.demo is not None
         ]
         markdown = real_traffic_markdown(study)
         write_json(tmp / "real_traffic.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])

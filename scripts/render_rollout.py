@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 from drivestyle.agents.studies.compare import policy_frames
 from drivestyle.envs import load_demonstration
-from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges, TrafficScene
 from drivestyle.envs.video import write_video
 from drivestyle.irl.style import load_style
 
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict:
     if demo_path is None and style is not None:
         demo_path = style.demo_path(args.style)
     demo = load_demonstration(demo_path) if demo_path else None
-    scenario = demo.scenario if demo is not None else "paper"
+    scenario: ScenarioConfig | TrafficScene | str = demo.scenario if demo is not None else "paper"
     if args.scenario == "traffic":
         scenario = DEFAULT_TRAFFIC
     elif args.scenario == "traffic-random":

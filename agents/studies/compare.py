@@ -131,6 +131,7 @@ def policy_frames(
     traffic = isinstance(scenario, TrafficScene)
     if traffic and kind == "spline":
         raise ValueError("the spline replay is single-TV only; use --policy expert in traffic")
+    env: LaneChangeEnv  # a TrafficEnv in traffic
     if traffic:
         env = TrafficEnv(scenario, render_mode="rgb_array")
     else:
@@ -341,7 +342,7 @@ def heldout_comparison(
         raise ValueError(f"need at least one held-out scenario, got {k}")
     policies = {name: SB3Policy(folder) for name, folder in models.items()}
     rng = np.random.default_rng(seed)
-    per_scenario = []
+    per_scenario: list[dict[str, Any]] = []
     for _ in range(k):
         scenario = ScenarioRanges().sample(rng)
         demo, summary = generate_demonstration(risk, scenario)

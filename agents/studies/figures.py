@@ -101,7 +101,7 @@ def plot_demonstration(
         The path written.
     """
     sc = demo.scenario
-    ev, tv, others = demo.ev, demo.tv, demo.others
+    ev, tv, others = demo.ev, demo.tv, demo.other_vehicles
     veh = demo.vehicles  # traffic: the least s_e over every vehicle
     s_e = elliptical_index(
         ev[:, None, 0] - veh[:, :, 0], ev[:, None, 1] - veh[:, :, 1], sc.l_a, sc.l_b
@@ -405,7 +405,7 @@ def plot_confusion(
                 ax.text(
                     j,
                     i,
-                    int(M[i, j]),
+                    str(int(M[i, j])),
                     ha="center",
                     va="center",
                     color="white" if M[i, j] > M.max() / 2 else "black",

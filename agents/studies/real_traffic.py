@@ -295,7 +295,7 @@ def run_study(
         workers,
         None if progress is None else lambda *_: progress(1),
     )
-    records = []
+    records: list[dict[str, Any]] = []
     for e in episodes:
         rec = {
             "episode_id": e.episode_id,
