@@ -40,7 +40,7 @@ def risk_quantile(p: float) -> float:
     return NormalDist().inv_cdf(float(p))
 
 
-def chance_margin(dx, dy, sxx, sxy, syy, l_a: float, l_b: float, kappa: float):
+def chance_margin(dx, dy, sxx, sxy, syy, l_a: float, l_b: float, kappa: float | ca.SX):
     """Tangent back-off margin g (module docstring); the chance constraint is g ≥ 0.
 
     Args:
@@ -51,7 +51,7 @@ def chance_margin(dx, dy, sxx, sxy, syy, l_a: float, l_b: float, kappa: float):
         syy: Σ_yy [m²].
         l_a: semi-major axis [m].
         l_b: semi-minor axis [m].
-        kappa: Φ⁻¹(p), see :func:`risk_quantile`.
+        kappa: Φ⁻¹(p), see :func:`risk_quantile` (or a CasADi parameter).
 
     Returns:
         g = ‖z̄‖ − 1 − κ sqrt(nᵀSn) [-], same type and shape as ``dx``.

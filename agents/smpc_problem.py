@@ -382,7 +382,7 @@ def _objective(cfg: SMPCConfig, sc: ScenarioConfig, sym: _Symbols) -> ca.SX:
     Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
     # summed stage by stage (slack, then stage or terminal cost) as the NLP was first built:
     # the summation order fixes the floating-point result the solvers see
-    J = 0
+    J: ca.SX | int = 0
     for k in range(N + 1):
         e = sym.xs[k] - _reference(sym, k, sc.dt)
         if k > 0:
@@ -391,6 +391,8 @@ def _objective(cfg: SMPCConfig, sc: ScenarioConfig, sym: _Symbols) -> ca.SX:
             J += ca.mtimes([e.T, Q, e]) + ca.mtimes([sym.us[k].T, R, sym.us[k]])
         else:
             J += ca.mtimes([e.T, QN, e])
+    if not isinstance(J, ca.SX):  # range(N + 1) adds at least one term: never reached
+        raise ValueError(f"the SMPC objective has no terms (horizon {N})")
     return J
 
 
@@ -624,10 +626,13 @@ class SMPCProblem:
     def _bind(self, solver: ca.Function) -> tuple:
         """(buffer, evaluate) of ``solver`` reading and writing the shared numpy buffers."""
         buffer, evaluate = solver.buffer()
+        # .data: the arrays' memoryviews (numpy's stubs give ndarray no __buffer__ before
+        # Python 3.12). casadi's stub also lists the byte size, which its SWIG wrapper reads
+        # from the buffer itself and refuses as a third argument.
         for i, n in enumerate(solver.name_in()):
-            buffer.set_arg(i, memoryview(self._inputs[n]))
+            buffer.set_arg(i, self._inputs[n].data)  # type: ignore[call-arg]
         for i, n in enumerate(solver.name_out()):
-            buffer.set_res(i, memoryview(self._outputs[n]))
+            buffer.set_res(i, self._outputs[n].data)  # type: ignore[call-arg]
         return buffer, evaluate
 
 
