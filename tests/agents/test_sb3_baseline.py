@@ -40,6 +40,7 @@ def test_rl_env_passes_sb3_check(style_file):
     assert env.action_space.low.tolist() == [-1.0, -1.0]
 
 
+@pytest.mark.slow  # trains two policies end to end
 @pytest.mark.parametrize("algo", ["sac", "ppo"])
 def test_train_save_reload_identical_actions(tmp_path, style_file, algo):
     cfg = TrainConfig(algo=algo, timesteps=128 if algo == "sac" else 256, eval_freq=128)
@@ -73,6 +74,7 @@ def test_training_is_deterministic_given_seed(tmp_path, style_file):
     )
 
 
+@pytest.mark.slow  # end to end: the whole command
 def test_scripts_train_compare_render(tmp_path, style_file):
     def main(name):
         return runpy.run_path(

@@ -53,6 +53,7 @@ def test_classify_loo_separates_separable_styles():
     assert res["accuracy"] == 1.0 and res["p_value_vs_majority"] < 0.01
 
 
+@pytest.mark.slow  # end to end: the whole command
 def test_real_traffic_script_quick(tmp_path):
     main = runpy.run_path(str(ROOT / "scripts" / "real_traffic.py"), run_name="x")["main"]
     res = main(

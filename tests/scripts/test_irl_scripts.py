@@ -93,6 +93,7 @@ def test_learn_style_bad_demo_file(tmp_path, demo_file, mutate, message):
     assert proc.stderr.startswith("error:") and message in proc.stderr, proc.stderr
 
 
+@pytest.mark.slow  # end to end: the whole command
 def test_reproduce_paper(tmp_path):
     out = tmp_path / "paper"
     res = _main("reproduce_paper")(["--out", str(out)])
@@ -159,6 +160,7 @@ def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch
     assert js["status"] == "stalled" and js["converged"] is False
 
 
+@pytest.mark.slow  # end to end: the whole command
 def test_reproduce_paper_with_baseline(tmp_path):
     out = tmp_path / "paper"
     res = _main("reproduce_paper")(
