@@ -34,7 +34,7 @@ import socket
 import time
 from collections import Counter, deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import PurePath
 from typing import Any
 
@@ -61,28 +61,6 @@ __all__ = [
 
 ENGINES = ("local", "ray")
 STATUSES = ("ok", "failed")
-COLUMNS = (
-    "id",
-    "source",
-    "status",
-    "error",
-    "true_risk",
-    "risk_estimate",
-    "risk_lo",
-    "risk_hi",
-    "risk_mean",
-    "informative",
-    "trigger_fired",
-    "theta_normalised",
-    "rmse_y_m",
-    "rmse_xy_m",
-    "iterations",
-    "converged",
-    "learn_s",
-    "identify_s",
-)
-"""Columns of ``styles.csv``; ``theta_normalised`` is a JSON list in the library's feature
-order, the interval is [risk_lo, risk_hi]."""
 TIMING_COLUMNS = ("learn_s", "identify_s")
 """Columns that differ between runs (wall times)."""
 MAX_ERROR_CHARS = 500
@@ -260,6 +238,11 @@ class MinedRow:
     def without_timings(self) -> MinedRow:
         """The row with the wall times removed (what two runs must agree on)."""
         return replace(self, learn_s=None, identify_s=None)
+
+
+COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(MinedRow))
+"""Columns of ``styles.csv``, in :class:`MinedRow`'s field order; ``theta_normalised`` is a
+JSON list in the library's feature order, the interval is [risk_lo, risk_hi]."""
 
 
 def _round(value: float | None) -> float | None:

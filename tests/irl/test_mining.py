@@ -298,3 +298,12 @@ def test_a_local_multi_node_ray_cluster(population, library):
         ray.shutdown()
         cluster.shutdown()
         os.environ.pop("RAY_ADDRESS", None)
+
+
+def test_the_styles_csv_header_is_the_documented_one():
+    # the file interface (README "Many vehicles"): a field added to MinedRow changes it
+    assert COLUMNS == (
+        "id", "source", "status", "error", "true_risk", "risk_estimate", "risk_lo", "risk_hi",
+        "risk_mean", "informative", "trigger_fired", "theta_normalised", "rmse_y_m",
+        "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s",
+    )  # fmt: skip
