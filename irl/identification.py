@@ -37,9 +37,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.learner import check_learnable
-
-# StyleLibrary, LibraryError and load_library stay importable from here (older imports)
-from drivestyle.irl.library import LibraryError, StyleLibrary, load_library
+from drivestyle.irl.library import LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
 
 __all__ = [
@@ -54,7 +52,6 @@ __all__ = [
     "demo_scores",
     "identify",
     "identify_all",
-    "load_library",
     "posterior_from_scores",
     "risk_interval",
     "summarise",

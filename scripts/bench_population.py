@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 from drivestyle.agents.studies.population import simulate_population
 from drivestyle.envs.demonstration import load_demonstration
-from drivestyle.irl.identification import load_library
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
+from drivestyle.irl.library import load_library
 from drivestyle.irl.mining import mine
 from tqdm import tqdm
 

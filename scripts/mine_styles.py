@@ -33,7 +33,7 @@ from pathlib import Path
 
 from drivestyle.agents.studies.figures import plot_population
 from drivestyle.envs.real_data import load_cats, load_ngsim
-from drivestyle.irl.identification import load_library
+from drivestyle.irl.library import load_library
 from drivestyle.irl.mining import (
     CONNECT_TIMEOUT_S,
     ENGINES,
