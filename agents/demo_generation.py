@@ -15,15 +15,15 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
+from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rollout import run_episode
 from drivestyle.envs.safety import ellipse_constraint, elliptical_index, trigger_time
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 from drivestyle.envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
-
-from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "demo_summary",

@@ -16,6 +16,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from drivestyle.envs.scenario import ScenarioConfig

@@ -23,6 +23,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
+
 from drivestyle.agents.smpc_problem import (
     NU,
     NX,
@@ -38,7 +40,6 @@ from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import PAPER, ScenarioConfig
 from drivestyle.envs.traffic import parse_traffic_observation
-from numpy.typing import ArrayLike
 
 __all__ = [
     "InfeasibleStartError",

@@ -44,11 +44,12 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
+
 from drivestyle.agents.chance import chance_margin, risk_quantile
 from drivestyle.agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import PAPER, ScenarioConfig
-from numpy.typing import ArrayLike
 
 __all__ = [
     "NU",

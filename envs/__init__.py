@@ -16,6 +16,7 @@ Importing this package registers the Gymnasium ids (idempotently):
 from __future__ import annotations
 
 import gymnasium as gym
+
 from drivestyle.envs.demonstration import Demonstration, load_demonstration, save_demonstration
 from drivestyle.envs.dynamics import bicycle_ode, rk4_step
 from drivestyle.envs.lane_change import LaneChangeEnv, task_reward

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.envs.safety import rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig
 

@@ -13,10 +13,11 @@ from typing import TYPE_CHECKING, Any, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
+
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
-from gymnasium import spaces
 
 if TYPE_CHECKING:
     from drivestyle.envs.rendering import HighwayRenderer

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.envs.demonstration import (
     LANE_WIDTH_RANGE_M,
     Demonstration,

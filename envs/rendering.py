@@ -27,6 +27,7 @@ from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
 import numpy as np
+
 from drivestyle.envs.scenario import ScenarioConfig
 
 if TYPE_CHECKING:  # imported lazily at run time (pygame starts up on import)

@@ -14,8 +14,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from drivestyle.envs.demonstration import Demonstration
 from tqdm import tqdm
+
+from drivestyle.envs.demonstration import Demonstration
 
 __all__ = ["Episode", "Policy", "run_episode"]
 

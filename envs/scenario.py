@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
 from drivestyle.envs.safety import elliptical_index
 
 __all__ = [

@@ -19,6 +19,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+
 from drivestyle.envs.demonstration import Demonstration
 
 __all__ = ["DEFAULT_JERK_PSD", "observe", "rts_smooth"]

@@ -28,10 +28,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
+
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
-from gymnasium import spaces
 
 __all__ = [
     "BEHAVIOURS",

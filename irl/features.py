@@ -38,6 +38,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index, trigger_time
 from drivestyle.envs.scenario import ScenarioConfig

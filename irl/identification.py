@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.irl.inner import InnerProblem, InnerSolveError

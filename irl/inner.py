@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
+
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.features import (
     FEATURES,
@@ -27,7 +29,6 @@ from drivestyle.irl.features import (
     feature_values,
 )
 from drivestyle.irl.spline import demo_control_points
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 __all__ = ["InnerProblem", "InnerSolution", "InnerSolveError", "newton_minimize"]
 

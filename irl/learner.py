@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
+
 from drivestyle.envs.demonstration import Demonstration, DemonstrationError, check_plausible
 from drivestyle.irl.features import X_FEATURES, FeatureConfig
 from drivestyle.irl.inner import InnerProblem, InnerSolution, InnerSolveError

@@ -23,13 +23,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from drivestyle.common.io import read_json
+from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
-
-from drivestyle.common.io import read_json
-from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "SCENARIO_SCALE",

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from drivestyle.envs.demonstration import Demonstration
 
 __all__ = ["trajectory_errors"]

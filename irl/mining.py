@@ -39,12 +39,12 @@ from pathlib import PurePath
 from typing import Any
 
 import numpy as np
+
+from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.identification import identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import StyleLibrary
-
-from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "COLUMNS",

@@ -27,10 +27,9 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from drivestyle.common.io import write_text
 from drivestyle.irl.library import StyleLibrary
 from drivestyle.irl.mining import COLUMNS, MinedRow
-
-from drivestyle.common.io import write_text
 
 try:  # POSIX; elsewhere the output folder is not locked
     import fcntl

@@ -29,6 +29,8 @@ from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.utils import RecordConstructorArgs
+
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.features import (
     FEATURES,
@@ -42,7 +44,6 @@ from drivestyle.irl.features import (
 )
 from drivestyle.irl.spline import spline_eval, state_control_points
 from drivestyle.irl.style import Style, StyleError, load_style
-from gymnasium.utils import RecordConstructorArgs
 
 __all__ = ["CRASH_FACTOR", "LearnedStyleReward", "StyleReward"]
 

@@ -14,8 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from drivestyle.envs.demonstration import Demonstration
 from numpy.typing import ArrayLike
+
+from drivestyle.envs.demonstration import Demonstration
 
 __all__ = [
     "CONTROL_POINT_RULES",

@@ -9,6 +9,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from drivestyle.common.io import read_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.features import FEATURES, FeatureConfig
 from drivestyle.irl.learner import (
@@ -20,8 +22,6 @@ from drivestyle.irl.learner import (
     normalise_theta,
 )
 from drivestyle.irl.spline import spline_eval
-
-from drivestyle.common.io import read_json
 
 __all__ = [
     "DemoFit",

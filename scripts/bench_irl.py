@@ -22,16 +22,16 @@ import time
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
 from drivestyle.agents import generate_demonstration
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl.identification import identify
 from drivestyle.irl.library import load_library
-from tqdm import tqdm
-
-from drivestyle.common.cli import positive_int, run_cli
-from drivestyle.common.io import check_output_file, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

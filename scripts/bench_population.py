@@ -23,15 +23,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
 from drivestyle.agents.studies.population import simulate_population
+from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.io import check_output_file, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import load_library
 from drivestyle.irl.mining import mine
-from tqdm import tqdm
-
-from drivestyle.common.cli import positive_int, run_cli
-from drivestyle.common.io import check_output_file, fmt, write_json
 
 TARGET_VEHICLES = 110_000
 """A drone-recorded highway dataset's size (the issue's scale)."""

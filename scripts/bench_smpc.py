@@ -28,13 +28,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from drivestyle.agents import SMPCConfig, SMPCExpert, rollout_expert
-from drivestyle.agents.demo_generation import ROBUSTNESS_RISKS, smpc_robustness
-from drivestyle.envs import LaneChangeEnv, ScenarioRanges
 from tqdm import tqdm
 
+from drivestyle.agents import SMPCConfig, SMPCExpert, rollout_expert
+from drivestyle.agents.demo_generation import ROBUSTNESS_RISKS, smpc_robustness
 from drivestyle.common.cli import nonnegative_int, positive_int, risk_value, run_cli
 from drivestyle.common.io import check_output_file, write_json
+from drivestyle.envs import LaneChangeEnv, ScenarioRanges
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -21,16 +21,16 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
 from drivestyle.agents import SMPCConfig
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
+from drivestyle.common.cli import positive_int, risk_list, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.envs.tracking import observe
 from drivestyle.irl.library import learn_library
-from tqdm import tqdm
-
-from drivestyle.common.cli import positive_int, risk_list, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

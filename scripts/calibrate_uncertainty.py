@@ -15,10 +15,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.calibration import uncertainty_scan
-from drivestyle.agents.studies.figures import plot_risk_sweep
 from tqdm import tqdm
 
+from drivestyle.agents.studies.calibration import uncertainty_scan
+from drivestyle.agents.studies.figures import plot_risk_sweep
 from drivestyle.common.cli import float_list, risk_list, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 

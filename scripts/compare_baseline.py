@@ -17,14 +17,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from tqdm import tqdm
+
 from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.studies.compare import LABELS, compare_methods, heldout_comparison
 from drivestyle.agents.studies.figures import plot_comparison, plot_heldout
 from drivestyle.agents.studies.reports import comparison_markdown
-from drivestyle.envs import load_demonstration
-from drivestyle.irl.style import load_style
-from tqdm import tqdm
-
 from drivestyle.common.cli import positive_int, risk_value, run_cli
 from drivestyle.common.io import (
     atomic_output_dir,
@@ -34,6 +32,8 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.envs import load_demonstration
+from drivestyle.irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

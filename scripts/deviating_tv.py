@@ -20,12 +20,11 @@ from pathlib import Path
 
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.studies.deviation import deviating_tv_study, write_videos
+from drivestyle.common.cli import finite_float, positive_float, positive_int, risk_value, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.lane_change import TVDeviation
 from drivestyle.irl.style import load_style
-
-from drivestyle.common.cli import finite_float, positive_float, positive_int, risk_value, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

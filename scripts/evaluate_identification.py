@@ -24,6 +24,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.agents.studies.ceiling import identification_references
 from drivestyle.agents.studies.figures import plot_confusion, plot_noise_curve, plot_theta_vs_risk
@@ -37,14 +39,12 @@ from drivestyle.agents.studies.reports import (
     noise_markdown,
     references_markdown,
 )
+from drivestyle.common.cli import float_list, positive_int, risk_list, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
 from drivestyle.irl.identification import DEFAULT_SCORER
 from drivestyle.irl.library import LibraryError, load_library
-from tqdm import tqdm
-
-from drivestyle.common.cli import float_list, positive_int, risk_list, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -19,11 +19,10 @@ from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, generate_traffic_demonstration
 from drivestyle.agents.studies.figures import plot_demonstration
 from drivestyle.agents.studies.reports import seconds
-from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
-from drivestyle.envs.traffic import DEFAULT_TRAFFIC
-
 from drivestyle.common.cli import finite_float, nonnegative_int, positive_float, risk_value, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
+from drivestyle.envs.traffic import DEFAULT_TRAFFIC
 
 TRAFFIC_CHOICES = ("traffic", "traffic-random")
 

@@ -21,12 +21,11 @@ import sys
 import time
 from pathlib import Path
 
+from drivestyle.common.cli import run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify
 from drivestyle.irl.library import load_library
-
-from drivestyle.common.cli import run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

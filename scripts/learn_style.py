@@ -19,17 +19,17 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tqdm import tqdm
+
 from drivestyle.agents.studies.figures import plot_lateral, plot_reproductions
+from drivestyle.common.cli import positive_float, positive_int, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
 from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.learner import UPDATE_RULES, IterationRecord
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.style import fit_style
-from tqdm import tqdm
-
-from drivestyle.common.cli import positive_float, positive_int, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

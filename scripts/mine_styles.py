@@ -31,7 +31,11 @@ import sys
 import time
 from pathlib import Path
 
+from tqdm import tqdm
+
 from drivestyle.agents.studies.figures import plot_population
+from drivestyle.common.cli import positive_float, positive_int, run_cli
+from drivestyle.common.io import check_output_dir, write_json
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.library import load_library
 from drivestyle.irl.mining import (
@@ -43,10 +47,6 @@ from drivestyle.irl.mining import (
     summary_numbers,
 )
 from drivestyle.irl.mining_output import MiningOutput, RunFingerprint
-from tqdm import tqdm
-
-from drivestyle.common.cli import positive_float, positive_int, run_cli
-from drivestyle.common.io import check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

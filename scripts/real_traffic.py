@@ -21,13 +21,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.real_traffic import run_study
-from drivestyle.agents.studies.reports import real_traffic_markdown
-from drivestyle.envs.real_data import load_cats, load_ngsim
 from tqdm import tqdm
 
+from drivestyle.agents.studies.real_traffic import run_study
+from drivestyle.agents.studies.reports import real_traffic_markdown
 from drivestyle.common.cli import positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
+from drivestyle.envs.real_data import load_cats, load_ngsim
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -19,6 +19,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from tqdm import tqdm
+
 from drivestyle.agents.studies.paper import (
     baseline_study,
     paper_study,
@@ -26,8 +28,6 @@ from drivestyle.agents.studies.paper import (
     write_paper_study,
 )
 from drivestyle.agents.studies.reports import paper_console
-from tqdm import tqdm
-
 from drivestyle.common.cli import positive_float, positive_int, risk_value, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir
 
@@ -71,8 +71,9 @@ def main(argv: list[str] | None = None) -> dict:
     check_output_dir(args.out)
     if args.with_baseline:
         try:
-            import drivestyle.envs.video  # noqa: F401
             import stable_baselines3  # noqa: F401
+
+            import drivestyle.envs.video  # noqa: F401
         except ImportError as exc:
             raise RuntimeError(
                 f"{exc}; --with-baseline needs: pip install -c constraints-cpu.txt -e '.[rl,video]'"

@@ -16,9 +16,9 @@ import sys
 import time
 from pathlib import Path
 
-from drivestyle.agents.studies.population import simulate_population
 from tqdm import tqdm
 
+from drivestyle.agents.studies.population import simulate_population
 from drivestyle.common.cli import positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 

@@ -19,10 +19,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.irl.style import load_style
-
 from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rollout import Policy, run_episode

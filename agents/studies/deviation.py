@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.agents.demo_generation import rollout_expert
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 from drivestyle.envs.demonstration import Demonstration

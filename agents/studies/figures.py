@@ -16,13 +16,14 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.patches import Ellipse, Polygon
+from matplotlib.ticker import MaxNLocator
+
 from drivestyle.agents.studies.reports import seconds
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index, trigger_time, vehicle_corners
 from drivestyle.irl.learner import LearningResult
 from drivestyle.irl.spline import spline_eval
-from matplotlib.patches import Ellipse, Polygon
-from matplotlib.ticker import MaxNLocator
 
 if TYPE_CHECKING:
     from drivestyle.agents.studies.compare import HeldoutComparison

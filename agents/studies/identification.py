@@ -16,6 +16,8 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+
+from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.tracking import observe
 from drivestyle.irl.features import FeatureConfig
@@ -31,8 +33,6 @@ from drivestyle.irl.identification import (
 )
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.library import LibraryError, StyleLibrary
-
-from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "Evaluation",

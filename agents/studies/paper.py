@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.agents.studies.figures import (
@@ -27,13 +28,12 @@ from drivestyle.agents.studies.figures import (
     plot_reproductions,
 )
 from drivestyle.agents.studies.reports import comparison_markdown, paper_markdown
+from drivestyle.common.io import command_line, write_json, write_text
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.irl.features import FeatureConfig, feature_basis, feature_values
 from drivestyle.irl.learner import IRLConfig, LearningResult
 from drivestyle.irl.spline import demo_control_points
 from drivestyle.irl.style import fit_style
-
-from drivestyle.common.io import command_line, write_json, write_text
 
 __all__ = [
     "PAPER_REPORTED",

@@ -18,14 +18,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, demo_summary, rollout_expert
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
+from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficEnv, TrafficRanges, TrafficScene
-
-from drivestyle.common.parallel import parallel_map
 
 __all__ = ["RISK_RANGE", "Population", "draw_vehicle", "simulate_population"]
 

@@ -25,15 +25,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from drivestyle.agents.studies.figures import plot_episode
+from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.real_data import RecordedEpisode
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL, normalise_theta
 from drivestyle.irl.metrics import trajectory_errors
-
-from drivestyle.common.parallel import parallel_map
 
 __all__ = [
     "REPRODUCTIONS",

@@ -11,9 +11,8 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from drivestyle.agents.studies.compare import LABELS
-from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS
-
 from drivestyle.common.io import fmt
+from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS
 
 if TYPE_CHECKING:
     from drivestyle.agents.studies.ceiling import References

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from drivestyle.agents.chance import chance_margin, risk_quantile
 from drivestyle.agents.prediction import TVUncertainty, tv_covariance, tv_mean_prediction
 

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+
 from drivestyle.agents.studies import figures
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.agents.studies.ceiling import CeilingSummary, References
 from drivestyle.agents.studies.identification import evaluate_identification, noise_curve_json

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from drivestyle.agents.studies.real_traffic import (
     classify_loo,
     constant_velocity,

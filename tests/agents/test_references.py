@@ -1,6 +1,7 @@
 """The identification references and the SMPC robustness count."""
 
 import pytest
+
 from drivestyle.agents import generate_demonstration
 from drivestyle.agents.demo_generation import (
     draw_interactive_scenarios,

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from drivestyle.agents.sb3_baseline import SB3Policy, TrainConfig, make_rl_env, train_baseline
 from drivestyle.envs import LaneChangeEnv
 from drivestyle.irl import FeatureConfig, IRLConfig
@@ -14,9 +15,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def style_file(tmp_path_factory, paper_demo):
-    from drivestyle.envs import save_demonstration
-
     from drivestyle.common.io import write_json
+    from drivestyle.envs import save_demonstration
 
     folder = tmp_path_factory.mktemp("style")
     demo_path = save_demonstration(paper_demo, folder / "demo.npz")

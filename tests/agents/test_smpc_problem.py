@@ -3,6 +3,7 @@ import dataclasses
 import casadi as ca
 import numpy as np
 import pytest
+
 from drivestyle.agents import smpc, smpc_problem
 from drivestyle.agents.chance import chance_margin
 from drivestyle.agents.prediction import tv_covariance

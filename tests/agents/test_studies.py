@@ -3,6 +3,7 @@
 import dataclasses
 
 import pytest
+
 from drivestyle.agents.studies import reports
 from drivestyle.agents.studies.calibration import SCAN_KEYS, UncertaintyScan, uncertainty_scan
 from drivestyle.agents.studies.paper import PaperStudy, paper_study

@@ -1,6 +1,7 @@
 import casadi as ca
 import numpy as np
 import pytest
+
 from drivestyle.envs.dynamics import bicycle_ode, rk4_step
 
 L_F = L_R = 2.0

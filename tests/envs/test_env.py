@@ -1,12 +1,13 @@
 import warnings
 
-import drivestyle.envs
 import gymnasium as gym
 import numpy as np
 import pytest
-from drivestyle.envs import ENV_IDS, PAPER, LaneChangeEnv
 from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import drivestyle.envs
+from drivestyle.envs import ENV_IDS, PAPER, LaneChangeEnv
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

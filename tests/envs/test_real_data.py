@@ -3,6 +3,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from drivestyle.envs.real_data import load_cats, load_ngsim
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"

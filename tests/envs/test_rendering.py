@@ -3,11 +3,12 @@
 Headless throughout: tests/conftest.py sets ``SDL_VIDEODRIVER=dummy``.
 """
 
-import drivestyle.envs  # noqa: F401  (registers the ids)
 import gymnasium as gym
 import numpy as np
 import pygame
 import pytest
+
+import drivestyle.envs  # noqa: F401  (registers the ids)
 from drivestyle.envs import PAPER
 from drivestyle.envs.rendering import HighwayRenderer
 

@@ -5,10 +5,11 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-from drivestyle.envs import ENV_IDS, PAPER
-from drivestyle.envs.rl import NormalisedAction, RLObservation
 from gymnasium.utils import RecordConstructorArgs
 from gymnasium.utils.env_checker import check_env
+
+from drivestyle.envs import ENV_IDS, PAPER
+from drivestyle.envs.rl import NormalisedAction, RLObservation
 
 WRAPPERS = {
     "RLObservation": lambda env: RLObservation(env),

@@ -2,6 +2,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+
 from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges, get_scenario
 
 

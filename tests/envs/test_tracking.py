@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from drivestyle.envs.tracking import observe, rts_smooth
 
 

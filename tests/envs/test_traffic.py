@@ -1,9 +1,11 @@
 """The traffic env: registered ids, observation layout, IDM, collisions, scene validation."""
 
-import drivestyle.envs  # noqa: F401  (registers the ids)
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
+
+import drivestyle.envs  # noqa: F401  (registers the ids)
 from drivestyle.envs.traffic import (
     DEFAULT_TRAFFIC,
     IDM,
@@ -15,7 +17,6 @@ from drivestyle.envs.traffic import (
     idm_acceleration,
     parse_traffic_observation,
 )
-from gymnasium.utils.env_checker import check_env
 
 
 @pytest.mark.parametrize("env_id", ["drivestyle/Traffic-v0", "drivestyle/TrafficRandom-v0"])

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from drivestyle.envs import PAPER
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.video import record_policy, record_states

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from drivestyle.envs.demonstration import DemonstrationError
 from drivestyle.envs.scenario import PAPER
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL

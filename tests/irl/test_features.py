@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from drivestyle.envs import PAPER, Demonstration
 from drivestyle.irl.features import (
     FEATURES,
@@ -117,6 +118,7 @@ def test_trigger_and_reactive_features_on_constructed_pair():
 
 def test_casadi_and_numpy_features_agree(paper_demo):
     import casadi as ca
+
     from drivestyle.irl.spline import demo_control_points
 
     C = demo_control_points(paper_demo)

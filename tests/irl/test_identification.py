@@ -6,8 +6,10 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+
 from drivestyle.agents import generate_demonstration
 from drivestyle.agents.demo_generation import draw_interactive_scenarios
+from drivestyle.common.io import write_json
 from drivestyle.envs import Demonstration
 from drivestyle.irl.identification import (
     DEFAULT_SCORER,
@@ -18,8 +20,6 @@ from drivestyle.irl.identification import (
     identify_all,
 )
 from drivestyle.irl.library import LibraryError, StyleLibrary
-
-from drivestyle.common.io import write_json
 
 ROOT = Path(__file__).resolve().parents[2]
 IDENTIFY_JSON_KEYS = {

@@ -6,10 +6,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.library import LibraryError, StyleLibrary, load_library
 
 from drivestyle.common.io import write_json
+from drivestyle.envs.scenario import PAPER
+from drivestyle.irl.library import LibraryError, StyleLibrary, load_library
 
 
 def _write(tmp_path, raw):

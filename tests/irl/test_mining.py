@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from drivestyle.agents.studies.population import draw_vehicle, simulate_population
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl import mining

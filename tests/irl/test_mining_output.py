@@ -3,6 +3,7 @@
 import json
 
 import pytest
+
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
 from drivestyle.irl.mining import COLUMNS, MinedRow

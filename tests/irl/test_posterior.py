@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from drivestyle.agents import generate_demonstration
 from drivestyle.envs.scenario import PAPER
 from drivestyle.irl.identification import (

@@ -3,12 +3,13 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
+
 from drivestyle.envs import LaneChangeEnv
 from drivestyle.irl import FeatureConfig, IRLConfig, feature_basis, feature_values
 from drivestyle.irl.reward import LearnedStyleReward
 from drivestyle.irl.spline import demo_control_points
 from drivestyle.irl.style import fit_style, load_style
-from gymnasium.utils.env_checker import check_env
 
 
 @pytest.fixture(scope="module")

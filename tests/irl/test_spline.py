@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from drivestyle.irl.spline import (
     QuinticTrajectory,
     basis_matrix,

@@ -5,15 +5,15 @@ import dataclasses
 import gymnasium as gym
 import numpy as np
 import pytest
+
 from drivestyle.agents.demo_generation import generate_traffic_demonstration
+from drivestyle.common.io import write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration, save_demonstration
 from drivestyle.envs.traffic import TrafficScene, VehicleSpec
 from drivestyle.irl.features import FeatureConfig, event_times, feature_basis, tiv_reference
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.learner import IRLConfig
 from drivestyle.irl.style import fit_style
-
-from drivestyle.common.io import write_json
 
 
 @pytest.fixture(scope="module")

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from drivestyle.envs import save_demonstration
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -135,9 +136,8 @@ def test_help(name, seeded):
 
 
 def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch, capsys):
-    from drivestyle.irl.inner import InnerProblem, InnerSolveError
-
     from drivestyle.common.cli import run_cli
+    from drivestyle.irl.inner import InnerProblem, InnerSolveError
 
     solve, calls = InnerProblem.solve, {"n": 0}
 

@@ -14,15 +14,15 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from drivestyle.agents import generate_demonstration
+from drivestyle.common.io import write_json
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
 from drivestyle.irl.mining import COLUMNS
 from drivestyle.irl.mining_output import MiningOutput, MiningOutputError, RunFingerprint
 from drivestyle.scripts.mine_styles import main
-
-from drivestyle.common.io import write_json
 
 ROOT = Path(__file__).resolve().parents[2]
 
