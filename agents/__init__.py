@@ -1,13 +1,6 @@
 """drivestyle agents: the stochastic MPC expert that produces demonstrations."""
 
-from drivestyle.agents.chance import chance_margin, risk_quantile
 from drivestyle.agents.demo_generation import demo_summary, generate_demonstration, rollout_expert
-from drivestyle.agents.prediction import (
-    PAPER_TV_UNCERTAINTY,
-    TVUncertainty,
-    tv_covariance,
-    tv_mean_prediction,
-)
 from drivestyle.agents.smpc import (
     InfeasibleStartError,
     SMPCConfig,
@@ -15,7 +8,14 @@ from drivestyle.agents.smpc import (
     SMPCExpert,
     SolveReport,
 )
-from drivestyle.agents.smpc_problem import SMPCProblem
+from drivestyle.irl.chance import chance_margin, risk_quantile
+from drivestyle.irl.prediction import (
+    PAPER_TV_UNCERTAINTY,
+    TVUncertainty,
+    tv_covariance,
+    tv_mean_prediction,
+)
+from drivestyle.irl.smpc_problem import SMPCProblem
 
 __all__ = [
     "PAPER_TV_UNCERTAINTY",

@@ -1,6 +1,6 @@
 """Stochastic MPC expert: the closed loop around the SMPC problem (paper §II-A; DESIGN §3).
 
-At each step the EV solves the SMPC problem of :mod:`drivestyle.agents.smpc_problem`
+At each step the EV solves the SMPC problem of :mod:`drivestyle.irl.smpc_problem`
 (tracking cost, RK4 dynamics, state and input bounds, a softened tangent chance constraint
 and a hard nominal ellipse per constrained vehicle) and applies the first input. This
 module is the closed-loop shell around that transcription:
@@ -25,7 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivestyle.agents.smpc_problem import (
+from drivestyle.envs.dynamics import rk4_step
+from drivestyle.envs.safety import elliptical_index
+from drivestyle.envs.scenario import PAPER, ScenarioConfig
+from drivestyle.envs.traffic import parse_traffic_observation
+from drivestyle.irl.smpc_problem import (
     NU,
     NX,
     NLPBounds,
@@ -36,10 +40,6 @@ from drivestyle.agents.smpc_problem import (
     constraint_violation,
     nlp_parameters,
 )
-from drivestyle.envs.dynamics import rk4_step
-from drivestyle.envs.safety import elliptical_index
-from drivestyle.envs.scenario import PAPER, ScenarioConfig
-from drivestyle.envs.traffic import parse_traffic_observation
 
 __all__ = [
     "InfeasibleStartError",
@@ -169,7 +169,7 @@ class SMPCExpert:
         >>> action = expert.act(obs)
         >>> decision = expert.plan(obs)  # the action and its SolveReport
 
-    The NLP (:class:`drivestyle.agents.smpc_problem.SMPCProblem`) is built once per scenario
+    The NLP (:class:`drivestyle.irl.smpc_problem.SMPCProblem`) is built once per scenario
     geometry (dt, l_f, l_r, ellipse); speeds, lanes and gaps are parameters, so random
     scenarios reuse it. Call :meth:`reset` at the start of each episode (or pass a
     different scenario) to drop the warm start.

@@ -7,12 +7,12 @@ One solve of the stochastic MPC is
     s.t.   ξ_{k+1} = F(ξ_k, u_k)                      (the env's RK4 map, envs/dynamics.py)
            ξ_0 = ξ0
            ξ_k ∈ Ξ, u_k ∈ U                           (heading, speed, road, input bounds)
-           g_kj(ξ_k) + s_kj ≥ 0, s_kj ≥ 0, k = 1 … N  (tangent chance constraint, agents/chance.py)
+           g_kj(ξ_k) + s_kj ≥ 0, s_kj ≥ 0, k = 1 … N  (tangent chance constraint, irl/chance.py)
            ‖z̄_kj‖ − 1 ≥ 0, k = 1 … N                 (nominal ellipse, hard)
 
 for every constrained vehicle j = 1 … M, with ξ^ref_k = [x_0 + v_ref t_k, y_ref, 0, v_ref]
 (the x weight is 1e-6, so x_ref only keeps that term bounded) and the vehicles predicted
-at constant velocity with the covariance of :func:`drivestyle.agents.prediction.tv_covariance`.
+at constant velocity with the covariance of :func:`drivestyle.irl.prediction.tv_covariance`.
 
 Why the slack: the chance constraint can be infeasible from the current state — a
 growing TV covariance at large p may demand more distance than the road offers — and a
@@ -46,10 +46,10 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivestyle.agents.chance import chance_margin, risk_quantile
-from drivestyle.agents.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import PAPER, ScenarioConfig
+from drivestyle.irl.chance import chance_margin, risk_quantile
+from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 
 __all__ = [
     "NU",
@@ -94,7 +94,7 @@ class SMPCConfig:
     R: tuple[float, float] = (1.0, 10.0)
     """Input weights on [a, δ]."""
     uncertainty: TVUncertainty = field(default_factory=lambda: PAPER_TV_UNCERTAINTY)
-    """TV prediction error model (drivestyle.agents.prediction)."""
+    """TV prediction error model (drivestyle.irl.prediction)."""
     solver: str = "fatrop"
     """'fatrop' (structure-exploiting interior point) or 'ipopt'."""
     max_iter: int = 200
@@ -365,7 +365,7 @@ def _ellipse_margins(
     """(chance margin g_k, nominal margin ‖z̄_k‖ − 1) of the EV at ξ_k against one vehicle.
 
     The vehicle is predicted at constant velocity from its state ``vehicle`` (the mean of
-    :func:`drivestyle.agents.prediction.tv_mean_prediction`) with covariance Σ_k.
+    :func:`drivestyle.irl.prediction.tv_mean_prediction`) with covariance Σ_k.
     """
     t_k = k * sc.dt
     dx = x_k[0] - (vehicle[0] + vehicle[3] * ca.cos(vehicle[2]) * t_k)

@@ -4,10 +4,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from drivestyle.agents import smpc, smpc_problem
-from drivestyle.agents.chance import chance_margin
-from drivestyle.agents.prediction import tv_covariance
-from drivestyle.agents.smpc_problem import (
+from drivestyle.agents import smpc
+from drivestyle.envs import PAPER
+from drivestyle.envs.dynamics import rk4_step
+from drivestyle.irl import smpc_problem
+from drivestyle.irl.chance import chance_margin
+from drivestyle.irl.prediction import tv_covariance
+from drivestyle.irl.smpc_problem import (
     NU,
     NX,
     PrimalDual,
@@ -17,8 +20,6 @@ from drivestyle.agents.smpc_problem import (
     nlp_layout,
     nlp_parameters,
 )
-from drivestyle.envs import PAPER
-from drivestyle.envs.dynamics import rk4_step
 
 
 @pytest.fixture(scope="module")
