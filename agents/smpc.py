@@ -25,20 +25,22 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import PAPER, ScenarioConfig
 from drivestyle.envs.traffic import parse_traffic_observation
 from drivestyle.irl.smpc_problem import (
     NU,
-    NX,
     NLPBounds,
     NLPSolution,
     PrimalDual,
     SMPCConfig,
     SMPCProblem,
+    cold_primal,
+    constrained_vehicles,
     constraint_violation,
     nlp_parameters,
+    shifted_duals,
+    shifted_primal,
 )
 
 __all__ = [
@@ -296,19 +298,9 @@ class SMPCExpert:
 
     # ------------------------------------------------------------------ the steps of plan
     def _constrained_vehicles(self, xi0: np.ndarray, others: np.ndarray) -> np.ndarray:
-        """The M vehicles the NLP constrains, nearest first, padded with placeholders.
-
-        A placeholder stands 10 km behind the EV: its margins are huge and never bind.
-        """
-        M = self._config.max_vehicles
-        dist = np.hypot(others[:, 0] - xi0[0], others[:, 1] - xi0[1]) if len(others) else []
-        in_range = self._config.vehicle_range
-        order = [j for j in np.argsort(dist, kind="stable") if dist[j] <= in_range]
-        if M == 1 and len(others) == 1:
-            order = [0]  # the paper's TV is always constrained, however far
-        chosen = [others[j] for j in order[:M]]
-        chosen += [np.array([xi0[0] - 1e4, xi0[1], 0.0, 0.0])] * (M - len(chosen))
-        return np.array(chosen)
+        """The M vehicles the NLP constrains, nearest first, padded with placeholders."""
+        cfg = self._config
+        return constrained_vehicles(xi0, others, cfg.max_vehicles, cfg.vehicle_range)
 
     def _warm_start(self, xi0: np.ndarray) -> PrimalDual:
         """The previous solution shifted by one stage (primal and dual), or a cold start."""
@@ -321,40 +313,15 @@ class SMPCExpert:
 
     def _cold_primal(self, xi0: np.ndarray) -> np.ndarray:
         """A zero-input rollout from ξ0 (inputs and slacks 0)."""
-        N, sc, layout = self._config.horizon, self._scenario, self._problem.layout
-        xs = np.empty((N + 1, NX))
-        xs[0] = xi0
-        for k in range(N):
-            xs[k + 1] = rk4_step(xs[k], np.zeros(NU), sc.dt, sc.l_f, sc.l_r)
-        w = np.zeros(layout.n_w)
-        w[layout.ix] = xs
-        return w
+        return cold_primal(self._problem.layout, xi0, self._scenario)
 
     def _shifted_primal(self, previous: np.ndarray, xi0: np.ndarray) -> np.ndarray:
         """``previous`` shifted by one stage: the last input repeated, ξ_0 set to ξ0."""
-        layout = self._problem.layout
-        ix, iu, i_s = layout.ix, layout.iu, layout.i_s
-        xs, us = previous[ix], previous[iu]
-        x_tail = np.asarray(self._problem.dynamics(xs[-1], us[-1])).ravel()
-        w = np.zeros(layout.n_w)
-        w[ix] = np.vstack([xs[1:], x_tail])
-        w[iu] = np.vstack([us[1:], us[-1:]])
-        w[i_s] = np.vstack([previous[i_s][1:], previous[i_s][-1:]])
-        w[ix[0]] = xi0
-        return w
+        return shifted_primal(self._problem.layout, previous, xi0, self._problem.dynamics)
 
     def _shifted_duals(self, previous: PrimalDual) -> tuple[np.ndarray, np.ndarray]:
         """Multipliers of ``previous`` shifted by one stage (last stage repeated)."""
-        N, layout = self._config.horizon, self._problem.layout
-        lg, lx = previous.lam_g, previous.lam_x
-        new_g, new_x = lg.copy(), lx.copy()
-        nxt = np.minimum(np.arange(N) + 1, N - 1)
-        new_g[layout.ig_dyn] = lg[layout.ig_dyn[nxt]]
-        new_g[layout.ig_path[:-1]] = lg[layout.ig_path[1:]]
-        new_x[layout.ix[1:-1]] = lx[layout.ix[2:]]
-        new_x[layout.iu] = lx[layout.iu[nxt]]
-        new_x[layout.i_s[:-1]] = lx[layout.i_s[1:]]
-        return new_g, new_x
+        return shifted_duals(self._problem.layout, previous)
 
     def _solve(self, p: np.ndarray, guess: PrimalDual) -> tuple[NLPSolution, bool]:
         """Solve with the configured solver, retrying once from the same guess on failure.

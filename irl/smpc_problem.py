@@ -54,6 +54,7 @@ from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_co
 __all__ = [
     "NU",
     "NX",
+    "N_WEIGHTS",
     "SOLVERS",
     "NLPBounds",
     "NLPLayout",
@@ -61,10 +62,14 @@ __all__ = [
     "PrimalDual",
     "SMPCConfig",
     "SMPCProblem",
+    "cold_primal",
+    "constrained_vehicles",
     "constraint_violation",
     "nlp_bounds",
     "nlp_layout",
     "nlp_parameters",
+    "shifted_duals",
+    "shifted_primal",
     "transcribe",
 ]
 
@@ -122,6 +127,12 @@ class SMPCConfig:
     """ρ₁: linear (exact) penalty on the chance-constraint slack."""
     slack_l2: float = 1e2
     """ρ₂: quadratic penalty on the slack (keeps the problem strictly convex in s)."""
+    weights_as_parameters: bool = False
+    """Make the cost weights w = [q_y, q_φ, q_v, r_a, r_δ] parameters of each solve
+    (appended to p, :func:`nlp_parameters`), with Q_N = Q and the x weight fixed at Q[0]:
+    the receding-horizon style model (``drivestyle.irl.driver_style``, DESIGN §15) learns
+    them without rebuilding the NLP. False (the expert's default) keeps Q, Q_N and R as
+    the constants above, so the expert's NLP is exactly the one first built."""
 
     def __post_init__(self) -> None:
         risk_quantile(self.risk)  # validates p ∈ (0, 1)
@@ -235,8 +246,17 @@ def nlp_layout(horizon: int, n_vehicles: int) -> NLPLayout:
     )
 
 
+N_WEIGHTS = 5
+"""Cost weights of a parametric NLP: [q_y, q_φ, q_v, r_a, r_δ]."""
+
+
 def nlp_parameters(
-    xi0: ArrayLike, vehicles: ArrayLike, y_ref: float, v_ref: float, kappa: float
+    xi0: ArrayLike,
+    vehicles: ArrayLike,
+    y_ref: float,
+    v_ref: float,
+    kappa: float,
+    weights: ArrayLike | None = None,
 ) -> np.ndarray:
     """The parameter vector p of one solve (module docstring).
 
@@ -246,17 +266,23 @@ def nlp_parameters(
         y_ref: reference lateral position [m].
         v_ref: reference speed [m/s].
         kappa: Φ⁻¹(p), the back-off quantile.
+        weights: [q_y, q_φ, q_v, r_a, r_δ] for an NLP built with
+            :attr:`SMPCConfig.weights_as_parameters` (None for the expert's NLP).
 
     Returns:
-        p, shape (4 + 4M + 3,).
+        p, shape (4 + 4M + 3,) or (4 + 4M + 3 + 5,) with weights.
     """
-    return np.concatenate(
-        [
-            np.asarray(xi0, dtype=float),
-            np.asarray(vehicles, dtype=float).ravel(),
-            [y_ref, v_ref, kappa],
-        ]
-    )
+    parts = [
+        np.asarray(xi0, dtype=float),
+        np.asarray(vehicles, dtype=float).ravel(),
+        [y_ref, v_ref, kappa],
+    ]
+    if weights is not None:
+        w = np.asarray(weights, dtype=float).ravel()
+        if w.shape != (N_WEIGHTS,):
+            raise ValueError(f"weights must have {N_WEIGHTS} entries, got shape {w.shape}")
+        parts.append(w)
+    return np.concatenate(parts)
 
 
 @dataclass(frozen=True, eq=False)
@@ -331,10 +357,12 @@ class _Symbols:
     y_ref: ca.SX
     v_ref: ca.SX
     kappa: ca.SX
+    weights: ca.SX | None  # [q_y, q_φ, q_v, r_a, r_δ] of a parametric NLP
 
 
-def _symbols(N: int, M: int) -> _Symbols:
-    P = ca.SX.sym("P", NX + 4 * M + 3)
+def _symbols(N: int, M: int, parametric: bool = False) -> _Symbols:
+    n_base = NX + 4 * M + 3
+    P = ca.SX.sym("P", n_base + (N_WEIGHTS if parametric else 0))
     return _Symbols(
         xs=[ca.SX.sym(f"x{k}", NX) for k in range(N + 1)],
         us=[ca.SX.sym(f"u{k}", NU) for k in range(N)],
@@ -345,6 +373,7 @@ def _symbols(N: int, M: int) -> _Symbols:
         y_ref=P[NX + 4 * M],
         v_ref=P[NX + 4 * M + 1],
         kappa=P[NX + 4 * M + 2],
+        weights=P[n_base:] if parametric else None,
     )
 
 
@@ -381,6 +410,10 @@ def _objective(cfg: SMPCConfig, sc: ScenarioConfig, sym: _Symbols) -> ca.SX:
     """Tracking cost, input cost and slack penalty (module docstring)."""
     N = cfg.horizon
     Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
+    if sym.weights is not None:
+        w = sym.weights
+        Q = QN = ca.diag(ca.vertcat(cfg.Q[0], w[0], w[1], w[2]))
+        R = ca.diag(w[3:5])
     # summed stage by stage (slack, then stage or terminal cost) as the NLP was first built:
     # the summation order fixes the floating-point result the solvers see
     J: ca.SX | int = 0
@@ -440,7 +473,7 @@ def transcribe(config: SMPCConfig, scenario: ScenarioConfig) -> tuple[dict, ca.F
         CasADi's NLP dict ``{"x": w, "f": J, "g": g, "p": p}`` (layout: :func:`nlp_layout`)
         and the discrete dynamics F(ξ, u).
     """
-    sym = _symbols(config.horizon, config.max_vehicles)
+    sym = _symbols(config.horizon, config.max_vehicles, config.weights_as_parameters)
     F = _dynamics(scenario)
     nlp = {
         "x": ca.vertcat(*_variables(sym)),
@@ -562,7 +595,7 @@ class SMPCProblem:
 
     @property
     def n_p(self) -> int:
-        """Number of parameters, 4 + 4M + 3."""
+        """Number of parameters, 4 + 4M + 3 (+ 5 weights if parametric)."""
         return int(self.nlp["p"].numel())
 
     def serves(self, scenario: ScenarioConfig) -> bool:
@@ -635,6 +668,103 @@ class SMPCProblem:
         for i, n in enumerate(solver.name_out()):
             buffer.set_res(i, self._outputs[n].data)  # type: ignore[call-arg]
         return buffer, evaluate
+
+
+# ---------------------------------------------------------------------------- vehicles
+def constrained_vehicles(
+    xi0: np.ndarray, others: np.ndarray, n_vehicles: int, vehicle_range: float
+) -> np.ndarray:
+    """The M vehicles an NLP constrains, nearest first, padded with placeholders.
+
+    A placeholder stands 10 km behind the EV: its margins are huge and never bind.
+
+    Args:
+        xi0: the EV's state [x, y, φ, v].
+        others: the surrounding vehicles' states, shape (m, 4).
+        n_vehicles: M, the NLP's vehicle slots.
+        vehicle_range: vehicles farther than this (centre distance) are left out [m]; a
+            single vehicle with M = 1 (the paper's TV) is always constrained.
+
+    Returns:
+        Shape (M, 4).
+    """
+    M = n_vehicles
+    dist = np.hypot(others[:, 0] - xi0[0], others[:, 1] - xi0[1]) if len(others) else []
+    order = [j for j in np.argsort(dist, kind="stable") if dist[j] <= vehicle_range]
+    if M == 1 and len(others) == 1:
+        order = [0]  # the paper's TV is always constrained, however far
+    chosen = [others[j] for j in order[:M]]
+    chosen += [np.array([xi0[0] - 1e4, xi0[1], 0.0, 0.0])] * (M - len(chosen))
+    return np.array(chosen)
+
+
+# ---------------------------------------------------------------------------- warm starts
+def cold_primal(layout: NLPLayout, xi0: np.ndarray, scenario: ScenarioConfig) -> np.ndarray:
+    """A zero-input rollout from ξ0 as initial guess (inputs and slacks 0).
+
+    Args:
+        layout: the NLP's layout.
+        xi0: the plan's first state [x, y, φ, v].
+        scenario: T_s and the wheelbase of the rollout.
+
+    Returns:
+        w, shape (n_w,).
+    """
+    N = layout.iu.shape[0]
+    xs = np.empty((N + 1, NX))
+    xs[0] = xi0
+    for k in range(N):
+        xs[k + 1] = rk4_step(xs[k], np.zeros(NU), scenario.dt, scenario.l_f, scenario.l_r)
+    w = np.zeros(layout.n_w)
+    w[layout.ix] = xs
+    return w
+
+
+def shifted_primal(
+    layout: NLPLayout, previous: np.ndarray, xi0: np.ndarray, dynamics: ca.Function
+) -> np.ndarray:
+    """The previous solution shifted by one stage: the last input repeated, ξ_0 set to ξ0.
+
+    Args:
+        layout: the NLP's layout.
+        previous: the previous step's solution w.
+        xi0: the new first state.
+        dynamics: F(ξ, u), to extend the plan by one stage.
+
+    Returns:
+        w, shape (n_w,).
+    """
+    ix, iu, i_s = layout.ix, layout.iu, layout.i_s
+    xs, us = previous[ix], previous[iu]
+    x_tail = np.asarray(dynamics(xs[-1], us[-1])).ravel()
+    w = np.zeros(layout.n_w)
+    w[ix] = np.vstack([xs[1:], x_tail])
+    w[iu] = np.vstack([us[1:], us[-1:]])
+    w[i_s] = np.vstack([previous[i_s][1:], previous[i_s][-1:]])
+    w[ix[0]] = xi0
+    return w
+
+
+def shifted_duals(layout: NLPLayout, previous: PrimalDual) -> tuple[np.ndarray, np.ndarray]:
+    """Multipliers of ``previous`` shifted by one stage (last stage repeated).
+
+    Args:
+        layout: the NLP's layout.
+        previous: the previous step's primal-dual solution.
+
+    Returns:
+        (λ_g, λ_x) of the shifted guess.
+    """
+    N = layout.iu.shape[0]
+    lg, lx = previous.lam_g, previous.lam_x
+    new_g, new_x = lg.copy(), lx.copy()
+    nxt = np.minimum(np.arange(N) + 1, N - 1)
+    new_g[layout.ig_dyn] = lg[layout.ig_dyn[nxt]]
+    new_g[layout.ig_path[:-1]] = lg[layout.ig_path[1:]]
+    new_x[layout.ix[1:-1]] = lx[layout.ix[2:]]
+    new_x[layout.iu] = lx[layout.iu[nxt]]
+    new_x[layout.i_s[:-1]] = lx[layout.i_s[1:]]
+    return new_g, new_x
 
 
 def _geometry_key(sc: ScenarioConfig) -> tuple:

@@ -1,0 +1,680 @@
+"""The receding-horizon style model: a driver as a planner with a cost and a risk (DESIGN §15).
+
+A :class:`DriverStyle` describes a *driver*, not one scenario. At every sample the
+driver solves, from its current state ξ_k and with the surrounding vehicles predicted at
+constant velocity under the uncertainty of :mod:`drivestyle.irl.prediction`,
+
+    min_u  Σ_{i<N} w_y (y_i − y_ref)² + w_φ φ_i² + w_v (v_i − v_ref)² + w_a a_i² + w_δ δ_i²
+              + (terminal state terms) + slack penalty
+    s.t.   the vehicle's dynamics and limits (heading, speed, road, inputs),
+           Pr(outside every nearby vehicle's safety ellipse) ≥ p   (chance constraint),
+           the nominal ellipse (hard),
+
+and applies the first input (the transcription is :mod:`drivestyle.irl.smpc_problem`'s,
+with the weights as parameters). The five terms are the horizon versions of the paper's
+classic features — lane deviation (f_il/f_el), lateral speed (v·φ, the heading term),
+speed deviation (f_v), longitudinal acceleration (f_a) and lateral acceleration (∝ δ); the
+paper's reaction features (f_sd, f_ed, f_id and the trigger) are what the chance
+constraint produces, with the risk p as an explicit parameter. The weights are defined
+up to a common scale (the argmin is invariant), so w_a = 1 fixes the gauge.
+
+*Learning* (:func:`learn_driver`) uses every step of every demonstration: the plan from
+the demonstration's own state ξ_k must start with the input the driver applied
+(teacher forcing; Levine & Koltun's locally optimal examples). The residuals
+r_k = (u_0(ξ_k; w, p) − u_k) / σ_u are minimised by Levenberg–Marquardt over log w (and p
+and v_ref where free), with forward-difference Jacobians: five parameters, each
+evaluation a batch of small warm-started NLP solves. *Reproduction* (:func:`reproduce`)
+drives the style in closed loop from the demonstration's first state, re-planning every
+T_s against the recorded surrounding vehicles, as the driver did.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivestyle.common.io import read_json
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.dynamics import rk4_step
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.chance import risk_quantile
+from drivestyle.irl.smpc_problem import (
+    N_WEIGHTS,
+    NLPBounds,
+    PrimalDual,
+    SMPCConfig,
+    SMPCProblem,
+    cold_primal,
+    constrained_vehicles,
+    constraint_violation,
+    nlp_parameters,
+    shifted_duals,
+    shifted_primal,
+)
+
+__all__ = [
+    "DRIVER_STYLE_KIND",
+    "INPUT_SCALE",
+    "RISK_RANGE",
+    "WEIGHT_NAMES",
+    "DriverFit",
+    "DriverStyle",
+    "DriverStyleError",
+    "Reproduction",
+    "StylePlanner",
+    "initial_weights",
+    "learn_driver",
+    "load_driver_style",
+    "reproduce",
+    "step_residuals",
+]
+
+WEIGHT_NAMES = ("lane", "heading", "speed", "accel", "steer")
+"""Names of the cost weights [w_y, w_φ, w_v, w_a, w_δ] (w_a = 1 is the gauge)."""
+RISK_RANGE = (0.5, 0.99)
+"""Risks p the model infers: from the nominal ellipse (0.5) to nearly certain safety."""
+INPUT_SCALE = (0.5, 0.005)
+"""σ_u: the scale of the input residuals [m/s², rad] (≈ a tenth of the inputs' ranges in
+the demonstrations: a and δ then weigh alike)."""
+SCREEN_CANDIDATES = 24
+"""Starting points :func:`learn_driver` scores before its Levenberg–Marquardt runs."""
+RESTARTS = 2
+"""Levenberg–Marquardt runs, from the best-scored starting points."""
+SCREEN_SEED = 17
+"""Seed of the starting points' perturbations (learning is deterministic)."""
+_GAUGE = 3
+"""Index of the weight fixed at 1 (w_a)."""
+
+
+class DriverStyleError(ValueError):
+    """A driver style, its file or its demonstrations are unusable."""
+
+
+def initial_weights() -> np.ndarray:
+    """Scale-normalised starting weights: each term ≈ 1 at a typical lane change.
+
+    Typical magnitudes: lane error 5 m, heading 0.05 rad, speed error 5 m/s,
+    acceleration 1 m/s², steering 0.02 rad; w = 1 / magnitude². Learning starts here, not
+    at any expert's weights.
+
+    Returns:
+        [w_y, w_φ, w_v, w_a, w_δ], shape (5,).
+    """
+    return 1.0 / np.array([5.0, 0.05, 5.0, 1.0, 0.02]) ** 2
+
+
+@dataclass(frozen=True)
+class DriverStyle:
+    """One driver: cost weights, risk level and (optionally) desired speed."""
+
+    weights: tuple[float, ...]
+    """[w_y, w_φ, w_v, w_a, w_δ] (:data:`WEIGHT_NAMES`), positive."""
+    risk: float = 0.7
+    """p of the chance constraint, in :data:`RISK_RANGE`."""
+    v_ref: float | None = None
+    """Desired speed [m/s]; None: the scenario's v_ref."""
+    horizon: int = 10
+    """N: the planning horizon [steps of T_s]."""
+
+    def __post_init__(self) -> None:
+        w = tuple(float(x) for x in self.weights)
+        if len(w) != N_WEIGHTS or not all(math.isfinite(x) and x > 0 for x in w):
+            raise DriverStyleError(
+                f"weights must be {N_WEIGHTS} finite positive numbers, got {self.weights!r}"
+            )
+        object.__setattr__(self, "weights", w)
+        lo, hi = RISK_RANGE
+        if not (isinstance(self.risk, (int, float)) and lo <= self.risk <= hi):
+            raise DriverStyleError(f"risk must lie in [{lo}, {hi}], got {self.risk!r}")
+        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref < 70):
+            raise DriverStyleError(f"v_ref must be in (0, 70) m/s, got {self.v_ref!r}")
+        if not (isinstance(self.horizon, int) and 1 <= self.horizon <= 50):
+            raise DriverStyleError(f"horizon must be an integer in [1, 50], got {self.horizon!r}")
+
+    @property
+    def kappa(self) -> float:
+        """Φ⁻¹(p)."""
+        return risk_quantile(self.risk)
+
+    def normalised(self) -> np.ndarray:
+        """The weights divided by w_a (the gauge), shape (5,)."""
+        w = np.asarray(self.weights)
+        return w / w[_GAUGE]
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (the ``style`` entry of a driver-style file)."""
+        return {
+            "weights": list(self.weights),
+            "weight_names": list(WEIGHT_NAMES),
+            "risk": self.risk,
+            "v_ref": self.v_ref,
+            "horizon": self.horizon,
+        }
+
+    @classmethod
+    def from_json(cls, raw: Any) -> DriverStyle:
+        """Inverse of :meth:`to_json`.
+
+        Raises:
+            DriverStyleError: a key is missing or a value is invalid.
+        """
+        if not isinstance(raw, dict):
+            kind = type(raw).__name__
+            raise DriverStyleError(f"a driver style must be a JSON object, got {kind}")
+        try:
+            return cls(
+                weights=tuple(float(x) for x in raw["weights"]),
+                risk=float(raw["risk"]),
+                v_ref=None if raw.get("v_ref") is None else float(raw["v_ref"]),
+                horizon=int(raw.get("horizon", 10)),
+            )
+        except KeyError as exc:
+            raise DriverStyleError(f"driver style is missing key {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise DriverStyleError(f"invalid driver style: {exc}") from None
+
+
+# ---------------------------------------------------------------------------- the planner
+@dataclass(frozen=True)
+class PlanResult:
+    """One plan from one state."""
+
+    u0: np.ndarray
+    """The first input [a, δ], clipped to the scenario's bounds."""
+    ok: bool
+    """The solver succeeded and the point is feasible."""
+    chance_active: bool
+    """A chance constraint binds (multiplier or slack > 0) at some stage of the plan."""
+    point: PrimalDual | None
+    """The solution (None when the solve failed)."""
+
+
+class StylePlanner:
+    """The NLP of the style model for one scenario geometry and M surrounding vehicles.
+
+    One :class:`~drivestyle.irl.smpc_problem.SMPCProblem` built with
+    ``weights_as_parameters``: every style, risk, speed and scenario of the geometry reuses
+    it. Solves are warm-started from :meth:`plan`'s ``guess`` (the previous step's shifted
+    solution); fatrop first, IPOPT from the same guess if fatrop fails.
+    """
+
+    def __init__(self, scenario: ScenarioConfig, horizon: int = 10, n_vehicles: int = 1):
+        """Build the parametric NLP.
+
+        Args:
+            scenario: the geometry (T_s, wheelbase, ellipse).
+            horizon: N.
+            n_vehicles: M, vehicles with a chance constraint (nearest first).
+        """
+        self.config = SMPCConfig(
+            horizon=horizon, max_vehicles=n_vehicles, weights_as_parameters=True
+        )
+        self.scenario = scenario
+        self.problem = SMPCProblem(self.config, scenario)
+        self.layout = self.problem.layout
+        self._bounds: dict[tuple, NLPBounds] = {}
+
+    def serves(self, scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> bool:
+        """Whether this planner's NLP fits ``scenario`` with N and M."""
+        return (
+            self.problem.serves(scenario)
+            and self.config.horizon == horizon
+            and self.config.max_vehicles == n_vehicles
+        )
+
+    def bounds(self, scenario: ScenarioConfig) -> NLPBounds:
+        """The scenario's bounds (cached per scenario)."""
+        key = (scenario.y_bounds, scenario.phi_max, scenario.v_max, scenario.a_min,
+               scenario.a_max, scenario.delta_max)  # fmt: skip
+        if key not in self._bounds:
+            self._bounds[key] = self.problem.bounds(scenario)
+        return self._bounds[key]
+
+    def guess(self, xi0: np.ndarray, previous: PrimalDual | None) -> PrimalDual:
+        """The shifted previous solution, or a zero-input rollout."""
+        layout = self.layout
+        if previous is None:
+            return PrimalDual(
+                cold_primal(layout, xi0, self.scenario), np.zeros(layout.n_g), np.zeros(layout.n_w)
+            )
+        lam_g, lam_x = shifted_duals(layout, previous)
+        return PrimalDual(
+            shifted_primal(layout, previous.w, xi0, self.problem.dynamics), lam_g, lam_x
+        )
+
+    def plan(
+        self,
+        xi0: np.ndarray,
+        others: np.ndarray,
+        style: DriverStyle,
+        scenario: ScenarioConfig,
+        previous: PrimalDual | None = None,
+    ) -> PlanResult:
+        """Plan from ξ0 against the surrounding vehicles ``others`` (m, 4).
+
+        Args:
+            xi0: the EV's state.
+            others: the surrounding vehicles' current states (predicted at constant
+                velocity inside the NLP).
+            style: weights, risk, desired speed.
+            scenario: target lane y_ref, v_ref (unless the style has one) and bounds.
+            previous: the previous step's solution (warm start) or None.
+
+        Returns:
+            The first input and whether the plan is trustworthy.
+        """
+        cfg = self.config
+        vehicles = constrained_vehicles(xi0, others, cfg.max_vehicles, cfg.vehicle_range)
+        v_ref = scenario.v_ref if style.v_ref is None else style.v_ref
+        p = nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights)
+        bounds = self.bounds(scenario)
+        guess = self.guess(xi0, previous)
+        sol = self.problem.solve("fatrop", p, guess, bounds)
+        if not sol.success:
+            sol = self.problem.solve("ipopt", p, guess, bounds)
+        viol = constraint_violation(sol.point.w, sol.g, bounds, self.layout.equality)
+        ok = bool(sol.success and np.isfinite(viol) and viol < 1e-4)
+        lim_lo = np.array([scenario.a_min, -scenario.delta_max])
+        lim_hi = np.array([scenario.a_max, scenario.delta_max])
+        if not ok:
+            return PlanResult(np.zeros(2), False, True, None)
+        u0 = np.clip(sol.point.w[self.layout.iu[0]], lim_lo, lim_hi)
+        chance_rows = self.layout.ig_path[:, 0::2]
+        active = bool(
+            np.any(np.abs(sol.point.lam_g[chance_rows]) > 1e-8)
+            or np.any(sol.point.w[self.layout.i_s] > 1e-8)
+        )
+        return PlanResult(u0, True, active, sol.point)
+
+
+_PLANNERS: dict[tuple, StylePlanner] = {}
+
+
+def planner_for(scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> StylePlanner:
+    """A cached :class:`StylePlanner` for the geometry (one NLP build per process)."""
+    key = (scenario.dt, scenario.l_f, scenario.l_r, scenario.l_a, scenario.l_b,
+           horizon, n_vehicles)  # fmt: skip
+    if key not in _PLANNERS:
+        _PLANNERS[key] = StylePlanner(scenario, horizon, n_vehicles)
+    return _PLANNERS[key]
+
+
+def _n_vehicles(demo: Demonstration) -> int:
+    """M of a demonstration: the TV alone, or up to 4 vehicles in traffic (the expert's)."""
+    return 1 if demo.other_vehicles.shape[1] == 0 else 4
+
+
+def _check_demo(demo: Demonstration) -> ScenarioConfig:
+    sc = demo.scenario
+    dt = np.diff(demo.t)
+    if not np.allclose(dt, sc.dt, rtol=1e-6, atol=1e-9):
+        raise DriverStyleError(
+            f"the demonstration's samples are {dt.min():.3g}–{dt.max():.3g} s apart, but its "
+            f"scenario's T_s is {sc.dt} s: resample it to T_s"
+        )
+    return sc
+
+
+# ---------------------------------------------------------------------------- residuals
+def step_residuals(
+    style: DriverStyle, demo: Demonstration, planner: StylePlanner | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Teacher-forced input residuals of ``style`` on every step of ``demo``.
+
+    r_k = (u_0(ξ_k; style) − u_k) / σ_u (:data:`INPUT_SCALE`), the plan starting from the
+    demonstration's own state ξ_k with the surrounding vehicles at their recorded states.
+
+    Args:
+        style: the driver style.
+        demo: the demonstration (samples T_s apart).
+        planner: the NLP to use (default: the cached one of the demo's geometry).
+
+    Returns:
+        (r, active): residuals, shape (n−1, 2), and per step whether a chance constraint
+        binds in the plan (where p can matter), shape (n−1,).
+    """
+    sc = _check_demo(demo)
+    planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
+    scale = np.asarray(INPUT_SCALE)
+    vehicles = demo.vehicles
+    r = np.empty((demo.n - 1, 2))
+    active = np.zeros(demo.n - 1, dtype=bool)
+    previous: PrimalDual | None = None
+    for k in range(demo.n - 1):
+        res = planner.plan(demo.ev[k], vehicles[k], style, sc, previous)
+        previous = res.point
+        u0 = res.u0 if res.ok else np.array([sc.a_min / 2, 0.0])
+        r[k] = (u0 - demo.u[k]) / scale
+        active[k] = res.chance_active
+    return r, active
+
+
+# ---------------------------------------------------------------------------- closed loop
+@dataclass(frozen=True)
+class Reproduction:
+    """A style driven in closed loop in a demonstration's scenario."""
+
+    t: np.ndarray
+    """Sample times, shape (n,) [s]."""
+    states: np.ndarray
+    """EV states [x, y, φ, v], shape (n, 4)."""
+    inputs: np.ndarray
+    """Applied inputs [a, δ], shape (n−1, 2)."""
+    failures: int
+    """Steps whose solve failed (a fallback input was applied)."""
+    min_d: float
+    """Least nominal ellipse margin d_k = (Δx/l_a)² + (Δy/l_b)² − 1 against any vehicle."""
+
+    def errors(self, demo: Demonstration) -> tuple[float, float]:
+        """(rmse_y, rmse_xy) against the demonstration [m]."""
+        d = self.states[:, :2] - demo.ev[:, :2]
+        return float(np.sqrt(np.mean(d[:, 1] ** 2))), float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
+
+
+def reproduce(
+    style: DriverStyle, demo: Demonstration, planner: StylePlanner | None = None
+) -> Reproduction:
+    """Drive ``style`` from the demonstration's first state, re-planning every T_s.
+
+    The surrounding vehicles move as recorded (they do not react to the reproduction).
+    A failed solve applies the previous plan's next input while one remains, else brakes
+    at a_min/2 (as the expert does).
+
+    Args:
+        style: the driver style.
+        demo: the demonstration whose scenario and vehicles to drive in.
+        planner: the NLP (default: the cached one of the demo's geometry).
+
+    Returns:
+        The closed-loop trajectory.
+    """
+    sc = _check_demo(demo)
+    planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
+    vehicles = demo.vehicles
+    xs = np.empty((demo.n, 4))
+    us = np.empty((demo.n - 1, 2))
+    xs[0] = demo.ev[0]
+    previous: PrimalDual | None = None
+    spare = np.empty((0, 2))
+    failures = 0
+    for k in range(demo.n - 1):
+        res = planner.plan(xs[k], vehicles[k], style, sc, previous)
+        if res.ok and res.point is not None:
+            us[k] = res.u0
+            previous = res.point
+            spare = res.point.w[planner.layout.iu][1:]
+        else:
+            failures += 1
+            previous = None
+            if len(spare):
+                us[k], spare = spare[0], spare[1:]
+            else:
+                us[k] = [sc.a_min / 2, 0.0]
+        xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
+    rel = xs[:, None, :2] - vehicles[:, :, :2]
+    d = (rel[..., 0] / sc.l_a) ** 2 + (rel[..., 1] / sc.l_b) ** 2 - 1.0
+    return Reproduction(demo.t.copy(), xs, us, failures, float(np.min(d)))
+
+
+# ---------------------------------------------------------------------------- learning
+@dataclass(frozen=True)
+class DriverFit:
+    """The result of :func:`learn_driver`."""
+
+    style: DriverStyle
+    """The learned style (weights, risk, desired speed)."""
+    risks: tuple[float, ...]
+    """The risk each demonstration was fitted with (all equal unless risks were given)."""
+    cost: float
+    """½ Σ ‖r‖² at the optimum (teacher-forced input residuals)."""
+    residual_rms: float
+    """RMS of the residuals (in σ_u units)."""
+    n_residuals: int
+    """Number of residual entries (2 per step)."""
+    iterations: int
+    """Levenberg–Marquardt iterations."""
+    status: str
+    """'converged', 'max_iter' or 'stalled' (no step lowered the cost)."""
+    seconds: float
+    """Wall time [s]."""
+    history: tuple[float, ...] = field(default=())
+    """Cost per iteration."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "style": self.style.to_json(),
+            "risks": list(self.risks),
+            "cost": self.cost,
+            "residual_rms": self.residual_rms,
+            "n_residuals": self.n_residuals,
+            "iterations": self.iterations,
+            "status": self.status,
+            "seconds": self.seconds,
+            "history": list(self.history),
+        }
+
+
+def _risk_of(s: float) -> float:
+    """The risk 0.5 + 0.49·sigmoid(s): an unconstrained coordinate for p ∈ (0.5, 0.99)."""
+    lo, hi = RISK_RANGE
+    return lo + (hi - lo) / (1.0 + math.exp(-s))
+
+
+def _s_of(risk: float) -> float:
+    lo, hi = RISK_RANGE
+    q = min(max((risk - lo) / (hi - lo), 1e-4), 1 - 1e-4)
+    return math.log(q / (1 - q))
+
+
+def learn_driver(
+    demos: Sequence[Demonstration],
+    risks: Sequence[float] | None = None,
+    fit_speed: bool = False,
+    initial: DriverStyle | None = None,
+    max_iter: int = 30,
+    tol: float = 1e-4,
+    progress: Callable[[int, float], None] | None = None,
+    screen: int = SCREEN_CANDIDATES,
+    restarts: int = RESTARTS,
+) -> DriverFit:
+    """Learn one driver's style from its demonstrations in several scenarios.
+
+    Minimises ½ Σ_d Σ_k ‖r_k‖² (:func:`step_residuals`) over log w (w_a = 1), the risk
+    p (unless ``risks`` fixes each demonstration's) and the desired speed (``fit_speed``),
+    by Levenberg–Marquardt with forward-difference Jacobians. The objective has local
+    minima (the active set of the chance constraint changes with the weights: a p = 0.9
+    driver's LM run from the normalised start stopped at cost 197 where the truth has
+    1e-23), so ``screen`` starting points — the normalised weights and log-uniform
+    perturbations of e^±2.5 drawn from a fixed seed — are scored first and LM runs from
+    the ``restarts`` best; the lowest cost wins.
+
+    Args:
+        demos: demonstrations of one driver (or, with ``risks``, of drivers that share the
+            cost but differ in risk).
+        risks: each demonstration's known risk (a library's training), or None to learn
+            one shared p.
+        fit_speed: also learn the desired speed v_ref (recorded traffic: unknown).
+        initial: the starting style (default: :func:`initial_weights`, p = 0.7).
+        max_iter: iteration cap.
+        tol: relative cost decrease below which the run has converged.
+        progress: called with (iteration, cost) after each iteration.
+        screen: starting points scored (1: the normalised start only).
+        restarts: LM runs from the best-scored starting points.
+
+    Returns:
+        The :class:`DriverFit`.
+
+    Raises:
+        DriverStyleError: no demonstrations, risks of the wrong length or range, or a
+            demonstration off its scenario's time grid.
+    """
+    demos = list(demos)
+    if not demos:
+        raise DriverStyleError("need at least one demonstration")
+    if risks is not None:
+        risks = [float(p) for p in risks]
+        if len(risks) != len(demos):
+            raise DriverStyleError(f"got {len(risks)} risks for {len(demos)} demonstrations")
+        lo, hi = RISK_RANGE
+        if not all(lo <= p <= hi for p in risks):
+            raise DriverStyleError(f"every risk must lie in [{lo}, {hi}], got {risks}")
+    for d in demos:
+        _check_demo(d)
+    start = initial or DriverStyle(tuple(initial_weights()), risk=0.7)
+    v0 = start.v_ref or float(np.median([d.scenario.v_ref for d in demos]))
+    free = [i for i in range(N_WEIGHTS) if i != _GAUGE]
+    t0 = time.perf_counter()
+
+    def unpack(z: np.ndarray) -> tuple[DriverStyle, list[float]]:
+        w = np.ones(N_WEIGHTS)
+        w[free] = np.exp(z[: len(free)])
+        j = len(free)
+        p = _risk_of(z[j]) if risks is None else 0.7
+        j += risks is None
+        v_ref = float(z[j]) if fit_speed else start.v_ref
+        style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon)
+        return style, (risks if risks is not None else [p] * len(demos))
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        style, ps = unpack(z)
+        pairs = zip(demos, ps, strict=True)
+        out = [step_residuals(replace(style, risk=p), d)[0].ravel() for d, p in pairs]
+        return np.concatenate(out)
+
+    w0 = np.asarray(start.weights) / start.weights[_GAUGE]
+    z = list(np.log(w0[free]))
+    if risks is None:
+        z.append(_s_of(start.risk))
+    if fit_speed:
+        z.append(v0)
+    z0 = np.array(z, dtype=float)
+    steps = np.full(z0.size, 0.02)
+    if fit_speed:
+        steps[-1] = 0.05
+    rng = np.random.default_rng(SCREEN_SEED)
+    candidates = [z0]
+    for _ in range(max(screen, 1) - 1):
+        c = z0.copy()
+        c[: len(free)] += rng.uniform(-2.5, 2.5, len(free))
+        candidates.append(c)
+    scored = []
+    for c in candidates:
+        rc = residuals(c)
+        scored.append((0.5 * float(rc @ rc), len(scored), c, rc))
+    scored.sort(key=lambda item: (item[0] if np.isfinite(item[0]) else np.inf, item[1]))
+    best: tuple | None = None
+    total_it = 0
+    for cost_c, _, c, rc in scored[: max(restarts, 1)]:
+        result = _levenberg_marquardt(residuals, c, rc, cost_c, steps, max_iter, tol, progress)
+        total_it += result[4]
+        if best is None or result[2] < best[2]:
+            best = result
+    assert best is not None
+    z, r, cost, history, _, status = best
+    style, ps = unpack(z)
+    return DriverFit(
+        style=style,
+        risks=tuple(ps),
+        cost=cost,
+        residual_rms=float(np.sqrt(np.mean(r**2))),
+        n_residuals=int(r.size),
+        iterations=total_it,
+        status=status,
+        seconds=time.perf_counter() - t0,
+        history=tuple(history),
+    )
+
+
+def _levenberg_marquardt(
+    residuals: Callable[[np.ndarray], np.ndarray],
+    z: np.ndarray,
+    r: np.ndarray,
+    cost: float,
+    steps: np.ndarray,
+    max_iter: int,
+    tol: float,
+    progress: Callable[[int, float], None] | None,
+) -> tuple[np.ndarray, np.ndarray, float, list[float], int, str]:
+    """LM with forward-difference Jacobians from z (residuals r, cost ½‖r‖²).
+
+    Returns:
+        (z, r, cost, cost history, iterations, status).
+    """
+    history = [cost]
+    lam = 1e-2
+    status = "max_iter"
+    it = 0
+    for it in range(1, max_iter + 1):
+        J = np.empty((r.size, z.size))
+        for i in range(z.size):
+            dz = np.zeros(z.size)
+            dz[i] = steps[i]
+            J[:, i] = (residuals(z + dz) - r) / steps[i]
+        g = J.T @ r
+        H = J.T @ J
+        improved = False
+        for _ in range(8):
+            step = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
+            step = np.clip(step, -2.0, 2.0)  # log-weights: at most e² per iteration
+            z_try = z + step
+            r_try = residuals(z_try)
+            cost_try = 0.5 * float(r_try @ r_try)
+            if np.isfinite(cost_try) and cost_try < cost:
+                improved = True
+                break
+            lam *= 10.0
+        if not improved:
+            status = "stalled" if it == 1 else "converged"
+            break
+        rel = (cost - cost_try) / max(cost, 1e-12)
+        z, r, cost = z_try, r_try, cost_try
+        lam = max(lam / 10.0, 1e-6)
+        history.append(cost)
+        if progress is not None:
+            progress(it, cost)
+        if rel < tol:
+            status = "converged"
+            break
+    return z, r, cost, history, it, status
+
+
+# ---------------------------------------------------------------------------- files
+DRIVER_STYLE_KIND = "driver-style"
+"""``kind`` of a driver-style file (``style.json`` written by ``learn_style.py``)."""
+
+
+def load_driver_style(path: str | Path) -> DriverStyle:
+    """Read the style of a ``style.json`` written by ``learn_style.py`` (default model).
+
+    Args:
+        path: the file or its folder.
+
+    Returns:
+        The driver style.
+
+    Raises:
+        FileNotFoundError: no such file.
+        DriverStyleError: not a driver-style file (a paper-model style says how to make
+            one), or its style entry is invalid.
+    """
+    path, raw = read_json(path, "style.json", DriverStyleError, "style file")
+    if raw.get("kind") != DRIVER_STYLE_KIND:
+        if "theta" in raw and "features" in raw:
+            raise DriverStyleError(
+                f"{path} is a paper-model style (whole-horizon weights θ over the ten "
+                "features); learn the driver's style with `drivestyle learn-style DEMO… "
+                "--out DIR` (default --model driver), or pass it where a paper style is "
+                "expected (e.g. compare-baseline --spline-style)"
+            )
+        raise DriverStyleError(f"{path}: not a driver-style file (kind {raw.get('kind')!r})")
+    try:
+        return DriverStyle.from_json(raw["style"])
+    except KeyError:
+        raise DriverStyleError(f"{path}: missing key 'style'") from None
