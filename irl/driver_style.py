@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.common.io import read_json
+from drivestyle.common.io import read_json, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
@@ -72,6 +72,7 @@ __all__ = [
     "learn_driver",
     "load_driver_style",
     "reproduce",
+    "save_driver_style",
     "step_residuals",
 ]
 
@@ -678,3 +679,31 @@ def load_driver_style(path: str | Path) -> DriverStyle:
         return DriverStyle.from_json(raw["style"])
     except KeyError:
         raise DriverStyleError(f"{path}: missing key 'style'") from None
+
+
+def save_driver_style(
+    fit: DriverFit,
+    path: str | Path,
+    demo_paths: Sequence[str] = (),
+    reproductions: Sequence[dict[str, Any]] = (),
+) -> Path:
+    """Write a driver-style file (``kind`` :data:`DRIVER_STYLE_KIND`).
+
+    Args:
+        fit: the learning result.
+        path: the file to write.
+        demo_paths: the demonstrations it was learned from.
+        reproductions: per demonstration, e.g. ``{"rmse_y_m": …, "rmse_xy_m": …}``.
+
+    Returns:
+        The path written.
+    """
+    payload = {
+        "kind": DRIVER_STYLE_KIND,
+        "version": 1,
+        "model": "receding-horizon style (DESIGN §15)",
+        **fit.to_json(),
+        "demos": [{"path": str(p)} for p in demo_paths],
+        "reproductions": list(reproductions),
+    }
+    return write_json(Path(path), payload)
