@@ -31,6 +31,7 @@ T_s against the recorded surrounding vehicles, as the driver did.
 from __future__ import annotations
 
 import math
+import shutil
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -61,17 +62,20 @@ from drivestyle.irl.smpc_problem import (
 __all__ = [
     "DRIVER_STYLE_KIND",
     "INPUT_SCALE",
+    "RISK_EVAL",
     "RISK_RANGE",
     "WEIGHT_NAMES",
     "DriverFit",
     "DriverStyle",
     "DriverStyleError",
     "Reproduction",
+    "RiskProfile",
     "StylePlanner",
     "initial_weights",
     "learn_driver",
     "load_driver_style",
     "reproduce",
+    "risk_profile",
     "save_driver_style",
     "step_residuals",
 ]
@@ -205,16 +209,20 @@ class StylePlanner:
     solution); fatrop first, IPOPT from the same guess if fatrop fails.
     """
 
-    def __init__(self, scenario: ScenarioConfig, horizon: int = 10, n_vehicles: int = 1):
+    def __init__(
+        self, scenario: ScenarioConfig, horizon: int = 10, n_vehicles: int = 1, jit: bool = False
+    ):
         """Build the parametric NLP.
 
         Args:
             scenario: the geometry (T_s, wheelbase, ellipse).
             horizon: N.
             n_vehicles: M, vehicles with a chance constraint (nearest first).
+            jit: compile the NLP's functions with gcc (≈ 5 s once, then solves ≈ 2× faster:
+                worth it for learning, not for one identification).
         """
         self.config = SMPCConfig(
-            horizon=horizon, max_vehicles=n_vehicles, weights_as_parameters=True
+            horizon=horizon, max_vehicles=n_vehicles, weights_as_parameters=True, jit=jit
         )
         self.scenario = scenario
         self.problem = SMPCProblem(self.config, scenario)
@@ -256,6 +264,7 @@ class StylePlanner:
         style: DriverStyle,
         scenario: ScenarioConfig,
         previous: PrimalDual | None = None,
+        warm: PrimalDual | None = None,
     ) -> PlanResult:
         """Plan from ξ0 against the surrounding vehicles ``others`` (m, 4).
 
@@ -265,7 +274,9 @@ class StylePlanner:
                 velocity inside the NLP).
             style: weights, risk, desired speed.
             scenario: target lane y_ref, v_ref (unless the style has one) and bounds.
-            previous: the previous step's solution (warm start) or None.
+            previous: the previous step's solution (shifted: the warm start) or None.
+            warm: a solution of the same step (another risk or style) used unshifted as
+                the warm start; overrides ``previous``.
 
         Returns:
             The first input and whether the plan is trustworthy.
@@ -275,7 +286,7 @@ class StylePlanner:
         v_ref = scenario.v_ref if style.v_ref is None else style.v_ref
         p = nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights)
         bounds = self.bounds(scenario)
-        guess = self.guess(xi0, previous)
+        guess = warm if warm is not None else self.guess(xi0, previous)
         sol = self.problem.solve("fatrop", p, guess, bounds)
         if not sol.success:
             sol = self.problem.solve("ipopt", p, guess, bounds)
@@ -297,12 +308,23 @@ class StylePlanner:
 _PLANNERS: dict[tuple, StylePlanner] = {}
 
 
-def planner_for(scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> StylePlanner:
-    """A cached :class:`StylePlanner` for the geometry (one NLP build per process)."""
+def jit_available() -> bool:
+    """Whether a C compiler for CasADi's jit is on the PATH (else planners are not compiled)."""
+    return shutil.which("gcc") is not None
+
+
+def planner_for(
+    scenario: ScenarioConfig, horizon: int, n_vehicles: int, jit: bool = False
+) -> StylePlanner:
+    """A cached :class:`StylePlanner` for the geometry (one NLP build per process).
+
+    ``jit`` falls back to the uncompiled NLP when no C compiler is available.
+    """
+    jit = jit and jit_available()
     key = (scenario.dt, scenario.l_f, scenario.l_r, scenario.l_a, scenario.l_b,
-           horizon, n_vehicles)  # fmt: skip
+           horizon, n_vehicles, jit)  # fmt: skip
     if key not in _PLANNERS:
-        _PLANNERS[key] = StylePlanner(scenario, horizon, n_vehicles)
+        _PLANNERS[key] = StylePlanner(scenario, horizon, n_vehicles, jit)
     return _PLANNERS[key]
 
 
@@ -354,6 +376,88 @@ def step_residuals(
         r[k] = (u0 - demo.u[k]) / scale
         active[k] = res.chance_active
     return r, active
+
+
+# ---------------------------------------------------------------------------- risk profile
+RISK_EVAL = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.99)
+"""Risks at which :func:`risk_profile` solves; identification interpolates between them."""
+
+
+@dataclass(frozen=True)
+class RiskProfile:
+    """The teacher-forced fit of a style to one demonstration as a function of its risk."""
+
+    risks: tuple[float, ...]
+    """Risks p evaluated (increasing)."""
+    ssr: tuple[float, ...]
+    """Σ_k ‖r_k‖² at each risk (:func:`step_residuals`)."""
+    n_residuals: int
+    """Residual entries (2 per step)."""
+    n_active: int
+    """Steps at which a chance constraint binds at the largest risk: the only steps whose
+    plan can depend on p (0: the demonstration says nothing about p)."""
+
+
+def risk_profile(
+    style: DriverStyle,
+    demo: Demonstration,
+    risks: Sequence[float] = RISK_EVAL,
+    planner: StylePlanner | None = None,
+) -> RiskProfile:
+    """Σ‖r‖² of ``style`` with each risk in ``risks`` on ``demo`` (its weights fixed).
+
+    Every step is solved once at the largest risk. A step whose plan has no binding chance
+    constraint there has the same optimum at every smaller risk (the constraint only
+    loosens as p falls, so the optimum stays feasible and its KKT conditions hold), so only
+    the steps with a binding constraint are re-solved per risk, warm-started from the
+    previous step's plan at the same risk, as the driver's own warm start was.
+
+    Args:
+        style: the driver style (its ``risk`` is ignored).
+        demo: the demonstration.
+        risks: increasing risks in :data:`RISK_RANGE`.
+        planner: the NLP (default: the cached one of the demo's geometry).
+
+    Returns:
+        The :class:`RiskProfile`.
+    """
+    sc = _check_demo(demo)
+    risks = tuple(sorted(float(p) for p in risks))
+    if not risks:
+        raise DriverStyleError("need at least one risk")
+    planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
+    scale = np.asarray(INPUT_SCALE)
+    vehicles = demo.vehicles
+    n = demo.n - 1
+    r_top = np.empty((n, 2))
+    warm: list[PrimalDual | None] = [None] * n
+    active = np.zeros(n, dtype=bool)
+    top = replace(style, risk=risks[-1])
+    previous: PrimalDual | None = None
+    for k in range(n):
+        res = planner.plan(demo.ev[k], vehicles[k], top, sc, previous)
+        previous = warm[k] = res.point
+        u0 = res.u0 if res.ok else np.array([sc.a_min / 2, 0.0])
+        r_top[k] = (u0 - demo.u[k]) / scale
+        active[k] = res.chance_active or not res.ok
+    ssr = np.empty(len(risks))
+    ssr[-1] = float(np.sum(r_top**2))
+    constant = float(np.sum(r_top[~active] ** 2))
+    for j in range(len(risks) - 1):
+        styled = replace(style, risk=risks[j])
+        total = constant
+        previous = None
+        for k in np.flatnonzero(active):
+            # the driver's own warm start: its previous step's plan at this risk, which
+            # at a step without a binding constraint is the largest risk's plan (the NLP
+            # is not convex — the nominal ellipse — and the warm start picks the branch)
+            prior = previous if k > 0 and active[k - 1] else (warm[k - 1] if k > 0 else None)
+            res = planner.plan(demo.ev[k], vehicles[k], styled, sc, prior)
+            previous = res.point
+            u0 = res.u0 if res.ok else np.array([sc.a_min / 2, 0.0])
+            total += float(np.sum(((u0 - demo.u[k]) / scale) ** 2))
+        ssr[j] = total
+    return RiskProfile(risks, tuple(ssr.tolist()), 2 * n, int(active.sum()))
 
 
 # ---------------------------------------------------------------------------- closed loop
@@ -484,6 +588,7 @@ def learn_driver(
     progress: Callable[[int, float], None] | None = None,
     screen: int = SCREEN_CANDIDATES,
     restarts: int = RESTARTS,
+    jit: bool = True,
 ) -> DriverFit:
     """Learn one driver's style from its demonstrations in several scenarios.
 
@@ -508,6 +613,7 @@ def learn_driver(
         progress: called with (iteration, cost) after each iteration.
         screen: starting points scored (1: the normalised start only).
         restarts: LM runs from the best-scored starting points.
+        jit: solve with gcc-compiled NLPs (≈ 2× faster after ≈ 5 s; ignored without gcc).
 
     Returns:
         The :class:`DriverFit`.
@@ -526,8 +632,10 @@ def learn_driver(
         lo, hi = RISK_RANGE
         if not all(lo <= p <= hi for p in risks):
             raise DriverStyleError(f"every risk must lie in [{lo}, {hi}], got {risks}")
-    for d in demos:
-        _check_demo(d)
+    planners = [
+        planner_for(_check_demo(d), (initial.horizon if initial else 10), _n_vehicles(d), jit)
+        for d in demos
+    ]
     start = initial or DriverStyle(tuple(initial_weights()), risk=0.7)
     v0 = start.v_ref or float(np.median([d.scenario.v_ref for d in demos]))
     free = [i for i in range(N_WEIGHTS) if i != _GAUGE]
@@ -546,7 +654,10 @@ def learn_driver(
     def residuals(z: np.ndarray) -> np.ndarray:
         style, ps = unpack(z)
         pairs = zip(demos, ps, strict=True)
-        out = [step_residuals(replace(style, risk=p), d)[0].ravel() for d, p in pairs]
+        out = [
+            step_residuals(replace(style, risk=p), d, planners[i])[0].ravel()
+            for i, (d, p) in enumerate(pairs)
+        ]
         return np.concatenate(out)
 
     w0 = np.asarray(start.weights) / start.weights[_GAUGE]

@@ -36,29 +36,39 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index
+from drivestyle.irl.driver_style import RISK_RANGE, DriverStyleError, RiskProfile, risk_profile
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.learner import check_learnable
-from drivestyle.irl.library import LibraryError, StyleLibrary
+from drivestyle.irl.library import RESIDUAL_FLOOR, DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
 
 __all__ = [
     "DEFAULT_SCORER",
     "MIN_MEMBERS",
     "SCORERS",
+    "Calibration",
     "DemoScores",
     "Identification",
     "LibraryError",
     "StyleLibrary",
+    "calibrate_temperature",
     "check_answerable",
     "demo_scores",
     "identify",
     "identify_all",
+    "identify_driver",
     "posterior_from_scores",
     "risk_interval",
+    "risk_log_likelihood",
     "summarise",
 ]
 
 SCORERS = ("feature", "rmse_xy", "rmse_y", "suboptimality")
+LIKELIHOOD = "likelihood"
+"""The scorer of a :class:`~drivestyle.irl.library.DriverLibrary`: the demonstration's
+teacher-forced residuals under the one learned style as a function of p (DESIGN §15)."""
+DENSITY_STEP = 0.005
+"""Spacing of the continuous posterior's grid over p ∈ [0.5, 0.99]."""
 DEFAULT_SCORER = "feature"
 """The scorer the library API and the command line use unless told otherwise (validation
 seed 500, docs/RESULTS.md §6: best grid accuracy with scenario-nearest members)."""
@@ -129,6 +139,10 @@ class Identification:
     """Each demonstration's true risk where its metadata holds one (else None)."""
     interval_mass: float = INTERVAL_MASS
     """Posterior mass of :attr:`risk_interval`."""
+    density_risks: tuple[float, ...] = ()
+    """Grid of the continuous posterior over p (driver libraries; empty otherwise)."""
+    density: tuple[float, ...] = ()
+    """Posterior mass at each of :attr:`density_risks` (sums to 1)."""
 
     @property
     def informative(self) -> bool:
@@ -183,6 +197,16 @@ class Identification:
             "trigger_fired": self.trigger_fired,
             "trigger_fired_per_demo": [d.trigger_fired for d in self.per_demo],
             "true_risk": list(self.true_risks),
+            **(
+                {
+                    "posterior_density": {
+                        "risks": list(self.density_risks),
+                        "mass": list(self.density),
+                    }
+                }
+                if self.density
+                else {}
+            ),
         }
 
 
@@ -381,7 +405,7 @@ def _true_risk(demo: Demonstration) -> float | None:
 
 def identify(
     demos: Demonstration | Sequence[Demonstration],
-    library: StyleLibrary,
+    library: StyleLibrary | DriverLibrary,
     scorer: str = DEFAULT_SCORER,
     control_point_rule: str = "kinematic",
     f_floor: float = 0.05,
@@ -391,7 +415,9 @@ def identify(
 
     Args:
         demos: one demonstration or several of the same vehicle (their evidence pools).
-        library: the style library (at least :data:`MIN_MEMBERS` training scenarios).
+        library: a driver library (the continuous risk of :func:`identify_driver`; the
+            other arguments are unused) or a paper-model style library (at least
+            :data:`MIN_MEMBERS` training scenarios).
         scorer: one of :data:`SCORERS` (lower is better).
         control_point_rule: control-point rule of the demonstrations.
         f_floor: floor of the relative feature error's denominators.
@@ -408,9 +434,11 @@ def identify(
             change, no motion, a time grid other than its scenario's T_s), or the library
             has too few training scenarios.
     """
+    demos = _as_list(demos)
+    if isinstance(library, DriverLibrary):
+        return identify_driver(demos, library)
     if scorer not in SCORERS:
         raise ValueError(f"scorer must be one of {SCORERS}, got {scorer!r}")
-    demos = _as_list(demos)
     per_demo = [demo_scores(d, library, control_point_rule, f_floor, nearest) for d in demos]
     return summarise(library.risks, per_demo, scorer, [_true_risk(d) for d in demos])
 
@@ -426,3 +454,204 @@ def identify_all(
     per_demo = [demo_scores(d, library, control_point_rule, nearest=nearest) for d in demos]
     true = [_true_risk(d) for d in demos]
     return {s: summarise(library.risks, per_demo, s, true) for s in SCORERS}
+
+
+# ---------------------------------------------------------------------------- driver libraries
+def _min_s_e(demo: Demonstration) -> float:
+    sc = demo.scenario
+    vehicles = demo.vehicles
+    s_e = elliptical_index(
+        demo.ev[:, None, 0] - vehicles[..., 0], demo.ev[:, None, 1] - vehicles[..., 1],
+        sc.l_a, sc.l_b,
+    )  # fmt: skip
+    return float(np.min(s_e))
+
+
+def density_grid() -> np.ndarray:
+    """The continuous posterior's grid over :data:`RISK_RANGE`, :data:`DENSITY_STEP` apart."""
+    lo, hi = RISK_RANGE
+    return np.round(np.arange(lo, hi + 1e-9, DENSITY_STEP), 4)
+
+
+def risk_log_likelihood(
+    profiles: Sequence[RiskProfile], temperature: float, grid: np.ndarray | None = None
+) -> np.ndarray:
+    """Log p(demonstrations | p) on ``grid`` (DESIGN §15), up to a constant.
+
+    The residual sums of the demonstrations add (one vehicle, one p); between the solved
+    risks they are interpolated linearly. With S(p) that sum, n its residual count and
+    s² = min S / n + s_floor² the residual scale the best risk leaves (noise and model
+    error; never below :data:`~drivestyle.irl.library.RESIDUAL_FLOOR`),
+    ℓ(p) = −(S(p) − min S) / (2 τ² s²). Demonstrations without a step at which p matters
+    contribute nothing.
+
+    Args:
+        profiles: the demonstrations' :class:`~drivestyle.irl.driver_style.RiskProfile`.
+        temperature: τ > 0 (residuals of neighbouring steps are correlated: τ > 1 widens).
+        grid: risks to evaluate at (default :func:`density_grid`).
+
+    Returns:
+        ℓ on the grid, max 0.
+    """
+    grid = density_grid() if grid is None else np.asarray(grid, float)
+    used = [pr for pr in profiles if pr.n_active > 0]
+    if not used:
+        return np.zeros(grid.size)
+    total = sum(np.interp(grid, pr.risks, pr.ssr) for pr in used)
+    n = sum(pr.n_residuals for pr in used)
+    s2 = float(np.min(total)) / n + RESIDUAL_FLOOR**2
+    ll = -(total - np.min(total)) / (2.0 * temperature**2 * s2)
+    return ll - np.max(ll)
+
+
+def _grid_mass(grid: np.ndarray, density: np.ndarray, risks: Sequence[float]) -> np.ndarray:
+    """The continuous posterior's mass in each grid risk's cell (midpoints as borders)."""
+    r = np.asarray(risks, float)
+    edges = np.concatenate([[-np.inf], (r[1:] + r[:-1]) / 2, [np.inf]])
+    cell = np.searchsorted(edges, grid, side="right") - 1
+    return np.bincount(cell, weights=density, minlength=r.size)[: r.size]
+
+
+def _quantile(grid: np.ndarray, density: np.ndarray, q: float) -> float:
+    return float(grid[min(int(np.searchsorted(np.cumsum(density), q - 1e-12)), grid.size - 1)])
+
+
+def identify_driver(
+    demos: Demonstration | Sequence[Demonstration],
+    library: DriverLibrary,
+    profiles: Sequence[RiskProfile] | None = None,
+) -> Identification:
+    """One vehicle's risk as a continuous parameter of the library's style (DESIGN §15).
+
+    Each demonstration's teacher-forced residual sum is computed as a function of p
+    (:func:`~drivestyle.irl.driver_style.risk_profile`), turned into a likelihood
+    (:func:`risk_log_likelihood`) and, with a uniform prior on [0.5, 0.99], into a
+    posterior over p on :func:`density_grid`. Reported: ``risk_interpolated`` its mean,
+    ``risk_interval`` its central 90 % interval, ``posterior`` its mass in each library
+    risk's cell and ``risk_estimate`` the library risk with most mass. No nearest-scenario
+    lookup: the style is the driver's in every scenario.
+
+    Args:
+        demos: one demonstration or several of the same vehicle.
+        library: the driver library.
+        profiles: precomputed risk profiles of ``demos`` (evaluation reuses them).
+
+    Returns:
+        The :class:`Identification` (scorer ``"likelihood"``).
+
+    Raises:
+        LibraryError: a demonstration is of another kind, degenerate or off its
+            scenario's time grid.
+    """
+    demos = _as_list(demos)
+    for d in demos:
+        _check_kind(d)
+    if profiles is None:
+        try:
+            profiles = [risk_profile(library.style, d) for d in demos]
+        except DriverStyleError as exc:
+            raise LibraryError(f"cannot identify this demonstration: {exc}") from None
+    grid = density_grid()
+    ll = risk_log_likelihood(profiles, library.temperature, grid)
+    density = np.exp(ll)
+    density /= density.sum()
+    risks = np.asarray(library.risks, float)
+    mass = _grid_mass(grid, density, library.risks)
+    order = np.argsort(-mass, kind="stable")
+    per_demo = []
+    for d, pr in zip(demos, profiles, strict=True):
+        min_s_e = _min_s_e(d)
+        per_demo.append(
+            DemoScores(
+                scores={LIKELIHOOD: tuple(np.interp(risks, pr.risks, pr.ssr).tolist())},
+                informative=pr.n_active > 0,
+                min_s_e=min_s_e,
+                trigger_fired=pr.n_active > 0,
+            )
+        )
+    lo = _quantile(grid, density, (1 - INTERVAL_MASS) / 2)
+    hi = _quantile(grid, density, 1 - (1 - INTERVAL_MASS) / 2)
+    return Identification(
+        scorer=LIKELIHOOD,
+        risks=tuple(float(p) for p in risks),
+        posterior=tuple(float(q) for q in mass),
+        risk_estimate=float(risks[order[0]]),
+        risk_interpolated=float(density @ grid),
+        risk_interval=(lo, hi),
+        ranking=tuple(float(risks[i]) for i in order),
+        per_demo=tuple(per_demo),
+        true_risks=tuple(_true_risk(d) for d in demos),
+        density_risks=tuple(float(p) for p in grid),
+        density=tuple(float(q) for q in density),
+    )
+
+
+TEMPERATURES = (0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0, 5.6, 8.0, 11.0, 16.0)
+"""Candidates of :func:`calibrate_temperature`."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The temperature chosen for a driver library and the coverage behind the choice."""
+
+    temperature: float
+    """The smallest candidate τ whose 90 % intervals cover the truth for ≥ 90 % of the
+    calibration demonstrations (the largest candidate if none does)."""
+    coverage: Mapping[float, float]
+    """τ → coverage on the calibration demonstrations."""
+    n_demos: int
+    """Informative calibration demonstrations."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "temperature": self.temperature,
+            "coverage": {str(t): c for t, c in self.coverage.items()},
+            "n_demos": self.n_demos,
+        }
+
+
+def calibrate_temperature(
+    library: DriverLibrary,
+    demos: Sequence[Demonstration],
+    target: float = INTERVAL_MASS,
+    candidates: Sequence[float] = TEMPERATURES,
+) -> Calibration:
+    """Choose τ so that the 90 % intervals cover the true risks of ``demos`` (DESIGN §15).
+
+    Args:
+        library: the driver library (its temperature is ignored).
+        demos: calibration demonstrations with ``meta["risk"]`` (scenarios not used for
+            learning; continuous risks make the intervals honest between grid risks).
+        target: the coverage to reach.
+        candidates: increasing temperatures to try.
+
+    Returns:
+        The :class:`Calibration`.
+
+    Raises:
+        ValueError: no informative demonstration with a true risk.
+    """
+    pairs = []
+    for d in demos:
+        truth = _true_risk(d)
+        if truth is None:
+            continue
+        pr = risk_profile(library.style, d)
+        if pr.n_active > 0:
+            pairs.append((pr, truth))
+    if not pairs:
+        raise ValueError("no informative calibration demonstration with a true risk")
+    grid = density_grid()
+    coverage: dict[float, float] = {}
+    for tau in candidates:
+        hits = 0
+        for pr, truth in pairs:
+            density = np.exp(risk_log_likelihood([pr], tau, grid))
+            density /= density.sum()
+            lo = _quantile(grid, density, (1 - INTERVAL_MASS) / 2)
+            hi = _quantile(grid, density, 1 - (1 - INTERVAL_MASS) / 2)
+            hits += lo - DENSITY_STEP / 2 <= truth <= hi + DENSITY_STEP / 2
+        coverage[float(tau)] = hits / len(pairs)
+    chosen = next((t for t, c in coverage.items() if c >= target), float(candidates[-1]))
+    return Calibration(chosen, coverage, len(pairs))

@@ -1,5 +1,14 @@
 """Style libraries: learned styles by risk level, their file ``library.json`` and learning one.
 
+Two kinds of library share the file name and the commands (``build_style_library.py``,
+``identify_style.py``, ``mine_styles.py``):
+
+- :class:`DriverLibrary` (``kind: driver-library``, the default, DESIGN §15): one
+  receding-horizon cost learned from demonstrations of every risk in shared scenarios
+  (each with its known risk), the risk grid, and the likelihood's calibrated temperature.
+  Identification infers the risk as a continuous parameter of that one style.
+- :class:`StyleLibrary` (the paper model's, described below).
+
 A *library* holds, per SMPC risk level p, one θ learned jointly from K demonstrations of
 that risk in shared scenarios of the random family and one θ per demonstration
 (*members*, in the order of the K ``training_scenarios``). Identification
@@ -28,14 +37,25 @@ from drivestyle.common.io import read_json
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.driver_style import (
+    RISK_RANGE,
+    DriverFit,
+    DriverStyle,
+    DriverStyleError,
+    learn_driver,
+)
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 
 __all__ = [
+    "DRIVER_LIBRARY_KIND",
     "SCENARIO_SCALE",
+    "DriverLibrary",
     "LibraryError",
     "StyleLibrary",
+    "learn_driver_library",
     "learn_library",
+    "load_any_library",
     "load_library",
 ]
 
@@ -350,3 +370,121 @@ def learn_library(
         },
         training_scenarios=tuple(scenarios),
     )
+
+
+# ---------------------------------------------------------------------------- driver libraries
+DRIVER_LIBRARY_KIND = "driver-library"
+"""``kind`` of a :class:`DriverLibrary` file."""
+TEMPERATURE_DEFAULT = 1.0
+"""τ of a library whose build did not calibrate one."""
+RESIDUAL_FLOOR = 0.1
+"""s_floor: the least residual scale the likelihood assumes [σ_u units] (DESIGN §15):
+a demonstration that the style fits exactly does not make the posterior a point mass."""
+
+
+@dataclass(frozen=True)
+class DriverLibrary:
+    """One driver cost shared by every risk, for identifying the risk (module docstring)."""
+
+    style: DriverStyle
+    """The learned weights (its ``risk`` is unused: identification infers it)."""
+    risks: tuple[float, ...]
+    """The risk grid of the training demonstrations (the grid estimates are reported on)."""
+    temperature: float = TEMPERATURE_DEFAULT
+    """τ of the likelihood (DESIGN §15), calibrated on the build's calibration demos."""
+    meta: dict[str, Any] = field(default_factory=dict)
+    """Fit, timings, seeds and calibration (``library.json``'s other keys)."""
+
+    def __post_init__(self) -> None:
+        lo, hi = RISK_RANGE
+        if not self.risks:
+            raise LibraryError("the library is empty (no risk levels)")
+        if list(self.risks) != sorted(set(self.risks)):
+            raise LibraryError(f"library risks must be distinct and increasing, got {self.risks}")
+        if not all(lo <= p <= hi for p in self.risks):
+            raise LibraryError(f"library risks must lie in [{lo}, {hi}], got {self.risks}")
+        if not (math.isfinite(self.temperature) and self.temperature > 0):
+            raise LibraryError(f"temperature must be > 0, got {self.temperature!r}")
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (``library.json``)."""
+        return {
+            "kind": DRIVER_LIBRARY_KIND,
+            "version": 1,
+            "style": self.style.to_json(),
+            "risks": list(self.risks),
+            "temperature": self.temperature,
+            **self.meta,
+        }
+
+    @classmethod
+    def from_json(cls, raw: Mapping[str, Any]) -> DriverLibrary:
+        """From :meth:`to_json`'s form.
+
+        Raises:
+            LibraryError: a key is missing or invalid.
+        """
+        if raw.get("kind") != DRIVER_LIBRARY_KIND:
+            raise LibraryError(f"not a driver library (kind {raw.get('kind')!r})")
+        try:
+            style = DriverStyle.from_json(raw["style"])
+        except KeyError:
+            raise LibraryError("no 'style'") from None
+        except DriverStyleError as exc:
+            raise LibraryError(str(exc)) from None
+        risks = tuple(_number(p, "risk") for p in _get_list(raw, "risks"))
+        temperature = _number(raw.get("temperature", TEMPERATURE_DEFAULT), "temperature")
+        reserved = ("kind", "version", "style", "risks", "temperature")
+        meta = {k: v for k, v in raw.items() if k not in reserved}
+        return cls(style, risks, temperature, meta)
+
+
+def load_any_library(path: str | Path) -> StyleLibrary | DriverLibrary:
+    """Read a ``library.json`` of either kind (module docstring), validated whole.
+
+    Raises:
+        FileNotFoundError: no such file.
+        LibraryError: malformed or inconsistent (one line naming the file and the problem).
+    """
+    path, raw = read_json(path, "library.json", LibraryError, "style library")
+    try:
+        if raw.get("kind") == DRIVER_LIBRARY_KIND:
+            return DriverLibrary.from_json(raw)
+        return StyleLibrary.from_json(raw)
+    except LibraryError as exc:
+        raise LibraryError(f"{path}: {exc}") from None
+
+
+def learn_driver_library(
+    demos_by_risk: Mapping[float, Sequence[Demonstration]],
+    meta: dict[str, Any] | None = None,
+    progress: Callable[[int, float], None] | None = None,
+) -> tuple[DriverLibrary, DriverFit]:
+    """Learn the one cost shared by demonstrations of several risks (each risk known).
+
+    Args:
+        demos_by_risk: risk p → demonstrations of SMPC(p) (p within
+            :data:`~drivestyle.irl.driver_style.RISK_RANGE`).
+        meta: stored in the library (seeds, scenarios, …).
+        progress: called with (iteration, cost) by the learner.
+
+    Returns:
+        The library (temperature :data:`TEMPERATURE_DEFAULT` until calibrated) and the fit.
+
+    Raises:
+        ValueError: no demonstrations, or a risk outside the model's range.
+    """
+    risks = sorted(float(p) for p in demos_by_risk)
+    demos = [d for p in risks for d in demos_by_risk[p]]
+    known = [p for p in risks for _ in demos_by_risk[p]]
+    if not demos:
+        raise ValueError("need demonstrations of at least one risk level")
+    # one LM run: the known risks pin the chance constraint, which removes most of the
+    # local minima that a free risk brings (DESIGN §15)
+    fit = learn_driver(demos, risks=known, progress=progress, screen=16, restarts=1)
+    library = DriverLibrary(
+        style=fit.style,
+        risks=tuple(risks),
+        meta={**(meta or {}), "fit": {k: v for k, v in fit.to_json().items() if k != "style"}},
+    )
+    return library, fit

@@ -1,15 +1,20 @@
-r"""Build a style library: per SMPC risk level, θ learned from K shared scenarios.
+r"""Build a style library for identification: the driver model's (default) or the paper's.
 
 Draws K interactive scenarios (the SMPC at the lowest risk triggers) from the
-LaneChangeRandom family with ``--seed``, generates the SMPC demonstration of every risk in
-each, learns per risk one θ from its K demonstrations jointly and one θ per demonstration
-(in parallel over processes), and writes ``OUT/library.json`` (docs/DESIGN.md §7), the
-demonstrations under ``OUT/demos/`` and ``OUT/theta_vs_risk.png``. The folder is written
-atomically: an interrupted build leaves the previous library (or none), never a mix.
+LaneChangeRandom family with ``--seed`` and generates the SMPC demonstration of every risk
+in each. ``--model driver`` (default, DESIGN §15) learns the one receding-horizon cost all
+of them share (each demonstration with its known risk), then calibrates the likelihood's
+temperature on ``--calibration`` further scenarios (seed + 1) with continuous risks drawn
+from U[0.5, 0.95]. ``--model paper`` learns per risk one θ of the paper's whole-horizon
+model from its K demonstrations jointly and one θ per demonstration (DESIGN §8). Writes
+``OUT/library.json``, the demonstrations under ``OUT/demos/`` and, for the paper model,
+``OUT/theta_vs_risk.png``. The folder is written atomically: an interrupted build leaves
+the previous library (or none), never a mix.
 
 Example:
-    python scripts/build_style_library.py --risks 0.5,0.6,0.7,0.8,0.9,0.95 --scenarios 10 \\
-        --features reactive --seed 0 --out runs/library_reactive
+    python scripts/build_style_library.py --out runs/library
+    python scripts/build_style_library.py --model paper --scenarios 10 --features reactive \\
+        --out runs/library_reactive
 """
 
 from __future__ import annotations
@@ -17,20 +22,25 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import SMPCConfig
-from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
+from drivestyle.agents.demo_generation import (
+    draw_interactive_scenarios,
+    generate_demonstration,
+    generate_demonstrations,
+)
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
 from drivestyle.common.cli import positive_int, risk_list, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.envs.tracking import observe
-from drivestyle.irl.library import learn_library
+from drivestyle.irl.identification import calibrate_temperature
+from drivestyle.irl.library import learn_driver_library, learn_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -45,7 +55,21 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="comma-separated SMPC risk levels p in (0, 1)",
     )
     p.add_argument(
-        "--scenarios", type=positive_int, default=30, help="K training scenarios per risk"
+        "--model",
+        default="driver",
+        choices=("driver", "paper"),
+        help="the receding-horizon driver model (DESIGN §15) or the paper's whole-horizon one",
+    )
+    p.add_argument(
+        "--scenarios",
+        type=positive_int,
+        help="K training scenarios per risk (default: 3 for the driver model, 30 for the paper's)",
+    )
+    p.add_argument(
+        "--calibration",
+        type=positive_int,
+        default=12,
+        help="driver model: scenarios (one continuous risk each) calibrating the temperature",
     )
     p.add_argument(
         "--features", default="reactive", choices=("reactive", "base"), help="feature set"
@@ -67,7 +91,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Build the library; returns library.json's payload."""
     args = parse_args(argv)
+    if args.scenarios is None:
+        args.scenarios = 3 if args.model == "driver" else 30
     check_output_dir(args.out)
+    if args.model == "driver":
+        return _build_driver(args, argv)
     t0 = time.perf_counter()
     scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(args.risks))
     t_draw = time.perf_counter() - t0
@@ -107,6 +135,62 @@ def main(argv: list[str] | None = None) -> dict:
     print(
         f"wrote {args.out}/library.json: {len(args.risks)} styles from {args.scenarios} "
         f"scenarios each in {payload['build_wall_s']:.1f} s"
+    )
+    return payload
+
+
+def _build_driver(args: argparse.Namespace, argv: list[str] | None) -> dict:
+    """The driver-model library (module docstring)."""
+    t0 = time.perf_counter()
+    scenarios = draw_interactive_scenarios(args.scenarios, args.seed, min(args.risks))
+    bar = tqdm(total=len(args.risks), desc="demonstrations per risk")
+    demos = generate_demonstrations(args.risks, scenarios, args.workers, lambda p: bar.update(1))
+    bar.close()
+    if args.tracked:  # σ = 0: the tracker's view of the true positions
+        rng = np.random.default_rng(args.seed)
+        demos = {p: [observe(d, 0.0, rng) for d in ds] for p, ds in demos.items()}
+    t_demos = time.perf_counter() - t0
+    with tqdm(desc="learning the shared cost (LM iterations)") as lbar:
+        library, fit = learn_driver_library(
+            demos,
+            meta={
+                "uncertainty": asdict(SMPCConfig().uncertainty),
+                "observation": "tracked" if args.tracked else "true",
+                "training_scenarios": [sc.to_dict() for sc in scenarios],
+            },
+            progress=lambda it, cost: (lbar.update(1), lbar.set_postfix(cost=f"{cost:.3g}")),
+        )
+    t_learn = time.perf_counter() - t0 - t_demos
+    rng = np.random.default_rng([args.seed, 1])
+    cal_scenarios = draw_interactive_scenarios(args.calibration, args.seed + 1, min(args.risks))
+    cal_demos = []
+    for sc in tqdm(cal_scenarios, desc="calibration demonstrations"):
+        risk = float(np.round(rng.uniform(0.5, 0.95), 3))
+        demo, _ = generate_demonstration(risk, sc, SMPCConfig(risk=risk))
+        if args.tracked:
+            demo = observe(demo, 0.0, rng)
+        cal_demos.append(demo)
+    calibration = calibrate_temperature(library, cal_demos)
+    library = replace(library, temperature=calibration.temperature)
+    payload = library.to_json() | {
+        "calibration": calibration.to_json(),
+        "seed": args.seed,
+        "k_scenarios": args.scenarios,
+        "demos_s": t_demos,
+        "learn_s": t_learn,
+        "build_wall_s": time.perf_counter() - t0,
+    }
+    with atomic_output_dir(args.out) as tmp:
+        for p, risk_demos in demos.items():
+            for i, demo in enumerate(risk_demos):
+                save_demonstration(demo, tmp / "demos" / f"p{p:g}_s{i}.npz")
+        write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    print(
+        f"wrote {args.out}/library.json: one driver cost from {len(args.risks)} risks × "
+        f"{args.scenarios} scenarios (fit {fit.status}, residual rms {fit.residual_rms:.3f}), "
+        f"temperature {calibration.temperature:g} (coverage "
+        f"{calibration.coverage[calibration.temperature]:.2f} on {calibration.n_demos} "
+        f"calibration demos), {payload['build_wall_s']:.0f} s"
     )
     return payload
 
