@@ -647,7 +647,9 @@ def learn_driver(
         j = len(free)
         p = _risk_of(z[j]) if risks is None else 0.7
         j += risks is None
-        v_ref = float(z[j]) if fit_speed else start.v_ref
+        # an LM step may carry the raw speed coordinate below 0 (a braking driver):
+        # keep it in DriverStyle's range instead of failing the fit
+        v_ref = float(np.clip(z[j], 0.1, 69.9)) if fit_speed else start.v_ref
         style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon)
         return style, (risks if risks is not None else [p] * len(demos))
 

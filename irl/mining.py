@@ -42,9 +42,10 @@ import numpy as np
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.identification import identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
-from drivestyle.irl.library import StyleLibrary
+from drivestyle.irl.library import DriverLibrary, StyleLibrary
 
 __all__ = [
     "COLUMNS",
@@ -262,7 +263,7 @@ class Miner:
         irl: outer-loop settings of the personal styles.
     """
 
-    def __init__(self, library: StyleLibrary, irl: IRLConfig | None = None) -> None:
+    def __init__(self, library: StyleLibrary | DriverLibrary, irl: IRLConfig | None = None) -> None:
         self.library = library
         self.irl = irl or IRLConfig()
 
@@ -278,6 +279,8 @@ class Miner:
                 demo = load_demonstration(where)
             true = demo.meta.get("risk")
             true_risk = None if true is None else float(true)
+            if isinstance(self.library, DriverLibrary):
+                return self._mine_driver(demo_id, source, demo, true_risk)
             t0 = time.perf_counter()
             result = MaxEntIRL(demo, self.library.features, self.irl).learn()
             learn_s = time.perf_counter() - t0
@@ -308,11 +311,49 @@ class Miner:
         except Exception as exc:
             return MinedRow.failed(demo_id, source, _describe(exc, where), true_risk)
 
+    def _mine_driver(
+        self, demo_id: str, source: str, demo: Demonstration, true_risk: float | None
+    ) -> MinedRow:
+        """A driver library's row: the risk is the vehicle's parameter (the cost is shared).
+
+        ``theta_normalised`` holds the library style's weights over w_a; the errors are
+        those of the style driven at the posterior-mean risk in the demonstration's scenario;
+        ``learn_s`` times that reproduction.
+        """
+        assert isinstance(self.library, DriverLibrary)
+        t0 = time.perf_counter()
+        ident = identify(demo, self.library)
+        identify_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        style = replace(self.library.style, risk=round(ident.risk_interpolated, 6))
+        rmse_y, rmse_xy = reproduce(style, demo).errors(demo)
+        learn_s = time.perf_counter() - t0
+        lo, hi = ident.risk_interval
+        return MinedRow(
+            id=demo_id,
+            source=source,
+            status="ok",
+            true_risk=true_risk,
+            risk_estimate=ident.risk_estimate,
+            risk_lo=lo,
+            risk_hi=hi,
+            risk_mean=round(ident.risk_interpolated, 6),
+            informative=ident.informative,
+            trigger_fired=ident.trigger_fired,
+            theta_normalised=tuple(round(float(v), 6) for v in self.library.style.normalised()),
+            rmse_y_m=_round(rmse_y),
+            rmse_xy_m=_round(rmse_xy),
+            iterations=0,
+            converged=True,
+            learn_s=learn_s,
+            identify_s=identify_s,
+        )
+
 
 _MINER: Miner | None = None
 
 
-def _init_miner(library: StyleLibrary) -> None:
+def _init_miner(library: StyleLibrary | DriverLibrary) -> None:
     global _MINER
     _MINER = Miner(library)
 
@@ -324,7 +365,7 @@ def _mine_task(demo_id: str, source: str, demo: Demonstration | str | os.PathLik
 
 def _run_local(
     tasks: Sequence[MiningTask],
-    library: StyleLibrary,
+    library: StyleLibrary | DriverLibrary,
     workers: int,
     on_row: Callable[[MinedRow], None],
 ) -> None:
@@ -387,7 +428,7 @@ def _ray_failure(exc: Exception) -> str:
 
 def _run_ray(
     tasks: Sequence[MiningTask],
-    library: StyleLibrary,
+    library: StyleLibrary | DriverLibrary,
     workers: int,
     on_row: Callable[[MinedRow], None],
     address: str | None,
@@ -440,7 +481,7 @@ def _run_ray(
 
 def mine(
     tasks: Iterable[MiningTask],
-    library: StyleLibrary,
+    library: StyleLibrary | DriverLibrary,
     engine: str = "local",
     workers: int = 2,
     on_row: Callable[[MinedRow], None] | None = None,

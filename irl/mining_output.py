@@ -28,7 +28,7 @@ from types import TracebackType
 from typing import Any
 
 from drivestyle.common.io import write_text
-from drivestyle.irl.library import StyleLibrary
+from drivestyle.irl.library import DriverLibrary, StyleLibrary
 from drivestyle.irl.mining import COLUMNS, MinedRow
 
 try:  # POSIX; elsewhere the output folder is not locked
@@ -58,7 +58,7 @@ class MiningOutputError(ValueError):
     """An output folder cannot take this run (another run's rows, in use, not a mining table)."""
 
 
-def library_digest(library: StyleLibrary) -> str:
+def library_digest(library: StyleLibrary | DriverLibrary) -> str:
     """SHA-256 of a library's content (its ``library.json`` form, keys sorted)."""
     text = json.dumps(library.to_json(), sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
@@ -77,7 +77,9 @@ class RunFingerprint:
     one rebuilt in place is not."""
 
     @classmethod
-    def of(cls, input_id: str, library_path: str | Path, library: StyleLibrary) -> RunFingerprint:
+    def of(
+        cls, input_id: str, library_path: str | Path, library: StyleLibrary | DriverLibrary
+    ) -> RunFingerprint:
         """The fingerprint of mining ``input_id`` with ``library`` read from ``library_path``."""
         return cls(input_id, str(Path(library_path).resolve()), library_digest(library))
 

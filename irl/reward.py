@@ -20,10 +20,23 @@ Collisions and leaving the road end the episode early; since the remaining cost 
 then be saved, a crash costs ``crash_penalty`` (default: ten times the style's cost of its
 own demonstration, θᵀ f(r_D) — large enough that rushing into the target lane and being
 hit there never pays; with 2× an RL policy learned exactly that).
+
+A receding-horizon *driver style* (:mod:`drivestyle.irl.driver_style`, the default model)
+gives a per-step reward instead (:func:`driver_step_cost`, :class:`DriverCostReward`): the
+style's stage cost of the step,
+
+    w_y (y − y_ref)² + w_φ φ² + w_v (v − v_ref)² + w_a a² + w_δ δ²
+
+(the state after the step, the step's input), plus its constraints as penalties — the
+chance constraint g ≥ 0 with κ(p) against each vehicle's current position and the
+prediction covariance Σ_j (j = 0: the TV's current covariance), the nominal ellipse and the
+state bounds — and r = −cost / scale. The scale is the lane term one lane off
+(w_y · lane_width²), so a step starting a lane change costs ≈ 1 whatever the style's gauge.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, SupportsFloat
 
@@ -32,6 +45,8 @@ import numpy as np
 from gymnasium.utils import RecordConstructorArgs
 
 from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.chance import chance_margin
+from drivestyle.irl.driver_style import DriverStyle, load_driver_style
 from drivestyle.irl.features import (
     FEATURES,
     SEGMENT_FEATURES,
@@ -42,10 +57,20 @@ from drivestyle.irl.features import (
     tiv_reference,
     tv_control_points,
 )
+from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 from drivestyle.irl.spline import spline_eval, state_control_points
 from drivestyle.irl.style import Style, StyleError, load_style
 
-__all__ = ["CRASH_FACTOR", "LearnedStyleReward", "StyleReward"]
+__all__ = [
+    "COST_TERMS",
+    "CRASH_FACTOR",
+    "DriverCost",
+    "DriverCostConfig",
+    "DriverCostReward",
+    "LearnedStyleReward",
+    "StyleReward",
+    "driver_step_cost",
+]
 
 CRASH_FACTOR = 10.0
 """Default crash penalty as a multiple of the style's cost of its demonstration."""
@@ -281,3 +306,179 @@ class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
             r -= self.style_reward.crash_penalty
         info = {**info, "original_env_rew": reward, "style_feature_increment": df}
         return obs, r, terminated, truncated, info
+
+
+# ---------------------------------------------------------------------- driver-style cost
+COST_TERMS = ("lane", "heading", "speed", "accel", "steer", "chance", "ellipse", "bounds")
+"""Terms of :func:`driver_step_cost`: the five stage-cost terms (the style's weights
+included) and the three constraint violations (unweighted)."""
+
+
+def driver_step_cost(
+    ev: np.ndarray,
+    u: np.ndarray,
+    vehicles: np.ndarray,
+    weights: np.ndarray,
+    y_ref: float,
+    v_ref: float,
+    kappa: float,
+    sigma: np.ndarray,
+    scenario: ScenarioConfig,
+) -> np.ndarray:
+    """The terms of a driver style's cost of one step (module docstring).
+
+    Args:
+        ev: EV state after the step [x, y, φ, v].
+        u: the step's input [a, δ].
+        vehicles: the surrounding vehicles' states at the same time, shape (m, 4).
+        weights: [w_y, w_φ, w_v, w_a, w_δ].
+        y_ref: target lane centre [m].
+        v_ref: desired speed [m/s].
+        kappa: Φ⁻¹(p) of the chance constraint.
+        sigma: the vehicles' position covariance, shape (2, 2) [m²].
+        scenario: ellipse axes l_a, l_b, bounds (y, φ_max, v_max) and lane width.
+
+    Returns:
+        :data:`COST_TERMS`, shape (8,): w_y (y − y_ref)², w_φ φ², w_v (v − v_ref)², w_a a²,
+        w_δ δ²; then the violations max(0, −g) of the chance constraint summed over the
+        vehicles, max(0, 1 − ‖z̄‖) of the nominal ellipse summed over the vehicles, and the
+        bounds' (y beyond the road by lane widths, |φ| beyond φ_max and v beyond v_max as
+        fractions of the bound).
+    """
+    sc = scenario
+    x, y, phi, v = (float(c) for c in np.asarray(ev, float)[:4])
+    a, delta = (float(c) for c in np.asarray(u, float)[:2])
+    w = np.asarray(weights, float)
+    stage = w * np.array([(y - y_ref) ** 2, phi**2, (v - v_ref) ** 2, a**2, delta**2])
+    veh = np.asarray(vehicles, float).reshape(-1, 4)
+    dx, dy = x - veh[:, 0], y - veh[:, 1]
+    g = chance_margin(dx, dy, sigma[0, 0], sigma[0, 1], sigma[1, 1], sc.l_a, sc.l_b, kappa)
+    nominal = np.hypot(dx / sc.l_a, dy / sc.l_b) - 1.0
+    y_lo, y_hi = sc.y_bounds
+    bounds = (
+        (max(0.0, y_lo - y) + max(0.0, y - y_hi)) / sc.lane_width
+        + max(0.0, abs(phi) / sc.phi_max - 1.0)
+        + max(0.0, v / sc.v_max - 1.0)
+    )
+    violations = [float(np.sum(np.maximum(0.0, -g))), float(np.sum(np.maximum(0.0, -nominal)))]
+    return np.concatenate([stage, violations, [bounds]])
+
+
+@dataclass(frozen=True)
+class DriverCostConfig:
+    """How a driver style's cost becomes a reward (:class:`DriverCost`)."""
+
+    chance_weight: float = 10.0
+    """Penalty per unit of chance-margin violation max(0, −g) [reward units]."""
+    ellipse_weight: float = 100.0
+    """Penalty per unit of nominal-ellipse violation [reward units]."""
+    bounds_weight: float = 10.0
+    """Penalty per unit of bound violation [reward units]."""
+    crash_penalty: float = 100.0
+    """Cost of a collision or leaving the road (ends the episode) [reward units]: more than
+    the ≈ 30 steps of stage cost an early end would save."""
+    covariance_step: int = 0
+    """j of the covariance Σ_j the chance constraint uses (0: the TV's current one)."""
+    scale: float | None = None
+    """Stage cost per reward unit; None: w_y · lane_width² (one lane off costs 1)."""
+
+    def __post_init__(self) -> None:
+        for name in ("chance_weight", "ellipse_weight", "bounds_weight", "crash_penalty"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if not (isinstance(self.covariance_step, int) and 0 <= self.covariance_step <= 50):
+            raise ValueError(
+                f"covariance_step must be an integer in [0, 50], got {self.covariance_step!r}"
+            )
+        if self.scale is not None and not (np.isfinite(self.scale) and self.scale > 0):
+            raise ValueError(f"scale must be a finite positive number, got {self.scale!r}")
+
+
+class DriverCost:
+    """A driver style's per-step cost as the env's reward model (module docstring).
+
+    Implements the env's reward-model protocol
+    (:class:`drivestyle.envs.lane_change.RewardModel`); ``step`` returns the terms of
+    :func:`driver_step_cost` as the increment.
+
+    Args:
+        style: a :class:`drivestyle.irl.driver_style.DriverStyle` or a driver-style file.
+        config: penalties, crash penalty, covariance and scale.
+        uncertainty: the vehicles' prediction error model (the style model's default).
+    """
+
+    def __init__(
+        self,
+        style: DriverStyle | str | Path,
+        config: DriverCostConfig | None = None,
+        uncertainty: TVUncertainty = PAPER_TV_UNCERTAINTY,
+    ) -> None:
+        self.style = style if isinstance(style, DriverStyle) else load_driver_style(style)
+        self.config = config or DriverCostConfig()
+        self.uncertainty = uncertainty
+        self.weights = np.asarray(self.style.weights, float)
+        self.penalties = np.array(
+            [self.config.chance_weight, self.config.ellipse_weight, self.config.bounds_weight]
+        )
+        self.crash_penalty = float(self.config.crash_penalty)
+
+    def reset(
+        self,
+        scenario: ScenarioConfig,
+        ev: np.ndarray,
+        tv: np.ndarray,
+        others: np.ndarray | None = None,
+    ) -> None:
+        """Start an episode in ``scenario`` (the states are not needed)."""
+        self.sc = scenario
+        j = self.config.covariance_step
+        self.sigma = tv_covariance(self.uncertainty, scenario.dt, j)[j]
+        self.v_ref = scenario.v_ref if self.style.v_ref is None else self.style.v_ref
+        self.scale = (
+            self.config.scale
+            if self.config.scale is not None
+            else self.weights[0] * scenario.lane_width**2
+        )
+
+    def step(
+        self,
+        u: np.ndarray,
+        ev: np.ndarray,
+        tv: np.ndarray,
+        dt: float,
+        others: np.ndarray | None = None,
+    ) -> tuple[float, np.ndarray]:
+        """The step's reward −(stage cost / scale + weighted violations) and its terms."""
+        vehicles = np.asarray(tv, float).reshape(1, 4)
+        if others is not None and np.size(others):
+            vehicles = np.vstack([vehicles, np.asarray(others, float).reshape(-1, 4)])
+        terms = driver_step_cost(
+            ev, u, vehicles, self.weights, self.sc.y_ref, self.v_ref, self.style.kappa,
+            self.sigma, self.sc,
+        )  # fmt: skip
+        cost = terms[:5].sum() / self.scale + self.penalties @ terms[5:]
+        return -float(cost), terms
+
+
+class DriverCostReward(LearnedStyleReward):
+    """Replace a drivestyle env's reward with a driver style's per-step cost.
+
+    As :class:`LearnedStyleReward` (``info["original_env_rew"]``; the step's
+    :data:`COST_TERMS` in ``info["style_feature_increment"]``), with :class:`DriverCost`.
+
+    Args:
+        env: a drivestyle env (possibly wrapped).
+        style: a :class:`drivestyle.irl.driver_style.DriverStyle` or a driver-style file.
+        config: see :class:`DriverCostConfig`.
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        style: DriverStyle | str | Path,
+        config: DriverCostConfig | None = None,
+    ) -> None:
+        RecordConstructorArgs.__init__(self, style=style, config=config)
+        gym.Wrapper.__init__(self, env)
+        self.style_reward = DriverCost(style, config)  # type: ignore[assignment]

@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "deviating-tv": "drivers facing a TV that deviates from its prediction",
     "render-rollout": "a rollout rendered to mp4/gif",
     "calibrate-uncertainty": "the TV-uncertainty scale scan (DESIGN §3)",
+    "capacity-study": "the style model classes' capacity: best fit vs held out (issue 17)",
     "bench-smpc": "benchmark the SMPC expert",
     "bench-irl": "benchmark ME-IRL and identification",
     "bench-population": "benchmark mining a population",

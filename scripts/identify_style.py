@@ -1,7 +1,12 @@
 r"""Identify the driving style (risk level) of one vehicle from its demonstration(s).
 
-Scores every style of a library by reproducing r*_θ in each demonstration's own scenario
-(``--scorer``, default: the one validation picked; see irl/identification.py) and writes
+With a driver library (the default ``build_style_library.py`` output, DESIGN §15) the
+risk is a continuous parameter of the library's one style: its posterior over p ∈ [0.5,
+0.99] comes from the demonstration's residuals under that style (``scorer`` is
+``likelihood``; ``posterior_density`` holds the continuous posterior, ``posterior`` its
+mass per library risk). With a paper-model library (``--model paper``) every style is
+scored by reproducing r*_θ in each demonstration's own scenario (``--scorer``, default: the
+one validation picked; see irl/identification.py). Writes
 ``OUT/identify.json`` with ``scorer``, ``risk_estimate`` (posterior mode),
 ``risk_interpolated`` (posterior mean), ``posterior`` (per library risk), ``risk_interval``
 (90 % of the posterior), ``informative`` (false when no TV came near enough for the risk
@@ -25,7 +30,7 @@ from drivestyle.common.cli import run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify
-from drivestyle.irl.library import load_library
+from drivestyle.irl.library import DriverLibrary, load_any_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -36,7 +41,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s) of one vehicle")
     p.add_argument("--library", type=Path, required=True, help="library folder or its library.json")
     p.add_argument(
-        "--scorer", default=DEFAULT_SCORER, choices=SCORERS, help="how a style is scored"
+        "--scorer",
+        default=DEFAULT_SCORER,
+        choices=SCORERS,
+        help="how a style is scored (paper-model libraries; a driver library uses its likelihood)",
     )
     p.add_argument(
         "--out", type=Path, default=Path("runs/identify"), help="output folder (replaced whole)"
@@ -48,7 +56,7 @@ def main(argv: list[str] | None = None) -> dict:
     """Identify; returns identify.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out)
-    library = load_library(args.library)
+    library = load_any_library(args.library)
     demos = [load_demonstration(p) for p in args.demos]
     t0 = time.perf_counter()
     ident = identify(demos, library, scorer=args.scorer)
@@ -63,7 +71,7 @@ def main(argv: list[str] | None = None) -> dict:
     lo, hi = ident.risk_interval
     print(
         f"risk estimate {ident.risk_estimate:g}, 90 % interval [{lo:g}, {hi:g}], "
-        f"posterior mean {ident.risk_interpolated:.3f} ({args.scorer} scorer, "
+        f"posterior mean {ident.risk_interpolated:.3f} ({ident.scorer} scorer, "
         f"{len(demos)} demonstration{'s' if len(demos) > 1 else ''}"
         + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
     )
@@ -76,7 +84,7 @@ def main(argv: list[str] | None = None) -> dict:
             "  not informative: the TV never came near enough for the risk to matter "
             f"(min s_e {min_s_e:.1f}); the interval is the whole grid"
         )
-    if not ident.trigger_fired:
+    if not ident.trigger_fired and not isinstance(library, DriverLibrary):
         print("  note: the trigger never fired (the reactive features are inactive)")
     print(f"  {payload['identify_s']:.2f} s; wrote {args.out}/identify.json")
     return payload

@@ -1,6 +1,13 @@
-"""Learn a driving style (feature weights θ) from one or more demonstrations by ME-IRL.
+"""Learn a driving style from one or more demonstrations of one driver.
 
-Writes ``OUT/style.json`` (docs/DESIGN.md §7: features, theta, iterations, converged,
+``--model driver`` (default, DESIGN §15): the receding-horizon style model — cost weights,
+risk p and (``--fit-speed``) desired speed of one driver, learned from every step of every
+demonstration (teacher forcing), then driven in closed loop in each demonstration's
+scenario. Writes ``OUT/style.json`` (``kind: driver-style``: style, fit status, residuals,
+per-demonstration rmse_y_m / rmse_xy_m of the closed-loop reproduction).
+
+``--model paper``: the paper's whole-horizon model, feature weights θ by ME-IRL. Writes
+``OUT/style.json`` (docs/DESIGN.md §7: features, theta, iterations, converged,
 status, learning_error, rmse_y_m, rmse_xy_m, rmse_y_reaction_m, wall_time_s,
 inner_solve_ms_median, t_trg_s, t_rct_s, omega, feature values, history, reproduced) and,
 with ``--plot``, ``OUT/reproduction.png`` and ``OUT/lateral.png``. Learning is
@@ -15,10 +22,12 @@ Example:
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import plot_lateral, plot_reproductions
@@ -26,8 +35,14 @@ from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
+from drivestyle.irl.driver_style import (
+    WEIGHT_NAMES,
+    learn_driver,
+    reproduce,
+    save_driver_style,
+)
 from drivestyle.irl.inner import InnerSolveError
-from drivestyle.irl.learner import UPDATE_RULES, IterationRecord
+from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.style import fit_style
 
@@ -38,6 +53,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s)")
+    p.add_argument(
+        "--model",
+        default="driver",
+        choices=("driver", "paper"),
+        help="the receding-horizon driver model (one driver across scenarios) or the paper's "
+        "whole-horizon ten-feature model",
+    )
+    p.add_argument(
+        "--fit-speed",
+        action="store_true",
+        help="driver model: also learn the desired speed (recorded traffic: unknown)",
+    )
     p.add_argument(
         "--features", default="reactive", choices=sorted(FEATURE_SETS), help="feature set"
     )
@@ -82,6 +109,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     args = parse_args(argv)
     check_output_dir(args.out, replace=False)  # a style may sit beside its demonstration
     demos = [load_demonstration(p) for p in args.demos]
+    if args.model == "driver":
+        return _learn_driver(args, demos, argv)
     features = FeatureConfig(feature_set=args.features, t_rct=args.t_rct)
     max_iter = (
         args.max_iter if args.max_iter is not None else (400 if args.method == "paper" else 60)
@@ -133,6 +162,48 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         raise LearningStalledError(
             f"learning stalled after {result.iterations} iterations ({result.stop_reason}); "
             f"{args.out / 'style.json'} holds the last solved theta with status 'stalled'"
+        )
+    return payload
+
+
+def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None) -> dict[str, Any]:
+    """The driver model's learning (module docstring)."""
+    for path, demo in zip(args.demos, demos, strict=True):
+        try:
+            check_learnable(demo)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
+    max_iter = args.max_iter if args.max_iter is not None else 30
+    with tqdm(desc="driver style (LM iterations)", leave=False) as bar:
+        fit = learn_driver(
+            demos,
+            fit_speed=args.fit_speed,
+            max_iter=max_iter,
+            progress=lambda it, cost: (bar.update(1), bar.set_postfix(cost=f"{cost:.3g}")),
+        )
+    reproductions = []
+    for demo in demos:
+        rep = reproduce(fit.style, demo)
+        rmse_y, rmse_xy = rep.errors(demo)
+        reproductions.append(
+            {"rmse_y_m": rmse_y, "rmse_xy_m": rmse_xy, "min_d": rep.min_d, "failures": rep.failures}
+        )
+    with atomic_output_dir(args.out, replace=False) as tmp:
+        save_driver_style(fit, tmp / "style.json", [str(p) for p in args.demos], reproductions)
+    payload = json.loads((args.out / "style.json").read_text())
+    med_y = float(np.median([r["rmse_y_m"] for r in reproductions]))
+    med_xy = float(np.median([r["rmse_xy_m"] for r in reproductions]))
+    w = ", ".join(f"{n} {v:.3g}" for n, v in zip(WEIGHT_NAMES, fit.style.normalised(), strict=True))
+    print(
+        f"wrote {args.out / 'style.json'}: risk {fit.style.risk:.3f}, weights [{w}]"
+        + (f", desired speed {fit.style.v_ref:.1f} m/s" if fit.style.v_ref else "")
+        + f"; {fit.status} after {fit.iterations} iterations, {fit.seconds:.0f} s; "
+        f"closed-loop median rmse_y {med_y:.3f} m, rmse_xy {med_xy:.3f} m over {len(demos)} "
+        f"demonstration{'s' if len(demos) > 1 else ''}"
+    )
+    if fit.status == "stalled":
+        raise LearningStalledError(
+            f"learning stalled ({args.out / 'style.json'} holds the starting style)"
         )
     return payload
 

@@ -37,7 +37,7 @@ from drivestyle.agents.studies.figures import plot_population
 from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import check_output_dir, write_json
 from drivestyle.envs.real_data import load_cats, load_ngsim
-from drivestyle.irl.library import load_library
+from drivestyle.irl.library import load_any_library
 from drivestyle.irl.mining import (
     CONNECT_TIMEOUT_S,
     ENGINES,
@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.address and args.engine != "ray":
         raise ValueError("--address needs --engine ray")
     check_output_dir(args.out, replace=False)  # rows are appended: the folder is resumed
-    library = load_library(args.library)
+    library = load_any_library(args.library)
     tasks, input_id = _tasks(args)
     fingerprint = RunFingerprint.of(input_id, args.library, library)
     with MiningOutput(args.out, fingerprint, force=args.force) as store:

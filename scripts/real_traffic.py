@@ -9,6 +9,14 @@ there is no ``--seed``). On CATS it also compares the
 computer-driven (AV) and human-driven (HV) lane changes and runs a leave-one-out
 classifier on the learned styles.
 
+``--model driver`` (or ``both``, the default) also learns the receding-horizon driver model
+(irl/driver_style.py) per episode — weights, risk and desired speed free — and reproduces it
+in closed loop against the recorded vehicles; where a vehicle has several episodes (CATS:
+the computer- and the human-driven ego car) its style learned from all but one reproduces
+the held-out one, beside the general style of the other vehicles' episodes. Its results are
+``real_traffic.json``'s ``driver`` entry, ``real_traffic.md``'s last section and
+``OUT/driver_styles.png``; ``--model driver`` skips the paper model (and its keys).
+
 The data are read from ``--data``; they are not part of this repository.
 
 Example:
@@ -23,11 +31,13 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.real_traffic import run_study
-from drivestyle.agents.studies.reports import real_traffic_markdown
+from drivestyle.agents.studies.figures import plot_driver_traffic
+from drivestyle.agents.studies.real_traffic import DriverSettings, run_driver_study, run_study
+from drivestyle.agents.studies.reports import driver_traffic_markdown, real_traffic_markdown
 from drivestyle.common.cli import positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.irl.driver_style import RESTARTS, SCREEN_CANDIDATES
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -49,7 +59,33 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="drop the further vehicles (only the EV and its target vehicle, as before traffic)",
     )
-    return p.parse_args(argv)
+    p.add_argument(
+        "--model",
+        choices=("driver", "paper", "both"),
+        default="both",
+        help="style model(s): the receding-horizon driver model, the paper's spline model",
+    )
+    p.add_argument(
+        "--screen",
+        type=positive_int,
+        default=SCREEN_CANDIDATES,
+        help="driver model: starting points scored per fit",
+    )
+    p.add_argument(
+        "--restarts",
+        type=positive_int,
+        default=RESTARTS,
+        help="driver model: Levenberg-Marquardt runs per fit",
+    )
+    p.add_argument(
+        "--scenario-line",
+        action="store_true",
+        help="driver model: aim at the target lane's centre, not the EV's own final line",
+    )
+    args = p.parse_args(argv)
+    if args.restarts > args.screen:
+        p.error(f"--restarts ({args.restarts}) cannot exceed --screen ({args.screen})")
+    return args
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -59,17 +95,37 @@ def main(argv: list[str] | None = None) -> dict:
     loader = load_ngsim if args.dataset == "ngsim" else load_cats
     episodes = loader(args.data, neighbours=not args.no_neighbours)
     with atomic_output_dir(args.out) as tmp:
-        n = sum(e.used for e in episodes) if args.limit is None else args.limit
-        with tqdm(total=n, desc=f"{args.dataset} episodes") as bar:
-            study = run_study(
-                episodes, args.dataset, args.workers, tmp / "episodes", args.limit, bar.update
-            )
-        payload = study.to_json()
+        n_used = sum(e.used for e in episodes)
+        n = n_used if args.limit is None else min(args.limit, n_used)
+        study = driver = None
+        if args.model in ("paper", "both"):
+            with tqdm(total=n, desc=f"{args.dataset} episodes (paper model)") as bar:
+                study = run_study(
+                    episodes, args.dataset, args.workers, tmp / "episodes", args.limit, bar.update
+                )
+        if args.model in ("driver", "both"):
+            settings = DriverSettings(args.screen, args.restarts, not args.scenario_line)
+            with tqdm(desc=f"{args.dataset} driver-model fits", unit="fit") as bar:
+                driver = run_driver_study(
+                    episodes,
+                    args.dataset,
+                    args.workers,
+                    args.limit,
+                    bar.update,
+                    settings,
+                    on_plan=lambda k: bar.reset(total=k),
+                )
+        payload = {"dataset": args.dataset} if study is None else study.to_json()
+        payload["model"] = args.model
         payload["neighbours"] = not args.no_neighbours
         payload["n_neighbours_per_episode"] = [
             int(e.demo.other_vehicles.shape[1]) for e in episodes if e.used and e.demo is not None
         ]
-        markdown = real_traffic_markdown(study)
+        markdown = "" if study is None else real_traffic_markdown(study)
+        if driver is not None:
+            payload["driver"] = driver.to_json()
+            markdown += driver_traffic_markdown(driver, study)
+            plot_driver_traffic(driver, study, tmp / "driver_styles.png")
         write_json(tmp / "real_traffic.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "real_traffic.md", markdown)
     print("\n".join(markdown.splitlines()[:10]))

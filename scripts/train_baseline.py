@@ -1,5 +1,9 @@
 r"""Train a stable-baselines3 policy (SAC or PPO) on a learned style's reward.
 
+The style is either model's file: a receding-horizon driver style (``learn_style.py``, the
+default model) trains on its per-step cost — stage cost plus its constraints as penalties
+(``drivestyle.irl.reward.DriverCostReward``); a paper-model style on −θᵀΔf.
+
 Writes ``OUT/model.zip``, ``OUT/vecnormalize.pkl``, ``OUT/monitor.csv``,
 ``OUT/evaluations.npz``, ``OUT/learning_curve.png`` and ``OUT/train.json``.
 Deterministic given ``--seed`` (single-threaded torch).
@@ -11,6 +15,8 @@ stable on this reward (docs/RESULTS.md).
 Example:
     python scripts/train_baseline.py --style runs/paper/reactive/style.json --algo ppo \\
         --timesteps 20000 --out runs/baseline
+    python scripts/train_baseline.py --style runs/driver_p06/style.json \\
+        --env drivestyle/LaneChangeRandom-v0 --out runs/ppo_p06
 """
 
 from __future__ import annotations
@@ -21,7 +27,6 @@ from pathlib import Path
 
 from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.irl.style import load_style
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -55,7 +60,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--crash-penalty",
         type=positive_float,
-        help="cost of a crash (default: 10x the style's cost of its demonstration)",
+        help="cost of a crash (default: 10x the style's cost of its demonstration; driver "
+        "style: 100 reward units)",
+    )
+    p.add_argument(
+        "--chance-weight",
+        type=float,
+        help="driver style: penalty per unit of chance-margin violation (default 10)",
+    )
+    p.add_argument(
+        "--covariance-step",
+        type=int,
+        help="driver style: the chance penalty's covariance Σ_j (default 0: the current one)",
     )
     p.add_argument(
         "--norm-reward",
@@ -71,13 +87,22 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out, inputs=[args.style])
     try:
-        from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
+        from drivestyle.agents.sb3_baseline import TrainConfig, load_reward_style, train_baseline
         from drivestyle.agents.studies.figures import plot_learning_curve
     except ImportError as exc:
         raise RuntimeError(
             f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"
         ) from None
-    style = load_style(args.style)
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.reward import DriverCostConfig
+
+    style = load_reward_style(args.style)
+    cost = None
+    if isinstance(style, DriverStyle):
+        knobs = {"chance_weight": args.chance_weight, "covariance_step": args.covariance_step}
+        cost = DriverCostConfig(**{k: v for k, v in knobs.items() if v is not None})
+    elif args.chance_weight is not None or args.covariance_step is not None:
+        raise ValueError("--chance-weight and --covariance-step need a driver-style file")
     cfg = TrainConfig(
         algo=args.algo,
         timesteps=args.timesteps,
@@ -87,11 +112,13 @@ def main(argv: list[str] | None = None) -> dict:
         traffic=args.env.startswith("drivestyle/Traffic"),
         crash_penalty=args.crash_penalty,
         norm_reward=args.norm_reward,
+        driver_cost=cost,
     )
     with atomic_output_dir(args.out) as tmp:
         summary = train_baseline(style, tmp, cfg)
         summary["style"] = str(args.style)
-        plot_learning_curve(tmp, f"{args.algo.upper()} on the learned reward ({args.style})")
+        reward = "driver style's cost" if cost is not None else "learned reward"
+        plot_learning_curve(tmp, f"{args.algo.upper()} on the {reward} ({args.style})")
         write_json(tmp / "train.json", summary, [sys.argv[0], *(argv or sys.argv[1:])])
     print(
         f"wrote {args.out}/model.zip ({summary['train_time_s']:.0f} s of training); "

@@ -40,6 +40,33 @@ def test_rl_env_passes_sb3_check(style_file):
     assert env.action_space.low.tolist() == [-1.0, -1.0]
 
 
+def test_rl_env_of_a_driver_style_file_trains_on_its_cost(tmp_path):
+    from drivestyle.common.io import write_json
+    from drivestyle.irl.driver_style import DRIVER_STYLE_KIND, DriverStyle
+    from drivestyle.irl.reward import DriverCostConfig, DriverCostReward
+
+    style = DriverStyle((0.2, 34.0, 0.2, 1.0, 76.0), risk=0.9)
+    path = write_json(
+        tmp_path / "style.json", {"kind": DRIVER_STYLE_KIND, "style": style.to_json()}
+    )
+    env = make_rl_env(path, randomize=True, crash_penalty=7.0)
+    wrapper = env.get_wrapper_attr("style_reward")
+    assert isinstance(env.unwrapped, LaneChangeEnv) and wrapper.crash_penalty == 7.0
+    assert wrapper.style == style
+    cfg = DriverCostConfig(chance_weight=1.0)
+    env = make_rl_env(style, driver_cost=cfg)
+    obs, _ = env.reset(seed=0)
+    _, r, *_ = env.step(np.zeros(2, np.float32))
+    assert obs.shape == (8,) and np.isfinite(r) and r < 0
+    assert any(isinstance(w, DriverCostReward) for w in _wrappers(env))
+
+
+def _wrappers(env):
+    while hasattr(env, "env"):
+        yield env
+        env = env.env
+
+
 @pytest.mark.slow  # trains two policies end to end
 @pytest.mark.parametrize("algo", ["sac", "ppo"])
 def test_train_save_reload_identical_actions(tmp_path, style_file, algo):
@@ -164,6 +191,8 @@ def test_heldout_comparison_scores_every_method(style_file, tmp_path):
         "decision_ms",
         "min_d_k",
         "n",
+        "median_rmse_xy_m",
+        "enters_ellipse",
     }
     assert plot_heldout(res, tmp_path / "h.png").stat().st_size > 5_000
     with pytest.raises(ValueError, match="held-out"):

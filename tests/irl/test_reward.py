@@ -123,3 +123,55 @@ def test_a_malformed_demo_feature_vector_is_a_style_error(styles, tmp_path):
     path = _scaled_style(styles["base"], tmp_path, 1.0, f_demo=[1.0, 2.0])
     with pytest.raises(StyleError, match="feature_values_demo"):
         LearnedStyleReward(LaneChangeEnv(), path)
+
+
+def test_driver_step_cost_equals_a_hand_computation():
+    from drivestyle.envs.scenario import get_scenario
+    from drivestyle.irl.reward import driver_step_cost
+
+    sc = get_scenario("paper")
+    la, lb = sc.l_a, sc.l_b
+    # EV 0.5 l_a behind and 0.5 l_b beside the TV: inside the ellipse (‖z̄‖ = √0.5)
+    ev = np.array([100.0, sc.y_bounds[0] - 0.2, 1.5 * sc.phi_max, 1.1 * sc.v_max])
+    tv = np.array([[100.0 + 0.5 * la, sc.y_bounds[0] - 0.2 + 0.5 * lb, 0.0, 20.0]])
+    w = np.array([2.0, 3.0, 0.5, 1.0, 7.0])
+    u = np.array([-1.5, 0.01])
+    sigma = np.array([[4.0, 0.0], [0.0, 1.0]])
+    terms = driver_step_cost(ev, u, tv, w, 5.0, 25.0, 1.0, sigma, sc)
+    y, phi, v = ev[1:]
+    stage = [2 * (y - 5) ** 2, 3 * phi**2, 0.5 * (v - 25) ** 2, 1.5**2, 7 * 0.01**2]
+    # g = ‖z‖ − 1 − κ sqrt(zᵀ S z)/‖z‖ with z = (−0.5, −0.5), S = diag(4/l_a², 1/l_b²)
+    norm = np.sqrt(0.5)
+    g = norm - 1 - np.sqrt(0.25 * 4 / la**2 + 0.25 / lb**2) / norm
+    bounds = 0.2 / sc.lane_width + 0.5 + 0.1
+    expected = [*stage, -g, 1 - norm, bounds]
+    np.testing.assert_allclose(terms, expected, rtol=1e-12)
+    # outside every constraint: no penalty
+    far = np.array([[0.0, 0.0, 0.0, 20.0]])
+    ok = driver_step_cost([100.0, 5.0, 0.0, 25.0], u, far, w, 5.0, 25.0, 1.0, sigma, sc)
+    np.testing.assert_allclose(ok[5:], 0.0)
+
+
+def test_driver_cost_reward_is_the_scaled_negative_cost(tmp_path):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY
+    from drivestyle.irl.reward import DriverCostConfig, DriverCostReward, driver_step_cost
+
+    style = DriverStyle((0.04, 400.0, 0.04, 1.0, 2500.0), risk=0.8)
+    env = DriverCostReward(LaneChangeEnv(), style, DriverCostConfig(chance_weight=3.0))
+    obs, _ = env.reset(seed=0)
+    sc = env.unwrapped.scenario
+    u = np.array([0.5, 0.01])
+    obs, r, _, _, info = env.step(u)
+    sigma = np.diag([PAPER_TV_UNCERTAINTY.sigma_x0**2, PAPER_TV_UNCERTAINTY.sigma_y0**2])
+    terms = driver_step_cost(
+        obs[:4], u, obs[None, 4:8], style.weights, sc.y_ref, sc.v_ref, style.kappa, sigma, sc
+    )
+    expected = -(terms[:5].sum() / (0.04 * sc.lane_width**2) + 3.0 * terms[5] + 100.0 * terms[6])
+    assert r == pytest.approx(expected - 10.0 * terms[7], rel=1e-12)
+    np.testing.assert_array_equal(info["style_feature_increment"], terms)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(DriverCostReward(LaneChangeEnv(randomize=True), style))
+    with pytest.raises(ValueError, match="chance_weight"):
+        DriverCostConfig(chance_weight=-1.0)

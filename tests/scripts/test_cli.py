@@ -17,7 +17,14 @@ from drivestyle.common.io import OutputPathError
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
-NO_SEED = {"deviating_tv", "identify_style", "learn_style", "mine_styles", "real_traffic"}
+NO_SEED = {
+    "capacity_study",
+    "deviating_tv",
+    "identify_style",
+    "learn_style",
+    "mine_styles",
+    "real_traffic",
+}
 """Deterministic scripts: a --seed there would do nothing, so they have none."""
 
 
@@ -121,6 +128,7 @@ WRITES = {
     "bench_smpc": ("--out", "b.json", []),
     "build_style_library": ("--out", "lib", []),
     "calibrate_uncertainty": ("--out", "cal", []),
+    "capacity_study": ("--out", "cap", []),
     "compare_baseline": ("--out", "cmp", ["--style", MISSING]),
     "deviating_tv": ("--out", "dev", ["--style", MISSING]),
     "evaluate_identification": ("--out", "ev", ["--library", MISSING]),

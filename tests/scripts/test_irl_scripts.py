@@ -55,7 +55,9 @@ def demo_file(tmp_path_factory, request):
 
 def test_learn_style_writes_spec_fields(tmp_path, demo_file):
     out = tmp_path / "style"
-    _main("learn_style")([str(demo_file), "--features", "reactive", "--out", str(out), "--plot"])
+    _main("learn_style")(
+        [str(demo_file), "--model", "paper", "--features", "reactive", "--out", str(out), "--plot"]
+    )
     js = json.loads((out / "style.json").read_text())
     for key in SPEC_KEYS:
         assert key in js, key
@@ -150,7 +152,10 @@ def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch
     monkeypatch.setattr(InnerProblem, "solve", fail_after_the_initial_theta)
     out = tmp_path / "style"
     with pytest.raises(SystemExit) as info:
-        run_cli(_main("learn_style"), [str(demo_file), "--features", "base", "--out", str(out)])
+        run_cli(
+            _main("learn_style"),
+            [str(demo_file), "--model", "paper", "--features", "base", "--out", str(out)],
+        )
     assert info.value.code != 0
     printed = capsys.readouterr()
     assert "(STALLED)" in printed.out

@@ -1,0 +1,107 @@
+"""The capacity study (issue 17): its Nelder–Mead, its objective and a tiny run."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from drivestyle.agents.studies.capacity import (
+    CLASSES,
+    CapacityError,
+    RiskCapacity,
+    capacity_of_risk,
+    nelder_mead,
+    reproduction_score,
+)
+from drivestyle.agents.studies.reports import capacity_markdown
+
+
+def test_nelder_mead_finds_an_ill_conditioned_quadratics_minimum():
+    target = np.array([1.0, -2.0, 3.0])
+
+    def f(x):
+        return float(np.sum(np.array([1.0, 10.0, 100.0]) * (x - target) ** 2))
+
+    result = nelder_mead(f, np.zeros(3), 1.0, 500)
+    np.testing.assert_allclose(result.x, target, atol=1e-3)
+    assert result.fun < 1e-6
+    assert result.evaluations <= 500
+    assert list(result.history) == sorted(result.history, reverse=True)  # best so far
+
+
+def test_nelder_mead_stops_at_its_budget_and_keeps_the_best_point():
+    calls = []
+
+    def f(x):
+        calls.append(x.copy())
+        return float((x[0] - 5.0) ** 2 + x[1] ** 2)
+
+    result = nelder_mead(f, [0.0, 0.0], 1.0, 7)
+    assert len(calls) == result.evaluations == 7
+    assert result.fun == min(f(x) for x in calls[:7])
+    assert result.fun < 25.0  # moved towards the minimum from f(x0) = 25
+
+
+def test_nelder_mead_counts_non_finite_values_as_worst():
+    result = nelder_mead(lambda x: math.nan if x[0] < 0 else (x[0] - 1) ** 2, [0.5], 0.6, 80)
+    assert abs(result.x[0] - 1.0) < 1e-3
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"budget": 0}, {"step": 0.0}, {"x0": [math.inf]}], ids=["budget", "step", "x0"]
+)
+def test_nelder_mead_refuses_bad_input(kwargs):
+    args = {"x0": [0.0], "step": 1.0, "budget": 5, **kwargs}
+    with pytest.raises(ValueError):
+        nelder_mead(lambda x: 0.0, **args)
+
+
+def test_the_objective_weighs_a_lateral_metre_like_two_longitudinal_ones():
+    assert reproduction_score(1.0, 1.0) == pytest.approx(1.0)  # all lateral
+    assert reproduction_score(0.0, 2.0) == pytest.approx(1.0)  # all longitudinal
+    assert reproduction_score(0.3, 0.29) == pytest.approx(0.3)  # rounding: rmse_xy < rmse_y
+
+
+@pytest.fixture(scope="module")
+def tiny_capacity(paper_demo):
+    from drivestyle.agents import generate_demonstration
+    from drivestyle.agents.demo_generation import draw_interactive_scenarios
+    from drivestyle.agents.smpc import SMPCConfig
+
+    held_out = draw_interactive_scenarios(1, seed=500)[0]
+    test_demo = generate_demonstration(0.7, held_out, SMPCConfig(risk=0.7))[0]
+    quick = {"screen": 1, "restarts": 1, "max_iter": 1, "jit": False}
+    return capacity_of_risk(0.7, [paper_demo], [test_demo], 3, quick, irl_max_iter=2)
+
+
+def test_a_tiny_capacity_run_returns_every_class_with_finite_errors(tiny_capacity):
+    row = tiny_capacity
+    assert isinstance(row, RiskCapacity)
+    assert tuple(c.name for c in row.classes) == CLASSES
+    for c in row.classes:
+        values = [*c.train_rmse_y, *c.train_rmse_xy, *c.test_rmse_y, *c.test_rmse_xy]
+        assert len(values) == 4 and all(math.isfinite(v) and v >= 0 for v in values), c.name
+        assert math.isfinite(c.objective) and c.evaluations <= 3
+    json.dumps(row.to_json())  # JSON-ready
+
+
+def test_a_fitted_class_is_never_worse_in_sample_than_its_learner(tiny_capacity):
+    by = tiny_capacity.by_name()
+    # the Nelder–Mead runs start from the better of a generic start and the learner's answer
+    assert by["paper_nm"].objective <= by["paper_irl"].objective + 1e-9
+    assert by["rh_chance_nm"].objective <= by["rh_learned"].objective + 1e-6
+    assert by["rh_cost_nm"].params["risk"] == 0.5
+
+
+def test_the_capacity_report_has_one_row_per_class(tiny_capacity):
+    from drivestyle.agents.studies.capacity import CapacityStudy
+
+    study = CapacityStudy((0.7,), 3, (), (), (tiny_capacity,), 1.0)
+    text = capacity_markdown(study, "cmd")
+    assert sum(line.startswith("| 0.7 | ") for line in text.splitlines()) == len(CLASSES) + 1
+
+
+def test_the_study_refuses_an_empty_held_out_set(paper_demo):
+    with pytest.raises(CapacityError, match="held-out"):
+        capacity_of_risk(0.7, [paper_demo], [], 3)
