@@ -571,6 +571,8 @@ def identify_driver(
         )
     lo = _quantile(grid, density, (1 - INTERVAL_MASS) / 2)
     hi = _quantile(grid, density, 1 - (1 - INTERVAL_MASS) / 2)
+    if not any(d.informative for d in per_demo):
+        lo, hi = RISK_RANGE  # nothing was learned about p: say so, not a prior's quantiles
     return Identification(
         scorer=LIKELIHOOD,
         risks=tuple(float(p) for p in risks),
