@@ -3,28 +3,39 @@
 Needs the ``rl`` extra (stable-baselines3, torch). The training env is
 :func:`make_rl_env` (learned reward, translation-invariant observation, actions in
 [−1, 1]) inside SB3's ``VecNormalize`` (observations normalised, rewards left as the
-learned cost so that returns stay comparable with θᵀf).
+learned cost so that returns stay comparable with θᵀf). A receding-horizon driver style
+(:mod:`drivestyle.irl.driver_style`) trains on its per-step cost instead
+(:class:`drivestyle.irl.reward.DriverCostReward`).
 """
 
 from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
+from drivestyle.common.io import read_json
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import TrafficEnv
-from drivestyle.irl.reward import LearnedStyleReward
-from drivestyle.irl.style import Style
+from drivestyle.irl.driver_style import DRIVER_STYLE_KIND, DriverStyle, load_driver_style
+from drivestyle.irl.reward import DriverCostConfig, DriverCostReward, LearnedStyleReward
+from drivestyle.irl.style import Style, StyleError, load_style
 
-__all__ = ["ALGOS", "SB3Policy", "TrainConfig", "make_rl_env", "train_baseline"]
+__all__ = [
+    "ALGOS",
+    "SB3Policy",
+    "TrainConfig",
+    "load_reward_style",
+    "make_rl_env",
+    "train_baseline",
+]
 
 ALGOS = ("sac", "ppo")
 
@@ -51,6 +62,9 @@ class TrainConfig:
     """Cost of a crash (None: the reward's default, see drivestyle.irl.reward)."""
     norm_reward: bool = False
     """Normalise rewards during training (VecNormalize); evaluations stay raw."""
+    driver_cost: DriverCostConfig | None = None
+    """Penalties and scale of a driver style's reward (None: the defaults;
+    ``crash_penalty`` above, when set, overrides its crash penalty)."""
 
     def __post_init__(self) -> None:
         if self.algo not in ALGOS:
@@ -61,20 +75,55 @@ class TrainConfig:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
 
 
+def load_reward_style(path: str | Path) -> Style | DriverStyle:
+    """A style file of either model: a driver style (``kind`` driver-style) or a paper style.
+
+    Args:
+        path: ``style.json`` or its folder.
+
+    Raises:
+        FileNotFoundError: no such file.
+        StyleError, DriverStyleError: the file is malformed.
+    """
+    _, raw = read_json(path, "style.json", StyleError, "style file")
+    if raw.get("kind") == DRIVER_STYLE_KIND:
+        return load_driver_style(path)
+    return load_style(path)
+
+
+def _reward_wrapper(
+    env: gym.Env,
+    style: Style | DriverStyle | str | Path,
+    crash_penalty: float | None,
+    driver_cost: DriverCostConfig | None,
+) -> gym.Env:
+    """The style's reward around ``env``: a driver style's per-step cost or θᵀΔf."""
+    if isinstance(style, (str, Path)):
+        style = load_reward_style(style)
+    if isinstance(style, DriverStyle):
+        cfg = driver_cost or DriverCostConfig()
+        if crash_penalty is not None:
+            cfg = replace(cfg, crash_penalty=crash_penalty)
+        return DriverCostReward(env, style, cfg)
+    return LearnedStyleReward(env, style, crash_penalty)
+
+
 def make_rl_env(
-    style: Style | str | Path,
+    style: Style | DriverStyle | str | Path,
     scenario: str | ScenarioConfig = "paper",
     randomize: bool = False,
     monitor_file: str | Path | None = None,
     render_mode: str | None = None,
     crash_penalty: float | None = None,
     traffic: bool = False,
+    driver_cost: DriverCostConfig | None = None,
     **overrides: Any,
 ) -> gym.Env:
     """The RL training env: learned reward, RL observation, actions in [−1, 1].
 
     Args:
-        style: ``style.json`` path or loaded :class:`drivestyle.irl.style.Style`.
+        style: ``style.json`` path (either model) or a loaded
+            :class:`drivestyle.irl.style.Style` or :class:`drivestyle.irl.driver_style.DriverStyle`.
         scenario: scenario name or config.
         randomize: draw scenarios per reset (``LaneChangeRandom``).
         monitor_file: write SB3 ``Monitor`` episode statistics to this CSV.
@@ -82,6 +131,7 @@ def make_rl_env(
         crash_penalty: see :class:`drivestyle.irl.reward.StyleReward`.
         traffic: the traffic env (``Traffic-v0``, or ``TrafficRandom-v0`` with randomize)
             instead of the single-TV one (``scenario`` then ignored).
+        driver_cost: penalties and scale of a driver style's reward.
         **overrides: scenario overrides.
 
     Returns:
@@ -96,7 +146,7 @@ def make_rl_env(
         env = LaneChangeEnv(
             scenario=scenario, randomize=randomize, render_mode=render_mode, **overrides
         )
-    env = LearnedStyleReward(env, style, crash_penalty)
+    env = _reward_wrapper(env, style, crash_penalty, driver_cost)
     env = Monitor(
         env,
         None if monitor_file is None else str(monitor_file),
@@ -113,6 +163,7 @@ def _vec_env(
     randomize: bool,
     crash_penalty: float | None,
     traffic: bool = False,
+    driver_cost: DriverCostConfig | None = None,
 ):
     from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -124,6 +175,7 @@ def _vec_env(
             monitor_file=monitor,
             crash_penalty=crash_penalty,
             traffic=traffic,
+            driver_cost=driver_cost,
         )
         env.reset(seed=seed)
         env.action_space.seed(seed)
@@ -176,6 +228,7 @@ def train_baseline(
             cfg.randomize,
             cfg.crash_penalty,
             cfg.traffic,
+            cfg.driver_cost,
         ),
         norm_obs=True,
         norm_reward=cfg.norm_reward,
@@ -183,7 +236,14 @@ def train_baseline(
     )
     eval_env = VecNormalize(
         _vec_env(
-            style, scenario, cfg.seed + 1, None, cfg.randomize, cfg.crash_penalty, cfg.traffic
+            style,
+            scenario,
+            cfg.seed + 1,
+            None,
+            cfg.randomize,
+            cfg.crash_penalty,
+            cfg.traffic,
+            cfg.driver_cost,
         ),
         norm_obs=True,
         norm_reward=False,
@@ -244,6 +304,7 @@ def train_baseline(
         "train_time_s": train_s,
         "randomize": cfg.randomize,
         "traffic": cfg.traffic,
+        "driver_cost": None if cfg.driver_cost is None else asdict(cfg.driver_cost),
         "final_eval_return": (
             float(eval_cb.last_mean_reward) if np.isfinite(eval_cb.last_mean_reward) else None
         ),

@@ -1,12 +1,16 @@
 """Compare ways of driving a learned style.
 
 The three: the SMPC demonstration it came from, the spline-optimised reproduction r*_θ,
-and an RL policy trained on the learned reward.
+and an RL policy trained on the learned reward. On held-out scenarios
+(:func:`heldout_comparison`) also the default style model's closed-loop reproduction
+(:func:`drivestyle.irl.driver_style.reproduce`, method ``style``).
 
 All trajectories are scored the same way: control points at the demonstration's sample
 times (by the style's control-point rule for sampled states, the spline's own for r*_θ)
 and the features evaluated with the demonstration's event times and TV, so θᵀf, the
-feature error and the trajectory errors are directly comparable.
+feature error and the trajectory errors are directly comparable. Without a paper-model
+style (only a driver style) every method is scored by :func:`state_metrics` (positions at
+the samples; no θᵀf).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rollout import Policy, run_episode
 from drivestyle.envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
 from drivestyle.envs.traffic import TrafficEnv, TrafficScene
+from drivestyle.irl.driver_style import DriverStyle, reproduce
 from drivestyle.irl.features import feature_basis, feature_values
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.metrics import trajectory_errors
@@ -39,10 +44,16 @@ __all__ = [
     "heldout_comparison",
     "policy_frames",
     "rollout_policy",
+    "state_metrics",
     "trajectory_metrics",
 ]
 
-LABELS = {"smpc": "SMPC demonstration", "spline": "spline reproduction r*_θ", "sb3": "SB3 policy"}
+LABELS = {
+    "smpc": "SMPC demonstration",
+    "style": "driver style (receding horizon)",
+    "spline": "spline reproduction r*_θ",
+    "sb3": "SB3 policy",
+}
 """Display name per compared method."""
 
 
@@ -74,6 +85,11 @@ class HeldoutSummary:
     decision_ms: float | None
     min_d_k: float
     n: int
+    median_rmse_xy_m: float | None = None
+    """Median rmse_xy against SMPC(p) [m]."""
+    enters_ellipse: int = 0
+    """Scenarios where the method enters the nominal ellipse (min d_k < 0) and the SMPC
+    demonstration does not."""
 
     def to_json(self) -> dict[str, Any]:
         """The entry's keys."""
@@ -82,7 +98,7 @@ class HeldoutSummary:
 
 @dataclass(frozen=True)
 class HeldoutComparison:
-    """SMPC(p), the spline reproduction and SB3 policies on held-out random scenarios.
+    """SMPC(p), the driver style, the spline reproduction and SB3 policies on held-out scenarios.
 
     Attributes:
         per_scenario: per scenario, ``scenario`` (its parameters) and ``methods``
@@ -254,6 +270,43 @@ def trajectory_metrics(
     return out
 
 
+def state_metrics(ev: np.ndarray, demo: Demonstration) -> dict[str, Any]:
+    """Trajectory errors and safety of sampled EV states (no paper-model style needed).
+
+    Args:
+        ev: EV states [x, y, φ, v] at the demonstration's samples, shape (n, 4) (n may
+            be shorter after a crash; the errors are then None).
+        demo: the reference demonstration (its vehicles and scenario).
+
+    Returns:
+        JSON-ready metrics with :func:`trajectory_metrics`'s keys (``learned_cost`` and
+        ``feature_error`` None); min d_k, collision and off-road against every vehicle.
+    """
+    sc = demo.scenario
+    ev = np.asarray(ev, float)
+    n = ev.shape[0]
+    complete = n == demo.n
+    out: dict[str, Any] = {"complete": complete, "n_samples": n}
+    out |= {"learned_cost": None, "feature_error": None}
+    if complete:
+        out |= trajectory_errors(ev[:, :2], demo)
+    else:
+        out |= dict.fromkeys(("rmse_y_m", "rmse_xy_m", "rmse_y_reaction_m", "fde_m"))
+    vehicles = demo.vehicles[:n]
+    d_k = ellipse_constraint(
+        ev[:, None, 0] - vehicles[..., 0], ev[:, None, 1] - vehicles[..., 1], sc.l_a, sc.l_b
+    )
+    size = (sc.vehicle_length, sc.vehicle_width)
+    crash = any(
+        rectangles_overlap(vehicle_corners(ev[i], *size), vehicle_corners(vehicles[i, j], *size))
+        for i in range(n)
+        for j in range(vehicles.shape[1])
+    )
+    off_road = bool(np.any((ev[:, 1] < 0) | (ev[:, 1] > sc.road_width)))
+    out |= {"min_d_k": float(d_k.min()), "collision": bool(crash), "off_road": off_road}
+    return out
+
+
 def compare_methods(
     style: Style,
     demo: Demonstration,
@@ -309,31 +362,39 @@ def compare_methods(
 
 
 def heldout_comparison(
-    style: Style,
+    style: Style | None,
     models: dict[str, str | Path],
     k: int,
     seed: int,
     risk: float,
     progress: Callable[[int], Any] | None = None,
+    driver: DriverStyle | None = None,
 ) -> HeldoutComparison:
-    """SMPC(p), the spline reproduction and SB3 policies on K held-out random scenarios.
+    """SMPC(p), the driver style, the spline reproduction and SB3 policies on K scenarios.
 
     In each scenario drawn from :class:`drivestyle.envs.scenario.ScenarioRanges` with ``seed``, the
-    SMPC(p) demonstration is the reference; the spline reproduction r*_θ is planned in that
-    scenario (open loop); each SB3 policy drives it in closed loop. Per method: the learned
-    cost θᵀf, rmse_y against SMPC(p), min d_k, collisions and the compute per decision
-    (SMPC: solver time per step; spline: one plan; SB3: one forward pass).
+    SMPC(p) demonstration is the reference; the driver style (``style``) re-plans in closed
+    loop against the recorded TV (:func:`drivestyle.irl.driver_style.reproduce`); the spline
+    reproduction r*_θ is planned in that scenario (open loop); each SB3 policy drives it in
+    closed loop. Per method: the learned cost θᵀf (paper style only), rmse_y and rmse_xy
+    against SMPC(p), min d_k, collisions, entries into the ellipse the SMPC did not enter and
+    the compute per decision (SMPC: solver time per step; style: one re-plan; spline: one
+    plan; SB3: one forward pass).
 
     Args:
-        style: the learned style (its θ, features and control-point rule).
+        style: the paper-model style (its θ, features and control-point rule), or None.
         models: method name → :func:`drivestyle.agents.sb3_baseline.train_baseline` output folder.
         k: held-out scenarios (≥ 1).
         seed: their seed (disjoint from training).
         risk: the demonstrator's risk p.
         progress: called with 1 after each scenario.
+        driver: the default model's driver style (method ``style``), or None.
 
     Returns:
         The per-scenario metrics and a summary per method.
+
+    Raises:
+        ValueError: k < 1, or neither a paper style nor a driver style.
     """
     from drivestyle.agents.demo_generation import generate_demonstration
     from drivestyle.agents.sb3_baseline import SB3Policy
@@ -341,22 +402,42 @@ def heldout_comparison(
 
     if k < 1:
         raise ValueError(f"need at least one held-out scenario, got {k}")
+    if style is None and driver is None:
+        raise ValueError("the held-out comparison needs a driver style or a paper-model style")
     policies = {name: SB3Policy(folder) for name, folder in models.items()}
     rng = np.random.default_rng(seed)
     per_scenario: list[dict[str, Any]] = []
     for _ in range(k):
         scenario = ScenarioRanges().sample(rng)
         demo, summary = generate_demonstration(risk, scenario)
-        C_demo = demo_control_points(demo, style.control_point_rule)
-        rows = {
-            "smpc": trajectory_metrics(C_demo, demo, style, C_demo)
-            | {"decision_ms": summary["solve_ms_median"]}
-        }
-        inner = InnerProblem(demo, style.features, style.control_point_rule)
-        sol = inner.solve(style.theta)
-        rows["spline"] = trajectory_metrics(sol.control_points, demo, style, C_demo) | {
-            "decision_ms": sol.solve_ms
-        }
+        C_demo = None if style is None else demo_control_points(demo, style.control_point_rule)
+
+        def sampled(ev: np.ndarray, inputs: np.ndarray, demo=demo, C_demo=C_demo) -> dict[str, Any]:
+            """Metrics of sampled states: through the paper style's features if any."""
+            if style is None or C_demo is None:
+                return state_metrics(ev, demo)
+            n = ev.shape[0]
+            run = Demonstration(
+                t=demo.t[:n], ev=ev, tv=demo.tv[:n], u=inputs[: n - 1], meta=dict(demo.meta)
+            )
+            C = demo_control_points(run, style.control_point_rule)
+            return trajectory_metrics(C, demo, style, C_demo)
+
+        rows = {"smpc": sampled(demo.ev, demo.u) | {"decision_ms": summary["solve_ms_median"]}}
+        if driver is not None:
+            t0 = time.perf_counter()
+            rep = reproduce(driver, demo)
+            ms = (time.perf_counter() - t0) * 1e3 / max(demo.n - 1, 1)
+            rows["style"] = sampled(rep.states, rep.inputs) | {
+                "decision_ms": ms,
+                "solve_failures": rep.failures,
+            }
+        if style is not None:
+            inner = InnerProblem(demo, style.features, style.control_point_rule)
+            sol = inner.solve(style.theta)
+            rows["spline"] = trajectory_metrics(sol.control_points, demo, style, C_demo) | {
+                "decision_ms": sol.solve_ms
+            }
         for name, policy in policies.items():
             times: list[float] = []
 
@@ -367,10 +448,7 @@ def heldout_comparison(
                 return u
 
             rollout, _ = rollout_policy(timed, demo)
-            C = demo_control_points(
-                replace(rollout, meta=dict(demo.meta)), style.control_point_rule
-            )
-            rows[name] = trajectory_metrics(C, demo, style, C_demo) | {
+            rows[name] = sampled(rollout.ev, rollout.u) | {
                 "decision_ms": float(np.median(times)) if times else None
             }
         per_scenario.append({"scenario": scenario.to_dict(), "methods": rows})
@@ -390,6 +468,11 @@ def heldout_comparison(
             decision_ms=median([s["methods"][name]["decision_ms"] for s in per_scenario]),
             min_d_k=min(s["methods"][name]["min_d_k"] for s in per_scenario),
             n=len(per_scenario),
+            median_rmse_xy_m=median([s["methods"][name]["rmse_xy_m"] for s in per_scenario]),
+            enters_ellipse=sum(
+                s["methods"][name]["min_d_k"] < 0 <= s["methods"]["smpc"]["min_d_k"]
+                for s in per_scenario
+            ),
         )
         for name in names
     }
