@@ -40,6 +40,8 @@ closed loop: the warm start, the previous plan and the fallbacks live in
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -501,10 +503,13 @@ def solver_options(name: str, config: SMPCConfig, equality: np.ndarray) -> dict:
     common: dict = {"expand": True, "print_time": False}
     if config.jit:
         # compile the NLP's derivative functions with the system C compiler
+        # generated C and compiled objects go to the temp folder, not the user's cwd
+        tmp = tempfile.gettempdir()
         common |= {
             "jit": True,
             "compiler": "shell",
-            "jit_options": {"flags": ["-O2"], "verbose": False},
+            "jit_name": "drivestyle_jit",
+            "jit_options": {"flags": ["-O2"], "verbose": False, "directory": tmp + os.sep},
         }
     if name == "fatrop":
         return common | {
