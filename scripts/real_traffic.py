@@ -78,11 +78,25 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="driver model: Levenberg-Marquardt runs per fit",
     )
     p.add_argument(
+        "--max-iter",
+        type=positive_int,
+        default=30,
+        help="driver model: Levenberg-Marquardt iterations per run",
+    )
+    p.add_argument(
+        "--min-episodes",
+        type=positive_int,
+        default=3,
+        help="driver model: episodes a vehicle needs for its leave-one-out test (>= 2)",
+    )
+    p.add_argument(
         "--scenario-line",
         action="store_true",
         help="driver model: aim at the target lane's centre, not the EV's own final line",
     )
     args = p.parse_args(argv)
+    if args.min_episodes < 2:
+        p.error(f"--min-episodes must be >= 2 (one learns, one held out), not {args.min_episodes}")
     if args.restarts > args.screen:
         p.error(f"--restarts ({args.restarts}) cannot exceed --screen ({args.screen})")
     return args
@@ -104,7 +118,9 @@ def main(argv: list[str] | None = None) -> dict:
                     episodes, args.dataset, args.workers, tmp / "episodes", args.limit, bar.update
                 )
         if args.model in ("driver", "both"):
-            settings = DriverSettings(args.screen, args.restarts, not args.scenario_line)
+            settings = DriverSettings(
+                args.screen, args.restarts, not args.scenario_line, args.max_iter
+            )
             with tqdm(desc=f"{args.dataset} driver-model fits", unit="fit") as bar:
                 driver = run_driver_study(
                     episodes,
@@ -113,6 +129,7 @@ def main(argv: list[str] | None = None) -> dict:
                     args.limit,
                     bar.update,
                     settings,
+                    args.min_episodes,
                     on_plan=lambda k: bar.reset(total=k),
                 )
         payload = {"dataset": args.dataset} if study is None else study.to_json()

@@ -28,6 +28,7 @@ from drivestyle.irl.spline import spline_eval
 if TYPE_CHECKING:
     from drivestyle.agents.studies.compare import HeldoutComparison
     from drivestyle.agents.studies.identification import EvaluationRecord
+    from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
     "draw_lanes",
@@ -35,6 +36,7 @@ __all__ = [
     "plot_comparison",
     "plot_confusion",
     "plot_demonstration",
+    "plot_driver_traffic",
     "plot_episode",
     "plot_heldout",
     "plot_lateral",
@@ -667,3 +669,44 @@ def plot_learning_curve(out: str | Path, title: str) -> Path:
     ax.grid(alpha=0.3)
     ax.legend()
     return save_figure(fig, out / "learning_curve.png", dpi=120)
+
+
+def plot_driver_traffic(
+    study: DriverTrafficStudy, paper: RealTrafficStudy | None, path: str | Path
+) -> Path:
+    """Per recorded episode: rmse_y and rmse_xy, driver model beside paper model.
+
+    The driver model's personal reproduction and, where a vehicle has several episodes, its
+    leave-one-out own and general styles; the paper model's personal reactive and general.
+
+    Args:
+        study: the driver-model study.
+        paper: the paper-model study of the same episodes (None: not run).
+        path: output PNG.
+
+    Returns:
+        The path written.
+    """
+    ids = [r["episode_id"] for r in study.episodes]
+    series: dict[str, list[dict | None]] = {
+        f"driver {m}": [r.get(m) for r in study.episodes]
+        for m in ("personal", "own_loo", "general_loo")
+        if any(m in r for r in study.episodes)
+    }
+    if paper is not None:
+        rows = {r["episode_id"]: r for r in paper.episodes if "methods" in r}
+        for m in ("personal_reactive", "general"):
+            series[f"paper {m}"] = [rows.get(i, {}).get("methods", {}).get(m) for i in ids]
+    fig, axes = plt.subplots(2, 1, figsize=(max(7.0, 0.55 * len(ids) + 2), 6.5), sharex=True)
+    width = 0.8 / len(series)
+    pos = np.arange(len(ids))
+    for ax, key in zip(axes, ("rmse_y_m", "rmse_xy_m"), strict=True):
+        for k, (name, vals) in enumerate(series.items()):
+            h = [np.nan if v is None else v[key] for v in vals]
+            ax.bar(pos + (k - (len(series) - 1) / 2) * width, h, width, label=name)
+        ax.set_ylabel(key.replace("_m", " [m]"))
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3, axis="y")
+    axes[0].legend(fontsize=7, ncol=3)
+    axes[1].set_xticks(pos, [i[:18] for i in ids], rotation=60, ha="right", fontsize=7)
+    return save_figure(fig, path, f"{study.dataset}: driver model vs paper model", dpi=110)

@@ -20,11 +20,12 @@ if TYPE_CHECKING:
     from drivestyle.agents.studies.compare import Comparison
     from drivestyle.agents.studies.identification import Evaluation
     from drivestyle.agents.studies.paper import PaperStudy
-    from drivestyle.agents.studies.real_traffic import RealTrafficStudy
+    from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
     "capacity_markdown",
     "comparison_markdown",
+    "driver_traffic_markdown",
     "evaluation_markdown",
     "noise_markdown",
     "paper_console",
@@ -347,3 +348,74 @@ def capacity_markdown(study: CapacityStudy, command: str) -> str:
         )
     lines += ["", f"Total wall time {seconds(study.seconds)}.", ""]
     return "\n".join(lines)
+
+
+def driver_traffic_markdown(
+    study: DriverTrafficStudy, paper: RealTrafficStudy | None = None
+) -> str:
+    """``real_traffic.md``'s driver-model part.
+
+    Medians beside the paper model's, the per-vehicle leave-one-out test and the episodes.
+    """
+    m = study.medians
+    settings = study.settings
+    lines = [
+        "",
+        "## Receding-horizon driver model (irl/driver_style.py)",
+        "",
+        "Per episode `learn_driver([episode], fit_speed=True)` (weights, risk p and desired "
+        f"speed free; {settings.screen} screened starts, {settings.restarts} LM run(s)), "
+        "reproduced in closed loop against the recorded vehicles.",
+        "",
+        "| model | reproduction | median rmse_y [m] | median rmse_xy [m] | median fde [m] |",
+        "|---|---|---|---|---|",
+    ]
+    for name in ("personal", "own_loo", "general_loo"):
+        v = m[name]
+        if v["rmse_y_m"] is not None:
+            lines.append(
+                f"| driver | {name} | {fmt(v['rmse_y_m'])} | {fmt(v['rmse_xy_m'])} "
+                f"| {fmt(v['fde_m'])} |"
+            )
+    if paper is not None:
+        for name in ("personal_reactive", "general"):
+            v = paper.medians[name]
+            lines.append(
+                f"| paper | {name} | {fmt(v['rmse_y_m'])} | {fmt(v['rmse_xy_m'])} "
+                f"| {fmt(v['fde_m'])} |"
+            )
+    if study.vehicles:
+        lines += [
+            "",
+            "### A vehicle's style from its other episodes (leave-one-out)",
+            "",
+            "| vehicle | held out | own rmse_y | general rmse_y | own rmse_xy | general rmse_xy |",
+            "|---|---|---|---|---|---|",
+        ]
+        for vehicle, entry in study.vehicles.items():
+            for sp in entry["splits"]:
+                g = sp.get("general_loo", {})
+                lines.append(
+                    f"| {vehicle} | {sp['held_out']} | {fmt(sp['own_loo']['rmse_y_m'])} "
+                    f"| {fmt(g.get('rmse_y_m'))} | {fmt(sp['own_loo']['rmse_xy_m'])} "
+                    f"| {fmt(g.get('rmse_xy_m'))} |"
+                )
+            own, gen = entry["median_own_loo"], entry["median_general_loo"]
+            lines.append(
+                f"| {vehicle} | **median** | {fmt(own['rmse_y_m'])} | {fmt(gen['rmse_y_m'])} "
+                f"| {fmt(own['rmse_xy_m'])} | {fmt(gen['rmse_xy_m'])} |"
+            )
+    lines += [
+        "",
+        "| episode | driver personal rmse_y | rmse_xy | risk p | v_ref [m/s] | failures | min d |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in study.episodes:
+        p = r["personal"]
+        style = p["fit"]["style"]
+        lines.append(
+            f"| {r['episode_id']} | {fmt(p['rmse_y_m'])} | {fmt(p['rmse_xy_m'])} "
+            f"| {fmt(style['risk'], 2)} | {fmt(style['v_ref'], 1)} | {p['failures']} "
+            f"| {fmt(p['min_d'], 2)} |"
+        )
+    return "\n".join(lines) + "\n"
