@@ -447,7 +447,7 @@ def risk_profile(
         styled = replace(style, risk=risks[j])
         total = constant
         previous = None
-        for k in np.flatnonzero(active):
+        for k in (int(i) for i in np.flatnonzero(active)):
             # the driver's own warm start: its previous step's plan at this risk, which
             # at a step without a binding constraint is the largest risk's plan (the NLP
             # is not convex — the nominal ellipse — and the warm start picks the branch)
@@ -678,7 +678,7 @@ def learn_driver(
         c = z0.copy()
         c[: len(free)] += rng.uniform(-2.5, 2.5, len(free))
         candidates.append(c)
-    scored = []
+    scored: list[tuple[float, int, np.ndarray, np.ndarray]] = []
     for c in candidates:
         rc = residuals(c)
         scored.append((0.5 * float(rc @ rc), len(scored), c, rc))

@@ -411,6 +411,9 @@ def _ellipse_margins(
 def _objective(cfg: SMPCConfig, sc: ScenarioConfig, sym: _Symbols) -> ca.SX:
     """Tracking cost, input cost and slack penalty (module docstring)."""
     N = cfg.horizon
+    Q: np.ndarray | ca.SX
+    QN: np.ndarray | ca.SX
+    R: np.ndarray | ca.SX
     Q, QN, R = (np.diag(w) for w in (cfg.Q, cfg.Q_N, cfg.R))
     if sym.weights is not None:
         w = sym.weights

@@ -158,7 +158,7 @@ def _build_driver(args: argparse.Namespace, argv: list[str] | None) -> dict:
                 "observation": "tracked" if args.tracked else "true",
                 "training_scenarios": [sc.to_dict() for sc in scenarios],
             },
-            progress=lambda it, cost: (lbar.update(1), lbar.set_postfix(cost=f"{cost:.3g}")),
+            progress=lambda it, cost: _tick(lbar, cost),
         )
     t_learn = time.perf_counter() - t0 - t_demos
     rng = np.random.default_rng([args.seed, 1])
@@ -193,6 +193,11 @@ def _build_driver(args: argparse.Namespace, argv: list[str] | None) -> dict:
         f"calibration demos), {payload['build_wall_s']:.0f} s"
     )
     return payload
+
+
+def _tick(bar: tqdm, cost: float) -> None:
+    bar.update(1)
+    bar.set_postfix(cost=f"{cost:.3g}")
 
 
 if __name__ == "__main__":

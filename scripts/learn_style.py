@@ -179,7 +179,7 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
             demos,
             fit_speed=args.fit_speed,
             max_iter=max_iter,
-            progress=lambda it, cost: (bar.update(1), bar.set_postfix(cost=f"{cost:.3g}")),
+            progress=lambda it, cost: _tick(bar, cost),
         )
     reproductions = []
     for demo in demos:
@@ -206,6 +206,11 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
             f"learning stalled ({args.out / 'style.json'} holds the starting style)"
         )
     return payload
+
+
+def _tick(bar: tqdm, cost: float) -> None:
+    bar.update(1)
+    bar.set_postfix(cost=f"{cost:.3g}")
 
 
 if __name__ == "__main__":
