@@ -10,9 +10,21 @@ identification with tracked noisy positions (envs/tracking.py) and draws
 ``OUT/noise_curve.png``; ``--references`` adds the ceiling that knows the expert and a
 supervised k-NN baseline without IRL.
 
+A driver library (``build_style_library.py``'s default, DESIGN §15) is evaluated with its
+one scorer, ``likelihood`` (one risk profile per demonstration), under the name
+``driver``; ``--continuous K`` adds K demonstrations per scenario with true risks drawn
+from U[0.5, 0.95]. Every evaluation reports the *path ceiling* beside identification: the
+SMPC(q) paths of the grid risks in the demonstration's own scenario (the held-out
+demonstrations themselves: the expert is deterministic), the accuracy of picking the
+closest, and the *identifiable* grid demonstrations — those whose neighbouring grid risks'
+closed-loop paths lie ≥ 5 cm RMS from the true risk's — with identification's accuracy on
+them (``OUT/estimates_driver.png``: continuous and grid risks with their intervals).
+
 Example:
     python scripts/evaluate_identification.py --library runs/library_reactive \\
         --scenarios 10 --seed 2000 --noise 0,0.05,0.1,0.2,0.3 --references --out runs/test
+    python scripts/evaluate_identification.py --library runs/library --scenarios 10 \\
+        --continuous 3 --seed 2000 --noise 0,0.1 --out runs/test_driver
 """
 
 from __future__ import annotations
@@ -28,13 +40,21 @@ from tqdm import tqdm
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.agents.studies.ceiling import identification_references
-from drivestyle.agents.studies.figures import plot_confusion, plot_noise_curve, plot_theta_vs_risk
+from drivestyle.agents.studies.figures import (
+    plot_confusion,
+    plot_noise_curve,
+    plot_population,
+    plot_theta_vs_risk,
+)
 from drivestyle.agents.studies.identification import (
     Evaluation,
+    continuous_demonstrations,
+    draw_continuous_risks,
     evaluate_identification,
     noise_curve_json,
 )
 from drivestyle.agents.studies.reports import (
+    driver_evaluation_markdown,
     evaluation_markdown,
     noise_markdown,
     references_markdown,
@@ -43,8 +63,10 @@ from drivestyle.common.cli import float_list, positive_int, risk_list, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
-from drivestyle.irl.identification import DEFAULT_SCORER
-from drivestyle.irl.library import LibraryError, load_library
+from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary, load_any_library
+
+DRIVER = "driver"
+"""The name a driver library is evaluated and reported under."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -57,7 +79,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=Path,
         action="append",
         required=True,
-        help="library folder or library.json (repeat for several feature sets)",
+        help="library folder or library.json (repeat for several feature sets; a driver "
+        "library is evaluated beside them)",
     )
     p.add_argument("--scenarios", type=positive_int, default=5, help="M held-out scenarios")
     p.add_argument(
@@ -71,6 +94,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--between",
         type=risk_list,
         help="held-out risks between grid points (default: midpoints of the library's grid)",
+    )
+    p.add_argument(
+        "--continuous",
+        type=int,
+        default=0,
+        help="per scenario, this many more demonstrations with true risks drawn from "
+        "U[0.5, 0.95] (continuous-risk MAE and coverage)",
     )
     p.add_argument(
         "--seed", type=int, default=1000, help="held-out scenario seed (not the library's)"
@@ -97,12 +127,20 @@ def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns evaluation.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out)
-    libraries = {}
+    if args.continuous < 0:
+        raise ValueError(f"--continuous must be >= 0, got {args.continuous}")
+    if args.references and args.draw == "traffic":
+        raise ValueError(
+            "--references simulates single-TV scenarios (the ceiling re-simulation); with "
+            "--draw traffic the path ceiling of every evaluation is the reference"
+        )
+    libraries: dict[str, StyleLibrary | DriverLibrary] = {}
     for path in args.library:
-        lib = load_library(path)
-        if lib.feature_set in libraries:
-            raise LibraryError(f"two libraries of the {lib.feature_set!r} feature set given")
-        libraries[lib.feature_set] = lib
+        lib = load_any_library(path)
+        name = DRIVER if isinstance(lib, DriverLibrary) else lib.feature_set
+        if name in libraries:
+            raise LibraryError(f"two {name!r} libraries given")
+        libraries[name] = lib
         if lib.meta.get("seed") == args.seed:
             raise LibraryError(
                 f"--seed {args.seed} is the library's own training seed; "
@@ -124,6 +162,9 @@ def main(argv: list[str] | None = None) -> dict:
     risks = [*grid, *[p for p in between if p not in grid]]
     demos_by_risk = generate_demonstrations(risks, scenarios, args.workers)
     demos = [d for p in risks for d in demos_by_risk[p]]
+    continuous_risks = draw_continuous_risks(len(scenarios), args.continuous, args.seed)
+    if args.continuous:
+        demos += continuous_demonstrations(scenarios, continuous_risks, args.workers)
     results: dict[str, Evaluation] = {}
     curves: dict[str, list[Evaluation]] = {}
     for name, lib in libraries.items():
@@ -131,13 +172,14 @@ def main(argv: list[str] | None = None) -> dict:
         for sigma in args.noise:
             with tqdm(total=len(demos), desc=f"identify ({name}, noise {sigma:g} m)") as bar:
                 res = evaluate_identification(
-                    lib, demos, grid, bar.update, args.workers, sigma, args.seed
+                    lib, demos, grid, bar.update, args.workers, sigma, args.seed, ceiling=True
                 )
             results.setdefault(name, res)  # the first noise level is the headline
             curves[name].append(res)
     payload = {
         "grid_risks": grid,
         "between_risks": between,
+        "continuous_risks": continuous_risks if args.continuous else [],
         "seed": args.seed,
         "draw": args.draw,
         "held_out_scenarios": [sc.to_dict() for sc in scenarios],
@@ -145,36 +187,72 @@ def main(argv: list[str] | None = None) -> dict:
         "noise_curve": {n: noise_curve_json(cs) for n, cs in curves.items()},
         "records": {n: [rec.to_json() for rec in r.records] for n, r in results.items()},
     }
-    extra = noise_markdown(curves) if len(args.noise) > 1 else []
+    paper = {n: lib for n, lib in libraries.items() if isinstance(lib, StyleLibrary)}
+    paper_results = {n: r for n, r in results.items() if n in paper}
+    paper_curves = {n: c for n, c in curves.items() if n in paper}
+    extra = noise_markdown(paper_curves) if len(args.noise) > 1 and paper else []
+    refs = None
     if args.references:
         dirs = {
             n: Path(p).parent if Path(p).suffix else Path(p)
             for n, p in zip(libraries, args.library, strict=True)
+            if n in paper
         }
-        refs = identification_references(libraries, dirs, demos, grid)
+        refs = identification_references(paper, dirs, demos, grid)
         payload["references"] = refs.to_json()
-        extra += references_markdown(refs, results)
-    markdown = evaluation_markdown(results, extra)
+        if paper:
+            extra += references_markdown(refs, paper_results)
+    markdown = evaluation_markdown(paper_results, extra) if paper else ""
+    if DRIVER in results:
+        markdown += driver_evaluation_markdown(curves[DRIVER], refs)
     with atomic_output_dir(args.out) as tmp:
         for name in results:
+            scorer = results[name].scorer
             plot_confusion(
                 results[name].records,
                 grid,
-                DEFAULT_SCORER,
+                scorer,
                 tmp / f"confusion_{name}.png",
-                title=f"{name} features, scorer {DEFAULT_SCORER}",
+                title=f"{name} {'model' if name == DRIVER else 'features'}, scorer {scorer}",
             )
             if len(args.noise) > 1:
                 plot_noise_curve(
                     noise_curve_json(curves[name]),
                     tmp / f"noise_curve_{name}.png",
-                    f"{name} features",
+                    f"{name} {'model' if name == DRIVER else 'features'}",
                 )
-        plot_theta_vs_risk(libraries, tmp / "theta_vs_risk.png")
+        if paper:
+            plot_theta_vs_risk(paper, tmp / "theta_vs_risk.png")
+        if DRIVER in results:
+            plot_population(
+                _estimate_rows(results[DRIVER]),
+                tmp / f"estimates_{DRIVER}.png",
+                "driver model: posterior mean and 90 % interval vs the true risk",
+            )
         write_json(tmp / "evaluation.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "evaluation.md", markdown)
     print(markdown)
     return payload
+
+
+def _estimate_rows(evaluation: Evaluation) -> list[dict]:
+    """The records as :func:`plot_population`'s rows (posterior mean, interval, truth)."""
+    rows = []
+    for r in evaluation.records:
+        if not r.ok:
+            continue
+        ident = r.by_scorer[evaluation.scorer]
+        lo, hi = ident.risk_interval
+        rows.append(
+            {
+                "status": "ok",
+                "risk_mean": ident.risk_interpolated,
+                "true_risk": r.risk,
+                "risk_lo": lo,
+                "risk_hi": hi,
+            }
+        )
+    return rows
 
 
 if __name__ == "__main__":

@@ -69,3 +69,141 @@ def test_markdown_is_written_from_the_typed_results(evaluation):
     assert all(f"| reactive | {s} |" in md for s in SCORERS)
     assert "| reactive | 0 |" in md  # σ = 0 in the noise table
     assert "(0.50 of demos tied with a neighbour; untied —)" in md
+
+
+# ---------------------------------------------------------------------------- driver libraries
+from drivestyle.agents.studies.ceiling import ceiling_identify  # noqa: E402
+from drivestyle.agents.studies.identification import (  # noqa: E402
+    CONTINUOUS_RANGE,
+    IDENTIFIABLE_GAP_M,
+    continuous_demonstrations,
+    draw_continuous_risks,
+    is_identifiable,
+    neighbour_gap,
+    path_distance,
+    pooled_accuracy,
+)
+from drivestyle.agents.studies.reports import driver_evaluation_markdown  # noqa: E402
+from drivestyle.envs.scenario import get_scenario  # noqa: E402
+from drivestyle.irl.driver_style import DriverStyle  # noqa: E402
+from drivestyle.irl.library import DriverLibrary  # noqa: E402
+
+SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
+"""The expert's own cost: a driver library with it must identify SMPC demonstrations."""
+DRIVER_GRID = (0.5, 0.7, 0.9)
+
+
+def _path(y: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.arange(len(y), dtype=float), y])
+
+
+def test_the_identifiable_rule_uses_the_rms_gap_to_both_neighbours():
+    n = 25
+    flat = np.zeros(n)
+    spike = flat.copy()
+    spike[10] = 0.1  # parts for one step only: max 10 cm, RMS 2 cm
+    paths = {0.5: _path(flat), 0.6: _path(spike), 0.7: _path(flat + 0.2), 0.8: _path(flat + 0.25)}
+    grid = [0.5, 0.6, 0.7, 0.8]
+    assert path_distance(paths[0.5], paths[0.6]) == pytest.approx(0.1 / np.sqrt(n))
+    assert neighbour_gap(paths, 0.6, grid) == pytest.approx(0.02)  # nearer neighbour 0.5
+    assert not is_identifiable(neighbour_gap(paths, 0.5, grid))  # its one neighbour is 0.6
+    assert neighbour_gap(paths, 0.7, grid) == pytest.approx(0.05)  # 0.8 is 5 cm away
+    assert is_identifiable(0.05) and not is_identifiable(0.0499) and not is_identifiable(None)
+    assert IDENTIFIABLE_GAP_M == 0.05
+    assert neighbour_gap(paths, 0.65, grid) is None  # off the grid
+    assert neighbour_gap({0.5: paths[0.5], 0.6: paths[0.6]}, 0.6, grid) is None  # 0.7 missing
+    # paths of unequal length are compared over their common part (as the ceiling does)
+    assert path_distance(_path(flat + 0.2), _path(np.zeros(10))) == pytest.approx(0.2)
+
+
+def test_continuous_risks_are_uniform_seeded_and_leave_the_scenario_draws_alone():
+    a = draw_continuous_risks(4, 3, seed=500)
+    assert a == draw_continuous_risks(4, 3, seed=500) != draw_continuous_risks(4, 3, seed=2000)
+    assert len(a) == 4 and all(len(r) == 3 for r in a)
+    lo, hi = CONTINUOUS_RANGE
+    assert all(lo <= p <= hi for r in a for p in r)
+    assert draw_continuous_risks(3, 0, seed=1) == [[], [], []]
+
+
+@pytest.fixture(scope="module")
+def driver_evaluation():
+    """SMPC demonstrations in the paper scenario: the grid risks, one continuous risk, and
+    a driver library holding the expert's own cost (it must identify them)."""
+    sc = get_scenario("paper")
+    by_risk = generate_demonstrations(DRIVER_GRID, [sc], workers=1)
+    demos = [by_risk[p][0] for p in DRIVER_GRID]
+    demos += continuous_demonstrations([sc], [[0.8]], workers=1)
+    library = DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=DRIVER_GRID)
+    evaluation = evaluate_identification(library, demos, DRIVER_GRID, workers=1, ceiling=True)
+    return library, demos, evaluation
+
+
+def test_a_driver_library_with_the_experts_cost_identifies_its_demonstrations(driver_evaluation):
+    _, _, evaluation = driver_evaluation
+    records = evaluation.records
+    assert evaluation.scorer == "likelihood"
+    assert [r.ok for r in records] == [True] * 4
+    assert [r.grid for r in records] == [True, True, True, False]
+    assert [r.continuous for r in records] == [False, False, False, True]
+    for r in records:
+        assert set(r.by_scorer) == {"likelihood"}  # no scorer loop
+        assert r.profile is not None and r.profile.n_active > 0
+        ident = r.by_scorer["likelihood"]
+        assert abs(ident.risk_interpolated - r.risk) < 0.03
+        assert ident.covers(r.risk)
+    assert all(r.correct("likelihood") for r in records[:3])
+    # the profile computed once is the one the identification used
+    assert records[0].scores.scores["likelihood"] == pytest.approx(
+        np.interp(DRIVER_GRID, records[0].profile.risks, records[0].profile.ssr)
+    )
+    sm = evaluation.summary
+    m = sm.by_scorer["likelihood"]
+    assert set(sm.by_scorer) == {"likelihood"}
+    assert (sm.n, sm.n_grid, sm.n_continuous, sm.n_between) == (4, 3, 1, 1)
+    assert m.grid_accuracy == 1.0 and m.grid_coverage == 1.0
+    assert m.continuous_mae_interpolated == pytest.approx(
+        abs(records[3].by_scorer["likelihood"].risk_interpolated - 0.8)
+    )
+    assert m.between_mae_interpolated is None  # the only off-grid demo is continuous
+    assert sm.transfer_own_risk_best is None and sm.own_style_rmse_y_median_m is None
+
+
+def test_the_path_ceiling_is_the_re_simulating_ceiling(driver_evaluation):
+    _, demos, evaluation = driver_evaluation
+    rec = evaluation.records[1]  # p = 0.7, both neighbours on the grid
+    assert rec.ceiling is not None and evaluation.records[3].ceiling is None
+    resim = ceiling_identify(demos[1], DRIVER_GRID)
+    assert rec.ceiling.estimate == resim.risk_estimate == 0.7
+    for p in DRIVER_GRID:
+        assert rec.ceiling.distances[p] == pytest.approx(resim.distances[p], abs=1e-9)
+    gap = min(rec.ceiling.distances[0.5], rec.ceiling.distances[0.9])
+    assert rec.ceiling.neighbour_gap_m == pytest.approx(gap)
+    assert rec.identifiable == (gap >= IDENTIFIABLE_GAP_M)
+    c = evaluation.summary.ceiling
+    assert c is not None and c.grid_accuracy == 1.0
+    assert c.n_identifiable == sum(r.identifiable for r in evaluation.records)
+
+
+def test_driver_records_json_pooling_and_markdown(driver_evaluation):
+    library, _, evaluation = driver_evaluation
+    js = evaluation.to_json()
+    rec = js["records"][1]
+    assert {"likelihood_estimate", "likelihood_interval", "likelihood_covered"} <= set(rec)
+    assert {"ceiling_estimate", "ceiling_correct", "neighbour_gap_m", "identifiable"} <= set(rec)
+    assert len(rec["risk_profile"]["ssr"]) == len(rec["risk_profile"]["risks"])
+    assert "continuous" not in rec and js["records"][3]["continuous"] is True
+    assert js["summary"]["scorer"] == "likelihood" and "ceiling" in js["summary"]
+    curve = noise_curve_json([evaluation])
+    assert (
+        curve[0]["grid_accuracy_identifiable"]
+        == js["summary"]["likelihood"]["grid_accuracy_identifiable"]
+    )
+    assert curve[0]["ceiling"]["grid_accuracy"] == 1.0
+    # a pool of one is the single demonstration; pooling needs the library
+    one = pooled_accuracy(evaluation.records, DRIVER_GRID, 1, "likelihood", library)
+    assert one.n_pools == 3 and one.pooled_accuracy == one.single_accuracy == 1.0
+    with pytest.raises(ValueError, match="needs the library"):
+        pooled_accuracy(evaluation.records, DRIVER_GRID, 1, "likelihood")
+    md = driver_evaluation_markdown([evaluation])
+    assert "## Driver library" in md
+    assert "| 0 | 1.00 (3) | 1.00 |" in md  # σ, grid accuracy (n), ceiling
