@@ -65,6 +65,10 @@ class TrainConfig:
     driver_cost: DriverCostConfig | None = None
     """Penalties and scale of a driver style's reward (None: the defaults;
     ``crash_penalty`` above, when set, overrides its crash penalty)."""
+    log_std_init: float | None = None
+    """Initial log standard deviation of the Gaussian policy (None: SB3's default 0, i.e.
+    exploration noise as wide as the normalised action range). Smaller keeps PPO's clipped
+    noisy actions from biasing the mean on a cost quadratic in the input."""
 
     def __post_init__(self) -> None:
         if self.algo not in ALGOS:
@@ -73,6 +77,8 @@ class TrainConfig:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.log_std_init is not None and not (-5.0 <= self.log_std_init <= 2.0):
+            raise ValueError(f"log_std_init must lie in [-5, 2], got {self.log_std_init!r}")
 
 
 def load_reward_style(path: str | Path) -> Style | DriverStyle:
@@ -289,7 +295,8 @@ def train_baseline(
         seed=cfg.seed,
         verbose=0,
         gamma=0.99,
-        policy_kwargs={"net_arch": [128, 128]},
+        policy_kwargs={"net_arch": [128, 128]}
+        | ({} if cfg.log_std_init is None else {"log_std_init": cfg.log_std_init}),
         **extra,
     )
     t0 = time.perf_counter()
@@ -305,6 +312,7 @@ def train_baseline(
         "randomize": cfg.randomize,
         "traffic": cfg.traffic,
         "driver_cost": None if cfg.driver_cost is None else asdict(cfg.driver_cost),
+        "log_std_init": cfg.log_std_init,
         "final_eval_return": (
             float(eval_cb.last_mean_reward) if np.isfinite(eval_cb.last_mean_reward) else None
         ),

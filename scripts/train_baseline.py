@@ -78,6 +78,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="normalise rewards during training (evaluations stay raw)",
     )
+    p.add_argument(
+        "--log-std-init",
+        type=float,
+        help="initial log std of the Gaussian policy (default: SB3's 0)",
+    )
     p.add_argument("--seed", type=int, default=0, help="training seed")
     return p.parse_args(argv)
 
@@ -113,6 +118,7 @@ def main(argv: list[str] | None = None) -> dict:
         crash_penalty=args.crash_penalty,
         norm_reward=args.norm_reward,
         driver_cost=cost,
+        log_std_init=args.log_std_init,
     )
     with atomic_output_dir(args.out) as tmp:
         summary = train_baseline(style, tmp, cfg)

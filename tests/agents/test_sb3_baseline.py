@@ -61,6 +61,12 @@ def test_rl_env_of_a_driver_style_file_trains_on_its_cost(tmp_path):
     assert any(isinstance(w, DriverCostReward) for w in _wrappers(env))
 
 
+def test_log_std_init_is_validated():
+    assert TrainConfig(log_std_init=-1.0).log_std_init == -1.0
+    with pytest.raises(ValueError, match="log_std_init"):
+        TrainConfig(log_std_init=9.0)
+
+
 def _wrappers(env):
     while hasattr(env, "env"):
         yield env
