@@ -28,9 +28,11 @@ style's stage cost of the step,
     w_y (y − y_ref)² + w_φ φ² + w_v (v − v_ref)² + w_a a² + w_δ δ²
 
 (the state after the step, the step's input), plus its constraints as penalties — the
-chance constraint g ≥ 0 with κ(p) against each vehicle's current position and the
-prediction covariance Σ_j (j = 0: the TV's current covariance), the nominal ellipse and the
-state bounds — and r = −cost / scale. The scale is the lane term one lane off
+chance constraint g ≥ 0 with κ(p) against each vehicle's current position and covariance
+Σ_0 (or, with a look-ahead of J steps, the worst of the stages j = 0 … J with the EV and
+the vehicles extrapolated at constant velocity and the prediction covariance Σ_j, as the
+style's planner predicts them), the nominal ellipse and the state bounds — and
+r = −cost / scale. The scale is the lane term one lane off
 (w_y · lane_width²), so a step starting a lane change costs ≈ 1 whatever the style's gauge.
 """
 
@@ -335,15 +337,17 @@ def driver_step_cost(
         y_ref: target lane centre [m].
         v_ref: desired speed [m/s].
         kappa: Φ⁻¹(p) of the chance constraint.
-        sigma: the vehicles' position covariance, shape (2, 2) [m²].
-        scenario: ellipse axes l_a, l_b, bounds (y, φ_max, v_max) and lane width.
+        sigma: the vehicles' position covariance, shape (2, 2) [m²]; or Σ_j of a look-ahead,
+            shape (J + 1, 2, 2): stage j extrapolates the EV and the vehicles j T_s ahead at
+            constant velocity and the chance violation is the worst stage's.
+        scenario: ellipse axes l_a, l_b, T_s, bounds (y, φ_max, v_max) and lane width.
 
     Returns:
         :data:`COST_TERMS`, shape (8,): w_y (y − y_ref)², w_φ φ², w_v (v − v_ref)², w_a a²,
-        w_δ δ²; then the violations max(0, −g) of the chance constraint summed over the
-        vehicles, max(0, 1 − ‖z̄‖) of the nominal ellipse summed over the vehicles, and the
-        bounds' (y beyond the road by lane widths, |φ| beyond φ_max and v beyond v_max as
-        fractions of the bound).
+        w_δ δ²; then the violations max(0, −g) of the chance constraint (worst stage)
+        summed over the vehicles, max(0, 1 − ‖z̄‖) of the nominal ellipse summed over the
+        vehicles, and the bounds' (y beyond the road by lane widths, |φ| beyond φ_max and
+        v beyond v_max as fractions of the bound).
     """
     sc = scenario
     x, y, phi, v = (float(c) for c in np.asarray(ev, float)[:4])
@@ -352,8 +356,16 @@ def driver_step_cost(
     stage = w * np.array([(y - y_ref) ** 2, phi**2, (v - v_ref) ** 2, a**2, delta**2])
     veh = np.asarray(vehicles, float).reshape(-1, 4)
     dx, dy = x - veh[:, 0], y - veh[:, 1]
-    g = chance_margin(dx, dy, sigma[0, 0], sigma[0, 1], sigma[1, 1], sc.l_a, sc.l_b, kappa)
     nominal = np.hypot(dx / sc.l_a, dy / sc.l_b) - 1.0
+    sig = np.asarray(sigma, float).reshape(-1, 2, 2)
+    t = np.arange(len(sig))[:, None] * sc.dt  # stage times, (J + 1, 1)
+    # relative motion at constant velocity: EV along its heading, each vehicle along its own
+    dvx = v * np.cos(phi) - veh[:, 3] * np.cos(veh[:, 2])
+    dvy = v * np.sin(phi) - veh[:, 3] * np.sin(veh[:, 2])
+    g = chance_margin(
+        dx + dvx * t, dy + dvy * t, sig[:, 0, 0, None], sig[:, 0, 1, None], sig[:, 1, 1, None],
+        sc.l_a, sc.l_b, kappa,
+    ).min(axis=0)  # fmt: skip
     y_lo, y_hi = sc.y_bounds
     bounds = (
         (max(0.0, y_lo - y) + max(0.0, y - y_hi)) / sc.lane_width
@@ -377,8 +389,10 @@ class DriverCostConfig:
     crash_penalty: float = 100.0
     """Cost of a collision or leaving the road (ends the episode) [reward units]: more than
     the ≈ 30 steps of stage cost an early end would save."""
-    covariance_step: int = 0
-    """j of the covariance Σ_j the chance constraint uses (0: the TV's current one)."""
+    look_ahead: int = 0
+    """J: the chance penalty is the worst of the stages j = 0 … J, each with the EV and
+    the vehicles extrapolated j T_s at constant velocity and covariance Σ_j (0: the current
+    positions and the TV's current covariance)."""
     scale: float | None = None
     """Stage cost per reward unit; None: w_y · lane_width² (one lane off costs 1)."""
 
@@ -387,10 +401,8 @@ class DriverCostConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (isinstance(self.covariance_step, int) and 0 <= self.covariance_step <= 50):
-            raise ValueError(
-                f"covariance_step must be an integer in [0, 50], got {self.covariance_step!r}"
-            )
+        if not (isinstance(self.look_ahead, int) and 0 <= self.look_ahead <= 50):
+            raise ValueError(f"look_ahead must be an integer in [0, 50], got {self.look_ahead!r}")
         if self.scale is not None and not (np.isfinite(self.scale) and self.scale > 0):
             raise ValueError(f"scale must be a finite positive number, got {self.scale!r}")
 
@@ -432,8 +444,7 @@ class DriverCost:
     ) -> None:
         """Start an episode in ``scenario`` (the states are not needed)."""
         self.sc = scenario
-        j = self.config.covariance_step
-        self.sigma = tv_covariance(self.uncertainty, scenario.dt, j)[j]
+        self.sigma = tv_covariance(self.uncertainty, scenario.dt, self.config.look_ahead)
         self.v_ref = scenario.v_ref if self.style.v_ref is None else self.style.v_ref
         self.scale = (
             self.config.scale

@@ -69,9 +69,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="driver style: penalty per unit of chance-margin violation (default 10)",
     )
     p.add_argument(
-        "--covariance-step",
+        "--look-ahead",
         type=int,
-        help="driver style: the chance penalty's covariance Σ_j (default 0: the current one)",
+        help="driver style: the chance penalty's look-ahead J [steps of T_s] (default 0)",
     )
     p.add_argument(
         "--norm-reward",
@@ -104,10 +104,10 @@ def main(argv: list[str] | None = None) -> dict:
     style = load_reward_style(args.style)
     cost = None
     if isinstance(style, DriverStyle):
-        knobs = {"chance_weight": args.chance_weight, "covariance_step": args.covariance_step}
+        knobs = {"chance_weight": args.chance_weight, "look_ahead": args.look_ahead}
         cost = DriverCostConfig(**{k: v for k, v in knobs.items() if v is not None})
-    elif args.chance_weight is not None or args.covariance_step is not None:
-        raise ValueError("--chance-weight and --covariance-step need a driver-style file")
+    elif args.chance_weight is not None or args.look_ahead is not None:
+        raise ValueError("--chance-weight and --look-ahead need a driver-style file")
     cfg = TrainConfig(
         algo=args.algo,
         timesteps=args.timesteps,

@@ -175,3 +175,25 @@ def test_driver_cost_reward_is_the_scaled_negative_cost(tmp_path):
         check_env(DriverCostReward(LaneChangeEnv(randomize=True), style))
     with pytest.raises(ValueError, match="chance_weight"):
         DriverCostConfig(chance_weight=-1.0)
+
+
+def test_driver_step_cost_look_ahead_takes_the_worst_extrapolated_stage():
+    from drivestyle.envs.scenario import get_scenario
+    from drivestyle.irl.chance import chance_margin
+    from drivestyle.irl.reward import driver_step_cost
+
+    sc = get_scenario("paper")
+    w = np.ones(5)
+    sigma = np.array([np.eye(2) * s for s in (1.0, 4.0, 9.0)])  # Σ_0, Σ_1, Σ_2
+    # the TV 20 m behind in the EV's lane, 10 m/s faster: closes 10 T_s metres per stage
+    ev = np.array([100.0, 5.0, 0.0, 20.0])
+    tv = np.array([[80.0, 5.0, 0.0, 30.0]])
+    got = driver_step_cost(ev, np.zeros(2), tv, w, 5.0, 20.0, 1.0, sigma, sc)[5]
+    stages = [
+        chance_margin(20.0 - 10.0 * sc.dt * j, 0.0, s, 0.0, s, sc.l_a, sc.l_b, 1.0)
+        for j, s in enumerate((1.0, 4.0, 9.0))
+    ]
+    assert got == pytest.approx(-min(stages), rel=1e-12) and got > 0.1
+    assert min(stages) == stages[2] < 0 < stages[0]  # only the look-ahead sees the TV close in
+    only_now = driver_step_cost(ev, np.zeros(2), tv, w, 5.0, 20.0, 1.0, sigma[0], sc)[5]
+    assert only_now == 0.0
