@@ -274,10 +274,10 @@ def nlp_parameters(
     Returns:
         p, shape (4 + 4M + 3,) or (4 + 4M + 3 + 5,) with weights.
     """
-    parts = [
+    parts: list[np.ndarray] = [
         np.asarray(xi0, dtype=float),
         np.asarray(vehicles, dtype=float).ravel(),
-        [y_ref, v_ref, kappa],
+        np.array([y_ref, v_ref, kappa], dtype=float),
     ]
     if weights is not None:
         w = np.asarray(weights, dtype=float).ravel()
