@@ -69,9 +69,12 @@ def test_real_traffic_script_quick(tmp_path):
             "3",
             "--workers",
             "1",
+            "--model",
+            "paper",  # the driver model's fits are tested above, one by one
         ]
     )
     js = json.loads((tmp_path / "real_traffic.json").read_text())
+    assert js["model"] == "paper" and "driver" not in js
     assert set(js["median_rmse_y_m"]) == {
         "personal_reactive",
         "personal_base",
