@@ -184,7 +184,7 @@ def nelder_mead(
     alpha, beta, gamma, delta = 1.0, 1.0 + 2.0 / n, 0.75 - 0.5 / n, 1.0 - 1.0 / n
     if n == 1:
         beta, gamma, delta = 2.0, 0.5, 0.5  # the adaptive coefficients degenerate at n = 1
-    best = {"x": x0.copy(), "f": math.inf}
+    best: dict[str, Any] = {"x": x0.copy(), "f": math.inf}
     history: list[float] = []
 
     def f(x: np.ndarray) -> float:

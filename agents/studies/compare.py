@@ -432,7 +432,7 @@ def heldout_comparison(
                 "decision_ms": ms,
                 "solve_failures": rep.failures,
             }
-        if style is not None:
+        if style is not None and C_demo is not None:
             inner = InnerProblem(demo, style.features, style.control_point_rule)
             sol = inner.solve(style.theta)
             rows["spline"] = trajectory_metrics(sol.control_points, demo, style, C_demo) | {

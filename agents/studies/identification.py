@@ -695,7 +695,10 @@ def evaluate_identification(
         noise_sigma_m=noise,
         by_scorer={s: _scorer_summary(s, ok) for s in scorers},
         pooled=pooled_accuracy(
-            records, sorted(grid), scorer=headline, library=library if driver else None
+            records,
+            sorted(grid),
+            scorer=headline,
+            library=library if isinstance(library, DriverLibrary) else None,
         ),
         transfer_own_risk_best=None if driver else _mean([r.correct("rmse_y") for r in grid_recs]),
         own_style_rmse_y_median_m=float(np.median(own)) if own else None,

@@ -613,7 +613,7 @@ def run_driver_study(
         used = used[:limit]
     if not used:
         raise ValueError(f"no usable {dataset} episode")
-    demos = [driver_demo(e.demo, settings.own_line) for e in used]
+    demos = [driver_demo(e.demo, settings.own_line) for e in used if e.demo is not None]
     vehicles = [episode_vehicle(e) for e in used]
     splits = driver_splits(vehicles, min_episodes)
     # one fit per distinct training set, reproduced on every episode that needs it

@@ -471,10 +471,10 @@ def driver_evaluation_markdown(curve: Sequence[Evaluation], refs: References | N
         f"{head.n_failed} of {head.n}.",
     ]
     if refs is not None:
-        c = refs.ceiling
+        c2 = refs.ceiling
         lines.append(
-            f"Re-simulating ceiling (ceiling.py): grid accuracy {fmt(c.grid_accuracy, 2)} "
-            f"({fmt(c.tied_fraction, 2)} tied within 1 cm; untied "
-            f"{fmt(c.grid_accuracy_untied, 2)})."
+            f"Re-simulating ceiling (ceiling.py): grid accuracy {fmt(c2.grid_accuracy, 2)} "
+            f"({fmt(c2.tied_fraction, 2)} tied within 1 cm; untied "
+            f"{fmt(c2.grid_accuracy_untied, 2)})."
         )
     return "\n".join([*lines, ""])
