@@ -506,13 +506,10 @@ def solver_options(name: str, config: SMPCConfig, equality: np.ndarray) -> dict:
     common: dict = {"expand": True, "print_time": False}
     if config.jit:
         # compile the NLP's derivative functions with the system C compiler
-        # generated C and compiled objects go to the temp folder, not the user's cwd
-        tmp = tempfile.gettempdir()
         common |= {
             "jit": True,
             "compiler": "shell",
-            "jit_name": "drivestyle_jit",
-            "jit_options": {"flags": ["-O2"], "verbose": False, "directory": tmp + os.sep},
+            "jit_options": {"flags": ["-O2"], "verbose": False},
         }
     if name == "fatrop":
         return common | {
@@ -656,9 +653,17 @@ class SMPCProblem:
         return NLPSolution(solver, success, status, iterations, point, out["g"].copy())
 
     def _make_solver(self, name: str) -> ca.Function:
-        return ca.nlpsol(
-            f"smpc_{name}", name, self.nlp, solver_options(name, self.config, self.layout.equality)
-        )
+        options = solver_options(name, self.config, self.layout.equality)
+        if not self.config.jit:
+            return ca.nlpsol(f"smpc_{name}", name, self.nlp, options)
+        # CasADi writes the generated C (and leaves it) in the working directory: build in
+        # a folder of its own under the temp folder, never in the user's cwd
+        cwd = os.getcwd()
+        os.chdir(tempfile.mkdtemp(prefix="drivestyle_jit_"))
+        try:
+            return ca.nlpsol(f"smpc_{name}", name, self.nlp, options)
+        finally:
+            os.chdir(cwd)
 
     def _solver_call(self, name: str) -> tuple:
         if name not in self._calls:
