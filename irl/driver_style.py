@@ -191,7 +191,8 @@ class PlanResult:
     """One plan from one state."""
 
     u0: np.ndarray
-    """The first input [a, δ], clipped to the scenario's bounds."""
+    """The first input [a, δ], clipped to the scenario's bounds; when the solve failed, the
+    braking input [a_min/2, 0] (the expert's last fallback)."""
     ok: bool
     """The solver succeeded and the point is feasible."""
     chance_active: bool
@@ -295,7 +296,7 @@ class StylePlanner:
         lim_lo = np.array([scenario.a_min, -scenario.delta_max])
         lim_hi = np.array([scenario.a_max, scenario.delta_max])
         if not ok:
-            return PlanResult(np.zeros(2), False, True, None)
+            return PlanResult(np.array([scenario.a_min / 2, 0.0]), False, True, None)
         u0 = np.clip(sol.point.w[self.layout.iu[0]], lim_lo, lim_hi)
         chance_rows = self.layout.ig_path[:, 0::2]
         active = bool(
@@ -364,18 +365,27 @@ def step_residuals(
     """
     sc = _check_demo(demo)
     planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
+    r, active, _ = _teacher_forced(style, demo, sc, planner)
+    return r, active
+
+
+def _teacher_forced(
+    style: DriverStyle, demo: Demonstration, sc: ScenarioConfig, planner: StylePlanner
+) -> tuple[np.ndarray, np.ndarray, list[PrimalDual | None]]:
+    """:func:`step_residuals`' loop; also returns each step's solution (None: failed)."""
     scale = np.asarray(INPUT_SCALE)
     vehicles = demo.vehicles
     r = np.empty((demo.n - 1, 2))
     active = np.zeros(demo.n - 1, dtype=bool)
+    points: list[PrimalDual | None] = []
     previous: PrimalDual | None = None
     for k in range(demo.n - 1):
         res = planner.plan(demo.ev[k], vehicles[k], style, sc, previous)
         previous = res.point
-        u0 = res.u0 if res.ok else np.array([sc.a_min / 2, 0.0])
-        r[k] = (u0 - demo.u[k]) / scale
-        active[k] = res.chance_active
-    return r, active
+        points.append(res.point)
+        r[k] = (res.u0 - demo.u[k]) / scale  # a failed plan brakes (PlanResult.u0)
+        active[k] = res.chance_active  # a failed plan counts as binding
+    return r, active, points
 
 
 # ---------------------------------------------------------------------------- risk profile
@@ -429,24 +439,14 @@ def risk_profile(
     scale = np.asarray(INPUT_SCALE)
     vehicles = demo.vehicles
     n = demo.n - 1
-    r_top = np.empty((n, 2))
-    warm: list[PrimalDual | None] = [None] * n
-    active = np.zeros(n, dtype=bool)
-    top = replace(style, risk=risks[-1])
-    previous: PrimalDual | None = None
-    for k in range(n):
-        res = planner.plan(demo.ev[k], vehicles[k], top, sc, previous)
-        previous = warm[k] = res.point
-        u0 = res.u0 if res.ok else np.array([sc.a_min / 2, 0.0])
-        r_top[k] = (u0 - demo.u[k]) / scale
-        active[k] = res.chance_active or not res.ok
+    r_top, active, warm = _teacher_forced(replace(style, risk=risks[-1]), demo, sc, planner)
     ssr = np.empty(len(risks))
     ssr[-1] = float(np.sum(r_top**2))
     constant = float(np.sum(r_top[~active] ** 2))
     for j in range(len(risks) - 1):
         styled = replace(style, risk=risks[j])
         total = constant
-        previous = None
+        previous: PrimalDual | None = None
         for k in (int(i) for i in np.flatnonzero(active)):
             # the driver's own warm start: its previous step's plan at this risk, which
             # at a step without a binding constraint is the largest risk's plan (the NLP
@@ -454,8 +454,7 @@ def risk_profile(
             prior = previous if k > 0 and active[k - 1] else (warm[k - 1] if k > 0 else None)
             res = planner.plan(demo.ev[k], vehicles[k], styled, sc, prior)
             previous = res.point
-            u0 = res.u0 if res.ok else np.array([sc.a_min / 2, 0.0])
-            total += float(np.sum(((u0 - demo.u[k]) / scale) ** 2))
+            total += float(np.sum(((res.u0 - demo.u[k]) / scale) ** 2))
         ssr[j] = total
     return RiskProfile(risks, tuple(ssr.tolist()), 2 * n, int(active.sum()))
 
@@ -520,7 +519,7 @@ def reproduce(
             if len(spare):
                 us[k], spare = spare[0], spare[1:]
             else:
-                us[k] = [sc.a_min / 2, 0.0]
+                us[k] = res.u0  # braking
         xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
     rel = xs[:, None, :2] - vehicles[:, :, :2]
     d = (rel[..., 0] / sc.l_a) ** 2 + (rel[..., 1] / sc.l_b) ** 2 - 1.0
