@@ -43,7 +43,7 @@ import numpy as np
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver_style import reproduce
-from drivestyle.irl.identification import identify
+from drivestyle.irl.identification import Identification, identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
 
@@ -287,21 +287,14 @@ class Miner:
             t0 = time.perf_counter()
             ident = identify(demo, self.library)
             identify_s = time.perf_counter() - t0
-            lo, hi = ident.risk_interval
-            return MinedRow(
-                id=demo_id,
-                source=source,
-                status="ok",
-                true_risk=true_risk,
-                risk_estimate=ident.risk_estimate,
-                risk_lo=lo,
-                risk_hi=hi,
-                risk_mean=round(ident.risk_interpolated, 6),
-                informative=ident.informative,
-                trigger_fired=ident.trigger_fired,
-                theta_normalised=tuple(round(float(v), 6) for v in result.theta_normalised),
-                rmse_y_m=_round(result.errors[0]["rmse_y_m"]),
-                rmse_xy_m=_round(result.errors[0]["rmse_xy_m"]),
+            return _ok_row(
+                demo_id,
+                source,
+                true_risk,
+                ident,
+                theta_normalised=result.theta_normalised,
+                rmse_y_m=result.errors[0]["rmse_y_m"],
+                rmse_xy_m=result.errors[0]["rmse_xy_m"],
                 iterations=result.iterations,
                 converged=result.converged,
                 learn_s=learn_s,
@@ -328,26 +321,56 @@ class Miner:
         style = replace(self.library.style, risk=round(ident.risk_interpolated, 6))
         rmse_y, rmse_xy = reproduce(style, demo).errors(demo)
         learn_s = time.perf_counter() - t0
-        lo, hi = ident.risk_interval
-        return MinedRow(
-            id=demo_id,
-            source=source,
-            status="ok",
-            true_risk=true_risk,
-            risk_estimate=ident.risk_estimate,
-            risk_lo=lo,
-            risk_hi=hi,
-            risk_mean=round(ident.risk_interpolated, 6),
-            informative=ident.informative,
-            trigger_fired=ident.trigger_fired,
-            theta_normalised=tuple(round(float(v), 6) for v in self.library.style.normalised()),
-            rmse_y_m=_round(rmse_y),
-            rmse_xy_m=_round(rmse_xy),
+        return _ok_row(
+            demo_id,
+            source,
+            true_risk,
+            ident,
+            theta_normalised=self.library.style.normalised(),
+            rmse_y_m=rmse_y,
+            rmse_xy_m=rmse_xy,
             iterations=0,
             converged=True,
             learn_s=learn_s,
             identify_s=identify_s,
         )
+
+
+def _ok_row(
+    demo_id: str,
+    source: str,
+    true_risk: float | None,
+    ident: Identification,
+    *,
+    theta_normalised: np.ndarray,
+    rmse_y_m: float | None,
+    rmse_xy_m: float | None,
+    iterations: int,
+    converged: bool,
+    learn_s: float,
+    identify_s: float,
+) -> MinedRow:
+    """A successful row from an identification and the vehicle's style and fit."""
+    lo, hi = ident.risk_interval
+    return MinedRow(
+        id=demo_id,
+        source=source,
+        status="ok",
+        true_risk=true_risk,
+        risk_estimate=ident.risk_estimate,
+        risk_lo=lo,
+        risk_hi=hi,
+        risk_mean=round(ident.risk_interpolated, 6),
+        informative=ident.informative,
+        trigger_fired=ident.trigger_fired,
+        theta_normalised=tuple(round(float(v), 6) for v in theta_normalised),
+        rmse_y_m=_round(rmse_y_m),
+        rmse_xy_m=_round(rmse_xy_m),
+        iterations=iterations,
+        converged=converged,
+        learn_s=learn_s,
+        identify_s=identify_s,
+    )
 
 
 _MINER: Miner | None = None

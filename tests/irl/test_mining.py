@@ -308,3 +308,17 @@ def test_the_styles_csv_header_is_the_documented_one():
         "risk_mean", "informative", "trigger_fired", "theta_normalised", "rmse_y_m",
         "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s",
     )  # fmt: skip
+
+
+def test_a_driver_library_mines_the_risk_and_the_reproduction(paper_demo):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    weights = (0.2, 50.0, 0.2, 1.0, 10.0)  # the expert's: the demo is reproduced exactly
+    library = DriverLibrary(DriverStyle(weights), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))
+    row = mining.Miner(library).mine("paper", "sim", paper_demo)
+    assert row.status == "ok", row.error
+    assert row.risk_estimate == 0.7 and row.risk_lo <= 0.7 <= row.risk_hi
+    assert row.theta_normalised == weights
+    assert row.rmse_y_m is not None and row.rmse_y_m < 0.05
+    assert row.iterations == 0 and row.converged
