@@ -35,12 +35,10 @@ from drivestyle.irl.smpc_problem import (
     PrimalDual,
     SMPCConfig,
     SMPCProblem,
-    cold_primal,
     constrained_vehicles,
     constraint_violation,
     nlp_parameters,
-    shifted_duals,
-    shifted_primal,
+    warm_start,
 )
 
 __all__ = [
@@ -304,24 +302,7 @@ class SMPCExpert:
 
     def _warm_start(self, xi0: np.ndarray) -> PrimalDual:
         """The previous solution shifted by one stage (primal and dual), or a cold start."""
-        layout = self._problem.layout
-        if self._previous is None:
-            zeros = np.zeros(layout.n_g), np.zeros(layout.n_w)
-            return PrimalDual(self._cold_primal(xi0), *zeros)
-        lam_g, lam_x = self._shifted_duals(self._previous)
-        return PrimalDual(self._shifted_primal(self._previous.w, xi0), lam_g, lam_x)
-
-    def _cold_primal(self, xi0: np.ndarray) -> np.ndarray:
-        """A zero-input rollout from ξ0 (inputs and slacks 0)."""
-        return cold_primal(self._problem.layout, xi0, self._scenario)
-
-    def _shifted_primal(self, previous: np.ndarray, xi0: np.ndarray) -> np.ndarray:
-        """``previous`` shifted by one stage: the last input repeated, ξ_0 set to ξ0."""
-        return shifted_primal(self._problem.layout, previous, xi0, self._problem.dynamics)
-
-    def _shifted_duals(self, previous: PrimalDual) -> tuple[np.ndarray, np.ndarray]:
-        """Multipliers of ``previous`` shifted by one stage (last stage repeated)."""
-        return shifted_duals(self._problem.layout, previous)
+        return warm_start(self._problem, xi0, self._previous, self._scenario)
 
     def _solve(self, p: np.ndarray, guess: PrimalDual) -> tuple[NLPSolution, bool]:
         """Solve with the configured solver, retrying once from the same guess on failure.

@@ -51,12 +51,10 @@ from drivestyle.irl.smpc_problem import (
     PrimalDual,
     SMPCConfig,
     SMPCProblem,
-    cold_primal,
     constrained_vehicles,
     constraint_violation,
     nlp_parameters,
-    shifted_duals,
-    shifted_primal,
+    warm_start,
 )
 
 __all__ = [
@@ -248,15 +246,7 @@ class StylePlanner:
 
     def guess(self, xi0: np.ndarray, previous: PrimalDual | None) -> PrimalDual:
         """The shifted previous solution, or a zero-input rollout."""
-        layout = self.layout
-        if previous is None:
-            return PrimalDual(
-                cold_primal(layout, xi0, self.scenario), np.zeros(layout.n_g), np.zeros(layout.n_w)
-            )
-        lam_g, lam_x = shifted_duals(layout, previous)
-        return PrimalDual(
-            shifted_primal(layout, previous.w, xi0, self.problem.dynamics), lam_g, lam_x
-        )
+        return warm_start(self.problem, xi0, previous, self.scenario)
 
     def plan(
         self,

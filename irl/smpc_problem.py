@@ -73,6 +73,7 @@ __all__ = [
     "shifted_duals",
     "shifted_primal",
     "transcribe",
+    "warm_start",
 ]
 
 NX, NU = 4, 2
@@ -778,6 +779,31 @@ def shifted_duals(layout: NLPLayout, previous: PrimalDual) -> tuple[np.ndarray, 
     new_x[layout.iu] = lx[layout.iu[nxt]]
     new_x[layout.i_s[:-1]] = lx[layout.i_s[1:]]
     return new_g, new_x
+
+
+def warm_start(
+    problem: SMPCProblem, xi0: np.ndarray, previous: PrimalDual | None, scenario: ScenarioConfig
+) -> PrimalDual:
+    """The next solve's initial guess: the previous solution shifted, or a cold start.
+
+    ``previous`` is shifted by one stage (primal and dual); without one, a zero-input
+    rollout from ξ0 with zero multipliers.
+
+    Args:
+        problem: the NLP (layout and dynamics).
+        xi0: the new first state.
+        previous: the last accepted solution, or None (cold start).
+        scenario: T_s and wheelbase of the cold rollout.
+
+    Returns:
+        The guess.
+    """
+    layout = problem.layout
+    if previous is None:
+        zeros = np.zeros(layout.n_g), np.zeros(layout.n_w)
+        return PrimalDual(cold_primal(layout, xi0, scenario), *zeros)
+    lam_g, lam_x = shifted_duals(layout, previous)
+    return PrimalDual(shifted_primal(layout, previous.w, xi0, problem.dynamics), lam_g, lam_x)
 
 
 def _geometry_key(sc: ScenarioConfig) -> tuple:
