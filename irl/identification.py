@@ -516,6 +516,16 @@ def _quantile(grid: np.ndarray, density: np.ndarray, q: float) -> float:
     return float(grid[min(int(np.searchsorted(np.cumsum(density), q - 1e-12)), grid.size - 1)])
 
 
+def _posterior(
+    profiles: Sequence[RiskProfile], temperature: float, grid: np.ndarray
+) -> tuple[np.ndarray, tuple[float, float]]:
+    """The posterior mass on ``grid`` (uniform prior) and its central 90 % interval."""
+    density = np.exp(risk_log_likelihood(profiles, temperature, grid))
+    density /= density.sum()
+    tail = (1 - INTERVAL_MASS) / 2
+    return density, (_quantile(grid, density, tail), _quantile(grid, density, 1 - tail))
+
+
 def identify_driver(
     demos: Demonstration | Sequence[Demonstration],
     library: DriverLibrary,
@@ -552,9 +562,7 @@ def identify_driver(
         except DriverStyleError as exc:
             raise LibraryError(f"cannot identify this demonstration: {exc}") from None
     grid = density_grid()
-    ll = risk_log_likelihood(profiles, library.temperature, grid)
-    density = np.exp(ll)
-    density /= density.sum()
+    density, (lo, hi) = _posterior(profiles, library.temperature, grid)
     risks = np.asarray(library.risks, float)
     mass = _grid_mass(grid, density, library.risks)
     order = np.argsort(-mass, kind="stable")
@@ -569,8 +577,6 @@ def identify_driver(
                 trigger_fired=pr.n_active > 0,
             )
         )
-    lo = _quantile(grid, density, (1 - INTERVAL_MASS) / 2)
-    hi = _quantile(grid, density, 1 - (1 - INTERVAL_MASS) / 2)
     if not any(d.informative for d in per_demo):
         lo, hi = RISK_RANGE  # nothing was learned about p: say so, not a prior's quantiles
     return Identification(
@@ -649,10 +655,7 @@ def calibrate_temperature(
     for tau in candidates:
         hits = 0
         for pr, truth in pairs:
-            density = np.exp(risk_log_likelihood([pr], tau, grid))
-            density /= density.sum()
-            lo = _quantile(grid, density, (1 - INTERVAL_MASS) / 2)
-            hi = _quantile(grid, density, 1 - (1 - INTERVAL_MASS) / 2)
+            _, (lo, hi) = _posterior([pr], tau, grid)
             hits += lo - DENSITY_STEP / 2 <= truth <= hi + DENSITY_STEP / 2
         coverage[float(tau)] = hits / len(pairs)
     chosen = next((t for t, c in coverage.items() if c >= target), float(candidates[-1]))
