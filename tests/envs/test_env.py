@@ -268,3 +268,126 @@ def test_non_numeric_action_is_a_clear_error(action):
         with pytest.raises(ValueError, match="action must be"):
             env.step(action)
     env.step(np.zeros(2))  # the episode goes on
+
+
+# ------------------------------------------------------------ the fast step equals the reference
+def _reference_step(sc, ev, tv, u, low, high, k, deviation=None):
+    """One step of the env as first written (numpy arrays throughout), the fast step's reference.
+
+    Returns (ev, tv, obs, reward, terminated, truncated, info) with the info entries it
+    computed.
+    """
+    from drivestyle.envs.dynamics import rk4_step
+    from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
+
+    u = np.asarray(u, float)
+    u_clip = np.clip(u, low, high)
+    ev = rk4_step(ev, u_clip, sc.dt, sc.l_f, sc.l_r)
+    ev[3] = np.clip(ev[3], 0.0, sc.v_max)
+    x, y, phi, v = tv
+    a = 0.0 if deviation is None else deviation.accel_at(k * sc.dt)
+    v_new = max(v + a * sc.dt, 0.0)
+    step = 0.5 * (v + v_new) * sc.dt
+    tv = np.array([x + step * np.cos(phi), y + step * np.sin(phi), phi, v_new])
+    k += 1
+    s_e = float(elliptical_index(ev[0] - tv[0], ev[1] - tv[1], sc.l_a, sc.l_b))
+    collision = rectangles_overlap(
+        vehicle_corners(ev, sc.vehicle_length, sc.vehicle_width),
+        vehicle_corners(tv, sc.vehicle_length, sc.vehicle_width),
+    )
+    off_road = not (0.0 <= ev[1] <= sc.road_width)
+    info = {
+        "t": k * sc.dt,
+        "s_e": s_e,
+        "d_k": s_e - 1.0,
+        "collision": collision,
+        "off_road": off_road,
+        "lane_index": int(np.clip(ev[1] // sc.lane_width, 0, sc.n_lanes - 1)),
+        "action_clipped": bool(np.any(u_clip != u)),
+        "action": u_clip,
+    }
+    terminated = collision or off_road
+    truncated = (not terminated) and k >= sc.n_steps
+    lane_err = (ev[1] - sc.y_ref) / sc.lane_width
+    speed_err = (ev[3] - sc.v_ref) / 10.0
+    reward = float(-(lane_err**2 + speed_err**2) - 10.0 * terminated)
+    return ev, tv, np.concatenate([ev, tv]), reward, terminated, truncated, info
+
+
+def _assert_matches_reference(env, seed, actions, reference_episode, tol=1e-9):
+    """Step ``env`` with ``actions`` (resetting after each end) against a reference episode.
+
+    ``reference_episode(reset_info, actions)`` yields (obs, reward, terminated, truncated,
+    info) per step, starting from the reset's scenario.
+    """
+    _, info = env.reset(seed=seed)
+    n, episodes, collisions = 0, 0, 0
+    while n < len(actions):
+        expected = reference_episode(info, actions[n:])
+        for want in expected:
+            got = env.step(actions[n])
+            n += 1
+            np.testing.assert_allclose(got[0], want[0], rtol=0, atol=tol)
+            assert got[1] == pytest.approx(want[1], rel=0, abs=tol)
+            assert (got[2], got[3]) == (want[2], want[3])
+            for key, value in want[4].items():
+                if isinstance(value, (bool, int, np.bool_)):
+                    assert got[4][key] == value, key
+                else:
+                    np.testing.assert_allclose(got[4][key], value, rtol=0, atol=tol, err_msg=key)
+            collisions += want[4]["collision"]
+            if want[2] or want[3]:
+                break
+        _, info = env.reset()
+        episodes += 1
+    return episodes, collisions
+
+
+def _lane_change_reference(env, deviation=None):
+    low, high = env.action_space.low, env.action_space.high
+
+    def episode(info, actions):
+        sc = info["scenario"]
+        ev, tv = sc.ev_initial_state, sc.tv_initial_state
+        for k, u in enumerate(actions):
+            ev, tv, *out = _reference_step(sc, ev, tv, u, low, high, k, deviation)
+            yield out
+            if out[2] or out[3]:
+                return
+
+    return episode
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        ("drivestyle/LaneChange-v0", {}),
+        ("drivestyle/LaneChangeRandom-v0", {}),
+        ("drivestyle/LaneChange-v0", {"tv_lane": 0, "tv_speed": 40.0, "ev_speed": 20.0}),
+    ],
+    ids=["paper", "random", "collisions"],
+)
+def test_the_step_equals_the_reference_implementation(env_id, kwargs):
+    env = gym.make(env_id, **kwargs)
+    rng = np.random.default_rng(3)
+    sp = env.action_space
+    # in range, gentle (full episodes) and out of range (clipped) actions
+    actions = np.concatenate(
+        [
+            rng.uniform(sp.low, sp.high, (150, 2)),
+            rng.uniform(sp.low, sp.high, (150, 2)) * [1.0, 0.1],
+            rng.uniform(2 * sp.low, 2 * sp.high, (50, 2)),
+        ]
+    )
+    episodes, collisions = _assert_matches_reference(env, 5, actions, _lane_change_reference(env))
+    assert episodes >= 8
+    assert collisions >= 1 or "tv_lane" not in kwargs
+
+
+def test_a_deviating_tv_equals_the_reference_implementation():
+    from drivestyle.envs.lane_change import TVDeviation
+
+    deviation = TVDeviation(t_start=0.4, accel=-3.0, duration=1.0)
+    env = LaneChangeEnv(tv_deviation=deviation)
+    actions = np.tile([[0.5, 0.01], [-0.2, -0.005]], (40, 1))
+    _assert_matches_reference(env, 0, actions, _lane_change_reference(env, deviation))

@@ -197,3 +197,197 @@ def test_driver_step_cost_look_ahead_takes_the_worst_extrapolated_stage():
     assert min(stages) == stages[2] < 0 < stages[0]  # only the look-ahead sees the TV close in
     only_now = driver_step_cost(ev, np.zeros(2), tv, w, 5.0, 20.0, 1.0, sigma[0], sc)[5]
     assert only_now == 0.0
+
+
+# ------------------------------------------------------------ the fast reward equals the reference
+class _ReferenceStyleReward:
+    """The style reward as first written: every step recomputes the whole trajectory's
+    control points, event times and last segments (the reference of the O(1) update)."""
+
+    TAIL = 4
+
+    def __init__(self, style):
+        from drivestyle.irl.features import FEATURES
+
+        self.style = style
+        self.config = style.features
+        self.theta = np.asarray(style.theta, float)
+        self.idx = np.array([FEATURES.index(n) for n in style.names])
+        self.omega = np.asarray(self.config.omega, float)
+
+    def reset(self, scenario, ev, tv, others=None):
+        from drivestyle.irl.features import feature_constants
+
+        self.sc = scenario
+        self.constants = feature_constants(self.config, scenario)
+        self.ratio = scenario.l_r / (scenario.l_f + scenario.l_r)
+        self.t = [0.0]
+        self.ev = [np.asarray(ev, float).copy()]
+        self.tv = [np.asarray(tv, float).copy()]
+        self.m = 0 if others is None else int(np.shape(others)[0])
+        self.others = [np.zeros((0, 4)) if others is None else np.asarray(others, float)]
+        self.delta = []
+        self.segments = []
+        self.f = np.zeros(len(self.omega))
+
+    def features(self):
+        from drivestyle.irl.features import (
+            FEATURES,
+            SEGMENT_FEATURES,
+            event_times,
+            instant_feature,
+            segment_integrals,
+            tiv_reference,
+            tv_control_points,
+        )
+        from drivestyle.irl.spline import spline_eval, state_control_points
+
+        n = len(self.t)
+        t = np.asarray(self.t)
+        ev, tv = np.asarray(self.ev), np.asarray(self.tv)
+        others = np.asarray(self.others).reshape(n, self.m, 4) if self.m else None
+        events = event_times(t, ev, tv, self.sc, self.config, others)
+        delta = np.asarray([*self.delta, self.delta[-1]])
+        C = state_control_points(t, ev, delta, self.style.control_point_rule, self.ratio)
+        vehicles = tv[:, None, :] if others is None else np.concatenate([tv[:, None], others], 1)
+        Ts = [tv_control_points(t, vehicles[:, i]) for i in range(vehicles.shape[1])]
+        ref = tiv_reference(ev, tv, self.sc, others)
+        y_trg = None
+        if events.reactive_active:
+            y_trg = float(spline_eval(C, t, [events.reactive_window()[0]])[0, 1])
+        first_tail = max(0, n - 1 - self.TAIL)
+        del self.segments[first_tail:]
+        for j in range(first_tail, n - 1):
+            self.segments.append(
+                segment_integrals(
+                    np.r_[C[j, :3], C[j + 1, :3]],
+                    np.r_[C[j, 3:], C[j + 1, 3:]],
+                    np.r_[Ts[ref[j]][j, :3], Ts[ref[j]][j + 1, :3]],
+                    t[j],
+                    t[j + 1],
+                    self.config,
+                    self.constants,
+                    events,
+                    y_trg,
+                    j == 0,
+                )
+            )
+        f = dict.fromkeys(FEATURES, 0.0)
+        for name in SEGMENT_FEATURES:
+            f[name] = sum(seg[name] for seg in self.segments)
+        f["el"] = self.segments[-1]["l"]
+        if events.reactive_active:
+            window = list(events.reactive_window())
+            at = spline_eval(C, t, window)[:, 1]
+            at_tv = spline_eval(Ts[events.critical], t, window)[:, 1]
+            f["sd"] = float(instant_feature(at[0], at_tv[0], np.exp, np.abs))
+            f["ed"] = float(instant_feature(at[1], at_tv[1], np.exp, np.abs))
+        return self.omega * np.array([f[k] for k in FEATURES])
+
+    def step(self, u, ev, tv, dt, others=None):
+        self.delta.append(float(u[1]))
+        self.t.append(self.t[-1] + dt)
+        self.ev.append(np.asarray(ev, float).copy())
+        self.tv.append(np.asarray(tv, float).copy())
+        self.others.append(
+            np.zeros((0, 4)) if not self.m else np.asarray(others, float).reshape(self.m, 4)
+        )
+        f = self.features()
+        df = (f - self.f)[self.idx]
+        self.f = f
+        return -float(self.theta @ df), df
+
+
+def _known_style(feature_set="reactive", rule="kinematic"):
+    """A paper-model style with known weights (no learning)."""
+    from drivestyle.irl.features import FEATURE_SETS
+    from drivestyle.irl.style import Style
+
+    names = FEATURE_SETS[feature_set]
+    theta = np.array([0.8, 2.0, 0.05, 0.6, 0.3, 1.5, 0.2, 4.0, 3.0, 0.7])[: len(names)]
+    return Style(names, theta, FeatureConfig(feature_set=feature_set), rule, {})
+
+
+def _compare_rewards(env, reference, actions, seed):
+    """Step ``env`` (the style reward) and ``reference`` side by side; returns the number
+    of episodes in which the trigger fired and in which the EV turned."""
+    obs, info = env.reset(seed=seed)
+    base = env.unwrapped
+    others = info["vehicles"][1:] if "vehicles" in info else None
+    reference.reset(base.scenario, obs[:4], obs[4:8] if others is None else info["vehicles"][0],
+                    others)  # fmt: skip
+    fired = turned = 0
+    for u in actions:
+        obs, r, term, trunc, info = env.step(u)
+        tv = obs[4:8] if others is None else info["vehicles"][0]
+        others = None if others is None else info["vehicles"][1:]
+        want_r, want_df = reference.step(info["action"], obs[:4], tv, base.scenario.dt, others)
+        if term:
+            want_r -= env.style_reward.crash_penalty
+        np.testing.assert_allclose(info["style_feature_increment"], want_df, rtol=1e-9, atol=1e-9)
+        assert r == pytest.approx(want_r, rel=1e-9, abs=1e-9)
+        if term or trunc:
+            fired += reference.f[7] != 0.0
+            turned += len(reference.t) > 2 and np.asarray(reference.ev)[-1, 1] > 5.25
+            obs, info = env.reset()
+            others = info["vehicles"][1:] if "vehicles" in info else None
+            tv = obs[4:8] if others is None else info["vehicles"][0]
+            reference.reset(base.scenario, obs[:4], tv, others)
+    return fired, turned
+
+
+@pytest.mark.parametrize(
+    ("feature_set", "rule"),
+    [("reactive", "kinematic"), ("base", "kinematic"), ("reactive", "paper")],
+)
+def test_the_incremental_reward_equals_the_reference_on_the_paper_demo(
+    paper_demo, feature_set, rule
+):
+    style = _known_style(feature_set, rule)
+    env = LearnedStyleReward(LaneChangeEnv(), style)
+    fired, turned = _compare_rewards(env, _ReferenceStyleReward(style), paper_demo.u, 0)
+    assert fired == turned == 1
+
+
+@pytest.mark.parametrize("env_id", ["drivestyle/LaneChangeRandom-v0", "drivestyle/Traffic-v0",
+                                    "drivestyle/TrafficRandom-v0"])  # fmt: skip
+def test_the_incremental_reward_equals_the_reference_on_random_driving(env_id):
+    style = _known_style()
+    env = LearnedStyleReward(gym.make(env_id), style)
+    rng = np.random.default_rng(1)
+    sp = env.action_space
+    # accelerate and steer left (lane changes that fire the trigger), then random inputs
+    steer = np.column_stack([rng.uniform(-1, 3, 300), rng.uniform(0.0, 0.02, 300)])
+    actions = np.concatenate([steer, rng.uniform(sp.low, sp.high, (100, 2))])
+    fired, turned = _compare_rewards(env, _ReferenceStyleReward(style), actions, 3)
+    assert fired >= 2 and turned >= 2
+
+
+@pytest.mark.parametrize("look_ahead", [0, 3])
+@pytest.mark.parametrize("m", [1, 4])
+def test_the_driver_cost_step_equals_driver_step_cost(look_ahead, m):
+    from drivestyle.envs.scenario import get_scenario
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY, tv_covariance
+    from drivestyle.irl.reward import DriverCost, DriverCostConfig, driver_step_cost
+
+    sc = get_scenario("paper")
+    style = DriverStyle(weights=(0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7)
+    cost = DriverCost(style, DriverCostConfig(look_ahead=look_ahead))
+    rng = np.random.default_rng(m + 10 * look_ahead)
+    cost.reset(sc, sc.ev_initial_state, sc.tv_initial_state)
+    sigma = tv_covariance(PAPER_TV_UNCERTAINTY, sc.dt, look_ahead)
+    for _ in range(200):
+        # the EV near the vehicles (inside their ellipses at times), off the road or too fast
+        ev = np.array([100.0, *rng.uniform([-1, -0.1, 20], [17, 0.1, 75])])
+        veh = np.column_stack(
+            [rng.uniform(80, 120, m), rng.uniform(0, 16, m), rng.uniform(-0.05, 0.05, m),
+             rng.uniform(15, 35, m)]
+        )  # fmt: skip
+        u = rng.uniform([-9, -0.05], [6, 0.05])
+        r, terms = cost.step(u, ev, veh[0], sc.dt, veh[1:] if m > 1 else None)
+        want = driver_step_cost(ev, u, veh, style.weights, sc.y_ref, sc.v_ref, style.kappa,
+                                sigma, sc)  # fmt: skip
+        np.testing.assert_allclose(terms, want, rtol=1e-12, atol=1e-15)
+        expected = -(want[:5].sum() / cost.scale + cost.penalties @ want[5:])
+        assert r == pytest.approx(expected, rel=1e-12)
