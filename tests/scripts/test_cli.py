@@ -103,6 +103,7 @@ CASES = {
     "missing style": ["scripts/compare_baseline.py", "--style", "{d}/nope.json"],
     "--repeats 0": ["scripts/bench_irl.py", "--repeats", "0"],
     "--trials 0": ["scripts/bench_smpc.py", "--trials", "0"],
+    "--identify 0": ["scripts/profile_inner.py", "--identify", "0"],
 }
 
 
@@ -136,6 +137,7 @@ WRITES = {
     "identify_style": ("--out", "id", [f"{MISSING}.npz", "--library", MISSING]),
     "learn_style": ("--out", "style", [f"{MISSING}.npz"]),
     "mine_styles": ("--out", "mined", [MISSING, "--library", MISSING]),
+    "profile_inner": ("--out", "p.json", []),
     "real_traffic": ("--out", "rt", ["--dataset", "ngsim", "--data", MISSING]),
     "render_rollout": ("--video", "v.gif", ["--policy", "expert"]),
     "reproduce_paper": ("--out", "paper", []),

@@ -107,7 +107,44 @@ def test_bench_smpc_json(tmp_path):
     assert res["failures"] == 0
 
 
-@pytest.mark.parametrize("name", ["generate_demo", "bench_smpc"])
+def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
+    from drivestyle.irl import driver_style, inner, smpc_problem
+
+    originals = {
+        (obj, name): getattr(obj, name)
+        for obj, name in (
+            (inner.InnerProblem, "solve"),
+            (inner._Buffered, "__call__"),
+            (inner, "cho_factor"),
+            (inner, "newton_minimize"),
+            (driver_style.StylePlanner, "plan"),
+            (driver_style, "warm_start"),
+            (smpc_problem.SMPCProblem, "solve"),
+            (smpc_problem.SMPCProblem, "_solver_call"),
+        )
+    }
+    out = tmp_path / "profile.json"
+    res = _main("profile_inner")(
+        ["--out", str(out), "--repeats", "1", "--identify", "1", "--no-jit"]
+    )
+    js = json.loads(out.read_text())
+    assert "command" in js and len(js["load_average_before"]) == 3
+    paper = js["paper"]
+    assert sum(v["share"] for v in paper["breakdown"].values()) == pytest.approx(1.0)
+    assert paper["inner_solves_per_learn"] > 0 and paper["newton_steps_per_solve_median"] >= 1
+    assert list(js["driver"]) == ["no_jit"]
+    b1, b2 = js["driver"]["no_jit"]["step_residuals"], js["driver"]["no_jit"]["identification"]
+    assert b1["solves_per_call"] == b1["steps"] == 30 and b1["iterations_median"] >= 1
+    assert b2["solves_per_identification"][0] >= 30 and b2["demo_risks"] == [0.6]
+    for part in (b1, b2):  # every second of the region is in a category
+        assert sum(v["share"] for v in part["breakdown"].values()) == pytest.approx(1.0, abs=1e-3)
+    assert res["paper"]["features"] == paper["features"]
+    # the timers are gone: later calls in the process run the solvers' own code
+    for (obj, name), fn in originals.items():
+        assert getattr(obj, name) is fn, name
+
+
+@pytest.mark.parametrize("name", ["generate_demo", "bench_smpc", "profile_inner"])
 def test_help(name):
     proc = subprocess.run(
         [sys.executable, str(ROOT / "scripts" / f"{name}.py"), "--help"],
