@@ -15,8 +15,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from drivestyle.envs.dynamics import rk4_step
-from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
+from drivestyle.envs.dynamics import rk4_step_scalar
+from drivestyle.envs.safety import rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
 if TYPE_CHECKING:
@@ -155,6 +155,75 @@ def task_reward(ev: np.ndarray, sc: ScenarioConfig, crashed: bool) -> float:
     return float(-(lane_err**2 + speed_err**2) - COLLISION_PENALTY * crashed)
 
 
+class _StepConstants:
+    """What a step reads from the scenario and the action space, as plain floats.
+
+    Built once per scenario (scenario properties such as ``y_ref`` build arrays per call);
+    the step is the hot path of a training loop.
+    """
+
+    __slots__ = (
+        "a_hi",
+        "a_lo",
+        "d_hi",
+        "d_lo",
+        "dt",
+        "half_l",
+        "half_w",
+        "l_a",
+        "l_b",
+        "l_f",
+        "l_r",
+        "lane_width",
+        "length",
+        "n_steps",
+        "road_width",
+        "scenario",
+        "space",
+        "top_lane",
+        "v_max",
+        "v_ref",
+        "width",
+        "y_ref",
+    )
+
+    def __init__(self, sc: ScenarioConfig, space: spaces.Box) -> None:
+        self.scenario, self.space = sc, space
+        (self.a_lo, self.d_lo), (self.a_hi, self.d_hi) = space.low.tolist(), space.high.tolist()
+        self.dt, self.l_f, self.l_r = float(sc.dt), float(sc.l_f), float(sc.l_r)
+        self.v_max, self.v_ref, self.y_ref = float(sc.v_max), float(sc.v_ref), sc.y_ref
+        self.lane_width, self.road_width = float(sc.lane_width), float(sc.road_width)
+        self.top_lane, self.n_steps = sc.n_lanes - 1, sc.n_steps
+        self.l_a, self.l_b = float(sc.l_a), float(sc.l_b)
+        self.length, self.width = float(sc.vehicle_length), float(sc.vehicle_width)
+        self.half_l, self.half_w = self.length / 2, self.width / 2
+
+
+_OVERLAP_MARGIN = 1e-6
+"""[m] Bounding boxes further apart than this cannot overlap, whatever the round-off of the
+exact test (positions are < 1e4 m, round-off < 1e-11 m)."""
+
+
+def _vehicles_overlap(
+    c: _StepConstants, a: list[float], cos_a: float, sin_a: float, b: list[float]
+) -> bool:
+    """Whether two vehicles' rectangles overlap (:func:`rectangles_overlap`'s answer).
+
+    Most pairs are far apart: their axis-aligned bounding boxes are separated, which rules
+    out an overlap without building corners; the others get the exact separating-axis test.
+    """
+    dx, dy = abs(a[0] - b[0]), abs(a[1] - b[1])
+    ca, sa = abs(cos_a), abs(sin_a)
+    phi_b = b[2]
+    cb, sb = (1.0, 0.0) if phi_b == 0.0 else (abs(math.cos(phi_b)), abs(math.sin(phi_b)))
+    hl, hw, m = c.half_l, c.half_w, _OVERLAP_MARGIN
+    if dx > hl * (ca + cb) + hw * (sa + sb) + m or dy > hl * (sa + sb) + hw * (ca + cb) + m:
+        return False
+    return rectangles_overlap(
+        vehicle_corners(a, c.length, c.width), vehicle_corners(b, c.length, c.width)
+    )
+
+
 class LaneChangeEnv(gym.Env):
     """Gymnasium environment of the paper's lane change with an EV and a scripted TV.
 
@@ -256,48 +325,86 @@ class LaneChangeEnv(gym.Env):
         self.k = 0
         self._done = False
         self._renderer: HighwayRenderer | None = None
+        self._step_constants: _StepConstants | None = None
 
     # ------------------------------------------------------------------ helpers
+    # The step is a training loop's hot path: the helpers work on Python floats (small
+    # numpy arrays cost more to build than the arithmetic on them) and read the scenario
+    # through _constants(); the results equal the array formulas (tests/envs/test_env.py).
+    def _constants(self) -> _StepConstants:
+        """The current scenario's step constants (rebuilt when the scenario changes)."""
+        c = self._step_constants
+        if c is None or c.scenario is not self.scenario or c.space is not self.action_space:
+            c = self._step_constants = _StepConstants(self.scenario, self.action_space)
+        return c
+
     def _obs(self) -> np.ndarray:
         return np.concatenate([self.ev, self.tv])
 
     def _info(self, **extra: Any) -> dict[str, Any]:
-        sc = self.scenario
-        s_e = float(
-            elliptical_index(self.ev[0] - self.tv[0], self.ev[1] - self.tv[1], sc.l_a, sc.l_b)
-        )
-        lane = int(np.clip(self.ev[1] // sc.lane_width, 0, sc.n_lanes - 1))
+        c = self._constants()
+        ev, tv = self.ev.tolist(), self.tv.tolist()
+        s_e = ((ev[0] - tv[0]) / c.l_a) ** 2 + ((ev[1] - tv[1]) / c.l_b) ** 2
         return {
-            "t": self.k * sc.dt,
+            "t": self.k * c.dt,
             "s_e": s_e,
             "d_k": s_e - 1.0,
             "collision": self._collision(),
             "off_road": self._off_road(),
-            "lane_index": lane,
+            "lane_index": min(max(int(ev[1] // c.lane_width), 0), c.top_lane),
             **extra,
         }
 
     def _collision(self) -> bool:
-        sc = self.scenario
-        ev = vehicle_corners(self.ev, sc.vehicle_length, sc.vehicle_width)
-        tv = vehicle_corners(self.tv, sc.vehicle_length, sc.vehicle_width)
-        return rectangles_overlap(ev, tv)
+        ev = self.ev.tolist()
+        phi = ev[2]
+        return _vehicles_overlap(
+            self._constants(), ev, math.cos(phi), math.sin(phi), self.tv.tolist()
+        )
 
     def _advance_others(self) -> None:
         """Move the TV one step: constant velocity (the paper's scripted TV) or deviating."""
-        x, y, phi, v = self.tv
+        x, y, phi, v = self.tv.tolist()
         dt = self.scenario.dt
         a = 0.0 if self.tv_deviation is None else self.tv_deviation.accel_at(self.k * dt)
         v_new = max(v + a * dt, 0.0)
         step = 0.5 * (v + v_new) * dt
-        self.tv = np.array([x + step * np.cos(phi), y + step * np.sin(phi), phi, v_new])
+        self.tv = np.array([x + step * math.cos(phi), y + step * math.sin(phi), phi, v_new])
 
     def _reward_context(self) -> dict[str, Any]:
         """Extra keyword arguments of the reward model's ``step`` (traffic: the others)."""
         return {}
 
     def _off_road(self) -> bool:
-        return not (0.0 <= self.ev[1] <= self.scenario.road_width)
+        return not (0.0 <= float(self.ev[1]) <= self._constants().road_width)
+
+    @staticmethod
+    def _checked_action(action: Any) -> tuple[float, float]:
+        """(a, δ) of a step's action as floats.
+
+        Raises:
+            ValueError: the action is not numeric, has the wrong shape or is not finite.
+        """
+        if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
+            a, delta = action.tolist()  # the common case: skip the generic conversion
+        else:
+            try:
+                raw = np.asarray(action)
+                # not strings, objects (None) or complex numbers: they would convert (to NaN,
+                # or silently losing an imaginary part)
+                u = raw.astype(float).reshape(-1) if raw.dtype.kind in "biuf" else None
+            except (TypeError, ValueError):
+                u = None
+            if u is None:
+                raise ValueError(f"action must be real numbers [a, delta], got {action!r}")
+            if u.shape != (2,):
+                raise ValueError(
+                    f"action must have shape (2,) = [a, delta], got {np.shape(action)}"
+                )
+            a, delta = u.tolist()
+        if not (math.isfinite(a) and math.isfinite(delta)):
+            raise ValueError(f"action must be finite, got {np.array([a, delta])}")
+        return a, delta
 
     # ------------------------------------------------------------------ gym API
     def reset(
@@ -365,31 +472,27 @@ class LaneChangeEnv(gym.Env):
             raise RuntimeError(
                 "step() called after the episode ended (terminated or truncated); call reset()"
             )
-        try:
-            raw = np.asarray(action)
-            # not strings, objects (None) or complex numbers: they would convert (to NaN, or
-            # silently losing an imaginary part)
-            u = raw.astype(float).reshape(-1) if raw.dtype.kind in "biuf" else None
-        except (TypeError, ValueError):
-            u = None
-        if u is None:
-            raise ValueError(f"action must be real numbers [a, delta], got {action!r}")
-        if u.shape != (2,):
-            raise ValueError(f"action must have shape (2,) = [a, delta], got {np.shape(action)}")
-        if not np.all(np.isfinite(u)):
-            raise ValueError(f"action must be finite, got {u}")
+        a, delta = self._checked_action(action)
         sc = self.scenario
-        u_clip = np.clip(u, self.action_space.low, self.action_space.high)
-        ev = rk4_step(self.ev, u_clip, sc.dt, sc.l_f, sc.l_r)
-        ev[3] = np.clip(ev[3], 0.0, sc.v_max)
+        c = self._constants()
+        # np.clip's answer for finite numbers
+        a_clip = c.a_lo if a < c.a_lo else (c.a_hi if a > c.a_hi else a)
+        d_clip = c.d_lo if delta < c.d_lo else (c.d_hi if delta > c.d_hi else delta)
+        x, y, phi, v = self.ev.tolist()
+        x, y, phi, v = rk4_step_scalar(x, y, phi, v, a_clip, d_clip, c.dt, c.l_f, c.l_r)
+        v = min(max(v, 0.0), c.v_max)
         self._advance_others()
-        self.ev = ev
+        self.ev = np.array([x, y, phi, v])
         self.k += 1
-        info = self._info(action_clipped=bool(np.any(u_clip != u)), action=u_clip)
+        u_clip = np.array([a_clip, d_clip])
+        info = self._info(action_clipped=a_clip != a or d_clip != delta, action=u_clip)
         terminated = info["collision"] or info["off_road"]
-        truncated = (not terminated) and self.k >= sc.n_steps
+        truncated = (not terminated) and self.k >= c.n_steps
         self._done = terminated or truncated
-        reward = task_reward(self.ev, sc, terminated)
+        # task_reward, on the floats at hand
+        lane_err = (y - c.y_ref) / c.lane_width
+        speed_err = (v - c.v_ref) / 10.0
+        reward = float(-(lane_err**2 + speed_err**2) - COLLISION_PENALTY * terminated)
         if self._reward_model is not None:
             info["original_env_rew"] = reward
             reward, info["style_feature_increment"] = self._reward_model.step(

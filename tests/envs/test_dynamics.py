@@ -63,3 +63,16 @@ def test_ode_matches_definition():
         bicycle_ode(xi, u, L_F, L_R),
         [30 * np.cos(0.02 + beta), 30 * np.sin(0.02 + beta), 30 / 2 * np.sin(beta), 1.5],
     )
+
+
+def test_the_scalar_fast_path_equals_the_array_map():
+    from drivestyle.envs.dynamics import rk4_step_scalar
+
+    rng = np.random.default_rng(0)
+    for i in range(2000):
+        xi = rng.uniform([0, -2, -0.3, 0], [300, 18, 0.3, 70])
+        u = rng.uniform([-9, -0.5], [6, 0.5])
+        n_sub = 1 + i % 3
+        want = rk4_step(xi, u, 0.2, L_F, 1.7, n_sub)
+        got = rk4_step_scalar(*xi.tolist(), *u.tolist(), 0.2, L_F, 1.7, n_sub)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
