@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.lane_change import LaneChangeEnv, _vehicles_overlap
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
 
@@ -345,60 +345,68 @@ class TrafficEnv(LaneChangeEnv):
     def tv(self, state: np.ndarray) -> None:
         self.vehicles[0] = state
 
+    # Python floats in the step, as in the base class (its comment); the results equal the
+    # array formulas (tests/envs/test_traffic.py).
     def _obs(self) -> np.ndarray:
-        obs = np.zeros(4 + 5 * OBS_SLOTS)
-        obs[:4] = self.ev
-        dist = np.hypot(*(self.vehicles[:, :2] - self.ev[:2]).T)
-        for slot, j in enumerate(np.argsort(dist, kind="stable")[:OBS_SLOTS]):
-            obs[4 + 5 * slot] = 1.0
-            obs[5 + 5 * slot : 9 + 5 * slot] = self.vehicles[j]
-        return obs
+        ev = self.ev.tolist()
+        rows = self.vehicles.tolist()
+        obs = ev + [0.0] * (5 * OBS_SLOTS)
+        # numpy's hypot (the math module's may round differently), then a stable sort
+        dist = np.hypot(self.vehicles[:, 0] - ev[0], self.vehicles[:, 1] - ev[1]).tolist()
+        for slot, j in enumerate(sorted(range(len(rows)), key=dist.__getitem__)[:OBS_SLOTS]):
+            obs[4 + 5 * slot : 9 + 5 * slot] = [1.0, *rows[j]]
+        return np.array(obs)
 
     def _info(self, **extra: Any) -> dict[str, Any]:
         info = super()._info(**extra)
-        sc = self.scenario
-        s_e = elliptical_index(
-            self.ev[0] - self.vehicles[:, 0], self.ev[1] - self.vehicles[:, 1], sc.l_a, sc.l_b
-        )
-        info["s_e_min"] = float(np.min(s_e))
+        c = self._constants()
+        x, y = self.ev.tolist()[:2]
+        s_e_min = math.inf
+        for r in self.vehicles.tolist():
+            # elliptical_index; numpy squares arrays as z * z
+            zx, zy = (x - r[0]) / c.l_a, (y - r[1]) / c.l_b
+            s_e_min = min(s_e_min, zx * zx + zy * zy)
+        info["s_e_min"] = s_e_min
         info["vehicles"] = self.vehicles.copy()
         return info
 
     def _collision(self) -> bool:
-        sc = self.scenario
-        ev = vehicle_corners(self.ev, sc.vehicle_length, sc.vehicle_width)
-        return any(
-            rectangles_overlap(ev, vehicle_corners(s, sc.vehicle_length, sc.vehicle_width))
-            for s in self.vehicles
-        )
+        c = self._constants()
+        ev = self.ev.tolist()
+        cos_phi, sin_phi = math.cos(ev[2]), math.sin(ev[2])
+        return any(_vehicles_overlap(c, ev, cos_phi, sin_phi, s) for s in self.vehicles.tolist())
 
     def _advance_others(self) -> None:
         """Move every other vehicle one step (constant velocity or IDM)."""
         sc = self.scenario
-        old = self.vehicles.copy()
-        new = old.copy()
-        lane_of = np.clip(old[:, 1] // sc.lane_width, 0, sc.n_lanes - 1)
-        ev_lane = int(np.clip(self.ev[1] // sc.lane_width, 0, sc.n_lanes - 1))
+        dt, length = sc.dt, sc.vehicle_length
+        w, top = sc.lane_width, sc.n_lanes - 1
+        old = self.vehicles.tolist()
+        ev = self.ev.tolist()
+        lane_of = [min(max(r[1] // w, 0), top) for r in old]
+        ev_lane = min(max(int(ev[1] // w), 0), top)
+        desired = self._desired_speeds.tolist()
+        new = []
         for j, behaviour in enumerate(self.scene.behaviours):
             x, y, phi, v = old[j]
             if behaviour == "idm":
+                lane = lane_of[j]
                 ahead = [
-                    (old[i, 0], old[i, 3])
-                    for i in range(len(old))
-                    if i != j and lane_of[i] == lane_of[j] and old[i, 0] > x
+                    (r[0], r[3])
+                    for i, r in enumerate(old)
+                    if i != j and lane_of[i] == lane and r[0] > x
                 ]
-                if ev_lane == lane_of[j] and self.ev[0] > x:
-                    ahead.append((self.ev[0], self.ev[3]))
+                if ev_lane == lane and ev[0] > x:
+                    ahead.append((ev[0], ev[3]))
                 leader = min(ahead, default=None)
-                gap = None if leader is None else leader[0] - x - sc.vehicle_length
-                v0 = self._desired_speeds[j]
-                a = idm_acceleration(v, v0, gap, 0.0 if leader is None else leader[1])
-                v_new = max(v + a * sc.dt, 0.0)
-                x += 0.5 * (v + v_new) * sc.dt
-                new[j] = [x, y, 0.0, v_new]
+                gap = None if leader is None else leader[0] - x - length
+                a = idm_acceleration(v, desired[j], gap, 0.0 if leader is None else leader[1])
+                v_new = max(v + a * dt, 0.0)
+                x += 0.5 * (v + v_new) * dt
+                new.append([x, y, 0.0, v_new])
             else:
-                new[j] = [x + v * np.cos(phi) * sc.dt, y + v * np.sin(phi) * sc.dt, phi, v]
-        self.vehicles = new
+                new.append([x + v * math.cos(phi) * dt, y + v * math.sin(phi) * dt, phi, v])
+        self.vehicles = np.array(new)
 
     # ------------------------------------------------------------------ gym API
     def reset(
