@@ -38,6 +38,7 @@ r = −cost / scale. The scale is the lane term one lane off
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, SupportsFloat
@@ -451,6 +452,8 @@ class DriverCost:
             if self.config.scale is not None
             else self.weights[0] * scenario.lane_width**2
         )
+        self.kappa = self.style.kappa  # Φ⁻¹(p): computed once, not per step
+        self._floats = _DriverCostFloats(self, scenario)
 
     def step(
         self,
@@ -461,15 +464,93 @@ class DriverCost:
         others: np.ndarray | None = None,
     ) -> tuple[float, np.ndarray]:
         """The step's reward −(stage cost / scale + weighted violations) and its terms."""
-        vehicles = np.asarray(tv, float).reshape(1, 4)
+        rows = [np.asarray(tv, float).reshape(4).tolist()]
         if others is not None and np.size(others):
-            vehicles = np.vstack([vehicles, np.asarray(others, float).reshape(-1, 4)])
-        terms = driver_step_cost(
-            ev, u, vehicles, self.weights, self.sc.y_ref, self.v_ref, self.style.kappa,
+            rows += np.asarray(others, float).reshape(-1, 4).tolist()
+        c = self._floats
+        if len(rows) * len(c.stages) <= _FLOAT_PATH_MAX_PAIRS:
+            terms = c.terms(
+                np.asarray(ev, float).reshape(-1)[:4].tolist(),
+                np.asarray(u, float).reshape(-1)[:2].tolist(),
+                rows,
+            )
+            p = c.penalties
+            cost = sum(terms[:5]) / self.scale + (
+                p[0] * terms[5] + p[1] * terms[6] + p[2] * terms[7]
+            )
+            return -float(cost), np.array(terms)
+        terms_array = driver_step_cost(
+            ev, u, np.array(rows), self.weights, self.sc.y_ref, self.v_ref, self.kappa,
             self.sigma, self.sc,
         )  # fmt: skip
-        cost = terms[:5].sum() / self.scale + self.penalties @ terms[5:]
-        return -float(cost), terms
+        cost = terms_array[:5].sum() / self.scale + self.penalties @ terms_array[5:]
+        return -float(cost), terms_array
+
+
+_FLOAT_PATH_MAX_PAIRS = 16
+"""Vehicles × look-ahead stages up to which :class:`DriverCost` evaluates its terms on
+Python floats (faster than numpy on a few numbers; numpy beyond)."""
+
+
+class _DriverCostFloats:
+    """:func:`driver_step_cost` on Python floats for one episode's constants.
+
+    The same operations in the same order (numpy's hypot, whose rounding can differ from
+    the math module's; sums over vehicles in np.sum's order below 8 terms), so the terms
+    equal the array function's (tests/irl/test_reward.py).
+    """
+
+    def __init__(self, cost: DriverCost, sc: ScenarioConfig) -> None:
+        self.weights = [float(w) for w in cost.weights]
+        self.penalties = [float(p) for p in cost.penalties]
+        self.y_ref, self.v_ref, self.kappa = float(sc.y_ref), float(cost.v_ref), cost.kappa
+        self.l_a, self.l_b = l_a, l_b = float(sc.l_a), float(sc.l_b)
+        sig = np.asarray(cost.sigma, float).reshape(-1, 2, 2)
+        # stage j: time j T_s and the covariance entries over the axes' squares
+        self.stages = [
+            (j * sc.dt, sxx / l_a**2, sxy / (l_a * l_b), syy / l_b**2)
+            for j, ((sxx, sxy), (_, syy)) in enumerate(sig.tolist())
+        ]
+        self.y_lo, self.y_hi = sc.y_bounds
+        self.lane_width, self.phi_max, self.v_max = sc.lane_width, sc.phi_max, sc.v_max
+
+    def terms(self, ev: list[float], u: list[float], vehicles: list[list[float]]) -> list[float]:
+        """:data:`COST_TERMS` of one step (``vehicles``: rows [x, y, φ, v])."""
+        x, y, phi, v = ev
+        a, delta = u
+        w = self.weights
+        stage = [
+            w[0] * (y - self.y_ref) ** 2,
+            w[1] * phi**2,
+            w[2] * (v - self.v_ref) ** 2,
+            w[3] * a**2,
+            w[4] * delta**2,
+        ]
+        l_a, l_b, kappa = self.l_a, self.l_b, self.kappa
+        vx, vy = v * math.cos(phi), v * math.sin(phi)
+        chance, nominal = [], []
+        sqrt = math.sqrt
+        for r in vehicles:
+            dx, dy = x - r[0], y - r[1]
+            nominal.append(max(0.0, -(float(np.hypot(dx / l_a, dy / l_b)) - 1.0)))
+            dvx = vx - r[3] * math.cos(r[2])
+            dvy = vy - r[3] * math.sin(r[2])
+            g_min = math.inf
+            for t, sxx, sxy, syy in self.stages:
+                # chance_margin, operation by operation
+                z1 = (dx + dvx * t) / l_a
+                z2 = (dy + dvy * t) / l_b
+                norm = sqrt(z1 * z1 + z2 * z2)
+                zsz = z1 * z1 * sxx + 2 * z1 * z2 * sxy + z2 * z2 * syy
+                g_min = min(g_min, norm - 1 - kappa * sqrt(zsz) / norm)
+            chance.append(max(0.0, -g_min))
+        bounds = (
+            (max(0.0, self.y_lo - y) + max(0.0, y - self.y_hi)) / self.lane_width
+            + max(0.0, abs(phi) / self.phi_max - 1.0)
+            + max(0.0, v / self.v_max - 1.0)
+        )
+        # np.sum's order for fewer than 8 terms: sequential from zero
+        return [*stage, sum(chance), sum(nominal), bounds]
 
 
 class DriverCostReward(LearnedStyleReward):
