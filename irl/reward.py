@@ -38,7 +38,9 @@ r = −cost / scale. The scale is the lane term one lane off
 
 from __future__ import annotations
 
+import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, SupportsFloat
@@ -53,15 +55,13 @@ from drivestyle.irl.driver_style import DriverStyle, load_driver_style
 from drivestyle.irl.features import (
     FEATURES,
     SEGMENT_FEATURES,
-    event_times,
+    EventTimes,
     feature_constants,
-    instant_feature,
+    gauss_legendre_nodes,
     segment_integrals,
-    tiv_reference,
-    tv_control_points,
 )
 from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
-from drivestyle.irl.spline import spline_eval, state_control_points
+from drivestyle.irl.spline import basis_matrix
 from drivestyle.irl.style import Style, StyleError, load_style
 
 __all__ = [
@@ -96,9 +96,17 @@ class StyleReward:
         ValueError: ``crash_penalty`` is negative or not finite.
     """
 
-    # control points settle two samples late (central differences of velocities that
-    # themselves use the next input), so the last few segments are recomputed each step
-    TAIL = 4
+    # Every step is O(1) (the env's hot path; DESIGN §5's features, computed incrementally):
+    # a control point settles once its neighbours' velocities do, i.e. two samples late
+    # (central differences of velocities that themselves use the sample's input, known one
+    # step late), so segment k − 3 is final when sample k arrives and only the segments
+    # k − 2 and k − 1 are provisional. Event times depend on past samples only and never move
+    # a final segment's integration limits. Full segments are integrated with quadrature
+    # weights and spline basis rows precomputed per segment duration; the few segments that
+    # an event time cuts go through features.segment_integrals. Equal to the whole-trajectory
+    # recomputation to round-off (tests/irl/test_reward.py keeps it as the reference).
+    SETTLE = 2
+    """Samples after which a control point no longer changes."""
 
     def __init__(self, style: Style | str | Path, crash_penalty: float | None = None) -> None:
         self.style: Style = style if isinstance(style, Style) else load_style(Path(style))
@@ -162,65 +170,285 @@ class StyleReward:
             tv: TV state [x, y, φ, v].
             others: further vehicles' states, shape (m, 4) (traffic; None: the TV only).
         """
-        self.sc = scenario
-        self.constants = feature_constants(self.config, scenario)
+        sc = self.sc = scenario
+        k = self.constants = feature_constants(self.config, scenario)
         self.ratio = scenario.l_r / (scenario.l_f + scenario.l_r)
-        self.t = [0.0]
-        self.ev = [np.asarray(ev, float).copy()]
-        self.tv = [np.asarray(tv, float).copy()]
         self.m = 0 if others is None else int(np.shape(others)[0])
-        self.others = [
-            np.zeros((0, 4)) if others is None else np.asarray(others, float).reshape(self.m, 4)
-        ]
+        upward = sc.target_lane > sc.ev_lane
+        self._upward = upward
+        self._boundary = sc.lane_width * (sc.ev_lane + 1) if upward else sc.lane_width * sc.ev_lane
+        self._lam = k.trigger_lambda
+        self._l_a, self._l_b, self._lane_width = float(sc.l_a), float(sc.l_b), float(sc.lane_width)
+        self.t: list[float] = []
+        self.ev: list[list[float]] = []  # [x, y, φ, v] per sample
+        self.vehicles: list[list[list[float]]] = []  # per sample: TV first, then the others
         self.delta: list[float] = []
-        self.segments: list[dict[str, float]] = []
+        self._cp: list[list[float]] = []  # EV control points [x, vx, ax, y, vy, ay] per sample
+        self._vcp: list[list[list[float]]] = []  # per sample, per vehicle: the same
+        self._speed_grad: list[float] = []  # the paper rule's dv/dt per sample
+        self._uniform = True  # np.gradient's test: all sample spacings equal
+        self._s_turn: list[float] = []
+        self.t_turn: float | None = None
+        self.t_trg: float | None = None
+        self.critical = 0
+        self._ref: list[int] = []  # f_tiv's vehicle per segment (from its first sample)
+        self._final = dict.fromkeys(SEGMENT_FEATURES, 0.0)  # sums over the final segments
+        self._n_final = 0
         self.f = np.zeros(len(self.omega))
+        self._add_sample(0.0, ev, tv, others)
 
+    # ------------------------------------------------------------------ samples
+    def _add_sample(self, t: float, ev: Any, tv: Any, others: Any) -> None:
+        """Append a sample: states, velocities, the settled accelerations, events."""
+        self.t.append(t)
+        ev_row = np.asarray(ev, float).reshape(-1)[:4].tolist()
+        rows = [np.asarray(tv, float).reshape(-1)[:4].tolist()]
+        if self.m:
+            rows += np.asarray(others, float).reshape(self.m, 4).tolist()
+        self.ev.append(ev_row)
+        self.vehicles.append(rows)
+        k = len(self.t) - 1
+        if k >= 2 and self._uniform and t - self.t[k - 1] != self.t[1] - self.t[0]:
+            self._uniform = False
+        # velocities: the EV's from the steering applied from the sample (the last one's
+        # repeats the previous input until its own is known), the vehicles' from their state
+        self._cp.append([ev_row[0], 0.0, 0.0, ev_row[1], 0.0, 0.0])
+        self._vcp.append(
+            [[x, v * math.cos(phi), 0.0, y, v * math.sin(phi), 0.0] for x, y, phi, v in rows]
+        )
+        self._speed_grad.append(0.0)
+        if k >= 1:
+            self._ev_velocity(k - 1, self.delta[k - 1])
+            self._ev_velocity(k, self.delta[k - 1])
+            for j in range(max(0, k - self.SETTLE - 1), k + 1):
+                self._accelerations(j)
+        else:
+            self._ev_velocity(0, 0.0)  # replaced at the next sample (no input yet)
+        self._events(k, ev_row, rows)
+
+    def _ev_velocity(self, j: int, delta: float) -> None:
+        """The EV's control-point velocity at sample j (DESIGN §4's rule)."""
+        _, _, phi, v = self.ev[j]
+        cp = self._cp[j]
+        if self.control_point_rule == "paper":
+            cp[1], cp[4] = v * math.cos(phi), v * math.sin(phi)
+        else:
+            # numpy's tan/arctan: the array rule's rounding (the math module's can differ)
+            beta = float(np.arctan(self.ratio * np.tan(delta)))
+            cp[1], cp[4] = v * math.cos(phi + beta), v * math.sin(phi + beta)
+
+    def _gradient(self, j: int, f: Callable[[int], float]) -> float:
+        """np.gradient(f, t, edge_order=1)[j] over the samples so far (f: sample → value)."""
+        t, n = self.t, len(self.t)
+        if j == 0:
+            return (f(1) - f(0)) / (t[1] - t[0])
+        if j == n - 1:
+            dx = t[1] - t[0] if self._uniform else t[j] - t[j - 1]
+            return (f(j) - f(j - 1)) / dx
+        if self._uniform:
+            return (f(j + 1) - f(j - 1)) / (2.0 * (t[1] - t[0]))
+        dx1, dx2 = t[j] - t[j - 1], t[j + 1] - t[j]
+        a = -dx2 / (dx1 * (dx1 + dx2))
+        b = (dx2 - dx1) / (dx1 * dx2)
+        c = dx1 / (dx2 * (dx1 + dx2))
+        return a * f(j - 1) + b * f(j) + c * f(j + 1)
+
+    def _accelerations(self, j: int) -> None:
+        """Control-point accelerations at sample j, of the EV and every vehicle."""
+        grad, cp, vcp = self._gradient, self._cp, self._vcp
+        if self.control_point_rule == "paper":
+            dv = grad(j, lambda i: self.ev[i][3])
+            phi = self.ev[j][2]
+            cp[j][2], cp[j][5] = dv * math.cos(phi), dv * math.sin(phi)
+        else:
+            cp[j][2] = grad(j, lambda i: cp[i][1])
+            cp[j][5] = grad(j, lambda i: cp[i][4])
+        for v in range(len(vcp[j])):
+            vcp[j][v][2] = grad(j, lambda i: vcp[i][v][1])  # noqa: B023 (called right here)
+            vcp[j][v][5] = grad(j, lambda i: vcp[i][v][4])  # noqa: B023
+
+    def _events(self, k: int, ev: list[float], rows: list[list[float]]) -> None:
+        """t_turn, t_trg (and the critical vehicle) and f_tiv's vehicle at a new sample k."""
+        t = self.t
+        s = ev[1] - self._boundary if self._upward else self._boundary - ev[1]
+        self._s_turn.append(s)
+        if self.t_turn is None and s > 0:
+            if k == 0:
+                self.t_turn = t[0]
+            else:
+                s0 = self._s_turn[k - 1]
+                frac = -s0 / (s - s0)
+                self.t_turn = float(t[k - 1] + frac * (t[k] - t[k - 1]))
+        # elliptical index against every vehicle (numpy squares arrays as z * z)
+        s_e = []
+        for r in rows:
+            zx, zy = (ev[0] - r[0]) / self._l_a, (ev[1] - r[1]) / self._l_b
+            s_e.append(zx * zx + zy * zy)
+        s_min = min(s_e)
+        if self.t_trg is None and s_min < self._lam:
+            self.t_trg = t[k]
+            self.critical = s_e.index(s_min)
+        # tiv_reference: the nearest vehicle ahead in the EV's lane, else the least s_e
+        if len(rows) == 1:
+            self._ref.append(0)
+            return
+        w = self._lane_width
+        ev_lane = math.floor(ev[1] / w)
+        ahead = [i for i, r in enumerate(rows) if math.floor(r[1] / w) == ev_lane and r[0] > ev[0]]
+        if ahead:
+            xs = [rows[i][0] for i in ahead]
+            self._ref.append(ahead[xs.index(min(xs))])
+        else:
+            self._ref.append(s_e.index(s_min))
+
+    # ------------------------------------------------------------------ segments
+    def _segments(self, js: range) -> list[dict[str, float]]:
+        """Integral-feature contributions of the segments ``js`` (unscaled)."""
+        t = self.t
+        t_end = t[-1]
+        t_turn = t_end if self.t_turn is None else self.t_turn
+        window = None
+        if self.t_trg is not None:
+            window = (self.t_trg, min(self.t_trg + self.config.t_rct, t_end))
+        y_trg = None if self.t_trg is None else self._y_at_knot(self.t_trg)
+        out: list[dict[str, float] | None] = []
+        fast: list[tuple[int, float, float]] = []  # (segment, il factor, id factor)
+        for j in js:
+            t0, t1 = t[j], t[j + 1]
+            il = _coverage(t0, t1, t0, t_turn)
+            idf = 0.0 if window is None else _coverage(t0, t1, *window)
+            if il is None or idf is None:  # an event time cuts the segment
+                out.append(self._segment_exact(j, t_turn, window, y_trg))
+            else:
+                out.append(None)
+                fast.append((j, il, idf))
+        if fast:
+            values = self._segments_fast(fast, y_trg)
+            it = iter(values)
+            out = [next(it) if o is None else o for o in out]
+        return out  # type: ignore[return-value]
+
+    def _segment_points(self, j: int) -> tuple[list[float], list[float], list[float]]:
+        """(EV x, EV y, f_tiv vehicle's x) control points at both ends of segment j."""
+        a, b = self._cp[j], self._cp[j + 1]
+        ref = self._ref[j]
+        va, vb = self._vcp[j][ref], self._vcp[j + 1][ref]
+        return a[:3] + b[:3], a[3:] + b[3:], va[:3] + vb[:3]
+
+    def _segment_exact(
+        self, j: int, t_turn: float, window: tuple[float, float] | None, y_trg: float | None
+    ) -> dict[str, float]:
+        """One segment by :func:`features.segment_integrals` (cut by an event time)."""
+        t = self.t
+        events = EventTimes(
+            t_end=t[-1],
+            t_last=t[-2],
+            t_turn=t_turn,
+            t_trg=None if window is None else window[0],
+            t_rct_end=None if window is None else window[1],
+            critical=self.critical,
+        )
+        cx, cy, tx = self._segment_points(j)
+        return segment_integrals(
+            np.array(cx), np.array(cy), np.array(tx), t[j], t[j + 1], self.config,
+            self.constants, events, y_trg, j == 0,
+        )  # fmt: skip
+
+    def _segments_fast(
+        self, segments: list[tuple[int, float, float]], y_trg: float | None
+    ) -> list[dict[str, float]]:
+        """Segments whose windows (f_il, f_id) each cover all or none of them, batched."""
+        t = self.t
+        kernels = [_segment_kernel(t[j], t[j + 1], self.config.n_gauss) for j, _, _ in segments]
+        # spline values at the nodes: rows [pos, vel, acc] x nodes, columns [EV x, EV y, x_ref]
+        V = np.stack(
+            [
+                K.B @ np.array(self._segment_points(j)).T
+                for K, (j, _, _) in zip(kernels, segments, strict=True)
+            ]
+        )
+        W = np.stack([K.w for K in kernels])
+        n = self.config.n_gauss
+        pos_x, pos_y, pos_ref = V[:, :n, 0], V[:, :n, 1], V[:, :n, 2]
+        vel_x, acc_x, acc_y = V[:, n : 2 * n, 0], V[:, 2 * n :, 0], V[:, 2 * n :, 1]
+        k = self.constants
+        dx = pos_ref - pos_x
+        sums = {
+            "ax": (W * (acc_x * acc_x)).sum(1),
+            "ay": (W * (acc_y * acc_y)).sum(1),
+            "v": (W * (k.v_des - vel_x) ** 2).sum(1),
+            "l": (W * np.abs(k.l_des - pos_y)).sum(1),
+            "il": (W * np.abs(k.l_initial - pos_y)).sum(1),
+            "tiv": (W * (k.v_lane / np.sqrt(dx * dx + k.tiv_d0**2))).sum(1),
+        }
+        if y_trg is not None:
+            sums["id"] = (W * np.abs(pos_y - y_trg)).sum(1)
+        lists = {name: v.tolist() for name, v in sums.items()}
+        out = []
+        for i, (j, il, idf) in enumerate(segments):
+            ay = lists["ay"][i]
+            out.append(
+                {
+                    "ax": lists["ax"][i],
+                    "ay": ay * self.config.ay_first_segment_weight if j == 0 else ay,
+                    "v": lists["v"][i],
+                    "l": lists["l"][i],
+                    "il": lists["il"][i] if il else 0.0,
+                    "tiv": lists["tiv"][i],
+                    "id": lists["id"][i] if idf and y_trg is not None else 0.0,
+                }
+            )
+        return out
+
+    # ------------------------------------------------------------------ spline values
+    def _y_at_knot(self, time: float) -> float:
+        """y_EV at a sample time, as spline_eval gives it (the last knot via its segment)."""
+        return self._spline_y(self._cp, time)
+
+    def _spline_y(self, cps: Any, time: float, vehicle: int | None = None) -> float:
+        """The y of a piecewise quintic at ``time`` (spline_eval's segment choice)."""
+        t = self.t
+        S = len(t) - 1
+        j = min(max(bisect.bisect_right(t, time) - 1, 0), S - 1)
+        tau = time - t[j]
+        a, b = (cps[j], cps[j + 1]) if vehicle is None else (cps[j][vehicle], cps[j + 1][vehicle])
+        if tau == 0.0:
+            return a[3]
+        row = _basis_row(t[j + 1] - t[j], tau)
+        return float(row @ np.array(a[3:] + b[3:]))
+
+    # ------------------------------------------------------------------ features
     def features(self) -> np.ndarray:
         """Scaled features Ω f of the trajectory so far, all ten (FEATURES order)."""
+        return self.f.copy()
+
+    def _features(self) -> np.ndarray:
+        """Ω f after a new sample: settle one segment, recompute the provisional ones."""
         n = len(self.t)
-        if n < 2:
-            return np.zeros(len(FEATURES))
-        t = np.asarray(self.t)
-        ev, tv = np.asarray(self.ev), np.asarray(self.tv)
-        others = np.asarray(self.others).reshape(n, self.m, 4) if self.m else None
-        events = event_times(t, ev, tv, self.sc, self.config, others)
-        delta = np.asarray([*self.delta, self.delta[-1]])
-        C = state_control_points(t, ev, delta, self.control_point_rule, self.ratio)
-        vehicles = tv[:, None, :] if others is None else np.concatenate([tv[:, None], others], 1)
-        Ts = [tv_control_points(t, vehicles[:, i]) for i in range(vehicles.shape[1])]
-        ref = tiv_reference(ev, tv, self.sc, others)
-        y_trg = None
-        if events.reactive_active:
-            y_trg = float(spline_eval(C, t, [events.reactive_window()[0]])[0, 1])
-        first_tail = max(0, n - 1 - self.TAIL)
-        del self.segments[first_tail:]
-        for j in range(first_tail, n - 1):
-            self.segments.append(
-                segment_integrals(
-                    np.r_[C[j, :3], C[j + 1, :3]],
-                    np.r_[C[j, 3:], C[j + 1, 3:]],
-                    np.r_[Ts[ref[j]][j, :3], Ts[ref[j]][j + 1, :3]],
-                    t[j],
-                    t[j + 1],
-                    self.config,
-                    self.constants,
-                    events,
-                    y_trg,
-                    j == 0,
-                )
-            )
+        final_up_to = n - 2 - self.SETTLE  # segments 0 … final_up_to are final
+        first = max(self._n_final, 0)
+        newly_final = range(first, max(first, final_up_to + 1))
+        provisional = range(max(final_up_to + 1, 0), n - 1)
+        segments = self._segments(range(newly_final.start, provisional.stop))
+        for seg in segments[: len(newly_final)]:
+            for name in SEGMENT_FEATURES:
+                self._final[name] += seg[name]
+        self._n_final = newly_final.stop
         f = dict.fromkeys(FEATURES, 0.0)
+        tail = segments[len(newly_final) :]
         for name in SEGMENT_FEATURES:
-            f[name] = sum(seg[name] for seg in self.segments)
+            total = self._final[name]
+            for seg in tail:
+                total += seg[name]
+            f[name] = total
         # f_el is f_l's integrand over the last segment (DESIGN §5)
-        f["el"] = self.segments[-1]["l"]
-        if events.reactive_active:
-            window = list(events.reactive_window())  # [t_trg, t_rct_end]
-            at = spline_eval(C, t, window)[:, 1]
-            at_tv = spline_eval(Ts[events.critical], t, window)[:, 1]
-            f["sd"] = float(instant_feature(at[0], at_tv[0], np.exp, np.abs))
-            f["ed"] = float(instant_feature(at[1], at_tv[1], np.exp, np.abs))
+        f["el"] = segments[-1]["l"]
+        if self.t_trg is not None:
+            window = (self.t_trg, min(self.t_trg + self.config.t_rct, self.t[-1]))
+            for name, time in zip(("sd", "ed"), window, strict=True):
+                y_ev = self._spline_y(self._cp, time)
+                y_tv = self._spline_y(self._vcp, time, self.critical)
+                f[name] = math.exp(-abs(y_ev - y_tv))
         return self.omega * np.array([f[k] for k in FEATURES])
 
     def step(
@@ -243,17 +471,61 @@ class StyleReward:
         Returns:
             (reward −θᵀΔf, Δf of the active features).
         """
-        self.delta.append(float(u[1]))
-        self.t.append(self.t[-1] + dt)
-        self.ev.append(np.asarray(ev, float).copy())
-        self.tv.append(np.asarray(tv, float).copy())
-        self.others.append(
-            np.zeros((0, 4)) if not self.m else np.asarray(others, float).reshape(self.m, 4).copy()
-        )
-        f = self.features()
+        self.delta.append(float(np.asarray(u, float).reshape(-1)[1]))
+        self._add_sample(self.t[-1] + dt, ev, tv, others)
+        f = self._features()
         df = (f - self.f)[self.idx]
         self.f = f
         return -float(self.theta @ df), df
+
+
+def _coverage(t0: float, t1: float, a: float, b: float) -> float | None:
+    """How the integration window [a, b] meets the segment [t0, t1].
+
+    Returns:
+        1.0: all of it; 0.0: none (gauss_legendre_nodes' empty interval); None: part of it.
+    """
+    lo, hi = max(a, t0), min(b, t1)
+    if hi <= lo:
+        return 0.0
+    return 1.0 if (lo == t0 and hi == t1) else None
+
+
+@dataclass(frozen=True)
+class _SegmentKernel:
+    """Gauss–Legendre weights and basis rows [pos; vel; acc] of a whole segment."""
+
+    w: np.ndarray
+    B: np.ndarray
+
+
+_KERNELS: dict[tuple[float, int], _SegmentKernel] = {}
+
+
+def _segment_kernel(t0: float, t1: float, n: int) -> _SegmentKernel:
+    """The kernel of the segment [t0, t1] (cached by duration: segments repeat it).
+
+    The nodes as segment_integrals places them (gauss_legendre_nodes, local times rounded
+    to 1e-12 s); segments of one duration share them up to that rounding.
+    """
+    T = t1 - t0
+    key = (T, n)
+    kernel = _KERNELS.get(key)
+    if kernel is None:
+        nodes, w = gauss_legendre_nodes(np.array([t0, t1]), t0, t1, n)
+        tau = np.round(nodes - t0, 12)
+        knots = np.array([0.0, T])
+        B = np.vstack([basis_matrix(knots, tau, d) for d in (0, 1, 2)])
+        kernel = _KERNELS[key] = _SegmentKernel(w, B)
+        if len(_KERNELS) > 4096:  # many scenarios' step lengths: keep the cache bounded
+            _KERNELS.clear()
+            _KERNELS[key] = kernel
+    return kernel
+
+
+def _basis_row(T: float, tau: float) -> np.ndarray:
+    """The position basis row of a segment of duration T at local time τ (basis_matrix's)."""
+    return basis_matrix(np.array([0.0, T]), np.array([tau]))[0]
 
 
 class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
