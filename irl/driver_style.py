@@ -45,6 +45,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.chance import risk_quantile
+from drivestyle.irl.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
 from drivestyle.irl.smpc_problem import (
     N_WEIGHTS,
     NLPBounds,
@@ -199,6 +200,82 @@ class PlanResult:
     """The solution (None when the solve failed)."""
 
 
+@dataclass(frozen=True)
+class Link:
+    """Where a row of :meth:`StylePlanner.solve_rows` takes its warm start from."""
+
+    shift: int | None = None
+    """An earlier row whose solution, shifted by one stage, is the guess (the driver's own
+    re-planning: the previous step)."""
+    copy: int | None = None
+    """An earlier row whose solution is the guess unshifted (the same step at another
+    risk or style)."""
+    given: PrimalDual | None = None
+    """An explicit guess (neither index set; None with no index: a cold start)."""
+
+
+@dataclass(frozen=True)
+class PlanRow:
+    """One plan of a batch: the EV's state, the vehicles around it, the style and the link."""
+
+    xi0: np.ndarray
+    others: np.ndarray
+    style: DriverStyle
+    link: Link = field(default_factory=Link)
+
+
+_NO_PLAN = 4
+"""Status of a row neither solver solved (its first input is the braking fallback)."""
+
+
+@dataclass(frozen=True, eq=False)
+class RowsResult:
+    """The plans of a batch, as arrays (:meth:`StylePlanner.solve_rows`)."""
+
+    u0: np.ndarray
+    """First inputs, clipped to the bounds (braking where no plan), shape (n, 2)."""
+    ok: np.ndarray
+    """Solved (and feasible), shape (n,)."""
+    chance_active: np.ndarray
+    """A chance constraint binds in the plan (True where no plan), shape (n,)."""
+    points: Callable[[int], PrimalDual | None]
+    """Row i's solution as a primal-dual point (None where no plan), built on demand."""
+
+    def result(self, i: int) -> PlanResult:
+        """Row i as a :class:`PlanResult`."""
+        return PlanResult(self.u0[i].copy(), bool(self.ok[i]), bool(self.chance_active[i]),
+                          self.points(i))  # fmt: skip
+
+    @classmethod
+    def from_results(cls, results: Sequence[PlanResult]) -> RowsResult:
+        """From the generic solvers' per-row results."""
+        return cls(
+            np.array([r.u0 for r in results]).reshape(-1, 2),
+            np.array([r.ok for r in results], dtype=bool),
+            np.array([r.chance_active for r in results], dtype=bool),
+            lambda i: results[i].point,
+        )
+
+    @classmethod
+    def from_states(
+        cls, planner: StylePlanner, states: np.ndarray, ok: np.ndarray, scenario: ScenarioConfig
+    ) -> RowsResult:
+        """From the compiled solver's interior-point states."""
+        fast = planner.fast
+        assert fast is not None  # only the compiled path has states
+        lay = fast.layout
+        w, _, _, z = lay.split(states)
+        lim_lo = np.array([scenario.a_min, -scenario.delta_max])
+        lim_hi = np.array([scenario.a_max, scenario.delta_max])
+        u0 = np.clip(w[:, lay.nlp.iu[0]], lim_lo, lim_hi)
+        u0[~ok] = [scenario.a_min / 2, 0.0]
+        active = np.any(z[:, lay.h_chance.ravel()] > 1e-8, axis=1) | np.any(
+            w[:, lay.nlp.i_s.ravel()] > 1e-8, axis=1
+        )
+        active |= ~ok
+        return cls(u0, ok, active, lambda i: fast.primal_dual(states[i]) if ok[i] else None)
+
+
 class StylePlanner:
     """The NLP of the style model for one scenario geometry and M surrounding vehicles.
 
@@ -209,7 +286,13 @@ class StylePlanner:
     """
 
     def __init__(
-        self, scenario: ScenarioConfig, horizon: int = 10, n_vehicles: int = 1, jit: bool = False
+        self,
+        scenario: ScenarioConfig,
+        horizon: int = 10,
+        n_vehicles: int = 1,
+        jit: bool = False,
+        compiled: bool = True,
+        ipm: bool = False,
     ):
         """Build the parametric NLP.
 
@@ -217,16 +300,25 @@ class StylePlanner:
             scenario: the geometry (T_s, wheelbase, ellipse).
             horizon: N.
             n_vehicles: M, vehicles with a chance constraint (nearest first).
-            jit: compile the NLP's functions with gcc (≈ 5 s once, then solves ≈ 2× faster:
-                worth it for learning, not for one identification).
+            jit: CasADi's jit for the interpreted solvers (≈ 5 s in every process; only
+                used when ``compiled`` is off or unavailable).
+            compiled: fatrop as generated C, compiled once per machine and cached on disk
+                (:attr:`SMPCConfig.compiled`: same iterates, no compilation in later
+                processes); without gcc, the interpreted solvers.
+            ipm: first try the experimental compiled interior-point solver
+                (:mod:`drivestyle.irl.plan_solver`, DESIGN §16), fatrop where it fails.
         """
         self.config = SMPCConfig(
-            horizon=horizon, max_vehicles=n_vehicles, weights_as_parameters=True, jit=jit
-        )
+            horizon=horizon, max_vehicles=n_vehicles, weights_as_parameters=True,
+            jit=jit and not compiled, compiled=compiled,
+        )  # fmt: skip
         self.scenario = scenario
         self.problem = SMPCProblem(self.config, scenario)
         self.layout = self.problem.layout
         self._bounds: dict[tuple, NLPBounds] = {}
+        self.fast: PlanSolver | None = compiled_solver(self.config, scenario) if ipm else None
+        self.fallbacks = 0
+        """Solves the compiled solver handed to the generic solvers (diagnostics)."""
 
     def serves(self, scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> bool:
         """Whether this planner's NLP fits ``scenario`` with N and M."""
@@ -272,12 +364,27 @@ class StylePlanner:
         Returns:
             The first input and whether the plan is trustworthy.
         """
+        if self.fast is not None:
+            link = Link(given=warm if warm is not None else self.guess(xi0, previous))
+            out = self.solve_rows([PlanRow(xi0, others, style, link)], scenario)
+            return out.result(0)
+        guess = warm if warm is not None else self.guess(xi0, previous)
+        return self._plan_generic(self.parameters(xi0, others, style, scenario), scenario, guess)
+
+    def parameters(
+        self, xi0: np.ndarray, others: np.ndarray, style: DriverStyle, scenario: ScenarioConfig
+    ) -> np.ndarray:
+        """The NLP's parameter vector of one plan (the M nearest vehicles constrained)."""
         cfg = self.config
         vehicles = constrained_vehicles(xi0, others, cfg.max_vehicles, cfg.vehicle_range)
         v_ref = scenario.v_ref if style.v_ref is None else style.v_ref
-        p = nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights)
+        return nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights)
+
+    def _plan_generic(
+        self, p: np.ndarray, scenario: ScenarioConfig, guess: PrimalDual
+    ) -> PlanResult:
+        """One plan with the generic solvers: fatrop, then IPOPT from the same guess."""
         bounds = self.bounds(scenario)
-        guess = warm if warm is not None else self.guess(xi0, previous)
         sol = self.problem.solve("fatrop", p, guess, bounds)
         if not sol.success:
             sol = self.problem.solve("ipopt", p, guess, bounds)
@@ -294,6 +401,89 @@ class StylePlanner:
             or np.any(sol.point.w[self.layout.i_s] > 1e-8)
         )
         return PlanResult(u0, True, active, sol.point)
+
+    # ------------------------------------------------------------------ batches
+    def solve_rows(self, rows: Sequence[PlanRow], scenario: ScenarioConfig) -> RowsResult:
+        """Plan every row, in order, warm-started as each row's :class:`Link` says.
+
+        With the compiled solver the whole batch is one call (a row linked to an earlier
+        one is warm-started from that row's solution inside it); a row it cannot solve is
+        re-solved by the generic solvers from the same guess, and a row whose source has
+        no solution at all starts cold, as :meth:`plan` with ``previous=None`` does.
+
+        Args:
+            rows: the plans (a :class:`Link`'s ``shift``/``copy`` index must be earlier).
+            scenario: target lane, reference speed and bounds of every row.
+
+        Returns:
+            The first inputs, success and chance activity per row, and the solutions.
+        """
+        n = len(rows)
+        fast = self.fast
+        if fast is None:
+            results: list[PlanResult] = []
+            for row in rows:
+                link = row.link
+                if link.shift is not None:
+                    guess = self.guess(row.xi0, results[link.shift].point)
+                elif link.copy is not None and results[link.copy].point is not None:
+                    guess = results[link.copy].point
+                else:
+                    guess = link.given or self.guess(row.xi0, None)
+                p = self.parameters(row.xi0, row.others, row.style, scenario)
+                results.append(self._plan_generic(p, scenario, guess))
+            return RowsResult.from_results(results)
+        P = np.array([self.parameters(r.xi0, r.others, r.style, scenario) for r in rows])
+        bnd = np.tile(bounds_vector(scenario), (n, 1))
+        states = np.zeros((n, fast.layout.n_state))
+        src = np.full(n, -1, np.int32)
+        mode = np.zeros(n, np.int32)
+        status = np.full(n, SolveStatus.FAILED, np.int32)
+        given: list[PrimalDual | None] = [None] * n
+        for i, row in enumerate(rows):
+            link = row.link
+            if link.shift is not None or link.copy is not None:
+                j = link.shift if link.shift is not None else link.copy
+                if not (isinstance(j, int) and 0 <= j < i):
+                    raise ValueError(f"row {i} links to row {j}: links must point to earlier rows")
+                src[i], mode[i] = j, 1 if link.shift is not None else 2
+            else:
+                given[i] = link.given or self.guess(row.xi0, None)
+                states[i] = fast.state_from(given[i])
+        generic: dict[int, PlanResult] = {}
+        while True:
+            fast.solve_batch(states, P, bnd, src, mode, status)
+            failed = np.flatnonzero((status == SolveStatus.FAILED) & (mode != 3))
+            solved = (status == SolveStatus.CONVERGED) & (mode != 3)
+            mode[solved] = 3
+            for i in failed.tolist():
+                guess = self._row_guess(i, rows, states, src, mode, given, generic, fast)
+                res = self._plan_generic(P[i], scenario, guess)
+                self.fallbacks += 1
+                generic[i] = res
+                mode[i] = 3
+                if res.ok and res.point is not None:
+                    states[i] = fast.state_from(res.point)
+                    status[i] = SolveStatus.CONVERGED
+                else:
+                    status[i] = _NO_PLAN
+            blocked = np.flatnonzero(mode != 3)
+            if blocked.size == 0:
+                break
+            for i in blocked.tolist():
+                if status[src[i]] == _NO_PLAN:  # as plan(previous=None): a cold start
+                    mode[i], src[i] = 0, -1
+                    given[i] = self.guess(rows[i].xi0, None)
+                    states[i] = fast.state_from(given[i])
+        return RowsResult.from_states(self, states, status == SolveStatus.CONVERGED, scenario)
+
+    def _row_guess(self, i, rows, states, src, mode, given, generic, fast) -> PrimalDual:
+        """The guess the compiled solver started row i from, for the generic solvers."""
+        link = rows[i].link
+        if src[i] < 0:
+            return given[i] or self.guess(rows[i].xi0, None)
+        point = fast.primal_dual(states[src[i]])
+        return self.guess(rows[i].xi0, point) if link.shift is not None else point
 
 
 _PLANNERS: dict[tuple, StylePlanner] = {}
@@ -361,21 +551,18 @@ def step_residuals(
 
 def _teacher_forced(
     style: DriverStyle, demo: Demonstration, sc: ScenarioConfig, planner: StylePlanner
-) -> tuple[np.ndarray, np.ndarray, list[PrimalDual | None]]:
-    """:func:`step_residuals`' loop; also returns each step's solution (None: failed)."""
-    scale = np.asarray(INPUT_SCALE)
+) -> tuple[np.ndarray, np.ndarray, RowsResult]:
+    """:func:`step_residuals`' pass, also returning the plans.
+
+    One batch, each step warm-started from the previous step's plan (after a failed plan:
+    a cold start).
+    """
     vehicles = demo.vehicles
-    r = np.empty((demo.n - 1, 2))
-    active = np.zeros(demo.n - 1, dtype=bool)
-    points: list[PrimalDual | None] = []
-    previous: PrimalDual | None = None
-    for k in range(demo.n - 1):
-        res = planner.plan(demo.ev[k], vehicles[k], style, sc, previous)
-        previous = res.point
-        points.append(res.point)
-        r[k] = (res.u0 - demo.u[k]) / scale  # a failed plan brakes (PlanResult.u0)
-        active[k] = res.chance_active  # a failed plan counts as binding
-    return r, active, points
+    rows = [PlanRow(demo.ev[k], vehicles[k], style, Link(shift=k - 1 if k else None))
+            for k in range(demo.n - 1)]  # fmt: skip
+    out = planner.solve_rows(rows, sc)
+    r = (out.u0 - demo.u[: demo.n - 1]) / np.asarray(INPUT_SCALE)  # failed plans brake
+    return r, out.chance_active.copy(), out
 
 
 # ---------------------------------------------------------------------------- risk profile
@@ -429,23 +616,30 @@ def risk_profile(
     scale = np.asarray(INPUT_SCALE)
     vehicles = demo.vehicles
     n = demo.n - 1
-    r_top, active, warm = _teacher_forced(replace(style, risk=risks[-1]), demo, sc, planner)
+    r_top, active, top = _teacher_forced(replace(style, risk=risks[-1]), demo, sc, planner)
     ssr = np.empty(len(risks))
     ssr[-1] = float(np.sum(r_top**2))
     constant = float(np.sum(r_top[~active] ** 2))
+    steps = [int(i) for i in np.flatnonzero(active)]
+    # the driver's own warm start: its previous step's plan at this risk, which at a step
+    # without a binding constraint is the largest risk's plan (the NLP is not convex — the
+    # nominal ellipse — and the warm start picks the branch)
+    starts: dict[int, PrimalDual | None] = {}
+    for k in steps:
+        if k == 0 or not active[k - 1]:
+            prev = top.points(k - 1) if k > 0 else None
+            starts[k] = planner.guess(demo.ev[k], prev)
+    rows: list[PlanRow] = []
     for j in range(len(risks) - 1):
         styled = replace(style, risk=risks[j])
-        total = constant
-        previous: PrimalDual | None = None
-        for k in (int(i) for i in np.flatnonzero(active)):
-            # the driver's own warm start: its previous step's plan at this risk, which
-            # at a step without a binding constraint is the largest risk's plan (the NLP
-            # is not convex — the nominal ellipse — and the warm start picks the branch)
-            prior = previous if k > 0 and active[k - 1] else (warm[k - 1] if k > 0 else None)
-            res = planner.plan(demo.ev[k], vehicles[k], styled, sc, prior)
-            previous = res.point
-            total += float(np.sum(((res.u0 - demo.u[k]) / scale) ** 2))
-        ssr[j] = total
+        for k in steps:
+            link = Link(given=starts[k]) if k in starts else Link(shift=len(rows) - 1)
+            rows.append(PlanRow(demo.ev[k], vehicles[k], styled, link))
+    if rows:
+        u0 = planner.solve_rows(rows, sc).u0.reshape(len(risks) - 1, len(steps), 2)
+        ssr[:-1] = constant + np.sum(((u0 - demo.u[steps]) / scale) ** 2, axis=(1, 2))
+    else:
+        ssr[:-1] = constant
     return RiskProfile(risks, tuple(ssr.tolist()), 2 * n, int(active.sum()))
 
 
