@@ -220,8 +220,10 @@ class StyleReward:
         if k >= 1:
             self._ev_velocity(k - 1, self.delta[k - 1])
             self._ev_velocity(k, self.delta[k - 1])
-            for j in range(max(0, k - self.SETTLE - 1), k + 1):
-                self._accelerations(j)
+            # the EV's velocity at k − 1 changed with its input: its accelerations k − 2 … k
+            # move; the vehicles' velocities do not change, so only their k − 1 and k do
+            for j in range(max(0, k - self.SETTLE), k + 1):
+                self._accelerations(j, vehicles=j >= k - 1)
         else:
             self._ev_velocity(0, 0.0)  # replaced at the next sample (no input yet)
         self._events(k, ev_row, rows)
@@ -253,8 +255,8 @@ class StyleReward:
         c = dx1 / (dx2 * (dx1 + dx2))
         return a * f(j - 1) + b * f(j) + c * f(j + 1)
 
-    def _accelerations(self, j: int) -> None:
-        """Control-point accelerations at sample j, of the EV and every vehicle."""
+    def _accelerations(self, j: int, vehicles: bool = True) -> None:
+        """Control-point accelerations at sample j, of the EV (and of every vehicle)."""
         grad, cp, vcp = self._gradient, self._cp, self._vcp
         if self.control_point_rule == "paper":
             dv = grad(j, lambda i: self.ev[i][3])
@@ -263,7 +265,7 @@ class StyleReward:
         else:
             cp[j][2] = grad(j, lambda i: cp[i][1])
             cp[j][5] = grad(j, lambda i: cp[i][4])
-        for v in range(len(vcp[j])):
+        for v in range(len(vcp[j]) if vehicles else 0):
             vcp[j][v][2] = grad(j, lambda i: vcp[i][v][1])  # noqa: B023 (called right here)
             vcp[j][v][5] = grad(j, lambda i: vcp[i][v][4])  # noqa: B023
 
@@ -360,42 +362,45 @@ class StyleReward:
         """Segments whose windows (f_il, f_id) each cover all or none of them, batched."""
         t = self.t
         kernels = [_segment_kernel(t[j], t[j + 1], self.config.n_gauss) for j, _, _ in segments]
-        # spline values at the nodes: rows [pos, vel, acc] x nodes, columns [EV x, EV y, x_ref]
-        V = np.stack(
-            [
-                K.B @ np.array(self._segment_points(j)).T
-                for K, (j, _, _) in zip(kernels, segments, strict=True)
-            ]
-        )
-        W = np.stack([K.w for K in kernels])
+        # control points (segment, [EV x, EV y, x_ref], 6) → spline values at the nodes
+        # (segment, [EV x, EV y, x_ref], [pos, vel, acc] x nodes)
+        P = np.array([self._segment_points(j) for j, _, _ in segments])
         n = self.config.n_gauss
-        pos_x, pos_y, pos_ref = V[:, :n, 0], V[:, :n, 1], V[:, :n, 2]
-        vel_x, acc_x, acc_y = V[:, n : 2 * n, 0], V[:, 2 * n :, 0], V[:, 2 * n :, 1]
+        if all(K is kernels[0] for K in kernels):  # the usual case: one step length
+            V = P @ kernels[0].B.T
+            W = kernels[0].w.reshape(1, 1, n)
+        else:
+            V = P @ np.stack([K.B for K in kernels]).transpose(0, 2, 1)
+            W = np.stack([K.w for K in kernels]).reshape(-1, 1, n)
         k = self.constants
-        dx = pos_ref - pos_x
-        sums = {
-            "ax": (W * (acc_x * acc_x)).sum(1),
-            "ay": (W * (acc_y * acc_y)).sum(1),
-            "v": (W * (k.v_des - vel_x) ** 2).sum(1),
-            "l": (W * np.abs(k.l_des - pos_y)).sum(1),
-            "il": (W * np.abs(k.l_initial - pos_y)).sum(1),
-            "tiv": (W * (k.v_lane / np.sqrt(dx * dx + k.tiv_d0**2))).sum(1),
-        }
-        if y_trg is not None:
-            sums["id"] = (W * np.abs(pos_y - y_trg)).sum(1)
-        lists = {name: v.tolist() for name, v in sums.items()}
+        y = V[:, 1:2, :n]
+        dx = V[:, 2:3, :n] - V[:, 0:1, :n]
+        levels = np.array([k.l_des, k.l_initial, k.l_des if y_trg is None else y_trg])
+        # the integrands (segment, _FAST_ORDER, node), as features.integrand writes them
+        integrands = np.concatenate(
+            [
+                V[:, :2, 2 * n :] ** 2,  # ax, ay: z²
+                (k.v_des - V[:, 0:1, n : 2 * n]) ** 2,  # v
+                np.abs(levels[None, :, None] - y),  # l, il, id (|z − y_trg| = |y_trg − z|)
+                k.v_lane / np.sqrt(dx * dx + k.tiv_d0**2),  # tiv
+            ],
+            axis=1,
+        )
+        sums = (integrands * W).sum(-1).tolist()
+        first_weight = self.config.ay_first_segment_weight
         out = []
-        for i, (j, il, idf) in enumerate(segments):
-            ay = lists["ay"][i]
+        for (j, il, idf), (ax, ay, v, lane, initial, reaction, tiv) in zip(
+            segments, sums, strict=True
+        ):
             out.append(
                 {
-                    "ax": lists["ax"][i],
-                    "ay": ay * self.config.ay_first_segment_weight if j == 0 else ay,
-                    "v": lists["v"][i],
-                    "l": lists["l"][i],
-                    "il": lists["il"][i] if il else 0.0,
-                    "tiv": lists["tiv"][i],
-                    "id": lists["id"][i] if idf and y_trg is not None else 0.0,
+                    "ax": ax,
+                    "ay": ay * first_weight if j == 0 else ay,
+                    "v": v,
+                    "l": lane,
+                    "il": initial if il else 0.0,
+                    "tiv": tiv,
+                    "id": reaction if idf and y_trg is not None else 0.0,
                 }
             )
         return out
@@ -412,10 +417,9 @@ class StyleReward:
         j = min(max(bisect.bisect_right(t, time) - 1, 0), S - 1)
         tau = time - t[j]
         a, b = (cps[j], cps[j + 1]) if vehicle is None else (cps[j][vehicle], cps[j + 1][vehicle])
-        if tau == 0.0:
+        if tau == 0.0:  # at a knot: its position exactly, as the basis row [1, 0, …] gives
             return a[3]
-        row = _basis_row(t[j + 1] - t[j], tau)
-        return float(row @ np.array(a[3:] + b[3:]))
+        return _quintic_value(a[3], a[4], a[5], b[3], b[4], b[5], t[j + 1] - t[j], tau)
 
     # ------------------------------------------------------------------ features
     def features(self) -> np.ndarray:
@@ -523,9 +527,18 @@ def _segment_kernel(t0: float, t1: float, n: int) -> _SegmentKernel:
     return kernel
 
 
-def _basis_row(T: float, tau: float) -> np.ndarray:
-    """The position basis row of a segment of duration T at local time τ (basis_matrix's)."""
-    return basis_matrix(np.array([0.0, T]), np.array([tau]))[0]
+def _quintic_value(
+    r0: float, v0: float, a0: float, r1: float, v1: float, a1: float, T: float, tau: float
+) -> float:
+    """Position of the quintic joining two one-axis control points at local time τ.
+
+    The coefficients of spline._hermite_matrix, evaluated by Horner's rule on floats.
+    """
+    T2, T3, T4, T5 = T**2, T**3, T**4, T**5
+    q3 = -10 / T3 * r0 - 6 / T2 * v0 - 1.5 / T * a0 + 10 / T3 * r1 - 4 / T2 * v1 + 0.5 / T * a1
+    q4 = 15 / T4 * r0 + 8 / T3 * v0 + 1.5 / T2 * a0 - 15 / T4 * r1 + 7 / T3 * v1 - 1 / T2 * a1
+    q5 = -6 / T5 * r0 - 3 / T4 * v0 - 0.5 / T3 * a0 + 6 / T5 * r1 - 3 / T4 * v1 + 0.5 / T3 * a1
+    return r0 + tau * (v0 + tau * (0.5 * a0 + tau * (q3 + tau * (q4 + tau * q5))))
 
 
 class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
