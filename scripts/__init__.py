@@ -31,6 +31,7 @@ COMMANDS: dict[str, str] = {
     "bench-smpc": "benchmark the SMPC expert",
     "bench-irl": "benchmark ME-IRL and identification",
     "bench-population": "benchmark mining a population",
+    "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
     "profile-inner": "profile the inner solvers: where a solve's time goes (issue 18)",
 }
 """Subcommand → what it does; the module is the name with ``_`` for ``-``."""

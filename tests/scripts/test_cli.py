@@ -103,6 +103,8 @@ CASES = {
     "missing style": ["scripts/compare_baseline.py", "--style", "{d}/nope.json"],
     "--repeats 0": ["scripts/bench_irl.py", "--repeats", "0"],
     "--trials 0": ["scripts/bench_smpc.py", "--trials", "0"],
+    "--steps 0": ["scripts/bench_env.py", "--steps", "0"],
+    "--cases bad": ["scripts/bench_env.py", "--cases", "lane_change,nope"],
     "--identify 0": ["scripts/profile_inner.py", "--identify", "0"],
 }
 
@@ -124,6 +126,7 @@ MISSING = "/nonexistent/drivestyle-input"
 # every script that writes, with its output option pointing into UNWRITABLE and its inputs
 # missing: the output must be reported first (a later check would report the input, or run)
 WRITES = {
+    "bench_env": ("--out", "b.json", []),
     "bench_irl": ("--out", "b.json", ["--demo", MISSING]),
     "bench_population": ("--out", "b.json", ["--library", MISSING]),
     "bench_smpc": ("--out", "b.json", []),
