@@ -103,3 +103,65 @@ def test_the_rl_observation_is_relative():
     shifted = obs.copy()
     shifted[[0, 4]] += 500.0  # the same situation further down the road
     np.testing.assert_array_equal(rl_observation(shifted, 0, sc), o)
+
+
+# ------------------------------------------------------------ the fast wrappers equal the reference
+def _reference_rl_observation(observation, k, sc):
+    """rl_observation as first written (numpy arrays throughout)."""
+    observation = np.asarray(observation, float)
+    ev = observation[:4]
+    left = max(1.0 - k / sc.n_steps, 0.0)
+    own = [ev[1] - sc.y_ref, ev[1] - sc.lane_centres[sc.ev_lane], ev[2], ev[3] - sc.v_ref]
+    if observation.size == 8:
+        tv = observation[4:8]
+        return np.array([*own, tv[0] - ev[0], tv[1] - ev[1], tv[3] - ev[3], left], np.float32)
+    slots = observation[4:].reshape(-1, 5)
+    rel = np.column_stack(
+        [slots[:, 0], slots[:, 1] - ev[0], slots[:, 2] - ev[1], slots[:, 4] - ev[3]]
+    )
+    rel[slots[:, 0] < 0.5] = 0.0
+    return np.concatenate([own, rel.ravel(), [left]]).astype(np.float32)
+
+
+def _reference_physical_action(a, low, high, ev, sc):
+    """physical_action with heading_steering_limits as first written."""
+    a = np.clip(np.asarray(a, float), -1.0, 1.0)
+    u = low + (a + 1.0) * 0.5 * (high - low)
+    phi, v = float(ev[2]), max(float(ev[3]), 1e-3)
+    scale = sc.l_r / (v * sc.dt)
+
+    def steer(sin_beta):
+        sin_beta = float(np.clip(sin_beta, -0.99, 0.99))
+        return float(np.arctan(np.tan(np.arcsin(sin_beta)) * (sc.l_f + sc.l_r) / sc.l_r))
+
+    lo = max(-sc.delta_max, steer((-sc.phi_max - phi) * scale))
+    hi = min(sc.delta_max, steer((sc.phi_max - phi) * scale))
+    if lo > hi:
+        lo = hi = -sc.delta_max if phi > 0 else sc.delta_max
+    u[1] = np.clip(u[1], lo, hi)
+    return u
+
+
+@pytest.mark.parametrize(
+    "env_id", ["drivestyle/LaneChangeRandom-v0", "drivestyle/TrafficRandom-v0"]
+)
+def test_the_rl_wrappers_equal_the_reference_implementation(env_id):
+    env = gym.make(env_id)
+    wrapped = NormalisedAction(RLObservation(gym.make(env_id)))
+    rng = np.random.default_rng(5)
+    obs, _ = env.reset(seed=1)
+    got, _ = wrapped.reset(seed=1)
+    base = env.unwrapped
+    low, high = base.action_space.low, base.action_space.high
+    for _ in range(300):
+        np.testing.assert_array_equal(got, _reference_rl_observation(obs, base.k, base.scenario))
+        # beyond [-1, 1] (clipped), and the heading bound's edge cases (swinging)
+        a = rng.uniform(-1.3, 1.3, 2).astype(np.float32)
+        u = _reference_physical_action(a, low, high, base.ev, base.scenario)
+        obs, _, term, trunc, info = env.step(u)
+        got, _, term_w, trunc_w, info_w = wrapped.step(a)
+        np.testing.assert_array_equal(info_w["action"], info["action"])
+        assert (term, trunc) == (term_w, trunc_w)
+        if term or trunc:
+            obs, _ = env.reset()
+            got, _ = wrapped.reset()
