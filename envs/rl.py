@@ -65,20 +65,36 @@ def rl_observation(observation: np.ndarray, k: int, scenario: Any) -> np.ndarray
     Returns:
         Float32 vector of :func:`rl_observation_size` entries.
     """
-    observation = np.asarray(observation, float)
-    ev = observation[:4]
-    sc = scenario
-    left = max(1.0 - k / sc.n_steps, 0.0)
-    own = [ev[1] - sc.y_ref, ev[1] - sc.lane_centres[sc.ev_lane], ev[2], ev[3] - sc.v_ref]
-    if observation.size == 8:
-        tv = observation[4:8]
-        return np.array([*own, tv[0] - ev[0], tv[1] - ev[1], tv[3] - ev[3], left], np.float32)
-    slots = observation[4:].reshape(-1, 5)
-    rel = np.column_stack(
-        [slots[:, 0], slots[:, 1] - ev[0], slots[:, 2] - ev[1], slots[:, 4] - ev[3]]
-    )
-    rel[slots[:, 0] < 0.5] = 0.0
-    return np.concatenate([own, rel.ravel(), [left]]).astype(np.float32)
+    # Python floats: a training loop calls this every step, and building small arrays costs
+    # more than the arithmetic (the same operations as the array form; tests/envs/test_rl.py)
+    values = np.asarray(observation, float).reshape(-1).tolist()
+    x, y, phi, v = values[:4]
+    n_steps, y_ref, y_initial, v_ref = _scenario_constants(scenario)
+    left = max(1.0 - k / n_steps, 0.0)
+    out = [y - y_ref, y - y_initial, phi, v - v_ref]
+    if len(values) == 8:
+        out += [values[4] - x, values[5] - y, values[7] - v, left]
+        return np.array(out, np.float32)
+    for i in range(4, len(values), 5):
+        present, ox, oy, _, ov = values[i : i + 5]
+        out += [present, ox - x, oy - y, ov - v] if not present < 0.5 else [0.0] * 4
+    out.append(left)
+    return np.array(out, np.float32)
+
+
+_CONSTANTS: dict[int, tuple[Any, tuple[float, float, float, float]]] = {}
+
+
+def _scenario_constants(sc: Any) -> tuple[float, float, float, float]:
+    """The scenario's (n_steps, y_target, y_initial, v_ref), cached: its properties build arrays."""
+    hit = _CONSTANTS.get(id(sc))
+    if hit is not None and hit[0] is sc:
+        return hit[1]
+    values = (sc.n_steps, float(sc.y_ref), float(sc.lane_centres[sc.ev_lane]), float(sc.v_ref))
+    if len(_CONSTANTS) > 1024:  # a random family draws a scenario per episode
+        _CONSTANTS.clear()
+    _CONSTANTS[id(sc)] = (sc, values)
+    return values
 
 
 def heading_steering_limits(ev: np.ndarray, scenario: Any) -> tuple[float, float]:
@@ -95,13 +111,16 @@ def heading_steering_limits(ev: np.ndarray, scenario: Any) -> tuple[float, float
     sc = scenario
     phi, v = float(ev[2]), max(float(ev[3]), 1e-3)
     scale = sc.l_r / (v * sc.dt)
-
-    def steer(sin_beta: float) -> float:
-        sin_beta = float(np.clip(sin_beta, -0.99, 0.99))
-        return float(np.arctan(np.tan(np.arcsin(sin_beta)) * (sc.l_f + sc.l_r) / sc.l_r))
-
-    lo = max(-sc.delta_max, steer((-sc.phi_max - phi) * scale))
-    hi = min(sc.delta_max, steer((sc.phi_max - phi) * scale))
+    # both bounds' sin β, clipped, through one array: numpy's arcsin, tan and arctan (the
+    # math module's can round differently)
+    sin_beta = [
+        min(max(s, -0.99), 0.99) for s in ((-sc.phi_max - phi) * scale, (sc.phi_max - phi) * scale)
+    ]
+    steer_lo, steer_hi = (
+        np.arctan(np.tan(np.arcsin(sin_beta)) * (sc.l_f + sc.l_r) / sc.l_r)
+    ).tolist()
+    lo = max(-sc.delta_max, steer_lo)
+    hi = min(sc.delta_max, steer_hi)
     if lo > hi:  # numerically outside the bound: steer back as hard as allowed
         lo = hi = -sc.delta_max if phi > 0 else sc.delta_max
     return lo, hi
@@ -119,12 +138,20 @@ def physical_action(
     With ``ev`` and ``scenario`` the steering is then clipped to
     :func:`heading_steering_limits` (the SMPC's heading bound).
     """
-    a = np.clip(np.asarray(a, float), -1.0, 1.0)
-    u = low + (a + 1.0) * 0.5 * (high - low)
+    # np.clip and the affine map on floats, element by element
+    values = np.asarray(a, float).reshape(-1).tolist()
+    low_l, high_l = (
+        np.asarray(low, float).reshape(-1).tolist(),
+        np.asarray(high, float).reshape(-1).tolist(),
+    )
+    u = [
+        lo + (min(max(x, -1.0), 1.0) + 1.0) * 0.5 * (hi - lo)
+        for x, lo, hi in zip(values, low_l, high_l, strict=True)
+    ]
     if ev is not None and scenario is not None:
         lo, hi = heading_steering_limits(ev, scenario)
-        u[1] = np.clip(u[1], lo, hi)
-    return u
+        u[1] = min(max(u[1], lo), hi)
+    return np.array(u)
 
 
 class RLObservation(gym.ObservationWrapper, RecordConstructorArgs):
