@@ -53,7 +53,7 @@ from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl import driver_style as ds
 from drivestyle.irl import inner as inner_mod
 from drivestyle.irl import smpc_problem as sp
-from drivestyle.irl.driver_style import DriverStyle, planner_for, risk_profile, step_residuals
+from drivestyle.irl.driver_style import DriverStyle, risk_profile, step_residuals
 from drivestyle.irl.identification import identify_driver
 from drivestyle.irl.library import DriverLibrary
 
@@ -451,7 +451,8 @@ def profile_step_residuals(
 ) -> dict[str, Any]:
     """(b1): ``step_residuals`` of ``style`` on ``demo`` with the planner of ``jit``."""
     t0 = time.perf_counter()
-    planner = planner_for(demo.scenario, style.horizon, 1, jit=jit)
+    # the interpreted fatrop (compiled=False): its stats carry the iteration counts and timers
+    planner = ds.StylePlanner(demo.scenario, style.horizon, 1, jit=jit, compiled=False)
     build_s = time.perf_counter() - t0
     step_residuals(style, demo, planner)  # warm-up
     plain = []
@@ -486,7 +487,10 @@ def profile_identification(
     demos: list[Demonstration], library: DriverLibrary, jit: bool
 ) -> dict[str, Any]:
     """(b2): ``identify_driver`` of each demonstration, its risk profile with ``jit``'s planner."""
-    planners = [planner_for(d.scenario, library.style.horizon, 1, jit=jit) for d in demos]
+    planners = [
+        ds.StylePlanner(d.scenario, library.style.horizon, 1, jit=jit, compiled=False)
+        for d in demos
+    ]
 
     identify = [identify_driver]  # timed as "posterior" while profiled
 
