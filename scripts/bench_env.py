@@ -121,7 +121,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def draw_actions(env: gym.Env, n: int, seed: int, mode: str) -> np.ndarray:
     """``n`` actions drawn uniformly over the env's action space (``gentle``: steering / 10)."""
     space = env.action_space
-    low, high = np.asarray(space.low, float), np.asarray(space.high, float)
+    if not isinstance(space, gym.spaces.Box):  # every drivestyle env acts on a Box
+        raise TypeError(f"expected a Box action space, got {space}")
+    low, high = space.low.astype(np.float64), space.high.astype(np.float64)
     actions = np.random.default_rng(seed).uniform(low, high, (n, 2))
     if mode == "gentle":
         actions[:, 1] *= 0.1
