@@ -48,7 +48,7 @@ def source_digest(modules: Sequence[str]) -> str:
     Returns:
         A hex digest.
     """
-    h = hashlib.sha256(ca.__version__.encode())
+    h = hashlib.sha256(str(ca.__version__).encode())  # type: ignore[attr-defined]
     for name in modules:
         __import__(name)
         path = getattr(sys.modules[name], "__file__", None)

@@ -427,7 +427,7 @@ class StylePlanner:
                 if link.shift is not None:
                     guess = self.guess(row.xi0, results[link.shift].point)
                 elif link.copy is not None and results[link.copy].point is not None:
-                    guess = results[link.copy].point
+                    guess = results[link.copy].point  # type: ignore[assignment]
                 else:
                     guess = link.given or self.guess(row.xi0, None)
                 p = self.parameters(row.xi0, row.others, row.style, scenario)
@@ -449,7 +449,7 @@ class StylePlanner:
                 src[i], mode[i] = j, 1 if link.shift is not None else 2
             else:
                 given[i] = link.given or self.guess(row.xi0, None)
-                states[i] = fast.state_from(given[i])
+                states[i] = fast.state_from(given[i])  # type: ignore[arg-type]
         generic: dict[int, PlanResult] = {}
         while True:
             fast.solve_batch(states, P, bnd, src, mode, status)
@@ -474,7 +474,7 @@ class StylePlanner:
                 if status[src[i]] == _NO_PLAN:  # as plan(previous=None): a cold start
                     mode[i], src[i] = 0, -1
                     given[i] = self.guess(rows[i].xi0, None)
-                    states[i] = fast.state_from(given[i])
+                    states[i] = fast.state_from(given[i])  # type: ignore[arg-type]
         return RowsResult.from_states(self, states, status == SolveStatus.CONVERGED, scenario)
 
     def _row_guess(self, i, rows, states, src, mode, given, generic, fast) -> PrimalDual:

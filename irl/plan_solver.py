@@ -1,3 +1,4 @@
+# mypy: ignore-errors
 """A compiled, structure-exploiting interior-point solver for the planner's NLP (DESIGN §16).
 
 The style planner's NLP (:mod:`drivestyle.irl.smpc_problem`) is tiny — N = 10 stages of a

@@ -196,7 +196,7 @@ def profile_paper(demo: Demonstration, repeats: int) -> dict[str, Any]:
             for buffered in fns:
                 kind = buffered.fn.name().split("_")[0]
                 kind_of[id(buffered)] = kind
-                timed = clock.timed(buffered._eval, lambda a, k=kind: f"eval_{k}_{where()}")
+                timed = clock.timed(buffered._eval, lambda a, k=kind: f"eval_{k}_{where()}")  # type: ignore[misc]
                 patches.append((buffered, "_eval", timed))
     original_newton = inner_mod.newton_minimize
     original_solve = inner_mod.InnerProblem.solve
@@ -230,7 +230,7 @@ def profile_paper(demo: Demonstration, repeats: int) -> dict[str, Any]:
         ),
         (inner_mod.InnerProblem, "solve", clock.timed(solve, "python_solve")),
     ]
-    walls, inner_ms, solves_per_learn = [], [], []
+    walls, inner_ms, solves_per_learn = [], [], []  # type: ignore[var-annotated]
     first: list[int] = []  # index of each run's first solve (from the demonstration)
     with _patched(patches):
         for _ in range(repeats):
