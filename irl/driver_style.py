@@ -31,7 +31,6 @@ T_s against the recorded surrounding vehicles, as the driver did.
 from __future__ import annotations
 
 import math
-import shutil
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -228,6 +227,17 @@ _NO_PLAN = 4
 """Status of a row neither solver solved (its first input is the braking fallback)."""
 
 
+def _input_limits(scenario: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """([a_min, −δ_max], [a_max, δ_max]): a plan's first input is clipped to these."""
+    return (np.array([scenario.a_min, -scenario.delta_max]),
+            np.array([scenario.a_max, scenario.delta_max]))  # fmt: skip
+
+
+def _braking(scenario: ScenarioConfig) -> np.ndarray:
+    """[a_min/2, 0]: the input where no plan was found (the expert's last fallback)."""
+    return np.array([scenario.a_min / 2, 0.0])
+
+
 @dataclass(frozen=True, eq=False)
 class RowsResult:
     """The plans of a batch, as arrays (:meth:`StylePlanner.solve_rows`)."""
@@ -265,10 +275,8 @@ class RowsResult:
         assert fast is not None  # only the compiled path has states
         lay = fast.layout
         w, _, _, z = lay.split(states)
-        lim_lo = np.array([scenario.a_min, -scenario.delta_max])
-        lim_hi = np.array([scenario.a_max, scenario.delta_max])
-        u0 = np.clip(w[:, lay.nlp.iu[0]], lim_lo, lim_hi)
-        u0[~ok] = [scenario.a_min / 2, 0.0]
+        u0 = np.clip(w[:, lay.nlp.iu[0]], *_input_limits(scenario))
+        u0[~ok] = _braking(scenario)
         active = np.any(z[:, lay.h_chance.ravel()] > 1e-8, axis=1) | np.any(
             w[:, lay.nlp.i_s.ravel()] > 1e-8, axis=1
         )
@@ -390,11 +398,9 @@ class StylePlanner:
             sol = self.problem.solve("ipopt", p, guess, bounds)
         viol = constraint_violation(sol.point.w, sol.g, bounds, self.layout.equality)
         ok = bool(sol.success and np.isfinite(viol) and viol < 1e-4)
-        lim_lo = np.array([scenario.a_min, -scenario.delta_max])
-        lim_hi = np.array([scenario.a_max, scenario.delta_max])
         if not ok:
-            return PlanResult(np.array([scenario.a_min / 2, 0.0]), False, True, None)
-        u0 = np.clip(sol.point.w[self.layout.iu[0]], lim_lo, lim_hi)
+            return PlanResult(_braking(scenario), False, True, None)
+        u0 = np.clip(sol.point.w[self.layout.iu[0]], *_input_limits(scenario))
         chance_rows = self.layout.ig_path[:, 0::2]
         active = bool(
             np.any(np.abs(sol.point.lam_g[chance_rows]) > 1e-8)
@@ -423,13 +429,8 @@ class StylePlanner:
         if fast is None:
             results: list[PlanResult] = []
             for row in rows:
-                link = row.link
-                if link.shift is not None:
-                    guess = self.guess(row.xi0, results[link.shift].point)
-                elif link.copy is not None and results[link.copy].point is not None:
-                    guess = results[link.copy].point  # type: ignore[assignment]
-                else:
-                    guess = link.given or self.guess(row.xi0, None)
+                j = row.link.shift if row.link.shift is not None else row.link.copy
+                guess = self._link_guess(row, None if j is None else results[j].point)
                 p = self.parameters(row.xi0, row.others, row.style, scenario)
                 results.append(self._plan_generic(p, scenario, guess))
             return RowsResult.from_results(results)
@@ -439,7 +440,6 @@ class StylePlanner:
         src = np.full(n, -1, np.int32)
         mode = np.zeros(n, np.int32)
         status = np.full(n, SolveStatus.FAILED, np.int32)
-        given: list[PrimalDual | None] = [None] * n
         for i, row in enumerate(rows):
             link = row.link
             if link.shift is not None or link.copy is not None:
@@ -448,19 +448,17 @@ class StylePlanner:
                     raise ValueError(f"row {i} links to row {j}: links must point to earlier rows")
                 src[i], mode[i] = j, 1 if link.shift is not None else 2
             else:
-                given[i] = link.given or self.guess(row.xi0, None)
-                states[i] = fast.state_from(given[i])  # type: ignore[arg-type]
-        generic: dict[int, PlanResult] = {}
+                states[i] = fast.state_from(self._link_guess(row, None))
         while True:
             fast.solve_batch(states, P, bnd, src, mode, status)
             failed = np.flatnonzero((status == SolveStatus.FAILED) & (mode != 3))
             solved = (status == SolveStatus.CONVERGED) & (mode != 3)
             mode[solved] = 3
             for i in failed.tolist():
-                guess = self._row_guess(i, rows, states, src, mode, given, generic, fast)
-                res = self._plan_generic(P[i], scenario, guess)
+                # the guess the compiled solver started from, for the generic solvers
+                source = fast.primal_dual(states[src[i]]) if src[i] >= 0 else None
+                res = self._plan_generic(P[i], scenario, self._link_guess(rows[i], source))
                 self.fallbacks += 1
-                generic[i] = res
                 mode[i] = 3
                 if res.ok and res.point is not None:
                     states[i] = fast.state_from(res.point)
@@ -473,39 +471,36 @@ class StylePlanner:
             for i in blocked.tolist():
                 if status[src[i]] == _NO_PLAN:  # as plan(previous=None): a cold start
                     mode[i], src[i] = 0, -1
-                    given[i] = self.guess(rows[i].xi0, None)
-                    states[i] = fast.state_from(given[i])  # type: ignore[arg-type]
+                    states[i] = fast.state_from(self._link_guess(rows[i], None))
         return RowsResult.from_states(self, states, status == SolveStatus.CONVERGED, scenario)
 
-    def _row_guess(self, i, rows, states, src, mode, given, generic, fast) -> PrimalDual:
-        """The guess the compiled solver started row i from, for the generic solvers."""
-        link = rows[i].link
-        if src[i] < 0:
-            return given[i] or self.guess(rows[i].xi0, None)
-        point = fast.primal_dual(states[src[i]])
-        return self.guess(rows[i].xi0, point) if link.shift is not None else point
+    def _link_guess(self, row: PlanRow, source: PrimalDual | None) -> PrimalDual:
+        """A row's warm start from its link and its source row's solution.
+
+        ``shift``: the source shifted (no source solution: a cold start); ``copy``: the
+        source as it is (none: cold); otherwise the given guess, or cold.
+        """
+        link = row.link
+        if link.shift is not None:
+            return self.guess(row.xi0, source)
+        if link.copy is not None and source is not None:
+            return source
+        return link.given or self.guess(row.xi0, None)
 
 
 _PLANNERS: dict[tuple, StylePlanner] = {}
 
 
-def jit_available() -> bool:
-    """Whether a C compiler for CasADi's jit is on the PATH (else planners are not compiled)."""
-    return shutil.which("gcc") is not None
-
-
-def planner_for(
-    scenario: ScenarioConfig, horizon: int, n_vehicles: int, jit: bool = False
-) -> StylePlanner:
+def planner_for(scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> StylePlanner:
     """A cached :class:`StylePlanner` for the geometry (one NLP build per process).
 
-    ``jit`` falls back to the uncompiled NLP when no C compiler is available.
+    Its fatrop is the compiled one cached on disk (:attr:`SMPCConfig.compiled`), or the
+    interpreted one when no C compiler is available.
     """
-    jit = jit and jit_available()
     key = (scenario.dt, scenario.l_f, scenario.l_r, scenario.l_a, scenario.l_b,
-           horizon, n_vehicles, jit)  # fmt: skip
+           horizon, n_vehicles)  # fmt: skip
     if key not in _PLANNERS:
-        _PLANNERS[key] = StylePlanner(scenario, horizon, n_vehicles, jit)
+        _PLANNERS[key] = StylePlanner(scenario, horizon, n_vehicles)
     return _PLANNERS[key]
 
 
@@ -624,7 +619,7 @@ def risk_profile(
     # the driver's own warm start: its previous step's plan at this risk, which at a step
     # without a binding constraint is the largest risk's plan (the NLP is not convex — the
     # nominal ellipse — and the warm start picks the branch)
-    starts: dict[int, PrimalDual | None] = {}
+    starts: dict[int, PrimalDual] = {}
     for k in steps:
         if k == 0 or not active[k - 1]:
             prev = top.points(k - 1) if k > 0 else None
@@ -771,7 +766,6 @@ def learn_driver(
     progress: Callable[[int, float], None] | None = None,
     screen: int = SCREEN_CANDIDATES,
     restarts: int = RESTARTS,
-    jit: bool = True,
 ) -> DriverFit:
     """Learn one driver's style from its demonstrations in several scenarios.
 
@@ -796,7 +790,6 @@ def learn_driver(
         progress: called with (iteration, cost) after each iteration.
         screen: starting points scored (1: the normalised start only).
         restarts: LM runs from the best-scored starting points.
-        jit: solve with gcc-compiled NLPs (≈ 2× faster after ≈ 5 s; ignored without gcc).
 
     Returns:
         The :class:`DriverFit`.
@@ -816,7 +809,7 @@ def learn_driver(
         if not all(lo <= p <= hi for p in risks):
             raise DriverStyleError(f"every risk must lie in [{lo}, {hi}], got {risks}")
     planners = [
-        planner_for(_check_demo(d), (initial.horizon if initial else 10), _n_vehicles(d), jit)
+        planner_for(_check_demo(d), (initial.horizon if initial else 10), _n_vehicles(d))
         for d in demos
     ]
     start = initial or DriverStyle(tuple(initial_weights()), risk=0.7)

@@ -657,12 +657,11 @@ class SMPCProblem:
                 success = self._stationary(out["x"], out["lam_g"], out["lam_x"])
                 status = "Solve_Succeeded" if success else "not stationary"
                 iterations = -1
-                point = PrimalDual(out["x"].copy(), out["lam_g"].copy(), out["lam_x"].copy())
-                return NLPSolution(solver, success, status, iterations, point, out["g"].copy())
-            stats = buffer.stats()
-            success = bool(stats.get("success", False))
-            status = str(stats.get("return_status", "unknown"))
-            iterations = int(stats.get("iter_count", -1))
+            else:
+                stats = buffer.stats()
+                success = bool(stats.get("success", False))
+                status = str(stats.get("return_status", "unknown"))
+                iterations = int(stats.get("iter_count", -1))
         except RuntimeError as exc:  # CasADi raises on NaN evaluations, solver errors, ...
             success, status, iterations = False, f"error: {exc}".splitlines()[0], -1
         out = self._outputs
@@ -672,7 +671,7 @@ class SMPCProblem:
     def _stationary(self, w: np.ndarray, lam_g: np.ndarray, lam_x: np.ndarray) -> bool:
         """Whether a generated solver's point is a KKT point to fatrop's tolerance.
 
-        ‖∇f + J_gᵀλ_g + λ_x‖∞ ≤ tol·s_d, with IPOPT's scaling s_d = max(1, mean |λ| / 100)
+        ‖∇f + J_gᵀλ_g + λ_x‖∞ ≤ 10·tol·s_d, with IPOPT's scaling s_d = max(1, mean |λ| / 100)
         (the slack penalty puts multipliers at ≈ 1e4); feasibility is the caller's check.
         """
         if self._kkt is None:

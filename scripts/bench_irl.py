@@ -27,7 +27,9 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -37,11 +39,13 @@ from tqdm import tqdm
 from drivestyle.agents import generate_demonstration
 from drivestyle.common.cli import positive_int, run_cli
 from drivestyle.common.io import check_output_file, write_json
-from drivestyle.envs import load_demonstration
+from drivestyle.envs import load_demonstration, save_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
+from drivestyle.irl.driver_style import DriverStyle, StylePlanner, learn_driver
 from drivestyle.irl.identification import identify
-from drivestyle.irl.library import load_library
+from drivestyle.irl.library import DriverLibrary, load_library
+from drivestyle.irl.plan_solver import IPMOptions, bounds_vector, compiled_solver
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -87,14 +91,6 @@ print(t1 - t0, t2 - t0, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 102
 
 def bench_driver(demo, n_identify: int, seed: int, learn: bool) -> dict:
     """The default style model's numbers (module docstring)."""
-    import subprocess
-    import tempfile
-
-    from drivestyle.envs import save_demonstration
-    from drivestyle.irl.driver_style import DriverStyle, StylePlanner, learn_driver
-    from drivestyle.irl.library import DriverLibrary
-    from drivestyle.irl.plan_solver import IPMOptions, bounds_vector, compiled_solver
-
     style = DriverStyle(DRIVER_WEIGHTS, risk=0.7)
     sc = demo.scenario
     t0 = time.perf_counter()
