@@ -71,7 +71,7 @@ def tiny_capacity(paper_demo):
 
     held_out = draw_interactive_scenarios(1, seed=500)[0]
     test_demo = generate_demonstration(0.7, held_out, SMPCConfig(risk=0.7))[0]
-    quick = {"screen": 1, "restarts": 1, "max_iter": 1, "jit": False}
+    quick = {"screen": 1, "restarts": 1, "max_iter": 1}
     return capacity_of_risk(0.7, [paper_demo], [test_demo], 3, quick, irl_max_iter=2)
 
 
