@@ -641,35 +641,25 @@ def capacity_of_risk(
     generic = DriverStyle(tuple(initial_weights()), risk=0.7)
     nominal = RISK_RANGE[0]
 
-    def cost_objective(z: np.ndarray) -> float:
-        return _rh_scores(_style_of(z, nominal), train).objective
-
-    t0 = time.perf_counter()
-    z, evals, start = _fit(
-        [
-            ("normalised weights", _z_of(generic, False)),
-            ("learn_driver's weights", _z_of(learned, False)),
-        ],
-        cost_objective,
-        budget,
+    # Nelder–Mead over the weights at the nominal risk, then over weights and risk
+    fits = (
+        ("rh_cost_nm", nominal, ("normalised weights", "learn_driver's weights")),
+        ("rh_chance_nm", None, ("normalised weights, p = 0.7", "learn_driver's style")),
     )
-    style = _style_of(z, nominal)
-    results["rh_cost_nm"] = rh_row("rh_cost_nm", style, evals, time.perf_counter() - t0, start)
+    for name, fixed, labels in fits:
+        free_risk = fixed is None
 
-    def chance_objective(z: np.ndarray) -> float:
-        return _rh_scores(_style_of(z, None), train).objective
+        def objective(z: np.ndarray, fixed: float | None = fixed) -> float:
+            return _rh_scores(_style_of(z, fixed), train).objective
 
-    t0 = time.perf_counter()
-    z, evals, start = _fit(
-        [
-            ("normalised weights, p = 0.7", _z_of(generic, True)),
-            ("learn_driver's style", _z_of(learned, True)),
-        ],
-        chance_objective,
-        budget,
-    )
-    style = _style_of(z, None)
-    results["rh_chance_nm"] = rh_row("rh_chance_nm", style, evals, time.perf_counter() - t0, start)
+        t0 = time.perf_counter()
+        z, evals, start = _fit(
+            [(labels[0], _z_of(generic, free_risk)), (labels[1], _z_of(learned, free_risk))],
+            objective,
+            budget,
+        )
+        style = _style_of(z, fixed)
+        results[name] = rh_row(name, style, evals, time.perf_counter() - t0, start)
 
     driver_d = tuple(_ellipse_margin(d.ev[:, :2], d) for d in test)
     return RiskCapacity(
