@@ -153,3 +153,21 @@ def test_help(name):
         cwd=ROOT,
     )
     assert proc.returncode == 0 and "--seed" in proc.stdout
+
+
+def test_bench_population_mines_with_a_driver_library(tmp_path):
+    # the default model's library: mining throughput is measured on it (issue 18)
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    lib = DriverLibrary(style=DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7),
+                        risks=(0.5, 0.7, 0.9))  # fmt: skip
+    (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
+    out = tmp_path / "bench.json"
+    res = _main("bench_population")(
+        ["--vehicles", "2", "--library", str(tmp_path), "--no-ray", "--out", str(out)]
+    )
+    js = json.loads(out.read_text())
+    assert js["vehicles"] == 2 and js["inner_solve_ms_median"] is None
+    assert all(r["n_ok"] + r["n_failed"] == 2 for r in res["runs"])
+    assert res["runs"][0]["demos_per_s_per_core"] > 0 and js["goal"]["demos_per_s_per_core"] == 15
