@@ -1,5 +1,6 @@
 import json
 import runpy
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -123,10 +124,19 @@ def test_reproduce_paper(tmp_path):
 
 def test_bench_irl(tmp_path, demo_file):
     out = tmp_path / "bench.json"
-    _main("bench_irl")(["--out", str(out), "--demo", str(demo_file), "--repeats", "1"])
+    argv = ["--out", str(out), "--demo", str(demo_file), "--repeats", "1", "--identify", "1"]
+    _main("bench_irl")(argv)
     js = json.loads(out.read_text())
     for fs in ("base", "reactive"):
         assert js[fs]["learn_wall_s"] > 0 and js[fs]["inner_solve_ms_median"] > 0
+    # the default model: product vs IPOPT on the same problems, the floor, a second process
+    drv = js["driver"]
+    assert drv["inner_solve_ms_median"] > 0 and drv["ipopt_over_product"] > 0
+    if shutil.which("gcc"):  # the floor is the compiled Newton step
+        assert 0 < drv["newton_step_floor_ms"] < drv["inner_solve_ms_median"]
+    assert drv["identify_s_median"] > 0
+    second = drv["second_process"]
+    assert 0 < second["ready_s"] <= second["first_identification_s"] and second["peak_rss_mb"] > 0
 
 
 @pytest.mark.parametrize(
