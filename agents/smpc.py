@@ -45,8 +45,10 @@ __all__ = [
     "InfeasibleStartError",
     "SMPCConfig",
     "SMPCDecision",
+    "SMPCDriver",
     "SMPCExpert",
     "SolveReport",
+    "cut_in_driver",
     "straighten_steer",
 ]
 
@@ -357,3 +359,55 @@ class SMPCExpert:
             return action, "shifted_plan"
         sc = self._scenario
         return np.array([sc.a_min / 2, straighten_steer(xi0, sc)]), "brake"
+
+
+class SMPCDriver:
+    """The lane changer of ``drivestyle/CutIn-v0``: SMPC(p) with the ego as its TV.
+
+    Implements the env's ``CutInDriver`` protocol (:mod:`drivestyle.envs.cut_in`). The
+    cutter is the scenario's EV; it sees the ego exactly as the demonstrations' SMPC(p)
+    sees its TV (one constrained vehicle, predicted at constant velocity with the paper's
+    uncertainty). One :class:`SMPCExpert` is built at the first :meth:`reset` and re-used:
+    later episodes only change its risk and scenario (κ and speeds are NLP parameters).
+
+    Args:
+        config: SMPC parameters; ``risk`` is replaced per episode (default: the paper's,
+            compiled solver).
+    """
+
+    def __init__(self, config: SMPCConfig | None = None) -> None:
+        self._config = config or SMPCConfig(compiled=True)
+        self._expert: SMPCExpert | None = None
+
+    @property
+    def expert(self) -> SMPCExpert | None:
+        """The SMPC expert (None before the first :meth:`reset`)."""
+        return self._expert
+
+    def reset(self, scenario: ScenarioConfig, risk: float) -> None:
+        """Start an episode of ``scenario`` driving with risk p = ``risk``.
+
+        Raises:
+            ValueError: p outside (0, 1).
+        """
+        if self._expert is None:
+            config = dataclasses.replace(self._config, risk=risk)
+            self._expert = SMPCExpert(config, scenario)
+        else:
+            self._expert.set_risk(risk)
+            self._expert.reset(scenario)
+
+    def act(self, cutter: np.ndarray, ego: np.ndarray) -> np.ndarray:
+        """The cutter's input [a, δ] for the states at t_k (cutter's EV, ego as its TV).
+
+        Raises:
+            RuntimeError: called before :meth:`reset`.
+        """
+        if self._expert is None:
+            raise RuntimeError("SMPCDriver.act() before reset(scenario, risk)")
+        return self._expert.act(np.concatenate([cutter, ego]))
+
+
+def cut_in_driver() -> SMPCDriver:
+    """Factory of the ``smpc`` entry point of the ``drivestyle.drivers`` group (CutIn-v0)."""
+    return SMPCDriver()
