@@ -13,7 +13,7 @@ from typing import TypeVar
 import casadi as ca
 import numpy as np
 
-__all__ = ["bicycle_ode", "rk4_step", "rk4_step_scalar"]
+__all__ = ["INPUT_FIT_SCALE", "bicycle_ode", "inverse_step", "rk4_step", "rk4_step_scalar"]
 
 Arr = TypeVar("Arr", np.ndarray, ca.SX, ca.MX)
 
@@ -127,3 +127,45 @@ def rk4_step_scalar(
         phi = phi + h6 * (k1p + 2 * k2p + 2 * k3p + k4p)
         v = v + h6 * (a + 2 * a + 2 * a + a)
     return x, y, phi, v
+
+
+INPUT_FIT_SCALE = np.array([0.1, 0.05, 0.01, 0.1])
+"""Scale of the one-step state mismatch [m, m, rad, m/s] :func:`inverse_step` weighs."""
+
+
+def inverse_step(
+    xi: np.ndarray,
+    xi_next: np.ndarray,
+    T_s: float,
+    l_f: float,
+    l_r: float,
+    lower: tuple[float, float],
+    upper: tuple[float, float],
+) -> np.ndarray:
+    """The input [a, δ] that carries ξ_k to ξ_{k+1} under :func:`rk4_step` (inputs unseen).
+
+    Bounded least squares on the state mismatch scaled by :data:`INPUT_FIT_SCALE` (four
+    equations, two unknowns: exact when ξ_{k+1} came from the model, the closest input for
+    a recorded or noisy pair), started from a = Δv/T_s, δ = 0.
+
+    Args:
+        xi: ξ_k = [x, y, φ, v], shape (4,).
+        xi_next: ξ_{k+1}, shape (4,).
+        T_s: the step between them [s].
+        l_f: centre of mass to front axle [m].
+        l_r: centre of mass to rear axle [m].
+        lower: [a_min, δ_min] the input may take.
+        upper: [a_max, δ_max].
+
+    Returns:
+        [a, δ], shape (2,).
+    """
+    from scipy.optimize import least_squares
+
+    xi, xi_next = np.asarray(xi, float), np.asarray(xi_next, float)
+
+    def mismatch(u: np.ndarray) -> np.ndarray:
+        return (rk4_step(xi, u, T_s, l_f, l_r) - xi_next) / INPUT_FIT_SCALE
+
+    a0 = float(np.clip((xi_next[3] - xi[3]) / T_s, lower[0], upper[0]))
+    return least_squares(mismatch, [a0, 0.0], bounds=(list(lower), list(upper))).x

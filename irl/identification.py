@@ -54,6 +54,7 @@ __all__ = [
     "calibrate_temperature",
     "check_answerable",
     "demo_scores",
+    "driver_posterior",
     "identify",
     "identify_all",
     "identify_driver",
@@ -561,22 +562,45 @@ def identify_driver(
             profiles = [risk_profile(library.style, d) for d in demos]
         except DriverStyleError as exc:
             raise LibraryError(f"cannot identify this demonstration: {exc}") from None
+    return driver_posterior(
+        profiles, library, [_min_s_e(d) for d in demos], [_true_risk(d) for d in demos]
+    )
+
+
+def driver_posterior(
+    profiles: Sequence[RiskProfile],
+    library: DriverLibrary,
+    min_s_e: Sequence[float],
+    true_risks: Sequence[float | None],
+) -> Identification:
+    """The :class:`Identification` of demonstrations' risk profiles (:func:`identify_driver`).
+
+    Shared by the offline identification and the online tracker
+    (:class:`drivestyle.irl.online.StyleTracker`), so both report the same posterior.
+
+    Args:
+        profiles: each demonstration's (or stream's) residual sums over the risks.
+        library: the driver library (its risks, temperature).
+        min_s_e: each demonstration's closest approach in ellipse units.
+        true_risks: each demonstration's true risk, where known.
+
+    Returns:
+        The :class:`Identification` (scorer ``"likelihood"``).
+    """
     grid = density_grid()
     density, (lo, hi) = _posterior(profiles, library.temperature, grid)
     risks = np.asarray(library.risks, float)
     mass = _grid_mass(grid, density, library.risks)
     order = np.argsort(-mass, kind="stable")
-    per_demo = []
-    for d, pr in zip(demos, profiles, strict=True):
-        min_s_e = _min_s_e(d)
-        per_demo.append(
-            DemoScores(
-                scores={LIKELIHOOD: tuple(np.interp(risks, pr.risks, pr.ssr).tolist())},
-                informative=pr.n_active > 0,
-                min_s_e=min_s_e,
-                trigger_fired=pr.n_active > 0,
-            )
+    per_demo = [
+        DemoScores(
+            scores={LIKELIHOOD: tuple(np.interp(risks, pr.risks, pr.ssr).tolist())},
+            informative=pr.n_active > 0,
+            min_s_e=float(s_e),
+            trigger_fired=pr.n_active > 0,
         )
+        for pr, s_e in zip(profiles, min_s_e, strict=True)
+    ]
     if not any(d.informative for d in per_demo):
         lo, hi = RISK_RANGE  # nothing was learned about p: say so, not a prior's quantiles
     return Identification(
@@ -588,7 +612,7 @@ def identify_driver(
         risk_interval=(lo, hi),
         ranking=tuple(float(risks[i]) for i in order),
         per_demo=tuple(per_demo),
-        true_risks=tuple(_true_risk(d) for d in demos),
+        true_risks=tuple(true_risks),
         density_risks=tuple(float(p) for p in grid),
         density=tuple(float(q) for q in density),
     )

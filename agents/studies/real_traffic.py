@@ -29,7 +29,7 @@ import numpy as np
 from drivestyle.agents.studies.figures import plot_episode
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.dynamics import rk4_step
+from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.real_data import RecordedEpisode
 from drivestyle.irl.driver_style import RESTARTS, SCREEN_CANDIDATES, learn_driver, reproduce
 from drivestyle.irl.features import FeatureConfig
@@ -345,8 +345,6 @@ stop-and-go), and a plan from a state outside the bound is infeasible."""
 RECORDED_DELTA_MAX = 0.25
 """Steering bound of the driver model on recorded traffic [rad] (the recorded lane changes
 need up to 0.16 rad, :func:`recorded_inputs`; the scenario's 0.05 rad is a highway's)."""
-_STATE_SCALE = np.array([0.1, 0.05, 0.01, 0.1])
-"""Scale of the one-step state mismatch [m, m, rad, m/s] when inputs are recovered."""
 DRIVER_REPRODUCTIONS = ("personal", "own_loo", "general_loo")
 """Driver-model reproductions: the episode's own style; a vehicle's style from its other
 episodes (leave-one-out); the style of the other vehicles' episodes (leave-one-out)."""
@@ -365,20 +363,13 @@ def recorded_inputs(demo: Demonstration) -> np.ndarray:
     Returns:
         Inputs, shape (n−1, 2).
     """
-    from scipy.optimize import least_squares
-
     sc = demo.scenario
     ev = demo.ev
-    lo, hi = [sc.a_min, -RECORDED_DELTA_MAX], [sc.a_max, RECORDED_DELTA_MAX]
+    lo, hi = (sc.a_min, -RECORDED_DELTA_MAX), (sc.a_max, RECORDED_DELTA_MAX)
     u = np.zeros((demo.n - 1, 2))
     for k in range(demo.n - 1):
         dt = float(demo.t[k + 1] - demo.t[k])
-
-        def mismatch(uk: np.ndarray, k: int = k, dt: float = dt) -> np.ndarray:
-            return (rk4_step(ev[k], uk, dt, sc.l_f, sc.l_r) - ev[k + 1]) / _STATE_SCALE
-
-        a0 = float(np.clip((ev[k + 1, 3] - ev[k, 3]) / dt, lo[0], hi[0]))
-        u[k] = least_squares(mismatch, [a0, 0.0], bounds=(lo, hi)).x
+        u[k] = inverse_step(ev[k], ev[k + 1], dt, sc.l_f, sc.l_r, lo, hi)
     return u
 
 

@@ -1,0 +1,90 @@
+"""The online tracker: the offline identification, sample by sample."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.irl.driver_style import RISK_RANGE, DriverStyle
+from drivestyle.irl.identification import identify_driver
+from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.online import StyleTracker, TrackerError, track_demo
+
+SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
+LIBRARY = DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))
+
+
+def _prefix(demo: Demonstration, n: int) -> Demonstration:
+    others = None if demo.others is None else demo.others[:n]
+    return Demonstration(t=demo.t[:n], ev=demo.ev[:n], tv=demo.tv[:n], u=demo.u[: n - 1],
+                         meta=demo.meta, others=others)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def history(paper_demo):
+    return track_demo(LIBRARY, paper_demo)
+
+
+@pytest.mark.parametrize("n", [12, None])
+def test_the_stream_equals_the_offline_identification_of_its_prefix(paper_demo, history, n):
+    n = n or paper_demo.n
+    offline = identify_driver(_prefix(paper_demo, n), LIBRARY)
+    online = history[n - 1]
+    np.testing.assert_allclose(online.density, offline.density, rtol=1e-9, atol=1e-12)
+    assert online.risk_interval == offline.risk_interval
+    assert online.risk_estimate == offline.risk_estimate
+    assert online.per_demo[0].min_s_e == pytest.approx(offline.per_demo[0].min_s_e)
+
+
+def test_the_posterior_narrows_onto_the_true_risk(history):
+    first, last = history[0], history[-1]
+    # one sample closes no step: the uniform prior, the whole range
+    assert not first.informative and first.risk_interval == RISK_RANGE
+    np.testing.assert_allclose(first.density, 1.0 / len(first.density))
+    lo, hi = last.risk_interval
+    assert lo <= 0.7 <= hi and hi - lo < 0.2
+    assert abs(last.risk_interpolated - 0.7) < 0.03
+
+
+def test_recovered_inputs_give_the_same_posterior(paper_demo, history):
+    # the SMPC's inputs are recovered from consecutive states exactly (RK4 inverted)
+    recovered = track_demo(LIBRARY, paper_demo, use_inputs=False)
+    assert recovered[-1].risk_interpolated == pytest.approx(history[-1].risk_interpolated, abs=2e-3)
+
+
+def test_style_at_the_posterior_mean_and_mode(paper_demo):
+    tracker = StyleTracker(LIBRARY, paper_demo.scenario)
+    assert tracker.estimate is None
+    assert tracker.style().risk == pytest.approx(sum(RISK_RANGE) / 2)
+    for k in range(paper_demo.n):
+        tracker.update(paper_demo.ev[k], paper_demo.vehicles[k], paper_demo.u[k - 1] if k else None)
+    assert tracker.style("mean").weights == LIBRARY.style.weights
+    assert abs(tracker.style("mode").risk - 0.7) < 0.03
+    with pytest.raises(TrackerError, match="'mean' or 'mode'"):
+        tracker.style("median")
+
+
+@pytest.mark.parametrize(
+    ("ev", "others", "u", "match"),
+    [
+        (np.zeros(3), np.zeros((1, 4)), None, r"ev must have shape \(4,\)"),
+        (np.array([0.0, 1.0, np.nan, 20.0]), np.zeros((1, 4)), None, "ev must be finite"),
+        (np.zeros(4), np.zeros(4), None, r"others must have shape \(m, 4\)"),
+        (np.zeros(4), np.zeros((1, 4)), "fast", "u_prev must be numeric"),
+    ],
+)
+def test_bad_samples_are_refused_in_one_line(paper_demo, ev, others, u, match):
+    tracker = StyleTracker(LIBRARY, paper_demo.scenario)
+    tracker.update(paper_demo.ev[0], paper_demo.vehicles[0])
+    with pytest.raises(TrackerError, match=match):
+        tracker.update(ev, others, u)
+
+
+def test_the_vehicle_count_must_not_change(paper_demo):
+    tracker = StyleTracker(LIBRARY, paper_demo.scenario)
+    tracker.update(paper_demo.ev[0], paper_demo.vehicles[0])
+    with pytest.raises(TrackerError, match="2 surrounding vehicles, earlier samples had 1"):
+        tracker.update(paper_demo.ev[1], np.zeros((2, 4)))
+    with pytest.raises(TrackerError, match="at least two risks"):
+        StyleTracker(LIBRARY, paper_demo.scenario, risks=(0.3, 0.7))
