@@ -11,6 +11,9 @@ Importing this package registers the Gymnasium ids (idempotently):
   override it.
 - ``drivestyle/TrafficRandom-v0``: traffic scenes drawn per reset from
   :class:`drivestyle.envs.traffic.TrafficRanges` with the env's seed.
+- ``drivestyle/CutIn-v0``: the agent controls the vehicle in the target lane while an
+  SMPC(p) lane changer of a risk drawn per reset cuts in ahead of it
+  (:class:`drivestyle.envs.cut_in.CutInEnv`).
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ ENV_IDS = (
     "drivestyle/LaneChangeRandom-v0",
     "drivestyle/Traffic-v0",
     "drivestyle/TrafficRandom-v0",
+    "drivestyle/CutIn-v0",
 )
 
 
@@ -64,6 +68,8 @@ def register_envs() -> None:
         gym.register(id=ENV_IDS[2], entry_point=traffic)
     if ENV_IDS[3] not in gym.registry:
         gym.register(id=ENV_IDS[3], entry_point=traffic, kwargs={"randomize": True})
+    if ENV_IDS[4] not in gym.registry:
+        gym.register(id=ENV_IDS[4], entry_point="drivestyle.envs.cut_in:CutInEnv")
 
 
 register_envs()
