@@ -69,6 +69,8 @@ __all__ = [
     "Reproduction",
     "RiskProfile",
     "StylePlanner",
+    "closed_loop",
+    "expert_style",
     "initial_weights",
     "learn_driver",
     "load_driver_style",
@@ -181,6 +183,23 @@ class DriverStyle:
             raise DriverStyleError(f"driver style is missing key {exc}") from None
         except (TypeError, ValueError) as exc:
             raise DriverStyleError(f"invalid driver style: {exc}") from None
+
+
+def expert_style(config: SMPCConfig) -> DriverStyle:
+    """The SMPC expert as a member of the style class (its weights, risk and horizon).
+
+    The parametric NLP with w = [Q_y, Q_φ, Q_v, R_a, R_δ] and the expert's risk is the
+    expert's own NLP (Q_N = Q), so this style plans the expert's inputs (tested): the oracle
+    of the prediction and planning studies.
+
+    Raises:
+        DriverStyleError: the expert's terminal weights differ from its stage weights, or
+            its risk lies outside :data:`RISK_RANGE`.
+    """
+    if tuple(config.Q_N) != tuple(config.Q):
+        raise DriverStyleError("the style class has Q_N = Q; this expert's terminal weights differ")
+    q, r = config.Q, config.R
+    return DriverStyle((q[1], q[2], q[3], r[0], r[1]), risk=config.risk, horizon=config.horizon)
 
 
 # ---------------------------------------------------------------------------- the planner
@@ -660,6 +679,56 @@ class Reproduction:
         return float(np.sqrt(np.mean(d[:, 1] ** 2))), float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
 
 
+def closed_loop(
+    style: DriverStyle,
+    xi0: np.ndarray,
+    vehicles: np.ndarray,
+    scenario: ScenarioConfig,
+    planner: StylePlanner,
+) -> tuple[np.ndarray, list[PrimalDual | None], np.ndarray, int]:
+    """Drive ``style`` from ξ0 past the vehicles' given states, re-planning every T_s.
+
+    A failed solve applies the previous plan's next input while one remains, else brakes
+    at a_min/2 (as the expert does).
+
+    Args:
+        style: the driver style.
+        xi0: the start state [x, y, φ, v].
+        vehicles: the surrounding vehicles' states at each sample, shape (n, m, 4)
+            (they do not react to the driven vehicle).
+        scenario: target lane, reference speed and bounds.
+        planner: the NLP.
+
+    Returns:
+        (states (n, 4), each step's plan or None, inputs (n−1, 2), failed solves).
+    """
+    n = vehicles.shape[0]
+    xs = np.empty((n, 4))
+    us = np.empty((n - 1, 2))
+    xs[0] = xi0
+    plans: list[PrimalDual | None] = []
+    previous: PrimalDual | None = None
+    spare = np.empty((0, 2))
+    failures = 0
+    sc = scenario
+    for k in range(n - 1):
+        res = planner.plan(xs[k], vehicles[k], style, sc, previous)
+        if res.ok and res.point is not None:
+            us[k] = res.u0
+            previous = res.point
+            spare = res.point.w[planner.layout.iu][1:]
+        else:
+            failures += 1
+            previous = None
+            if len(spare):
+                us[k], spare = spare[0], spare[1:]
+            else:
+                us[k] = res.u0  # braking
+        plans.append(previous)
+        xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
+    return xs, plans, us, failures
+
+
 def reproduce(
     style: DriverStyle, demo: Demonstration, planner: StylePlanner | None = None
 ) -> Reproduction:
@@ -680,26 +749,7 @@ def reproduce(
     sc = _check_demo(demo)
     planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
     vehicles = demo.vehicles
-    xs = np.empty((demo.n, 4))
-    us = np.empty((demo.n - 1, 2))
-    xs[0] = demo.ev[0]
-    previous: PrimalDual | None = None
-    spare = np.empty((0, 2))
-    failures = 0
-    for k in range(demo.n - 1):
-        res = planner.plan(xs[k], vehicles[k], style, sc, previous)
-        if res.ok and res.point is not None:
-            us[k] = res.u0
-            previous = res.point
-            spare = res.point.w[planner.layout.iu][1:]
-        else:
-            failures += 1
-            previous = None
-            if len(spare):
-                us[k], spare = spare[0], spare[1:]
-            else:
-                us[k] = res.u0  # braking
-        xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
+    xs, _, us, failures = closed_loop(style, demo.ev[0], vehicles, sc, planner)
     rel = xs[:, None, :2] - vehicles[:, :, :2]
     d = (rel[..., 0] / sc.l_a) ** 2 + (rel[..., 1] / sc.l_b) ** 2 - 1.0
     return Reproduction(demo.t.copy(), xs, us, failures, float(np.min(d)))
