@@ -391,9 +391,11 @@ class CutInEnv(gym.Env):
         d_clip = c.d_lo if delta < c.d_lo else (c.d_hi if delta > c.d_hi else delta)
         # both inputs from the states at t_k, then both vehicles move
         a_c, d_c = self._cutter_input()
-        x, y, phi, v = rk4_step_scalar(*self.ego.tolist(), a_clip, d_clip, c.dt, c.l_f, c.l_r)
+        x, y, phi, v = self.ego.tolist()
+        x, y, phi, v = rk4_step_scalar(x, y, phi, v, a_clip, d_clip, c.dt, c.l_f, c.l_r)
         v = min(max(v, 0.0), c.v_max)
-        xc, yc, phic, vc = rk4_step_scalar(*self.cutter.tolist(), a_c, d_c, c.dt, c.l_f, c.l_r)
+        xc, yc, phic, vc = self.cutter.tolist()
+        xc, yc, phic, vc = rk4_step_scalar(xc, yc, phic, vc, a_c, d_c, c.dt, c.l_f, c.l_r)
         vc = min(max(vc, 0.0), c.v_max)
         self.ego = np.array([x, y, phi, v])
         self.cutter = np.array([xc, yc, phic, vc])
