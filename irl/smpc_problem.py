@@ -137,6 +137,12 @@ class SMPCConfig:
     cached on disk (:mod:`drivestyle.irl.compiled`): the same iterates as the interpreted
     solver, ≈ 25 % faster than ``jit`` and no compilation in later processes. Falls back to
     the interpreted solver without gcc. The IPOPT retry is never compiled."""
+    predicted_paths: bool = False
+    """Take each constrained vehicle's predicted mean positions at stages 1 … N as
+    parameters (2N per vehicle: [x_1, y_1, …, x_N, y_N], :func:`nlp_parameters`) instead of
+    its state predicted at constant velocity: a planner that predicts the vehicle by another
+    model — its identified style (``drivestyle.agents.aware_planner``, DESIGN §17). The
+    covariance Σ_k is the same."""
     weights_as_parameters: bool = False
     """Make the cost weights w = [q_y, q_φ, q_v, r_a, r_δ] parameters of each solve
     (appended to p, :func:`nlp_parameters`), with Q_N = Q and the x weight fixed at Q[0]:
@@ -272,7 +278,9 @@ def nlp_parameters(
 
     Args:
         xi0: EV state ξ0 = [x, y, φ, v], shape (4,).
-        vehicles: states of the M constrained vehicles, shape (M, 4).
+        vehicles: states of the M constrained vehicles, shape (M, 4), or for an NLP
+            built with :attr:`SMPCConfig.predicted_paths` their predicted positions at
+            stages 1 … N, shape (M, N, 2).
         y_ref: reference lateral position [m].
         v_ref: reference speed [m/s].
         kappa: Φ⁻¹(p), the back-off quantile.
@@ -368,10 +376,12 @@ class _Symbols:
     v_ref: ca.SX
     kappa: ca.SX
     weights: ca.SX | None  # [q_y, q_φ, q_v, r_a, r_δ] of a parametric NLP
+    paths: bool = False  # vehicles are predicted paths [x_1, y_1, …, x_N, y_N]
 
 
-def _symbols(N: int, M: int, parametric: bool = False) -> _Symbols:
-    n_base = NX + 4 * M + 3
+def _symbols(N: int, M: int, parametric: bool = False, paths: bool = False) -> _Symbols:
+    b = 2 * N if paths else 4  # a vehicle's block: its predicted path, or its state
+    n_base = NX + b * M + 3
     P = ca.SX.sym("P", n_base + (N_WEIGHTS if parametric else 0))
     return _Symbols(
         xs=[ca.SX.sym(f"x{k}", NX) for k in range(N + 1)],
@@ -379,11 +389,12 @@ def _symbols(N: int, M: int, parametric: bool = False) -> _Symbols:
         ss=[ca.SX.sym(f"s{k}", M) for k in range(N + 1)],
         P=P,
         xi0=P[0:NX],
-        vehicles=[P[NX + 4 * j : NX + 4 * j + 4] for j in range(M)],
-        y_ref=P[NX + 4 * M],
-        v_ref=P[NX + 4 * M + 1],
-        kappa=P[NX + 4 * M + 2],
+        vehicles=[P[NX + b * j : NX + b * j + b] for j in range(M)],
+        y_ref=P[NX + b * M],
+        v_ref=P[NX + b * M + 1],
+        kappa=P[NX + b * M + 2],
         weights=P[n_base:] if parametric else None,
+        paths=paths,
     )
 
 
@@ -399,16 +410,26 @@ def _reference(sym: _Symbols, k: int, dt: float) -> ca.SX:
 
 
 def _ellipse_margins(
-    x_k: ca.SX, vehicle: ca.SX, k: int, sigma: np.ndarray, sc: ScenarioConfig, kappa: ca.SX
+    x_k: ca.SX,
+    vehicle: ca.SX,
+    k: int,
+    sigma: np.ndarray,
+    sc: ScenarioConfig,
+    kappa: ca.SX,
+    paths: bool = False,
 ) -> tuple[ca.SX, ca.SX]:
     """(chance margin g_k, nominal margin ‖z̄_k‖ − 1) of the EV at ξ_k against one vehicle.
 
     The vehicle is predicted at constant velocity from its state ``vehicle`` (the mean of
-    :func:`drivestyle.irl.prediction.tv_mean_prediction`) with covariance Σ_k.
+    :func:`drivestyle.irl.prediction.tv_mean_prediction`), or, with ``paths``, ``vehicle``
+    is its predicted path; covariance Σ_k.
     """
-    t_k = k * sc.dt
-    dx = x_k[0] - (vehicle[0] + vehicle[3] * ca.cos(vehicle[2]) * t_k)
-    dy = x_k[1] - (vehicle[1] + vehicle[3] * ca.sin(vehicle[2]) * t_k)
+    if paths:
+        dx, dy = x_k[0] - vehicle[2 * (k - 1)], x_k[1] - vehicle[2 * (k - 1) + 1]
+    else:
+        t_k = k * sc.dt
+        dx = x_k[0] - (vehicle[0] + vehicle[3] * ca.cos(vehicle[2]) * t_k)
+        dy = x_k[1] - (vehicle[1] + vehicle[3] * ca.sin(vehicle[2]) * t_k)
     chance = chance_margin(
         dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], sc.l_a, sc.l_b, kappa
     )
@@ -455,7 +476,9 @@ def _constraints(cfg: SMPCConfig, sc: ScenarioConfig, sym: _Symbols, F: ca.Funct
             continue
         rows = []
         for j, vehicle in enumerate(sym.vehicles):
-            chance, nominal = _ellipse_margins(sym.xs[k], vehicle, k, sigma, sc, sym.kappa)
+            chance, nominal = _ellipse_margins(
+                sym.xs[k], vehicle, k, sigma, sc, sym.kappa, sym.paths
+            )
             rows += [chance + sym.ss[k][j], nominal]
         g.append(ca.vertcat(*rows))
     return g
@@ -486,7 +509,9 @@ def transcribe(config: SMPCConfig, scenario: ScenarioConfig) -> tuple[dict, ca.F
         CasADi's NLP dict ``{"x": w, "f": J, "g": g, "p": p}`` (layout: :func:`nlp_layout`)
         and the discrete dynamics F(ξ, u).
     """
-    sym = _symbols(config.horizon, config.max_vehicles, config.weights_as_parameters)
+    sym = _symbols(
+        config.horizon, config.max_vehicles, config.weights_as_parameters, config.predicted_paths
+    )
     F = _dynamics(scenario)
     nlp = {
         "x": ca.vertcat(*_variables(sym)),
@@ -856,6 +881,7 @@ def _compiled_key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     """Digest of everything the generated fatrop solver depends on."""
     c = config
     fields = (c.horizon, c.max_vehicles, c.weights_as_parameters, c.Q, c.Q_N, c.R,
+              *((True,) if c.predicted_paths else ()),
               c.uncertainty, c.max_iter, c.tol, c.mu_init, c.slack_l1, c.slack_l2,
               _geometry_key(scenario))  # fmt: skip
     digest = source_digest([

@@ -28,6 +28,7 @@ from drivestyle.irl.spline import spline_eval
 if TYPE_CHECKING:
     from drivestyle.agents.studies.compare import HeldoutComparison
     from drivestyle.agents.studies.identification import EvaluationRecord
+    from drivestyle.agents.studies.planning import PlanningStudy
     from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "plot_lateral",
     "plot_learning_curve",
     "plot_noise_curve",
+    "plot_planning",
     "plot_population",
     "plot_reproductions",
     "plot_risk_sweep",
@@ -710,3 +712,35 @@ def plot_driver_traffic(
     axes[0].legend(fontsize=7, ncol=3)
     axes[1].set_xticks(pos, [i[:18] for i in ids], rotation=60, ha="right", fontsize=7)
     return save_figure(fig, path, f"{study.dataset}: driver model vs paper model", dpi=110)
+
+
+PREDICTOR_COLOURS = {"cv": "#6b7280", "style": EV_RED, "oracle": TV_BLUE}
+"""Colours of the cut-in study's predictors."""
+
+
+def plot_planning(study: PlanningStudy, path: str | Path) -> Path:
+    """The cut-in study: per scene, the ego's hardest braking and least distance by predictor.
+
+    Left: hardest braking of the style-aware and oracle egos against the CV ego's (below
+    the diagonal: gentler). Right: least centre distance likewise (above: farther).
+    """
+    by = {(r.seed, r.method): r for r in study.runs}
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.4))
+    for ax, attr, label in (
+        (axes[0], "hardest_braking", "hardest braking [m/s²]"),
+        (axes[1], "min_distance_m", "least distance to the cutter [m]"),
+    ):
+        cv = np.array([getattr(by[s, "cv"], attr) for s in study.seeds])
+        for method in ("style", "oracle"):
+            other = np.array([getattr(by[s, method], attr) for s in study.seeds])
+            ax.scatter(cv, other, s=14, alpha=0.7, color=PREDICTOR_COLOURS[method],
+                       label=f"{method} (mean {other.mean():.2f})")  # fmt: skip
+        lo = min(ax.get_xlim()[0], ax.get_ylim()[0])
+        hi = max(ax.get_xlim()[1], ax.get_ylim()[1])
+        ax.plot([lo, hi], [lo, hi], color="black", lw=0.8, ls="--")
+        ax.set_xlabel(f"CV ego: {label} (mean {cv.mean():.2f})")
+        ax.set_ylabel(label)
+        ax.legend(loc="best", fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"Cut-in: the ego's prediction of the lane changer ({len(study.seeds)} scenes)")
+    return save_figure(fig, path)

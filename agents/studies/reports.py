@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from drivestyle.agents.studies.compare import Comparison
     from drivestyle.agents.studies.identification import Evaluation
     from drivestyle.agents.studies.paper import PaperStudy
+    from drivestyle.agents.studies.planning import PlanningStudy
     from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
@@ -31,6 +32,7 @@ __all__ = [
     "noise_markdown",
     "paper_console",
     "paper_markdown",
+    "planning_markdown",
     "real_traffic_markdown",
     "references_markdown",
     "seconds",
@@ -478,3 +480,30 @@ def driver_evaluation_markdown(curve: Sequence[Evaluation], refs: References | N
             f"{fmt(c2.grid_accuracy_untied, 2)})."
         )
     return "\n".join([*lines, ""])
+
+
+def planning_markdown(study: PlanningStudy) -> str:
+    """The cut-in study's table (``planning.md``; docs/RESULTS.md quotes it)."""
+    from drivestyle.agents.studies.planning import HARD_BRAKING
+
+    lines = [
+        f"Cut-in scenes: {len(study.seeds)} (seeds {study.seeds[0]}–{study.seeds[-1]}); "
+        "the ego's prediction of the lane changer:",
+        "",
+        "| predictor | collisions | least distance [m] mean (min) | least margin s_e−1 mean | "
+        f"time in ellipse [s] | hardest braking [m/s²] mean (p90) | scenes > {HARD_BRAKING:g} "
+        "m/s² | braking > 3 m/s² [s] | max jerk [m/s³] | progress [m] | step [ms] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s in study.summaries:
+        lines.append(
+            f"| {s.method} | {s.collisions} | {fmt(s.min_distance_m_mean, 1)} "
+            f"({fmt(s.min_distance_m_min, 1)}) | {fmt(s.min_d_mean, 2)} | "
+            f"{fmt(s.time_in_ellipse_s_mean, 2)} | {fmt(s.hardest_braking_mean, 2)} "
+            f"({fmt(s.hardest_braking_p90, 1)}) | {s.scenes_with_hard_braking} | "
+            f"{fmt(s.hard_braking_s_mean, 2)} | {fmt(s.max_jerk_mean, 1)} | "
+            f"{fmt(s.progress_m_mean, 1)} | {fmt(s.plan_ms_median, 1)} |"
+        )
+    lines += ["", "Goals (style-aware ego): " + ", ".join(
+        f"{k} {'met' if v else 'MISSED'}" for k, v in study.goals.items()), ""]  # fmt: skip
+    return "\n".join(lines)
