@@ -19,6 +19,8 @@ COMMANDS: dict[str, str] = {
     "build-style-library": "a style library: θ per risk level over shared scenarios",
     "identify-style": "identify a vehicle's risk level with a style library",
     "evaluate-identification": "identification on held-out scenarios, risks and noise",
+    "predict-trajectory": "predict a vehicle's rest of trajectory after t_obs s (style vs CV)",
+    "evaluate-prediction": "style-aware prediction vs CV on held-out and recorded vehicles",
     "mine-styles": "personal style and risk of many demonstrations (local or Ray)",
     "simulate-population": "SMPC vehicles with known risks (ground truth for mining)",
     "real-traffic": "styles of recorded lane changes (NGSIM, CATS)",
@@ -32,6 +34,7 @@ COMMANDS: dict[str, str] = {
     "bench-smpc": "benchmark the SMPC expert",
     "bench-irl": "benchmark ME-IRL and identification",
     "bench-population": "benchmark mining a population",
+    "bench-tracker": "benchmark online identification: latency of one StyleTracker update",
     "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
     "profile-inner": "profile the inner solvers: where a solve's time goes (issue 18)",
 }

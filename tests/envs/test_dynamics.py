@@ -76,3 +76,17 @@ def test_the_scalar_fast_path_equals_the_array_map():
         want = rk4_step(xi, u, 0.2, L_F, 1.7, n_sub)
         got = rk4_step_scalar(*xi.tolist(), *u.tolist(), 0.2, L_F, 1.7, n_sub)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_inverse_step_recovers_the_input_and_respects_its_bounds():
+    from drivestyle.envs.dynamics import inverse_step
+
+    xi = np.array([3.0, 1.5, 0.02, 25.0])
+    for u in ([0.8, -0.018], [-2.7, 0.039], [0.0, 0.0]):
+        nxt = rk4_step(xi, np.array(u), 0.2, 2.0, 2.0)
+        got = inverse_step(xi, nxt, 0.2, 2.0, 2.0, (-9.0, -0.05), (6.0, 0.05))
+        np.testing.assert_allclose(got, u, atol=1e-9)
+    # an input beyond the bounds is answered with the bound, not extrapolated past it
+    nxt = rk4_step(xi, np.array([0.0, 0.08]), 0.2, 2.0, 2.0)
+    got = inverse_step(xi, nxt, 0.2, 2.0, 2.0, (-9.0, -0.05), (6.0, 0.05))
+    assert got[1] == pytest.approx(0.05)
