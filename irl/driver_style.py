@@ -685,6 +685,7 @@ def closed_loop(
     vehicles: np.ndarray,
     scenario: ScenarioConfig,
     planner: StylePlanner,
+    previous: PrimalDual | None = None,
 ) -> tuple[np.ndarray, list[PrimalDual | None], np.ndarray, int]:
     """Drive ``style`` from ξ0 past the vehicles' given states, re-planning every T_s.
 
@@ -698,6 +699,9 @@ def closed_loop(
             (they do not react to the driven vehicle).
         scenario: target lane, reference speed and bounds.
         planner: the NLP.
+        previous: the plan of the step before ξ0, the first solve's warm start (None:
+            cold; the NLP is not convex, so a cold start mid-drive may find another plan
+            than the driver's warm-started one).
 
     Returns:
         (states (n, 4), each step's plan or None, inputs (n−1, 2), failed solves).
@@ -707,7 +711,6 @@ def closed_loop(
     us = np.empty((n - 1, 2))
     xs[0] = xi0
     plans: list[PrimalDual | None] = []
-    previous: PrimalDual | None = None
     spare = np.empty((0, 2))
     failures = 0
     sc = scenario

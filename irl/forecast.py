@@ -124,6 +124,7 @@ def style_rollout(
     scenario: ScenarioConfig,
     steps: int,
     n_vehicles: int | None = None,
+    history: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The style driven in closed loop from ξ_k for ``steps`` samples (module docstring).
 
@@ -135,6 +136,10 @@ def style_rollout(
         scenario: the vehicle's scenario (target lane, v_ref, bounds, geometry).
         steps: H.
         n_vehicles: the NLP's vehicle slots (default: 1 for a lone TV, else 4, as learning).
+        history: the observed states ξ_0 … ξ_{k−1}, shape (k, 4), and the vehicles' states
+            then, shape (k, m, 4): the style re-plans along them, each plan warm-started from
+            the previous one as a driver does, and the last warm-starts the first solve
+            from ξ_k (the NLP is not convex: a cold start there may find another plan).
 
     Returns:
         The predicted states, shape (H + 1, 4) (row 0: ξ_k).
@@ -142,7 +147,12 @@ def style_rollout(
     m = others.shape[0]
     planner = planner_for(scenario, style.horizon, n_vehicles or (1 if m == 1 else 4))
     future = others_at_constant_velocity(others, scenario.dt, steps)
-    xs, _, _, _ = closed_loop(style, np.asarray(xi, float), future, scenario, planner)
+    previous = None
+    if history is not None:
+        for state, around in zip(*history, strict=True):
+            res = planner.plan(state, around, style, scenario, previous)
+            previous = res.point if res.ok else None
+    xs, _, _, _ = closed_loop(style, np.asarray(xi, float), future, scenario, planner, previous)
     return xs
 
 
@@ -291,7 +301,8 @@ def predict(
     xi, others = demo.ev[k], vehicles[k]
 
     def rollout(style: DriverStyle) -> np.ndarray:
-        return style_rollout(style, xi, others, sc, steps)[:, :2]
+        history = (demo.ev[:k], vehicles[:k])
+        return style_rollout(style, xi, others, sc, steps, history=history)[:, :2]
 
     paths: dict[str, tuple[np.ndarray, float | None]] = {}
     if "cv" in methods:

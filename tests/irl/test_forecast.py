@@ -1,0 +1,105 @@
+"""Prediction after t_obs (irl/forecast.py): baselines in closed form, errors, the style methods."""
+
+import numpy as np
+import pytest
+
+from drivestyle.irl.driver_style import DriverStyle, expert_style
+from drivestyle.irl.forecast import (
+    METHODS,
+    ForecastError,
+    constant_acceleration,
+    constant_velocity,
+    displacement_errors,
+    others_at_constant_velocity,
+    predict,
+)
+from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.smpc_problem import SMPCConfig
+
+LIBRARY = DriverLibrary(
+    DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
+)
+
+
+def test_constant_velocity_holds_the_velocity_vector():
+    state = np.array([10.0, 2.0, 0.3, 20.0])
+    xy = constant_velocity(state, 0.2, 5)
+    j = np.arange(6) * 0.2
+    expected = np.stack([10.0 + j * 20.0 * np.cos(0.3), 2.0 + j * 20.0 * np.sin(0.3)], axis=1)
+    np.testing.assert_allclose(xy, expected, atol=1e-12)
+
+
+def test_constant_acceleration_is_the_parabola_of_the_last_velocity_change():
+    # v: 10 → 12 m/s along x over one step of 0.5 s, heading 0: a = 4 m/s²
+    states = np.array([[0.0, 1.0, 0.0, 10.0], [5.0, 1.0, 0.0, 12.0]])
+    xy = constant_acceleration(states, 0.5, 4)
+    tau = np.arange(5) * 0.5
+    np.testing.assert_allclose(xy[:, 0], 5.0 + 12.0 * tau + 0.5 * 4.0 * tau**2, atol=1e-12)
+    np.testing.assert_allclose(xy[:, 1], 1.0, atol=1e-12)
+    # a turning vehicle at constant speed: the velocity vector's change, not the speed's
+    turn = np.array([[0.0, 0.0, 0.0, 10.0], [2.0, 0.0, np.pi / 2, 10.0]])
+    xy = constant_acceleration(turn, 1.0, 1)
+    np.testing.assert_allclose(xy[1], [2.0 + 0.0 - 5.0, 0.0 + 10.0 + 5.0], atol=1e-12)
+    # one sample: no acceleration, the constant-velocity path
+    one = states[-1:]
+    cv = constant_velocity(one[0], 0.5, 3)
+    np.testing.assert_allclose(constant_acceleration(one, 0.5, 3), cv)
+
+
+def test_others_at_constant_velocity():
+    others = np.array([[0.0, 3.5, 0.0, 10.0], [5.0, 0.0, np.pi / 2, 2.0]])
+    out = others_at_constant_velocity(others, 0.5, 2)
+    assert out.shape == (3, 2, 4)
+    np.testing.assert_allclose(out[2, 0], [10.0, 3.5, 0.0, 10.0], atol=1e-12)
+    np.testing.assert_allclose(out[2, 1], [5.0, 2.0, np.pi / 2, 2.0], atol=1e-12)
+
+
+def test_displacement_errors_by_hand():
+    actual = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
+    predicted = np.array([[9.0, 9.0], [1.0, 3.0], [2.0, 0.0], [7.0, 3.0]])  # row 0 not scored
+    ade, fde = displacement_errors(predicted, actual)
+    assert fde == pytest.approx(5.0)
+    assert ade == pytest.approx((3.0 + 0.0 + 5.0) / 3)
+
+
+@pytest.fixture(scope="module")
+def prediction(paper_demo):
+    return predict(paper_demo, LIBRARY, 2.0, oracle=expert_style(SMPCConfig(risk=0.7)))
+
+
+def test_predict_runs_every_method_on_the_rest(prediction, paper_demo):
+    assert list(prediction.methods) == list(METHODS)
+    k = round(2.0 / paper_demo.scenario.dt)
+    steps = paper_demo.n - 1 - k
+    assert prediction.actual.shape == (steps + 1, 2)
+    np.testing.assert_allclose(prediction.actual, paper_demo.ev[k:, :2])
+    np.testing.assert_allclose(prediction.observed, paper_demo.ev[: k + 1, :2])
+    for m in prediction.methods.values():
+        assert m.xy.shape == (steps + 1, 2)
+        np.testing.assert_allclose(m.xy[0], paper_demo.ev[k, :2], atol=1e-9)
+        assert (m.ade_m, m.fde_m) == pytest.approx(displacement_errors(m.xy, prediction.actual))
+    js = prediction.to_json()
+    assert set(js["methods"]["mode"]) == {"ade_m", "fde_m", "risk", "path"}
+    assert js["true_risk"] == 0.7
+
+
+def test_the_oracle_is_exact_and_the_mode_far_better_than_cv(prediction):
+    # the paper's TV drives at constant velocity, so SMPC(0.7)'s style from the observed
+    # state re-plans exactly what the SMPC did
+    fde = {name: m.fde_m for name, m in prediction.methods.items()}
+    assert fde["oracle"] < 0.05
+    assert fde["mode"] < 0.3 * fde["cv"]
+
+
+@pytest.mark.parametrize(
+    "t_obs, match",
+    [(0.0, "must be > 0"), (0.3, "whole number"), (1e3, "nothing to predict")],
+)
+def test_observation_windows_the_demo_cannot_serve(paper_demo, t_obs, match):
+    with pytest.raises(ForecastError, match=match):
+        predict(paper_demo, LIBRARY, t_obs, methods=("cv",))
+
+
+def test_an_unknown_method_is_refused(paper_demo):
+    with pytest.raises(ForecastError, match="unknown prediction method"):
+        predict(paper_demo, LIBRARY, 1.0, methods=("cv", "kalman"))
