@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from drivestyle.agents.studies.identification import Evaluation
     from drivestyle.agents.studies.paper import PaperStudy
     from drivestyle.agents.studies.planning import PlanningStudy
+    from drivestyle.agents.studies.prediction import PredictionStudy
     from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
@@ -33,6 +34,7 @@ __all__ = [
     "paper_console",
     "paper_markdown",
     "planning_markdown",
+    "prediction_markdown",
     "real_traffic_markdown",
     "references_markdown",
     "seconds",
@@ -506,4 +508,110 @@ def planning_markdown(study: PlanningStudy) -> str:
         )
     lines += ["", "Goals (style-aware ego): " + ", ".join(
         f"{k} {'met' if v else 'MISSED'}" for k, v in study.goals.items()), ""]  # fmt: skip
+    return "\n".join(lines)
+
+
+def _pct(value: float | None) -> str:
+    return "—" if value is None else f"{100 * value:.0f} %"
+
+
+def prediction_markdown(study: PredictionStudy, command: str) -> str:
+    """``report.md`` of the prediction comparison (docs/RESULTS.md quotes it).
+
+    Args:
+        study: the study's result.
+        command: the command that produced it.
+    """
+    from drivestyle.agents.studies.prediction import NARROW_WIDTH, TEST_SEED, VALIDATION_SEED
+
+    n_sim = len(study.vehicles)
+    n_rand = sum(v.scenario is not None for v in study.vehicles)
+    seed_kind = {TEST_SEED: "the test seed", VALIDATION_SEED: "the validation seed"}.get(
+        study.seed, f"neither the validation seed {VALIDATION_SEED} nor the test seed {TEST_SEED}"
+    )
+    lines = [
+        "# Style-aware prediction against constant velocity",
+        "",
+        f"Command: `{command}`",
+        "",
+        f"Seed {study.seed} ({seed_kind}); {n_sim} simulated vehicles "
+        f"({n_rand} random family, {n_sim - n_rand} traffic), risks U[0.5, 0.95]; recorded: "
+        f"{', '.join(study.recorded_sets) or 'none'}"
+        + (
+            " (solver geometries: "
+            + ", ".join(f"{k} {v}" for k, v in study.n_geometries.items())
+            + ")"
+            if study.n_geometries
+            else ""
+        )
+        + f". Predictions: {len(study.records)}; skipped: {len(study.skipped)}.",
+        "",
+        "Wall time: " + ", ".join(f"{k} {seconds(v)}" for k, v in study.seconds.items()) + ".",
+        "",
+    ]
+    sets = list(dict.fromkeys(s.set for s in study.summaries))
+    for set_name in sets:
+        rows = [s for s in study.summaries if s.set == set_name]
+        oracle = any(s.fde_ratio_to_oracle is not None for s in rows)
+        lines += [
+            f"## {set_name}",
+            "",
+            "| t_obs | method | n | ADE mean (median) [m] | FDE mean (median) [m] | "
+            "FDE reduction vs CV |"
+            + (" FDE / oracle | FDE − oracle [m] | share of oracle's gain |" if oracle else ""),
+            "|---|---|---|---|---|---|" + ("---|---|---|" if oracle else ""),
+        ]
+        for s in rows:
+            line = (
+                f"| {seconds(s.t_obs)} | {s.method} | {s.n} | {fmt(s.ade_mean_m, 2)} "
+                f"({fmt(s.ade_median_m, 2)}) | {fmt(s.fde_mean_m, 2)} ({fmt(s.fde_median_m, 2)}) "
+                f"| {_pct(s.fde_reduction_vs_cv)} |"
+            )
+            if oracle:
+                ratio = s.fde_ratio_to_oracle
+                line += (
+                    f" {'—' if ratio is None else (f'{ratio:.2f}' if ratio < 1e3 else '≫ 1')} | "
+                    f"{fmt(s.fde_gap_to_oracle_m, 2)} | {_pct(s.oracle_gain_share)} |"
+                )
+            lines.append(line)
+        lines.append("")
+    lines += [
+        "## Goals",
+        "",
+        "FDE ≥ 30 % below CV on simulated vehicles and ≥ 15 % on recorded ones; within 25 % "
+        "of the oracle (FDE ≤ 1.25 × FDE_oracle) on simulated ones.",
+        "",
+        "| goal | set | t_obs | method | threshold | value | |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for g in study.goals:
+        value = g.value
+        shown = "—" if value is None else (f"{value:.3f}" if abs(value) < 1e3 else "≫ 1")
+        lines.append(
+            f"| {g.goal} | {g.set} | {seconds(g.t_obs)} | {g.method} | {g.threshold:g} | "
+            f"{shown} | {'met' if g.met else 'MISSED'} |"
+        )
+    tr = study.tracking
+    lines += [
+        "",
+        "## Online identification (simulated vehicles, inputs unseen)",
+        "",
+        f"{tr.n} vehicles; the 90 % interval gets narrower than {NARROW_WIDTH:g} for "
+        f"{tr.n_narrow} ({_pct(tr.fraction_narrow)}), first after a median "
+        f"{seconds(tr.t_narrow_median_s)} (10–25–75–90 %: {seconds(tr.t_narrow_q10_s)}, "
+        f"{seconds(tr.t_narrow_q25_s)}, {seconds(tr.t_narrow_q75_s)}, "
+        f"{seconds(tr.t_narrow_q90_s)}); it stays narrow to the end for {tr.n_narrow_stays} "
+        f"(from a median {seconds(tr.t_narrow_stays_median_s)}). Final interval covers the "
+        f"true risk for {_pct(tr.final_coverage)}; final |mean − p| {fmt(tr.final_mae)}. "
+        f"Update: median {fmt(tr.update_ms_median, 1)} ms, p95 {fmt(tr.update_ms_p95, 1)} ms "
+        "(parallel workers on a shared machine).",
+        "",
+    ]
+    if study.skipped:
+        lines += ["## Skipped", ""]
+        reasons: dict[str, int] = {}
+        for s in study.skipped:
+            key = f"{s.set}: {s.reason}"
+            reasons[key] = reasons.get(key, 0) + 1
+        lines += [f"- {n} × {r}" for r, n in sorted(reasons.items())] + [""]
     return "\n".join(lines)

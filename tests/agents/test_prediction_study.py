@@ -1,0 +1,139 @@
+"""The prediction comparison (agents/studies/prediction.py): a tiny run, summaries, goals."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drivestyle.agents.studies.prediction import (
+    GOALS,
+    RISK_RANGE,
+    TEST_SEED,
+    VALIDATION_SEED,
+    MethodSummary,
+    PredictionRecord,
+    draw_simulated,
+    evaluate_prediction,
+    example_record,
+    goal_checks,
+    observed_scenario,
+    oracle_style,
+    spanning_tracks,
+    summarise_records,
+)
+from drivestyle.irl.driver_style import DriverStyle, expert_style
+from drivestyle.irl.forecast import METHODS
+from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.smpc_problem import SMPCConfig
+
+LIBRARY = DriverLibrary(
+    DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
+)
+
+
+def test_the_validation_and_test_seeds_differ():
+    assert VALIDATION_SEED != TEST_SEED
+
+
+@pytest.fixture(scope="module")
+def study():
+    return evaluate_prediction(LIBRARY, 2, VALIDATION_SEED, data_dir=None, t_obs=(1.0,))
+
+
+def test_a_tiny_run_has_one_record_per_vehicle_and_t_obs(study):
+    assert [v.vehicle_id for v in study.vehicles] == ["random-0", "traffic-0"]
+    assert all(RISK_RANGE[0] <= v.risk <= RISK_RANGE[1] for v in study.vehicles)
+    assert len(study.records) + len(study.skipped) == 2
+    for r in study.records:
+        assert r.set == "simulated" and r.t_obs == 1.0
+        assert list(r.fde_m) == list(METHODS)  # the oracle too: the risk is known
+        assert r.true_risk in {v.risk for v in study.vehicles}
+    assert len(study.tracks) == 2 and study.tracking.n == 2
+    js = study.to_json()
+    assert js["seed"] == VALIDATION_SEED and js["n_records"] == len(study.records)
+    assert {"summaries", "goal_checks", "tracking_summary", "records", "skipped"} <= set(js)
+
+
+def test_summaries_are_consistent_with_the_records(study):
+    recs = study.records
+    for method in METHODS:
+        s = study.summary("simulated", 1.0, method)
+        assert s is not None and s.n == len(recs)
+        fde = [r.fde_m[method] for r in recs]
+        assert s.fde_mean_m == pytest.approx(np.mean(fde))
+        assert s.fde_median_m == pytest.approx(np.median(fde))
+        assert s.ade_mean_m == pytest.approx(np.mean([r.ade_m[method] for r in recs]))
+        cv = np.mean([r.fde_m["cv"] for r in recs])
+        assert s.fde_reduction_vs_cv == pytest.approx(1 - np.mean(fde) / cv)
+    assert study.summary("simulated", 1.0, "cv").fde_reduction_vs_cv == pytest.approx(0.0)
+    goals = {(g.goal, g.method) for g in study.goals}
+    assert goals == {(g, m) for g in ("simulated_vs_cv", "simulated_vs_oracle")
+                     for m in ("mode", "mixture")}  # fmt: skip
+
+
+def test_the_tracking_record_follows_the_interval(study):
+    for tr in study.tracks:
+        widths = np.asarray(tr.hi) - np.asarray(tr.lo)
+        narrow = np.flatnonzero(widths < 0.2)
+        assert tr.t_narrow == (None if narrow.size == 0 else pytest.approx(tr.t[narrow[0]]))
+        assert len(tr.t) == len(tr.mean) == len(tr.update_ms)
+    assert spanning_tracks(study.tracks, 4) == sorted(study.tracks, key=lambda r: r.true_risk)
+    assert example_record(study) in study.records
+
+
+def _rec(set_name, fde, t=1.0):
+    return PredictionRecord(set_name, "v", t, 3.0, None, None, 0.7, dict(fde), dict(fde))
+
+
+def test_goals_are_checked_against_their_thresholds():
+    recs = [
+        _rec("simulated", {"cv": 10.0, "mode": 6.0, "mixture": 8.0, "oracle": 5.0}),
+        _rec("ngsim", {"cv": 2.0, "mode": 1.6, "mixture": 1.8}),
+        _rec("cats", {"cv": 2.0, "mode": 1.4, "mixture": 1.9}),
+    ]
+    summaries = summarise_records(recs)
+    assert {s.set for s in summaries} == {"simulated", "ngsim", "cats", "recorded"}
+    pooled = next(s for s in summaries if s.set == "recorded" and s.method == "mode")
+    assert pooled.fde_reduction_vs_cv == pytest.approx(1 - 3.0 / 4.0)
+    mode = next(s for s in summaries if s.set == "simulated" and s.method == "mode")
+    assert isinstance(mode, MethodSummary)
+    assert mode.fde_ratio_to_oracle == pytest.approx(1.2)
+    assert mode.oracle_gain_share == pytest.approx(0.8)
+    met = {(g.goal, g.set, g.method): g.met for g in goal_checks(summaries)}
+    assert met[("simulated_vs_cv", "simulated", "mode")]  # 40 % ≥ 30 %
+    assert not met[("simulated_vs_cv", "simulated", "mixture")]  # 20 %
+    assert met[("simulated_vs_oracle", "simulated", "mode")]  # 1.2 ≤ 1.25
+    assert not met[("simulated_vs_oracle", "simulated", "mixture")]  # 1.6
+    assert met[("recorded_vs_cv", "ngsim", "mode")]  # 20 % ≥ 15 %
+    assert not met[("recorded_vs_cv", "ngsim", "mixture")]  # 10 %
+    assert GOALS["recorded_vs_cv"] == 0.15
+    assert met[("recorded_vs_cv", "recorded", "mode")]  # 25 %
+    assert not met[("recorded_vs_cv", "recorded", "mixture")]  # 1 − 3.7 / 4 < 15 %
+
+
+def test_observed_scenario_uses_the_observed_speeds_only(paper_demo):
+    sc = observed_scenario(paper_demo, 1.0)
+    k = round(1.0 / paper_demo.scenario.dt)
+    assert sc.v_ref == pytest.approx(max(np.percentile(paper_demo.ev[: k + 1, 3], 90), 1.0))
+    changed = paper_demo.ev.copy()
+    changed[k + 1 :, 3] += 10.0  # the future is not looked at
+    assert observed_scenario(replace(paper_demo, ev=changed), 1.0).v_ref == sc.v_ref
+
+
+def test_oracle_style_is_the_experts(paper_demo):
+    assert oracle_style(paper_demo.meta) == expert_style(SMPCConfig(risk=0.7))
+    assert oracle_style({"episode_id": "x"}) is None
+
+
+def test_draw_simulated_is_deterministic_and_refuses_zero():
+    a = draw_simulated(3, VALIDATION_SEED)
+    assert a == draw_simulated(3, VALIDATION_SEED)
+    assert [v.scenario is None for v in a] == [False, False, True]
+    with pytest.raises(ValueError, match=">= 1"):
+        draw_simulated(0, VALIDATION_SEED)
+
+
+def test_the_librarys_training_seed_is_refused():
+    lib = DriverLibrary(LIBRARY.style, LIBRARY.risks, meta={"seed": 5})
+    with pytest.raises(ValueError, match="training seed"):
+        evaluate_prediction(lib, 1, 5, data_dir=None)
