@@ -12,7 +12,8 @@ comes from a :class:`Predictor` (the NLP built with
   :class:`~drivestyle.irl.online.StyleTracker` updated with every observed state of the
   vehicle, and the library's style at the posterior mean risk driven in closed loop over
   the horizon from the vehicle's current state, the ego at constant velocity (what the
-  vehicle's own SMPC assumes of it; :func:`~drivestyle.irl.forecast.style_rollout`);
+  vehicle's own SMPC assumes of it), each rollout's first solve warm-started from the
+  previous rollout's first plan (:func:`~drivestyle.irl.driver_style.closed_loop`);
 - :class:`OraclePredictor` — the same rollout with the vehicle's true style.
 
 The scenario is the cut-in env's, in the lane changer's frame (its EV is the cutter, its
@@ -29,10 +30,11 @@ import numpy as np
 
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.forecast import constant_velocity, style_rollout
+from drivestyle.irl.driver_style import DriverStyle, closed_loop, planner_for
+from drivestyle.irl.forecast import constant_velocity, others_at_constant_velocity
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
+from drivestyle.irl.smpc_problem import PrimalDual
 
 __all__ = [
     "EGO_RISK",
@@ -87,6 +89,28 @@ class Predictor(Protocol):
         """
 
 
+class _Rollout:
+    """A style's closed-loop rollout with the ego at constant velocity, warm-started.
+
+    The first solve starts from the previous rollout's first plan — the driver's own warm
+    start: the NLP is not convex, and a cold start may find another plan than the one the
+    driver follows.
+    """
+
+    def __init__(self) -> None:
+        self.previous: PrimalDual | None = None
+
+    def __call__(
+        self, style: DriverStyle, cutter: np.ndarray, ego: np.ndarray, sc: ScenarioConfig,
+        steps: int,
+    ) -> np.ndarray:  # fmt: skip
+        planner = planner_for(sc, style.horizon, 1)
+        future = others_at_constant_velocity(ego[None, :], sc.dt, steps)
+        xs, plans, _, _ = closed_loop(style, cutter, future, sc, planner, self.previous)
+        self.previous = plans[0]
+        return xs[1:, :2]
+
+
 class ConstantVelocityPredictor:
     """The cutter's last velocity held (today's SMPC)."""
 
@@ -115,11 +139,13 @@ class StylePredictor:
         self._scenario: ScenarioConfig | None = None
         self.update_ms: list[float] = []
         """Wall time of each tracker update [ms] (diagnostics)."""
+        self._rollout = _Rollout()
 
     def reset(self, scenario: ScenarioConfig, risk: float) -> None:
         """Start an episode: a fresh posterior (the true risk is not used)."""
         self._scenario = scenario
         self.tracker = StyleTracker(self.library, scenario)
+        self._rollout = _Rollout()
 
     def predict(self, cutter: np.ndarray, ego: np.ndarray, steps: int) -> np.ndarray:
         """Update the posterior with (cutter, ego) and roll the style out, shape (steps, 2)."""
@@ -129,7 +155,7 @@ class StylePredictor:
         self.tracker.update(cutter, ego[None, :])
         self.update_ms.append((time.perf_counter() - t0) * 1e3)
         style = self.tracker.style("mean")
-        return style_rollout(style, cutter, ego[None, :], self._scenario, steps)[1:, :2]
+        return self._rollout(style, cutter, ego, self._scenario, steps)
 
 
 class OraclePredictor:
@@ -142,17 +168,19 @@ class OraclePredictor:
     def __init__(self, style: DriverStyle) -> None:
         self.style = style
         self._scenario: ScenarioConfig | None = None
+        self._rollout = _Rollout()
 
     def reset(self, scenario: ScenarioConfig, risk: float) -> None:
         """Start an episode with the cutter's true risk."""
         self._scenario = scenario
         self.style = dataclasses.replace(self.style, risk=float(risk))
+        self._rollout = _Rollout()
 
     def predict(self, cutter: np.ndarray, ego: np.ndarray, steps: int) -> np.ndarray:
         """The true model's closed-loop path, shape (steps, 2)."""
         if self._scenario is None:
             raise RuntimeError("OraclePredictor.predict() before reset()")
-        return style_rollout(self.style, cutter, ego[None, :], self._scenario, steps)[1:, :2]
+        return self._rollout(self.style, cutter, ego, self._scenario, steps)
 
 
 class AwareSMPC(SMPCExpert):
