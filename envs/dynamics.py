@@ -165,10 +165,10 @@ def inverse_step(
     xi, xi_next = np.asarray(xi, float), np.asarray(xi_next, float)
     lo, hi = np.asarray(lower, float), np.asarray(upper, float)
 
-    x0 = [float(v) for v in xi]
+    x, y, phi, v = (float(s) for s in xi)
 
     def mismatch(u: np.ndarray) -> np.ndarray:
-        nxt = rk4_step_scalar(*x0, float(u[0]), float(u[1]), T_s, l_f, l_r)
+        nxt = rk4_step_scalar(x, y, phi, v, float(u[0]), float(u[1]), T_s, l_f, l_r)
         return (np.array(nxt) - xi_next) / INPUT_FIT_SCALE
 
     u = np.array([float(np.clip((xi_next[3] - xi[3]) / T_s, lo[0], hi[0])), 0.0])

@@ -38,6 +38,7 @@ from drivestyle.irl.driver_style import (
     Link,
     PlanRow,
     RiskProfile,
+    StylePlanner,
     planner_for,
 )
 from drivestyle.irl.identification import Identification, driver_posterior
@@ -95,7 +96,7 @@ class StyleTracker:
     def reset(self) -> None:
         """Forget every sample (a new vehicle in the same scenario)."""
         self._m: int | None = None
-        self._planner = None
+        self._planner: StylePlanner | None = None
         self._xi: np.ndarray | None = None
         self._ssr = np.zeros(len(self.risks))
         self._n_residuals = 0

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -751,7 +751,7 @@ def plot_planning(study: PlanningStudy, path: str | Path) -> Path:
     return save_figure(fig, path)
 
 
-METHOD_STYLES = {
+METHOD_STYLES: dict[str, dict[str, Any]] = {
     "cv": {"color": "#6b7280", "ls": "--", "lw": 1.4},
     "ca": {"color": "#a3a3a3", "ls": ":", "lw": 1.4},
     "population": {"color": "#16a34a", "ls": "-.", "lw": 1.4},

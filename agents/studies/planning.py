@@ -142,8 +142,13 @@ def run_scene(
     acc, s_e, ms = [], [], []
     dist = [float(np.hypot(*(obs[4:6] - obs[0:2])))]
     collision = False
-    if frame is not None:
-        frame(env.render())
+
+    def capture() -> None:
+        image = env.render() if frame is not None else None
+        if frame is not None and image is not None:
+            frame(image)
+
+    capture()
     while True:
         t0 = time.perf_counter()
         action = ego.act(obs)
@@ -153,8 +158,7 @@ def run_scene(
         s_e.append(float(info["s_e"]))
         dist.append(float(np.hypot(*(obs[4:6] - obs[0:2]))))
         collision |= bool(info["collision"])
-        if frame is not None:
-            frame(env.render())
+        capture()
         if terminated or truncated:
             break
     a = np.array(acc)

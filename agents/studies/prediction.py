@@ -185,11 +185,10 @@ def oracle_style(meta: dict[str, Any]) -> DriverStyle | None:
         return None
     smpc = meta["smpc"] if isinstance(meta["smpc"], dict) else {}
     known = {k: smpc[k] for k in ("Q", "Q_N", "R") if k in smpc}
-    cfg = SMPCConfig(
-        risk=float(meta["risk"]),
-        **{k: tuple(float(x) for x in v) for k, v in known.items()},  # type: ignore[arg-type]
-        **({"horizon": int(smpc["horizon"])} if "horizon" in smpc else {}),
-    )
+    fields: dict[str, Any] = {k: tuple(float(x) for x in v) for k, v in known.items()}
+    if "horizon" in smpc:
+        fields["horizon"] = int(smpc["horizon"])
+    cfg = SMPCConfig(risk=float(meta["risk"]), **fields)
     return expert_style(cfg)
 
 

@@ -610,8 +610,8 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
     if study.skipped:
         lines += ["## Skipped", ""]
         reasons: dict[str, int] = {}
-        for s in study.skipped:
-            key = f"{s.set}: {s.reason}"
+        for skip in study.skipped:
+            key = f"{skip.set}: {skip.reason}"
             reasons[key] = reasons.get(key, 0) + 1
         lines += [f"- {n} × {r}" for r, n in sorted(reasons.items())] + [""]
     return "\n".join(lines)
