@@ -184,6 +184,9 @@ class MethodPrediction:
     """Average displacement error over the predicted samples [m]."""
     fde_m: float
     """Displacement error at the last sample [m]."""
+    fde_lat_m: float = float("nan")
+    """Its lateral part |Δy| at the last sample [m] (where the lane change ends; the rest is
+    the longitudinal error, i.e. the speed prediction)."""
     risk: float | None = None
     """The risk the style methods used (the mixture: its posterior mean)."""
 
@@ -192,6 +195,7 @@ class MethodPrediction:
         return {
             "ade_m": self.ade_m,
             "fde_m": self.fde_m,
+            "fde_lat_m": self.fde_lat_m,
             "risk": self.risk,
             "path": self.xy.round(4).tolist(),
         }
@@ -330,7 +334,8 @@ def predict(
         if name in paths:
             xy, risk = paths[name]
             ade, fde = displacement_errors(xy, actual)
-            out[name] = MethodPrediction(name, xy, ade, fde, risk)
+            lateral = float(abs(xy[-1, 1] - actual[-1, 1]))
+            out[name] = MethodPrediction(name, xy, ade, fde, lateral, risk)
     true = demo.meta.get("risk")
     return Prediction(
         t_obs=float(t_obs),

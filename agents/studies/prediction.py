@@ -250,6 +250,8 @@ class PredictionRecord:
     """Method → average displacement error [m]."""
     fde_m: dict[str, float]
     """Method → final displacement error [m]."""
+    fde_lat_m: dict[str, float] = field(default_factory=dict)
+    """Method → the final error's lateral part |Δy| [m]."""
     prediction: Prediction | None = field(default=None, repr=False, compare=False)
     """The whole prediction (paths; kept in memory for the figures, not in the JSON)."""
 
@@ -265,6 +267,7 @@ class PredictionRecord:
             "risk_mean": self.risk_mean,
             "ade_m": dict(self.ade_m),
             "fde_m": dict(self.fde_m),
+            "fde_lat_m": dict(self.fde_lat_m),
         }
 
 
@@ -296,6 +299,7 @@ def _record(set_name: str, vehicle_id: str, pred: Prediction) -> PredictionRecor
         risk_mean=float(pred.identification.risk_interpolated),
         ade_m={m: p.ade_m for m, p in pred.methods.items()},
         fde_m={m: p.fde_m for m, p in pred.methods.items()},
+        fde_lat_m={m: p.fde_lat_m for m, p in pred.methods.items()},
         prediction=pred,
     )
 
@@ -496,6 +500,8 @@ class MethodSummary:
     ade_median_m: float
     fde_mean_m: float
     fde_median_m: float
+    fde_lat_mean_m: float
+    """Mean lateral part of the FDE [m]."""
     fde_reduction_vs_cv: float | None
     """1 − mean FDE / mean FDE of constant velocity over the same records."""
     fde_ratio_to_oracle: float | None
@@ -557,6 +563,7 @@ def _summary(
         ade_median_m=float(np.median(ade)),
         fde_mean_m=mean,
         fde_median_m=float(np.median(fde)),
+        fde_lat_mean_m=float(np.mean([r.fde_lat_m.get(method, np.nan) for r in recs])),
         fde_reduction_vs_cv=None if not cv else float(1.0 - mean / cv),
         fde_ratio_to_oracle=None if not oracle else float(mean / oracle),
         fde_gap_to_oracle_m=None if oracle is None else float(mean - oracle),

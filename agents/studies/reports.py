@@ -557,15 +557,15 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
             f"## {set_name}",
             "",
             "| t_obs | method | n | ADE mean (median) [m] | FDE mean (median) [m] | "
-            "FDE reduction vs CV |"
+            "lateral FDE mean [m] | FDE reduction vs CV |"
             + (" FDE / oracle | FDE − oracle [m] | share of oracle's gain |" if oracle else ""),
-            "|---|---|---|---|---|---|" + ("---|---|---|" if oracle else ""),
+            "|---|---|---|---|---|---|---|" + ("---|---|---|" if oracle else ""),
         ]
         for s in rows:
             line = (
                 f"| {seconds(s.t_obs)} | {s.method} | {s.n} | {fmt(s.ade_mean_m, 2)} "
                 f"({fmt(s.ade_median_m, 2)}) | {fmt(s.fde_mean_m, 2)} ({fmt(s.fde_median_m, 2)}) "
-                f"| {_pct(s.fde_reduction_vs_cv)} |"
+                f"| {fmt(s.fde_lat_mean_m, 2)} | {_pct(s.fde_reduction_vs_cv)} |"
             )
             if oracle:
                 ratio = s.fde_ratio_to_oracle

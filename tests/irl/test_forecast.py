@@ -103,3 +103,10 @@ def test_observation_windows_the_demo_cannot_serve(paper_demo, t_obs, match):
 def test_an_unknown_method_is_refused(paper_demo):
     with pytest.raises(ForecastError, match="unknown prediction method"):
         predict(paper_demo, LIBRARY, 1.0, methods=("cv", "kalman"))
+
+
+def test_the_lateral_final_error_is_the_y_part_of_the_fde(prediction):
+    for m in prediction.methods.values():
+        assert m.fde_lat_m == pytest.approx(abs(m.xy[-1, 1] - prediction.actual[-1, 1]))
+        assert m.fde_lat_m <= m.fde_m + 1e-12
+        assert m.to_json()["fde_lat_m"] == m.fde_lat_m
