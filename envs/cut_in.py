@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING, Any, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from drivestyle.envs.dynamics import rk4_step_scalar
 from drivestyle.envs.lane_change import (
@@ -33,6 +32,7 @@ from drivestyle.envs.lane_change import (
     LaneChangeEnv,
     _StepConstants,
     _vehicles_overlap,
+    two_vehicle_spaces,
 )
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
@@ -245,17 +245,7 @@ class CutInEnv(gym.Env):
         self.show_ellipse = bool(show_ellipse)
         self.scenario = base
         self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
-        self.action_space: spaces.Box = spaces.Box(
-            low=np.array([base.a_min, -base.delta_max]),
-            high=np.array([base.a_max, base.delta_max]),
-            dtype=np.float64,
-        )
-        inf = np.inf
-        self.observation_space = spaces.Box(
-            low=np.array([-inf, -inf, -inf, 0.0, -inf, -inf, -inf, 0.0]),
-            high=np.array([inf, inf, inf, base.v_max, inf, inf, inf, base.v_max]),
-            dtype=np.float64,
-        )
+        self.action_space, self.observation_space = two_vehicle_spaces(base, base.v_max)
         self.ego = base.tv_initial_state
         self.cutter = base.ev_initial_state
         self.risk = (

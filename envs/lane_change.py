@@ -204,6 +204,27 @@ _OVERLAP_MARGIN = 1e-6
 exact test (positions are < 1e4 m, round-off < 1e-11 m)."""
 
 
+def two_vehicle_spaces(sc: ScenarioConfig, second_v_max: float) -> tuple[spaces.Box, spaces.Box]:
+    """The action space [a, δ] and the observation space of two vehicles' states.
+
+    Both float64: the action within the scenario's input bounds; the observation
+    [x, y, φ, v] ++ [x, y, φ, v] with speeds from 0 to v_max (the second vehicle's to
+    ``second_v_max``).
+    """
+    action = spaces.Box(
+        low=np.array([sc.a_min, -sc.delta_max]),
+        high=np.array([sc.a_max, sc.delta_max]),
+        dtype=np.float64,
+    )
+    inf = np.inf
+    observation = spaces.Box(
+        low=np.array([-inf, -inf, -inf, 0.0, -inf, -inf, -inf, 0.0]),
+        high=np.array([inf, inf, inf, sc.v_max, inf, inf, inf, second_v_max]),
+        dtype=np.float64,
+    )
+    return action, observation
+
+
 def _vehicles_overlap(
     c: _StepConstants, a: list[float], cos_a: float, sin_a: float, b: list[float]
 ) -> bool:
@@ -309,17 +330,7 @@ class LaneChangeEnv(gym.Env):
         self.scenario = base
         self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
 
-        self.action_space: spaces.Box = spaces.Box(
-            low=np.array([base.a_min, -base.delta_max]),
-            high=np.array([base.a_max, base.delta_max]),
-            dtype=np.float64,
-        )
-        inf = np.inf
-        self.observation_space = spaces.Box(
-            low=np.array([-inf, -inf, -inf, 0.0, -inf, -inf, -inf, 0.0]),
-            high=np.array([inf, inf, inf, base.v_max, inf, inf, inf, inf]),
-            dtype=np.float64,
-        )
+        self.action_space, self.observation_space = two_vehicle_spaces(base, np.inf)
         self.ev = base.ev_initial_state
         self.tv = base.tv_initial_state
         self.k = 0
