@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 
 from drivestyle.envs.dynamics import rk4_step_scalar
 from drivestyle.envs.lane_change import (
@@ -245,7 +246,8 @@ class CutInEnv(gym.Env):
         self.show_ellipse = bool(show_ellipse)
         self.scenario = base
         self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
-        self.action_space, self.observation_space = two_vehicle_spaces(base, base.v_max)
+        action_space, self.observation_space = two_vehicle_spaces(base, base.v_max)
+        self.action_space: spaces.Box = action_space
         self.ego = base.tv_initial_state
         self.cutter = base.ev_initial_state
         self.risk = (

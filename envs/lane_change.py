@@ -330,7 +330,8 @@ class LaneChangeEnv(gym.Env):
         self.scenario = base
         self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
 
-        self.action_space, self.observation_space = two_vehicle_spaces(base, np.inf)
+        action_space, self.observation_space = two_vehicle_spaces(base, np.inf)
+        self.action_space: spaces.Box = action_space
         self.ev = base.ev_initial_state
         self.tv = base.tv_initial_state
         self.k = 0
