@@ -13,7 +13,7 @@ comes from a :class:`Predictor` (the NLP built with
   vehicle, and the library's style at the posterior mean risk driven in closed loop over
   the horizon from the vehicle's current state, the ego at constant velocity (what the
   vehicle's own SMPC assumes of it), each rollout's first solve warm-started from the
-  previous rollout's first plan (:func:`~drivestyle.irl.driver_style.closed_loop`);
+  previous rollout's first plan (:func:`~drivestyle.irl.forecast.rollout_from`);
 - :class:`OraclePredictor` — the same rollout with the vehicle's true style.
 
 The scenario is the cut-in env's, in the lane changer's frame (its EV is the cutter, its
@@ -23,15 +23,14 @@ TV the ego); :func:`ego_scenario` turns it into the ego's own (its lane, its spe
 from __future__ import annotations
 
 import dataclasses
-import time
 from typing import Protocol
 
 import numpy as np
 
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import DriverStyle, closed_loop, planner_for
-from drivestyle.irl.forecast import constant_velocity, others_at_constant_velocity
+from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.forecast import constant_velocity, rollout_from
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
 from drivestyle.irl.smpc_problem import PrimalDual
@@ -104,10 +103,7 @@ class _Rollout:
         self, style: DriverStyle, cutter: np.ndarray, ego: np.ndarray, sc: ScenarioConfig,
         steps: int,
     ) -> np.ndarray:  # fmt: skip
-        planner = planner_for(sc, style.horizon, 1)
-        future = others_at_constant_velocity(ego[None, :], sc.dt, steps)
-        xs, plans, _, _ = closed_loop(style, cutter, future, sc, planner, self.previous)
-        self.previous = plans[0]
+        xs, self.previous = rollout_from(style, cutter, ego[None, :], sc, steps, self.previous)
         return xs[1:, :2]
 
 
@@ -137,8 +133,6 @@ class StylePredictor:
         self.library = library
         self.tracker: StyleTracker | None = None
         self._scenario: ScenarioConfig | None = None
-        self.update_ms: list[float] = []
-        """Wall time of each tracker update [ms] (diagnostics)."""
         self._rollout = _Rollout()
 
     def reset(self, scenario: ScenarioConfig, risk: float) -> None:
@@ -151,9 +145,7 @@ class StylePredictor:
         """Update the posterior with (cutter, ego) and roll the style out, shape (steps, 2)."""
         if self.tracker is None or self._scenario is None:
             raise RuntimeError("StylePredictor.predict() before reset()")
-        t0 = time.perf_counter()
         self.tracker.update(cutter, ego[None, :])
-        self.update_ms.append((time.perf_counter() - t0) * 1e3)
         style = self.tracker.style("mean")
         return self._rollout(style, cutter, ego, self._scenario, steps)
 

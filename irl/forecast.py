@@ -32,13 +32,13 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import DriverStyle, closed_loop, planner_for
+from drivestyle.irl.driver_style import DriverStyle, StylePlanner, closed_loop, planner_for
 from drivestyle.irl.identification import Identification
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
+from drivestyle.irl.smpc_problem import PrimalDual
 
 __all__ = [
-    "BASELINES",
     "METHODS",
     "ForecastError",
     "MethodPrediction",
@@ -48,10 +48,10 @@ __all__ = [
     "displacement_errors",
     "others_at_constant_velocity",
     "predict",
+    "rollout_from",
     "style_rollout",
 ]
 
-BASELINES = ("cv", "ca")
 METHODS = ("cv", "ca", "population", "mode", "mixture", "oracle")
 """Every prediction method, in report order (``oracle`` only where the truth is known)."""
 MIXTURE_MIN_MASS = 1e-3
@@ -144,16 +144,52 @@ def style_rollout(
     Returns:
         The predicted states, shape (H + 1, 4) (row 0: ξ_k).
     """
-    m = others.shape[0]
-    planner = planner_for(scenario, style.horizon, n_vehicles or (1 if m == 1 else 4))
-    future = others_at_constant_velocity(others, scenario.dt, steps)
     previous = None
     if history is not None:
+        planner = _planner(style, others, scenario, n_vehicles)
         for state, around in zip(*history, strict=True):
             res = planner.plan(state, around, style, scenario, previous)
             previous = res.point if res.ok else None
-    xs, _, _, _ = closed_loop(style, np.asarray(xi, float), future, scenario, planner, previous)
-    return xs
+    return rollout_from(style, xi, others, scenario, steps, previous, n_vehicles)[0]
+
+
+def _planner(
+    style: DriverStyle, others: np.ndarray, scenario: ScenarioConfig, n_vehicles: int | None
+) -> StylePlanner:
+    m = others.shape[0]
+    return planner_for(scenario, style.horizon, n_vehicles or (1 if m == 1 else 4))
+
+
+def rollout_from(
+    style: DriverStyle,
+    xi: np.ndarray,
+    others: np.ndarray,
+    scenario: ScenarioConfig,
+    steps: int,
+    previous: PrimalDual | None = None,
+    n_vehicles: int | None = None,
+) -> tuple[np.ndarray, PrimalDual | None]:
+    """:func:`style_rollout` from a given warm start, also returning the first plan.
+
+    Args:
+        style: weights, risk, desired speed.
+        xi: the vehicle's current state, shape (4,).
+        others: the surrounding vehicles' current states, shape (m, 4) (predicted at
+            constant velocity).
+        scenario: the vehicle's scenario.
+        steps: H.
+        previous: the plan of the step before ξ_k, the first solve's warm start (None:
+            cold).
+        n_vehicles: the NLP's vehicle slots (default as :func:`style_rollout`).
+
+    Returns:
+        (the predicted states, shape (H + 1, 4); the plan from ξ_k — the warm start of a
+        rollout one step later, or None where that solve failed).
+    """
+    planner = _planner(style, others, scenario, n_vehicles)
+    future = others_at_constant_velocity(others, scenario.dt, steps)
+    xs, plans, _, _ = closed_loop(style, np.asarray(xi, float), future, scenario, planner, previous)
+    return xs, plans[0]
 
 
 def displacement_errors(predicted: np.ndarray, actual: np.ndarray) -> tuple[float, float]:
