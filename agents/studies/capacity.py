@@ -340,6 +340,22 @@ class _PaperModel:
         return theta
 
 
+def _class_result(
+    name: str,
+    params: dict[str, float],
+    train: _Scores,
+    test: _Scores,
+    evaluations: int,
+    seconds: float,
+    start: str,
+) -> ClassResult:
+    """A :class:`ClassResult` from one parameter vector's training and held-out scores."""
+    return ClassResult(
+        name, params, train.objective, train.rmse_y, train.rmse_xy,
+        test.rmse_y, test.rmse_xy, test.min_d, evaluations, seconds, start,
+    )  # fmt: skip
+
+
 def _rh_scores(style: DriverStyle, demos: Sequence[Demonstration]) -> _Scores:
     ys, xys, ds = [], [], []
     for d in demos:
@@ -581,20 +597,9 @@ def capacity_of_risk(
     names = paper_train.names
 
     def paper_row(key: str, theta: np.ndarray, evals: int, secs: float, start: str) -> ClassResult:
+        params = dict(zip(names, map(float, paper_train.gauge(theta)), strict=True))
         tr, te = paper_train.scores(theta), paper_test.scores(theta)
-        return ClassResult(
-            key,
-            dict(zip(names, map(float, paper_train.gauge(theta)), strict=True)),
-            tr.objective,
-            tr.rmse_y,
-            tr.rmse_xy,
-            te.rmse_y,
-            te.rmse_xy,
-            te.min_d,
-            evals,
-            secs,
-            start,
-        )
+        return _class_result(key, params, tr, te, evals, secs, start)
 
     theta_irl = np.asarray(fitted.result.theta, float)
     results["paper_irl"] = paper_row("paper_irl", theta_irl, 0, irl_s, "")
@@ -620,19 +625,7 @@ def capacity_of_risk(
         tr, te = _rh_scores(style, train), _rh_scores(style, test)
         params = dict(zip(WEIGHT_NAMES, map(float, style.normalised()), strict=True))
         params["risk"] = style.risk
-        return ClassResult(
-            key,
-            params,
-            tr.objective,
-            tr.rmse_y,
-            tr.rmse_xy,
-            te.rmse_y,
-            te.rmse_xy,
-            te.min_d,
-            evals,
-            secs,
-            start,
-        )
+        return _class_result(key, params, tr, te, evals, secs, start)
 
     t0 = time.perf_counter()
     learned = learn_driver(list(train), **dict(learn_options or {})).style
