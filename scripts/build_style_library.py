@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -37,7 +38,7 @@ from drivestyle.agents.demo_generation import (
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
 from drivestyle.common.cli import positive_int, risk_list, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.demonstration import save_demonstration
+from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.envs.tracking import observe
 from drivestyle.irl.identification import calibrate_temperature
 from drivestyle.irl.library import learn_driver_library, learn_library
@@ -101,9 +102,7 @@ def main(argv: list[str] | None = None) -> dict:
     t_draw = time.perf_counter() - t0
     bar = tqdm(total=2 * len(args.risks), desc="demonstrations, then styles per risk")
     demos = generate_demonstrations(args.risks, scenarios, args.workers, lambda p: bar.update(1))
-    if args.tracked:  # σ = 0: the tracker's view of the true positions
-        rng = np.random.default_rng(args.seed)
-        demos = {p: [observe(d, 0.0, rng) for d in ds] for p, ds in demos.items()}
+    demos = _observed(demos, args)
 
     def progress(rec: dict) -> None:
         bar.update(1)
@@ -126,12 +125,10 @@ def main(argv: list[str] | None = None) -> dict:
         "draw_s": t_draw,
         "build_wall_s": time.perf_counter() - t0,
     }
-    with atomic_output_dir(args.out) as tmp:
-        for p, risk_demos in demos.items():
-            for i, demo in enumerate(risk_demos):
-                save_demonstration(demo, tmp / "demos" / f"p{p:g}_s{i}.npz")
-        write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
-        plot_theta_vs_risk({args.features: library}, tmp / "theta_vs_risk.png")
+    _write_library(
+        args.out, demos, payload, argv,
+        lambda tmp: plot_theta_vs_risk({args.features: library}, tmp / "theta_vs_risk.png"),
+    )  # fmt: skip
     print(
         f"wrote {args.out}/library.json: {len(args.risks)} styles from {args.scenarios} "
         f"scenarios each in {payload['build_wall_s']:.1f} s"
@@ -146,9 +143,7 @@ def _build_driver(args: argparse.Namespace, argv: list[str] | None) -> dict:
     bar = tqdm(total=len(args.risks), desc="demonstrations per risk")
     demos = generate_demonstrations(args.risks, scenarios, args.workers, lambda p: bar.update(1))
     bar.close()
-    if args.tracked:  # σ = 0: the tracker's view of the true positions
-        rng = np.random.default_rng(args.seed)
-        demos = {p: [observe(d, 0.0, rng) for d in ds] for p, ds in demos.items()}
+    demos = _observed(demos, args)
     t_demos = time.perf_counter() - t0
     with tqdm(desc="learning the shared cost (LM iterations)") as lbar:
         library, fit = learn_driver_library(
@@ -180,11 +175,7 @@ def _build_driver(args: argparse.Namespace, argv: list[str] | None) -> dict:
         "learn_s": t_learn,
         "build_wall_s": time.perf_counter() - t0,
     }
-    with atomic_output_dir(args.out) as tmp:
-        for p, risk_demos in demos.items():
-            for i, demo in enumerate(risk_demos):
-                save_demonstration(demo, tmp / "demos" / f"p{p:g}_s{i}.npz")
-        write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    _write_library(args.out, demos, payload, argv)
     print(
         f"wrote {args.out}/library.json: one driver cost from {len(args.risks)} risks × "
         f"{args.scenarios} scenarios (fit {fit.status}, residual rms {fit.residual_rms:.3f}), "
@@ -193,6 +184,36 @@ def _build_driver(args: argparse.Namespace, argv: list[str] | None) -> dict:
         f"calibration demos), {payload['build_wall_s']:.0f} s"
     )
     return payload
+
+
+def _observed(
+    demos: dict[float, list[Demonstration]], args: argparse.Namespace
+) -> dict[float, list[Demonstration]]:
+    """The demonstrations as learned from: with ``--tracked`` the tracker's view (σ = 0)."""
+    if not args.tracked:
+        return demos
+    rng = np.random.default_rng(args.seed)
+    return {p: [observe(d, 0.0, rng) for d in ds] for p, ds in demos.items()}
+
+
+def _write_library(
+    out: Path,
+    demos: dict[float, list[Demonstration]],
+    payload: dict,
+    argv: list[str] | None,
+    figure: Callable[[Path], object] | None = None,
+) -> None:
+    """Write the output folder whole: training demonstrations, ``library.json``, a figure.
+
+    ``figure`` draws into the (temporary) folder it is given.
+    """
+    with atomic_output_dir(out) as tmp:
+        for p, risk_demos in demos.items():
+            for i, demo in enumerate(risk_demos):
+                save_demonstration(demo, tmp / "demos" / f"p{p:g}_s{i}.npz")
+        write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+        if figure is not None:
+            figure(tmp)
 
 
 def _tick(bar: tqdm, cost: float) -> None:
