@@ -33,6 +33,8 @@ from drivestyle.envs.lane_change import (
     LaneChangeEnv,
     _StepConstants,
     _vehicles_overlap,
+    checked_options,
+    episode_scenario,
     two_vehicle_spaces,
 )
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
@@ -321,24 +323,10 @@ class CutInEnv(gym.Env):
             KeyError: ``options["scenario"]`` names no known scenario.
         """
         super().reset(seed=seed)
-        options = {} if options is None else options
-        if not isinstance(options, dict):
-            raise TypeError(
-                f"reset options must be a dict such as {{'risk': 0.7}} or None, got {options!r}"
-            )
-        unknown = sorted(set(options) - set(_OPTIONS))
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {unknown}; known: {list(_OPTIONS)}")
+        options = checked_options(options, _OPTIONS, "{'risk': 0.7}")
+        self.scenario = episode_scenario(options, self.ranges, self.base_scenario, self.np_random)
         if "scenario" in options:
-            try:
-                sc = get_scenario(options["scenario"])
-            except KeyError as exc:
-                raise KeyError(f"reset options['scenario']: {exc.args[0]}") from None
-            self.scenario = _check_scenario(sc, "reset options['scenario']")
-        elif self.ranges is not None:
-            self.scenario = self.ranges.sample(self.np_random)
-        else:
-            self.scenario = self.base_scenario
+            _check_scenario(self.scenario, "reset options['scenario']")
         drawn = float(self.np_random.uniform(*self.risk_range))  # always: module docstring
         if "risk" in options:
             self.risk = _check_risk("reset options['risk']", options["risk"])

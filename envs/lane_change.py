@@ -204,6 +204,46 @@ _OVERLAP_MARGIN = 1e-6
 exact test (positions are < 1e4 m, round-off < 1e-11 m)."""
 
 
+def checked_options(
+    options: Any, known: tuple[str, ...], example: str | None = None
+) -> dict[str, Any]:
+    """A reset's ``options``: a dict (None: empty) whose keys are all in ``known``.
+
+    Raises:
+        TypeError: not a dict (the message shows ``example`` when given).
+        ValueError: an unknown option.
+    """
+    options = {} if options is None else options
+    if not isinstance(options, dict):
+        such_as = f" such as {example}" if example else ""
+        raise TypeError(f"reset options must be a dict{such_as} or None, got {options!r}")
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {unknown}; known: {list(known)}")
+    return options
+
+
+def episode_scenario(
+    options: dict[str, Any],
+    ranges: ScenarioRanges | None,
+    base: ScenarioConfig,
+    rng: np.random.Generator,
+) -> ScenarioConfig:
+    """The episode's scenario.
+
+    ``options["scenario"]`` (a config or a name), else a draw from ``ranges``, else ``base``.
+
+    Raises:
+        KeyError: ``options["scenario"]`` names no known scenario.
+    """
+    if "scenario" in options:
+        try:
+            return get_scenario(options["scenario"])
+        except KeyError as exc:
+            raise KeyError(f"reset options['scenario']: {exc.args[0]}") from None
+    return ranges.sample(rng) if ranges is not None else base
+
+
 def two_vehicle_spaces(sc: ScenarioConfig, second_v_max: float) -> tuple[spaces.Box, spaces.Box]:
     """The action space [a, δ] and the observation space of two vehicles' states.
 
@@ -437,24 +477,8 @@ class LaneChangeEnv(gym.Env):
             KeyError: ``options["scenario"]`` names no known scenario.
         """
         super().reset(seed=seed)
-        options = {} if options is None else options
-        if not isinstance(options, dict):
-            raise TypeError(
-                f"reset options must be a dict such as {{'scenario': 'paper'}} or None, "
-                f"got {options!r}"
-            )
-        unknown = set(options) - {"scenario"}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; known: ['scenario']")
-        if "scenario" in options:
-            try:
-                self.scenario = get_scenario(options["scenario"])
-            except KeyError as exc:
-                raise KeyError(f"reset options['scenario']: {exc.args[0]}") from None
-        elif self.ranges is not None:
-            self.scenario = self.ranges.sample(self.np_random)
-        else:
-            self.scenario = self.base_scenario
+        options = checked_options(options, ("scenario",), "{'scenario': 'paper'}")
+        self.scenario = episode_scenario(options, self.ranges, self.base_scenario, self.np_random)
         self.ev = self.scenario.ev_initial_state
         self.tv = self.scenario.tv_initial_state
         self.k = 0

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from drivestyle.envs.lane_change import LaneChangeEnv, _vehicles_overlap
+from drivestyle.envs.lane_change import LaneChangeEnv, _vehicles_overlap, checked_options
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
 
@@ -418,12 +418,7 @@ class TrafficEnv(LaneChangeEnv):
             TypeError: ``options`` is not a dict, or ``scene`` not a TrafficScene.
             ValueError: an unknown option.
         """
-        options = {} if options is None else options
-        if not isinstance(options, dict):
-            raise TypeError(f"reset options must be a dict or None, got {options!r}")
-        unknown = set(options) - {"scene"}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; known: ['scene']")
+        options = checked_options(options, ("scene",))
         super(LaneChangeEnv, self).reset(seed=seed)  # seeds np_random only
         if "scene" in options:
             if not isinstance(options["scene"], TrafficScene):
