@@ -12,6 +12,7 @@ its progress, and the planning time per step (DESIGN §17).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -132,8 +133,6 @@ def run_scene(
     Returns:
         The :class:`SceneRun`.
     """
-    import time
-
     obs, info = env.reset(seed=seed)
     sc: ScenarioConfig = info["scenario"]
     risk = float(info["cutter_risk"])
