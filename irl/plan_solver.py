@@ -806,9 +806,12 @@ def compiled_solver(
     """The compiled solver of the NLP of ``config`` and ``scenario``'s geometry.
 
     Loaded from :func:`cache_dir` when a previous process built it, else generated and
-    compiled (once per machine). None when no C compiler is available or the build
-    fails (callers then use the generic solvers).
+    compiled (once per machine). None when no C compiler is available, the build fails
+    or the NLP takes predicted paths (:attr:`SMPCConfig.predicted_paths`: the generated
+    step predicts every vehicle at constant velocity); callers then use the generic solvers.
     """
+    if config.predicted_paths:
+        return None
     options = options or IPMOptions()
     key = _key(config, scenario)
     if key in _SOLVERS:

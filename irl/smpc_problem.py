@@ -880,9 +880,9 @@ def warm_start(
 def _compiled_key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     """Digest of everything the generated fatrop solver depends on."""
     c = config
-    fields = (c.horizon, c.max_vehicles, c.weights_as_parameters, c.Q, c.Q_N, c.R,
-              *((True,) if c.predicted_paths else ()),
-              c.uncertainty, c.max_iter, c.tol, c.mu_init, c.slack_l1, c.slack_l2,
+    fields = (c.horizon, c.max_vehicles, c.weights_as_parameters, c.predicted_paths,
+              c.Q, c.Q_N, c.R, c.uncertainty, c.max_iter, c.tol, c.mu_init, c.slack_l1,
+              c.slack_l2,
               _geometry_key(scenario))  # fmt: skip
     digest = source_digest([
         "drivestyle.envs.dynamics", "drivestyle.irl.chance", "drivestyle.irl.compiled",

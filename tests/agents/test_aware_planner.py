@@ -112,3 +112,11 @@ def test_the_cut_in_study_scores_every_scene_with_every_predictor(study):
     assert payload["goals"] == planning_goals(study.summaries)
     with pytest.raises(ValueError, match="at least one scene"):
         cut_in_study(LIBRARY, 0, seed=7)
+
+
+def test_the_compiled_interior_point_step_is_not_offered_for_predicted_paths():
+    # its generated step predicts every vehicle at constant velocity: the generic solvers
+    # must solve a predicted-path NLP
+    from drivestyle.irl.plan_solver import compiled_solver
+
+    assert compiled_solver(SMPCConfig(predicted_paths=True), CUT_IN_RANGES.base) is None
