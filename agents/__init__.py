@@ -8,14 +8,14 @@ from drivestyle.agents.smpc import (
     SMPCExpert,
     SolveReport,
 )
-from drivestyle.irl.chance import chance_margin, risk_quantile
-from drivestyle.irl.prediction import (
+from drivestyle.planning.chance import chance_margin, risk_quantile
+from drivestyle.planning.prediction import (
     PAPER_TV_UNCERTAINTY,
     TVUncertainty,
     tv_covariance,
     tv_mean_prediction,
 )
-from drivestyle.irl.smpc_problem import SMPCProblem
+from drivestyle.planning.smpc_problem import SMPCProblem
 
 __all__ = [
     "PAPER_TV_UNCERTAINTY",

@@ -1,6 +1,6 @@
 """Stochastic MPC expert: the closed loop around the SMPC problem (paper §II-A; DESIGN §3).
 
-At each step the EV solves the SMPC problem of :mod:`drivestyle.irl.smpc_problem`
+At each step the EV solves the SMPC problem of :mod:`drivestyle.planning.smpc_problem`
 (tracking cost, RK4 dynamics, state and input bounds, a softened tangent chance constraint
 and a hard nominal ellipse per constrained vehicle) and applies the first input. This
 module is the closed-loop shell around that transcription:
@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import PAPER, ScenarioConfig
 from drivestyle.envs.traffic import parse_traffic_observation
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning.smpc_problem import (
     NU,
     NLPBounds,
     NLPSolution,
@@ -171,7 +171,7 @@ class SMPCExpert:
         >>> action = expert.act(obs)
         >>> decision = expert.plan(obs)  # the action and its SolveReport
 
-    The NLP (:class:`drivestyle.irl.smpc_problem.SMPCProblem`) is built once per scenario
+    The NLP (:class:`drivestyle.planning.smpc_problem.SMPCProblem`) is built once per scenario
     geometry (dt, l_f, l_r, ellipse); speeds, lanes and gaps are parameters, so random
     scenarios reuse it. Call :meth:`reset` at the start of each episode (or pass a
     different scenario) to drop the warm start.

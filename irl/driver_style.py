@@ -2,7 +2,7 @@
 
 A :class:`DriverStyle` describes a *driver*, not one scenario. At every sample the
 driver solves, from its current state ξ_k and with the surrounding vehicles predicted at
-constant velocity under the uncertainty of :mod:`drivestyle.irl.prediction`,
+constant velocity under the uncertainty of :mod:`drivestyle.planning.prediction`,
 
     min_u  Σ_{i<N} w_y (y_i − y_ref)² + w_φ φ_i² + w_v (v_i − v_ref)² + w_a a_i² + w_δ δ_i²
               + (terminal state terms) + slack penalty
@@ -10,7 +10,7 @@ constant velocity under the uncertainty of :mod:`drivestyle.irl.prediction`,
            Pr(outside every nearby vehicle's safety ellipse) ≥ p   (chance constraint),
            the nominal ellipse (hard),
 
-and applies the first input (the transcription is :mod:`drivestyle.irl.smpc_problem`'s,
+and applies the first input (the transcription is :mod:`drivestyle.planning.smpc_problem`'s,
 with the weights as parameters). The five terms are the horizon versions of the paper's
 classic features — lane deviation (f_il/f_el), lateral speed (v·φ, the heading term),
 speed deviation (f_v), longitudinal acceleration (f_a) and lateral acceleration (∝ δ); the
@@ -18,34 +18,30 @@ paper's reaction features (f_sd, f_ed, f_id and the trigger) are what the chance
 constraint produces, with the risk p as an explicit parameter. The weights are defined
 up to a common scale (the argmin is invariant), so w_a = 1 fixes the gauge.
 
-*Learning* (:func:`learn_driver`) uses every step of every demonstration: the plan from
-the demonstration's own state ξ_k must start with the input the driver applied
-(teacher forcing; Levine & Koltun's locally optimal examples). The residuals
-r_k = (u_0(ξ_k; w, p) − u_k) / σ_u are minimised by Levenberg–Marquardt over log w (and p
-and v_ref where free), with forward-difference Jacobians: five parameters, each
-evaluation a batch of small warm-started NLP solves. *Reproduction* (:func:`reproduce`)
-drives the style in closed loop from the demonstration's first state, re-planning every
-T_s against the recorded surrounding vehicles, as the driver did.
+*Reproduction* (:func:`reproduce`, :func:`closed_loop`) drives the style in closed loop
+from a demonstration's first state, re-planning every T_s against the recorded surrounding
+vehicles, as the driver did. Learning a style from demonstrations (teacher forcing) is
+:mod:`drivestyle.irl.driver_learning`; its fit per risk, which identification uses, is
+:mod:`drivestyle.irl.risk_profile`. The NLP itself is :mod:`drivestyle.planning`'s.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drivestyle.common.io import read_json, write_json
+from drivestyle.common.io import read_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.chance import risk_quantile
-from drivestyle.irl.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning.chance import risk_quantile
+from drivestyle.planning.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
+from drivestyle.planning.smpc_problem import (
     N_WEIGHTS,
     NLPBounds,
     PrimalDual,
@@ -59,25 +55,26 @@ from drivestyle.irl.smpc_problem import (
 
 __all__ = [
     "DRIVER_STYLE_KIND",
+    "GAUGE",
     "INPUT_SCALE",
-    "RISK_EVAL",
     "RISK_RANGE",
     "WEIGHT_NAMES",
-    "DriverFit",
     "DriverStyle",
     "DriverStyleError",
+    "Link",
+    "PlanResult",
+    "PlanRow",
     "Reproduction",
-    "RiskProfile",
+    "RowsResult",
     "StylePlanner",
+    "check_demo",
     "closed_loop",
     "expert_style",
     "initial_weights",
-    "learn_driver",
     "load_driver_style",
+    "n_vehicles",
+    "planner_for",
     "reproduce",
-    "risk_profile",
-    "save_driver_style",
-    "step_residuals",
 ]
 
 WEIGHT_NAMES = ("lane", "heading", "speed", "accel", "steer")
@@ -87,13 +84,7 @@ RISK_RANGE = (0.5, 0.99)
 INPUT_SCALE = (0.5, 0.005)
 """σ_u: the scale of the input residuals [m/s², rad] (≈ a tenth of the inputs' ranges in
 the demonstrations: a and δ then weigh alike)."""
-SCREEN_CANDIDATES = 24
-"""Starting points :func:`learn_driver` scores before its Levenberg–Marquardt runs."""
-RESTARTS = 2
-"""Levenberg–Marquardt runs, from the best-scored starting points."""
-SCREEN_SEED = 17
-"""Seed of the starting points' perturbations (learning is deterministic)."""
-_GAUGE = 3
+GAUGE = 3
 """Index of the weight fixed at 1 (w_a)."""
 
 
@@ -150,7 +141,7 @@ class DriverStyle:
     def normalised(self) -> np.ndarray:
         """The weights divided by w_a (the gauge), shape (5,)."""
         w = np.asarray(self.weights)
-        return w / w[_GAUGE]
+        return w / w[GAUGE]
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (the ``style`` entry of a driver-style file)."""
@@ -306,7 +297,7 @@ class RowsResult:
 class StylePlanner:
     """The NLP of the style model for one scenario geometry and M surrounding vehicles.
 
-    One :class:`~drivestyle.irl.smpc_problem.SMPCProblem` built with
+    One :class:`~drivestyle.planning.smpc_problem.SMPCProblem` built with
     ``weights_as_parameters``: every style, risk, speed and scenario of the geometry reuses
     it. Solves are warm-started from :meth:`plan`'s ``guess`` (the previous step's shifted
     solution); fatrop first, IPOPT from the same guess if fatrop fails.
@@ -333,7 +324,7 @@ class StylePlanner:
                 (:attr:`SMPCConfig.compiled`: same iterates, no compilation in later
                 processes); without gcc, the interpreted solvers.
             ipm: first try the experimental compiled interior-point solver
-                (:mod:`drivestyle.irl.plan_solver`, DESIGN §16), fatrop where it fails.
+                (:mod:`drivestyle.planning.plan_solver`, DESIGN §16), fatrop where it fails.
         """
         self.config = SMPCConfig(
             horizon=horizon, max_vehicles=n_vehicles, weights_as_parameters=True,
@@ -523,12 +514,13 @@ def planner_for(scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> Styl
     return _PLANNERS[key]
 
 
-def _n_vehicles(demo: Demonstration) -> int:
+def n_vehicles(demo: Demonstration) -> int:
     """M of a demonstration: the TV alone, or up to 4 vehicles in traffic (the expert's)."""
     return 1 if demo.other_vehicles.shape[1] == 0 else 4
 
 
-def _check_demo(demo: Demonstration) -> ScenarioConfig:
+def check_demo(demo: Demonstration) -> ScenarioConfig:
+    """The demonstration's scenario, after checking its samples are T_s apart."""
     sc = demo.scenario
     dt = np.diff(demo.t)
     if not np.allclose(dt, sc.dt, rtol=1e-6, atol=1e-9):
@@ -537,124 +529,6 @@ def _check_demo(demo: Demonstration) -> ScenarioConfig:
             f"scenario's T_s is {sc.dt} s: resample it to T_s"
         )
     return sc
-
-
-# ---------------------------------------------------------------------------- residuals
-def step_residuals(
-    style: DriverStyle, demo: Demonstration, planner: StylePlanner | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Teacher-forced input residuals of ``style`` on every step of ``demo``.
-
-    r_k = (u_0(ξ_k; style) − u_k) / σ_u (:data:`INPUT_SCALE`), the plan starting from the
-    demonstration's own state ξ_k with the surrounding vehicles at their recorded states.
-
-    Args:
-        style: the driver style.
-        demo: the demonstration (samples T_s apart).
-        planner: the NLP to use (default: the cached one of the demo's geometry).
-
-    Returns:
-        (r, active): residuals, shape (n−1, 2), and per step whether a chance constraint
-        binds in the plan (where p can matter), shape (n−1,).
-    """
-    sc = _check_demo(demo)
-    planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
-    r, active, _ = _teacher_forced(style, demo, sc, planner)
-    return r, active
-
-
-def _teacher_forced(
-    style: DriverStyle, demo: Demonstration, sc: ScenarioConfig, planner: StylePlanner
-) -> tuple[np.ndarray, np.ndarray, RowsResult]:
-    """:func:`step_residuals`' pass, also returning the plans.
-
-    One batch, each step warm-started from the previous step's plan (after a failed plan:
-    a cold start).
-    """
-    vehicles = demo.vehicles
-    rows = [PlanRow(demo.ev[k], vehicles[k], style, Link(shift=k - 1 if k else None))
-            for k in range(demo.n - 1)]  # fmt: skip
-    out = planner.solve_rows(rows, sc)
-    r = (out.u0 - demo.u[: demo.n - 1]) / np.asarray(INPUT_SCALE)  # failed plans brake
-    return r, out.chance_active.copy(), out
-
-
-# ---------------------------------------------------------------------------- risk profile
-RISK_EVAL = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.99)
-"""Risks at which :func:`risk_profile` solves; identification interpolates between them."""
-
-
-@dataclass(frozen=True)
-class RiskProfile:
-    """The teacher-forced fit of a style to one demonstration as a function of its risk."""
-
-    risks: tuple[float, ...]
-    """Risks p evaluated (increasing)."""
-    ssr: tuple[float, ...]
-    """Σ_k ‖r_k‖² at each risk (:func:`step_residuals`)."""
-    n_residuals: int
-    """Residual entries (2 per step)."""
-    n_active: int
-    """Steps at which a chance constraint binds at the largest risk: the only steps whose
-    plan can depend on p (0: the demonstration says nothing about p)."""
-
-
-def risk_profile(
-    style: DriverStyle,
-    demo: Demonstration,
-    risks: Sequence[float] = RISK_EVAL,
-    planner: StylePlanner | None = None,
-) -> RiskProfile:
-    """Σ‖r‖² of ``style`` with each risk in ``risks`` on ``demo`` (its weights fixed).
-
-    Every step is solved once at the largest risk. A step whose plan has no binding chance
-    constraint there has the same optimum at every smaller risk (the constraint only
-    loosens as p falls, so the optimum stays feasible and its KKT conditions hold), so only
-    the steps with a binding constraint are re-solved per risk, warm-started from the
-    previous step's plan at the same risk, as the driver's own warm start was.
-
-    Args:
-        style: the driver style (its ``risk`` is ignored).
-        demo: the demonstration.
-        risks: increasing risks in :data:`RISK_RANGE`.
-        planner: the NLP (default: the cached one of the demo's geometry).
-
-    Returns:
-        The :class:`RiskProfile`.
-    """
-    sc = _check_demo(demo)
-    risks = tuple(sorted(float(p) for p in risks))
-    if not risks:
-        raise DriverStyleError("need at least one risk")
-    planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
-    scale = np.asarray(INPUT_SCALE)
-    vehicles = demo.vehicles
-    n = demo.n - 1
-    r_top, active, top = _teacher_forced(replace(style, risk=risks[-1]), demo, sc, planner)
-    ssr = np.empty(len(risks))
-    ssr[-1] = float(np.sum(r_top**2))
-    constant = float(np.sum(r_top[~active] ** 2))
-    steps = [int(i) for i in np.flatnonzero(active)]
-    # the driver's own warm start: its previous step's plan at this risk, which at a step
-    # without a binding constraint is the largest risk's plan (the NLP is not convex — the
-    # nominal ellipse — and the warm start picks the branch)
-    starts: dict[int, PrimalDual] = {}
-    for k in steps:
-        if k == 0 or not active[k - 1]:
-            prev = top.points(k - 1) if k > 0 else None
-            starts[k] = planner.guess(demo.ev[k], prev)
-    rows: list[PlanRow] = []
-    for j in range(len(risks) - 1):
-        styled = replace(style, risk=risks[j])
-        for k in steps:
-            link = Link(given=starts[k]) if k in starts else Link(shift=len(rows) - 1)
-            rows.append(PlanRow(demo.ev[k], vehicles[k], styled, link))
-    if rows:
-        u0 = planner.solve_rows(rows, sc).u0.reshape(len(risks) - 1, len(steps), 2)
-        ssr[:-1] = constant + np.sum(((u0 - demo.u[steps]) / scale) ** 2, axis=(1, 2))
-    else:
-        ssr[:-1] = constant
-    return RiskProfile(risks, tuple(ssr.tolist()), 2 * n, int(active.sum()))
 
 
 # ---------------------------------------------------------------------------- closed loop
@@ -749,243 +623,13 @@ def reproduce(
     Returns:
         The closed-loop trajectory.
     """
-    sc = _check_demo(demo)
-    planner = planner or planner_for(sc, style.horizon, _n_vehicles(demo))
+    sc = check_demo(demo)
+    planner = planner or planner_for(sc, style.horizon, n_vehicles(demo))
     vehicles = demo.vehicles
     xs, _, us, failures = closed_loop(style, demo.ev[0], vehicles, sc, planner)
     rel = xs[:, None, :2] - vehicles[:, :, :2]
     d = (rel[..., 0] / sc.l_a) ** 2 + (rel[..., 1] / sc.l_b) ** 2 - 1.0
     return Reproduction(demo.t.copy(), xs, us, failures, float(np.min(d)))
-
-
-# ---------------------------------------------------------------------------- learning
-@dataclass(frozen=True)
-class DriverFit:
-    """The result of :func:`learn_driver`."""
-
-    style: DriverStyle
-    """The learned style (weights, risk, desired speed)."""
-    risks: tuple[float, ...]
-    """The risk each demonstration was fitted with (all equal unless risks were given)."""
-    cost: float
-    """½ Σ ‖r‖² at the optimum (teacher-forced input residuals)."""
-    residual_rms: float
-    """RMS of the residuals (in σ_u units)."""
-    n_residuals: int
-    """Number of residual entries (2 per step)."""
-    iterations: int
-    """Levenberg–Marquardt iterations."""
-    status: str
-    """'converged', 'max_iter' or 'stalled' (no step lowered the cost)."""
-    seconds: float
-    """Wall time [s]."""
-    history: tuple[float, ...] = field(default=())
-    """Cost per iteration."""
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {
-            "style": self.style.to_json(),
-            "risks": list(self.risks),
-            "cost": self.cost,
-            "residual_rms": self.residual_rms,
-            "n_residuals": self.n_residuals,
-            "iterations": self.iterations,
-            "status": self.status,
-            "seconds": self.seconds,
-            "history": list(self.history),
-        }
-
-
-def _risk_of(s: float) -> float:
-    """The risk 0.5 + 0.49·sigmoid(s): an unconstrained coordinate for p ∈ (0.5, 0.99)."""
-    lo, hi = RISK_RANGE
-    return lo + (hi - lo) / (1.0 + math.exp(-s))
-
-
-def _s_of(risk: float) -> float:
-    lo, hi = RISK_RANGE
-    q = min(max((risk - lo) / (hi - lo), 1e-4), 1 - 1e-4)
-    return math.log(q / (1 - q))
-
-
-def learn_driver(
-    demos: Sequence[Demonstration],
-    risks: Sequence[float] | None = None,
-    fit_speed: bool = False,
-    initial: DriverStyle | None = None,
-    max_iter: int = 30,
-    tol: float = 1e-4,
-    progress: Callable[[int, float], None] | None = None,
-    screen: int = SCREEN_CANDIDATES,
-    restarts: int = RESTARTS,
-) -> DriverFit:
-    """Learn one driver's style from its demonstrations in several scenarios.
-
-    Minimises ½ Σ_d Σ_k ‖r_k‖² (:func:`step_residuals`) over log w (w_a = 1), the risk
-    p (unless ``risks`` fixes each demonstration's) and the desired speed (``fit_speed``),
-    by Levenberg–Marquardt with forward-difference Jacobians. The objective has local
-    minima (the active set of the chance constraint changes with the weights: a p = 0.9
-    driver's LM run from the normalised start stopped at cost 197 where the truth has
-    1e-23), so ``screen`` starting points — the normalised weights and log-uniform
-    perturbations of e^±2.5 drawn from a fixed seed — are scored first and LM runs from
-    the ``restarts`` best; the lowest cost wins.
-
-    Args:
-        demos: demonstrations of one driver (or, with ``risks``, of drivers that share the
-            cost but differ in risk).
-        risks: each demonstration's known risk (a library's training), or None to learn
-            one shared p.
-        fit_speed: also learn the desired speed v_ref (recorded traffic: unknown).
-        initial: the starting style (default: :func:`initial_weights`, p = 0.7).
-        max_iter: iteration cap.
-        tol: relative cost decrease below which the run has converged.
-        progress: called with (iteration, cost) after each iteration.
-        screen: starting points scored (1: the normalised start only).
-        restarts: LM runs from the best-scored starting points.
-
-    Returns:
-        The :class:`DriverFit`.
-
-    Raises:
-        DriverStyleError: no demonstrations, risks of the wrong length or range, or a
-            demonstration off its scenario's time grid.
-    """
-    demos = list(demos)
-    if not demos:
-        raise DriverStyleError("need at least one demonstration")
-    if risks is not None:
-        risks = [float(p) for p in risks]
-        if len(risks) != len(demos):
-            raise DriverStyleError(f"got {len(risks)} risks for {len(demos)} demonstrations")
-        lo, hi = RISK_RANGE
-        if not all(lo <= p <= hi for p in risks):
-            raise DriverStyleError(f"every risk must lie in [{lo}, {hi}], got {risks}")
-    planners = [
-        planner_for(_check_demo(d), (initial.horizon if initial else 10), _n_vehicles(d))
-        for d in demos
-    ]
-    start = initial or DriverStyle(tuple(initial_weights()), risk=0.7)
-    v0 = start.v_ref or float(np.median([d.scenario.v_ref for d in demos]))
-    free = [i for i in range(N_WEIGHTS) if i != _GAUGE]
-    t0 = time.perf_counter()
-
-    def unpack(z: np.ndarray) -> tuple[DriverStyle, list[float]]:
-        w = np.ones(N_WEIGHTS)
-        w[free] = np.exp(z[: len(free)])
-        j = len(free)
-        p = _risk_of(z[j]) if risks is None else 0.7
-        j += risks is None
-        # an LM step may carry the raw speed coordinate below 0 (a braking driver):
-        # keep it in DriverStyle's range instead of failing the fit
-        v_ref = float(np.clip(z[j], 0.1, 69.9)) if fit_speed else start.v_ref
-        style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon)
-        return style, (risks if risks is not None else [p] * len(demos))
-
-    def residuals(z: np.ndarray) -> np.ndarray:
-        style, ps = unpack(z)
-        pairs = zip(demos, ps, strict=True)
-        out = [
-            step_residuals(replace(style, risk=p), d, planners[i])[0].ravel()
-            for i, (d, p) in enumerate(pairs)
-        ]
-        return np.concatenate(out)
-
-    w0 = np.asarray(start.weights) / start.weights[_GAUGE]
-    z = list(np.log(w0[free]))
-    if risks is None:
-        z.append(_s_of(start.risk))
-    if fit_speed:
-        z.append(v0)
-    z0 = np.array(z, dtype=float)
-    steps = np.full(z0.size, 0.02)
-    if fit_speed:
-        steps[-1] = 0.05
-    rng = np.random.default_rng(SCREEN_SEED)
-    candidates = [z0]
-    for _ in range(max(screen, 1) - 1):
-        c = z0.copy()
-        c[: len(free)] += rng.uniform(-2.5, 2.5, len(free))
-        candidates.append(c)
-    scored: list[tuple[float, int, np.ndarray, np.ndarray]] = []
-    for c in candidates:
-        rc = residuals(c)
-        scored.append((0.5 * float(rc @ rc), len(scored), c, rc))
-    scored.sort(key=lambda item: (item[0] if np.isfinite(item[0]) else np.inf, item[1]))
-    best: tuple | None = None
-    total_it = 0
-    for cost_c, _, c, rc in scored[: max(restarts, 1)]:
-        result = _levenberg_marquardt(residuals, c, rc, cost_c, steps, max_iter, tol, progress)
-        total_it += result[4]
-        if best is None or result[2] < best[2]:
-            best = result
-    assert best is not None
-    z, r, cost, history, _, status = best
-    style, ps = unpack(z)
-    return DriverFit(
-        style=style,
-        risks=tuple(ps),
-        cost=cost,
-        residual_rms=float(np.sqrt(np.mean(r**2))),
-        n_residuals=int(r.size),
-        iterations=total_it,
-        status=status,
-        seconds=time.perf_counter() - t0,
-        history=tuple(history),
-    )
-
-
-def _levenberg_marquardt(
-    residuals: Callable[[np.ndarray], np.ndarray],
-    z: np.ndarray,
-    r: np.ndarray,
-    cost: float,
-    steps: np.ndarray,
-    max_iter: int,
-    tol: float,
-    progress: Callable[[int, float], None] | None,
-) -> tuple[np.ndarray, np.ndarray, float, list[float], int, str]:
-    """LM with forward-difference Jacobians from z (residuals r, cost ½‖r‖²).
-
-    Returns:
-        (z, r, cost, cost history, iterations, status).
-    """
-    history = [cost]
-    lam = 1e-2
-    status = "max_iter"
-    it = 0
-    for it in range(1, max_iter + 1):
-        J = np.empty((r.size, z.size))
-        for i in range(z.size):
-            dz = np.zeros(z.size)
-            dz[i] = steps[i]
-            J[:, i] = (residuals(z + dz) - r) / steps[i]
-        g = J.T @ r
-        H = J.T @ J
-        improved = False
-        for _ in range(8):
-            step = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
-            step = np.clip(step, -2.0, 2.0)  # log-weights: at most e² per iteration
-            z_try = z + step
-            r_try = residuals(z_try)
-            cost_try = 0.5 * float(r_try @ r_try)
-            if np.isfinite(cost_try) and cost_try < cost:
-                improved = True
-                break
-            lam *= 10.0
-        if not improved:
-            status = "stalled" if it == 1 else "converged"
-            break
-        rel = (cost - cost_try) / max(cost, 1e-12)
-        z, r, cost = z_try, r_try, cost_try
-        lam = max(lam / 10.0, 1e-6)
-        history.append(cost)
-        if progress is not None:
-            progress(it, cost)
-        if rel < tol:
-            status = "converged"
-            break
-    return z, r, cost, history, it, status
 
 
 # ---------------------------------------------------------------------------- files
@@ -1021,31 +665,3 @@ def load_driver_style(path: str | Path) -> DriverStyle:
         return DriverStyle.from_json(raw["style"])
     except KeyError:
         raise DriverStyleError(f"{path}: missing key 'style'") from None
-
-
-def save_driver_style(
-    fit: DriverFit,
-    path: str | Path,
-    demo_paths: Sequence[str] = (),
-    reproductions: Sequence[dict[str, Any]] = (),
-) -> Path:
-    """Write a driver-style file (``kind`` :data:`DRIVER_STYLE_KIND`).
-
-    Args:
-        fit: the learning result.
-        path: the file to write.
-        demo_paths: the demonstrations it was learned from.
-        reproductions: per demonstration, e.g. ``{"rmse_y_m": …, "rmse_xy_m": …}``.
-
-    Returns:
-        The path written.
-    """
-    payload = {
-        "kind": DRIVER_STYLE_KIND,
-        "version": 1,
-        "model": "receding-horizon style (DESIGN §15)",
-        **fit.to_json(),
-        "demos": [{"path": str(p)} for p in demo_paths],
-        "reproductions": list(reproductions),
-    }
-    return write_json(Path(path), payload)

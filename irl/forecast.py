@@ -1,6 +1,6 @@
 """Predicting a vehicle's trajectory from its observed past, with or without its style (DESIGN §17).
 
-Not to be confused with :mod:`drivestyle.irl.prediction`, the SMPC's own model of the
+Not to be confused with :mod:`drivestyle.planning.prediction`, the SMPC's own model of the
 vehicles around it (constant velocity plus a growing covariance, inside the NLP). Here an
 *observer* has seen a vehicle's first samples ξ_0 … ξ_k and predicts ξ_{k+1} … ξ_{k+H}:
 
@@ -36,7 +36,7 @@ from drivestyle.irl.driver_style import DriverStyle, StylePlanner, closed_loop, 
 from drivestyle.irl.identification import Identification
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
-from drivestyle.irl.smpc_problem import PrimalDual
+from drivestyle.planning.smpc_problem import PrimalDual
 
 __all__ = [
     "METHODS",

@@ -36,11 +36,12 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index
-from drivestyle.irl.driver_style import RISK_RANGE, DriverStyleError, RiskProfile, risk_profile
+from drivestyle.irl.driver_style import RISK_RANGE, DriverStyleError
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.learner import check_learnable
 from drivestyle.irl.library import RESIDUAL_FLOOR, DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.irl.risk_profile import RiskProfile, risk_profile
 
 __all__ = [
     "DEFAULT_SCORER",
@@ -487,7 +488,7 @@ def risk_log_likelihood(
     contribute nothing.
 
     Args:
-        profiles: the demonstrations' :class:`~drivestyle.irl.driver_style.RiskProfile`.
+        profiles: the demonstrations' :class:`~drivestyle.irl.risk_profile.RiskProfile`.
         temperature: τ > 0 (residuals of neighbouring steps are correlated: τ > 1 widens).
         grid: risks to evaluate at (default :func:`density_grid`).
 
@@ -535,7 +536,7 @@ def identify_driver(
     """One vehicle's risk as a continuous parameter of the library's style (DESIGN §15).
 
     Each demonstration's teacher-forced residual sum is computed as a function of p
-    (:func:`~drivestyle.irl.driver_style.risk_profile`), turned into a likelihood
+    (:func:`~drivestyle.irl.risk_profile.risk_profile`), turned into a likelihood
     (:func:`risk_log_likelihood`) and, with a uniform prior on [0.5, 0.99], into a
     posterior over p on :func:`density_grid`. Reported: ``risk_interpolated`` its mean,
     ``risk_interval`` its central 90 % interval, ``posterior`` its mass in each library

@@ -37,13 +37,8 @@ from drivestyle.common.io import read_json
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import (
-    RISK_RANGE,
-    DriverFit,
-    DriverStyle,
-    DriverStyleError,
-    learn_driver,
-)
+from drivestyle.irl.driver_learning import DriverFit, learn_driver
+from drivestyle.irl.driver_style import RISK_RANGE, DriverStyle, DriverStyleError
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 

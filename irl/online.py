@@ -9,8 +9,8 @@ with the vehicle's state ξ_k (and its neighbours') does two things:
    made from ξ_{k−1} at every risk, and the residuals r = (u_0(ξ_{k−1}; p) − u_{k−1}) / σ_u
    are added to the running residual sums S(p);
 2. it plans from ξ_k at the largest risk and — only if a chance constraint binds there
-   (else every risk has the same optimum, :func:`~drivestyle.irl.driver_style.risk_profile`)
-   — at the other risks of :data:`~drivestyle.irl.driver_style.RISK_EVAL`, each
+   (else every risk has the same optimum, :func:`~drivestyle.irl.risk_profile.risk_profile`)
+   — at the other risks of :data:`~drivestyle.irl.risk_profile.RISK_EVAL`, each
    warm-started from its own previous plan as the offline pass is.
 
 So an update costs one plan, or one batch of 13 when the vehicle is near another, and the
@@ -32,18 +32,17 @@ from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.driver_style import (
     INPUT_SCALE,
-    RISK_EVAL,
     RISK_RANGE,
     DriverStyle,
     Link,
     PlanRow,
-    RiskProfile,
     StylePlanner,
     planner_for,
 )
 from drivestyle.irl.identification import Identification, driver_posterior
 from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.smpc_problem import PrimalDual
+from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+from drivestyle.planning.smpc_problem import PrimalDual
 
 __all__ = ["StyleTracker", "TrackerError", "track_demo"]
 

@@ -50,7 +50,6 @@ import numpy as np
 from gymnasium.utils import RecordConstructorArgs
 
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.chance import chance_margin
 from drivestyle.irl.driver_style import DriverStyle, load_driver_style
 from drivestyle.irl.features import (
     FEATURES,
@@ -60,9 +59,10 @@ from drivestyle.irl.features import (
     gauss_legendre_nodes,
     segment_integrals,
 )
-from drivestyle.irl.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 from drivestyle.irl.spline import basis_matrix
 from drivestyle.irl.style import Style, StyleError, load_style
+from drivestyle.planning.chance import chance_margin
+from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 
 __all__ = [
     "COST_TERMS",

@@ -12,7 +12,7 @@ With ``--library DIR`` it also times identification (``identify_s_median`` over
 the planner's NLP is solved by the product solver (fatrop generated as C, cached on disk)
 and by IPOPT from the identical guess (``ipopt_over_product``); ``newton_step_floor_ms``
 is one compiled Newton step of the same NLP alone (evaluation, Riccati factorisation and
-both Mehrotra solves: :mod:`drivestyle.irl.plan_solver`); identification of
+both Mehrotra solves: :mod:`drivestyle.planning.plan_solver`); identification of
 ``--identify`` random-family demonstrations with an in-memory driver library; a fresh
 process's time to its first identification (``second_process_s``, the compiled library
 already on disk) and its peak resident memory; ``--learn`` also times ``learn_driver`` on
@@ -42,10 +42,11 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import load_demonstration, save_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
-from drivestyle.irl.driver_style import DriverStyle, StylePlanner, learn_driver
+from drivestyle.irl.driver_learning import learn_driver
+from drivestyle.irl.driver_style import DriverStyle, StylePlanner
 from drivestyle.irl.identification import identify
 from drivestyle.irl.library import DriverLibrary, load_library
-from drivestyle.irl.plan_solver import IPMOptions, bounds_vector, compiled_solver
+from drivestyle.planning.plan_solver import IPMOptions, bounds_vector, compiled_solver
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

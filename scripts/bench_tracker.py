@@ -29,7 +29,7 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
 from drivestyle.irl.online import StyleTracker
-from drivestyle.irl.smpc_problem import SMPCConfig
+from drivestyle.planning.smpc_problem import SMPCConfig
 
 GOAL_MS = 20.0
 """Goal of the median update latency [ms] (issue 19)."""

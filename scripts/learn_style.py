@@ -35,12 +35,8 @@ from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
-from drivestyle.irl.driver_style import (
-    WEIGHT_NAMES,
-    learn_driver,
-    reproduce,
-    save_driver_style,
-)
+from drivestyle.irl.driver_learning import learn_driver, save_driver_style
+from drivestyle.irl.driver_style import WEIGHT_NAMES, reproduce
 from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points

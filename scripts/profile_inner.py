@@ -52,10 +52,12 @@ from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl import driver_style as ds
 from drivestyle.irl import inner as inner_mod
-from drivestyle.irl import smpc_problem as sp
-from drivestyle.irl.driver_style import DriverStyle, risk_profile, step_residuals
+from drivestyle.irl.driver_learning import step_residuals
+from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.identification import identify_driver
 from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.risk_profile import risk_profile
+from drivestyle.planning import smpc_problem as sp
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The driver style profiled: the SMPC expert's own cost weights [w_y, w_φ, w_v, w_a, w_δ]."""

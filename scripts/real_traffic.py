@@ -37,7 +37,7 @@ from drivestyle.agents.studies.reports import driver_traffic_markdown, real_traf
 from drivestyle.common.cli import positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.real_data import load_cats, load_ngsim
-from drivestyle.irl.driver_style import RESTARTS, SCREEN_CANDIDATES
+from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

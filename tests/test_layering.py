@@ -1,4 +1,4 @@
-"""The package layering common ← envs ← irl ← agents ← scripts, checked on every import."""
+"""The package layering common ← envs ← planning ← irl ← agents ← scripts, checked on every import."""
 
 import ast
 import re
@@ -10,12 +10,13 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {
     "common": ROOT / "drivestyle" / "common",
     "envs": ROOT / "envs",
+    "planning": ROOT / "planning",
     "irl": ROOT / "irl",
     "agents": ROOT / "agents",
     "scripts": ROOT / "scripts",
 }
 """Lowest first: a layer may import only itself and the layers before it."""
-GENERIC = {"envs", "irl", "agents", "scripts", "common"}
+GENERIC = {"envs", "planning", "irl", "agents", "scripts", "common"}
 """Top-level names that must never be imported bare: the library is ``drivestyle.*``."""
 
 

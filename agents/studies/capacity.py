@@ -23,7 +23,7 @@ beside them. The classes (:data:`CLASSES`):
 ``rh_chance_nm``
     The same planner with the chance constraint: the weights and p fitted by Nelder–Mead.
 ``rh_learned``
-    The same planner learned by :func:`~drivestyle.irl.driver_style.learn_driver` (the
+    The same planner learned by :func:`~drivestyle.irl.driver_learning.learn_driver` (the
     product's learner: teacher-forced input residuals, no reproduction in the loop).
 
 The objective scores x and y together (a fit on y alone hides the error by moving x):
@@ -51,12 +51,12 @@ from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.driver_learning import learn_driver
 from drivestyle.irl.driver_style import (
     RISK_RANGE,
     WEIGHT_NAMES,
     DriverStyle,
     initial_weights,
-    learn_driver,
     reproduce,
 )
 from drivestyle.irl.features import X_FEATURES, FeatureConfig
@@ -569,7 +569,7 @@ def capacity_of_risk(
         train: its training demonstrations (K ≥ 1).
         test: its held-out demonstrations (≥ 1).
         budget: objective evaluations per Nelder–Mead fit (the starting candidates count).
-        learn_options: keyword arguments of :func:`~drivestyle.irl.driver_style.learn_driver`
+        learn_options: keyword arguments of :func:`~drivestyle.irl.driver_learning.learn_driver`
             (e.g. fewer starting points for a quick run); default: its defaults.
         irl_max_iter: ME-IRL's outer iteration cap (default: its default).
 

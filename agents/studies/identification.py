@@ -34,7 +34,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracking import observe
 from drivestyle.envs.traffic import TrafficScene
-from drivestyle.irl.driver_style import DriverStyleError, RiskProfile, risk_profile
+from drivestyle.irl.driver_style import DriverStyleError
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.identification import (
     DEFAULT_SCORER,
@@ -50,6 +50,7 @@ from drivestyle.irl.identification import (
 )
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
+from drivestyle.irl.risk_profile import RiskProfile, risk_profile
 
 __all__ = [
     "CONTINUOUS_RANGE",

@@ -63,7 +63,7 @@ from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_st
 from drivestyle.irl.forecast import METHODS, ForecastError, Prediction, predict
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker, TrackerError
-from drivestyle.irl.smpc_problem import SMPCConfig
+from drivestyle.planning.smpc_problem import SMPCConfig
 
 __all__ = [
     "DATASETS",

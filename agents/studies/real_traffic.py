@@ -31,7 +31,8 @@ from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.real_data import RecordedEpisode
-from drivestyle.irl.driver_style import RESTARTS, SCREEN_CANDIDATES, learn_driver, reproduce
+from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
+from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL, normalise_theta

@@ -23,7 +23,7 @@ from drivestyle.agents.studies.planning import (
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.irl.driver_style import DriverStyle, expert_style
 from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.smpc_problem import SMPCConfig, nlp_parameters
+from drivestyle.planning.smpc_problem import SMPCConfig, nlp_parameters
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 LIBRARY = DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))
@@ -117,6 +117,6 @@ def test_the_cut_in_study_scores_every_scene_with_every_predictor(study):
 def test_the_compiled_interior_point_step_is_not_offered_for_predicted_paths():
     # its generated step predicts every vehicle at constant velocity: the generic solvers
     # must solve a predicted-path NLP
-    from drivestyle.irl.plan_solver import compiled_solver
+    from drivestyle.planning.plan_solver import compiled_solver
 
     assert compiled_solver(SMPCConfig(predicted_paths=True), CUT_IN_RANGES.base) is None

@@ -190,7 +190,8 @@ def test_driver_settings_are_validated():
 
 def test_off_grid_recording_is_refused_by_the_driver_model():
     from drivestyle.envs.demonstration import Demonstration
-    from drivestyle.irl.driver_style import DriverStyleError, learn_driver
+    from drivestyle.irl.driver_learning import learn_driver
+    from drivestyle.irl.driver_style import DriverStyleError
 
     demo, _ = _recorded_like()
     off = Demonstration(t=demo.t * 0.5, ev=demo.ev, tv=demo.tv, u=demo.u, meta=demo.meta)
@@ -211,7 +212,7 @@ def test_recorded_like_demo_learns_and_reproduces():
 @pytest.mark.slow  # ~10 s; failed before learn_driver kept v_ref in DriverStyle's range
 def test_fit_speed_survives_a_braking_driver():
     from drivestyle.agents.studies.real_traffic import driver_demo
-    from drivestyle.irl.driver_style import learn_driver
+    from drivestyle.irl.driver_learning import learn_driver
 
     demo, _ = _recorded_like(n=9, brake=-1.5, speed=3.0)
     fit = learn_driver([driver_demo(demo)], fit_speed=True, screen=1, restarts=1)

@@ -7,17 +7,18 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver_style import (
-    INPUT_SCALE,
+from drivestyle.irl.driver_learning import (
     DriverFit,
-    DriverStyle,
-    DriverStyleError,
     learn_driver,
-    load_driver_style,
-    reproduce,
-    risk_profile,
     save_driver_style,
     step_residuals,
+)
+from drivestyle.irl.driver_style import (
+    INPUT_SCALE,
+    DriverStyle,
+    DriverStyleError,
+    load_driver_style,
+    reproduce,
 )
 from drivestyle.irl.identification import (
     calibrate_temperature,
@@ -26,6 +27,7 @@ from drivestyle.irl.identification import (
     risk_log_likelihood,
 )
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.risk_profile import risk_profile
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's Q (y, φ, v) and R (a, δ) diagonal: the SMPC is a member of the class."""
@@ -82,7 +84,7 @@ def test_identification_finds_the_true_risk_with_a_continuous_posterior(paper_de
 
 
 def test_the_likelihood_widens_with_the_residual_left_at_the_best_risk():
-    from drivestyle.irl.driver_style import RiskProfile
+    from drivestyle.irl.risk_profile import RiskProfile
 
     grid = np.array([0.5, 0.6, 0.7])
     exact = RiskProfile((0.5, 0.6, 0.7), (4.0, 0.0, 4.0), 100, 5)

@@ -108,7 +108,8 @@ def test_bench_smpc_json(tmp_path):
 
 
 def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
-    from drivestyle.irl import driver_style, inner, smpc_problem
+    from drivestyle.irl import driver_style, inner
+    from drivestyle.planning import smpc_problem
 
     originals = {
         (obj, name): getattr(obj, name)

@@ -1,4 +1,4 @@
-"""Compiled solvers (irl/compiled.py, irl/plan_solver.py; DESIGN §16): the same results as
+"""Compiled solvers (planning/compiled.py, planning/plan_solver.py; DESIGN §16): the same results as
 the interpreted solvers, cached on disk for the next process, a clean fallback without gcc."""
 
 import os
@@ -10,14 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver_style import (
-    DriverStyle,
-    Link,
-    PlanRow,
-    StylePlanner,
-    reproduce,
-    risk_profile,
-)
+from drivestyle.irl.driver_style import DriverStyle, Link, PlanRow, StylePlanner, reproduce
+from drivestyle.irl.risk_profile import risk_profile
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs a C compiler")
 
@@ -53,7 +47,7 @@ def test_the_compiled_fatrop_is_the_interpreted_one(paper_demo, planners):
 
 def _probe(cache: str, path: str) -> str:
     code = (
-        "from drivestyle.irl.smpc_problem import SMPCConfig, SMPCProblem;"
+        "from drivestyle.planning.smpc_problem import SMPCConfig, SMPCProblem;"
         "from drivestyle.envs.scenario import PAPER;"
         "p = SMPCProblem(SMPCConfig(weights_as_parameters=True, compiled=True), PAPER);"
         "print(sorted(p._external))"

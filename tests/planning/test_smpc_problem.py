@@ -7,10 +7,10 @@ import pytest
 from drivestyle.agents import smpc
 from drivestyle.envs import PAPER
 from drivestyle.envs.dynamics import rk4_step
-from drivestyle.irl import smpc_problem
-from drivestyle.irl.chance import chance_margin
-from drivestyle.irl.prediction import tv_covariance
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning import smpc_problem
+from drivestyle.planning.chance import chance_margin
+from drivestyle.planning.prediction import tv_covariance
+from drivestyle.planning.smpc_problem import (
     NU,
     NX,
     PrimalDual,

@@ -1,7 +1,7 @@
 # mypy: ignore-errors
 """A compiled, structure-exploiting interior-point solver for the planner's NLP (DESIGN §16).
 
-The style planner's NLP (:mod:`drivestyle.irl.smpc_problem`) is tiny — N = 10 stages of a
+The style planner's NLP (:mod:`drivestyle.planning.smpc_problem`) is tiny — N = 10 stages of a
 4-state, 2-input bicycle, one slack per constrained vehicle — and solved hundreds of times
 per identification. fatrop spends a median of 8–9 interior-point iterations of ≈ 60 µs
 each on it (p95 32; DESIGN §16); this module solves the *same* NLP (same cost, constraints
@@ -32,7 +32,7 @@ rows whose chance constraint is violated, and from some guesses it reaches anoth
 optimum than fatrop (DESIGN §16); where both converge to the same one they agree to
 fatrop's accuracy (2e-4 in the inputs, tested).
 
-The shared library is cached on disk (:func:`drivestyle.irl.compiled.cache_dir`, keyed by
+The shared library is cached on disk (:func:`drivestyle.planning.compiled.cache_dir`, keyed by
 a hash of the configuration and the defining sources), so only the first process on a
 machine compiles (≈ 10 s); a machine without a C compiler gets ``None`` from
 :func:`compiled_solver` and the callers keep the generic solvers.
@@ -50,9 +50,9 @@ import casadi as ca
 import numpy as np
 
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.compiled import cache_dir, compile_c, source_digest
-from drivestyle.irl.prediction import tv_covariance
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning.compiled import cache_dir, compile_c, source_digest
+from drivestyle.planning.prediction import tv_covariance
+from drivestyle.planning.smpc_problem import (
     NU,
     NX,
     NLPLayout,
@@ -60,13 +60,13 @@ from drivestyle.irl.smpc_problem import (
     SMPCConfig,
     nlp_layout,
 )
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning.smpc_problem import (
     _dynamics as smpc_dynamics,
 )
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning.smpc_problem import (
     _ellipse_margins as smpc_ellipse_margins,
 )
-from drivestyle.irl.smpc_problem import (
+from drivestyle.planning.smpc_problem import (
     _symbols as smpc_symbols,
 )
 
@@ -497,7 +497,7 @@ def _dyn_function(scenario: ScenarioConfig) -> ca.Function:
 
 # ---------------------------------------------------------------------------- the C driver
 _DRIVER_C = r"""
-/* drivestyle: batch driver of the generated interior-point step (irl/plan_solver.py). */
+/* drivestyle: batch driver of the generated interior-point step (planning/plan_solver.py). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -620,7 +620,7 @@ int ds_solve(int n, double* states, const double* P, const double* bnd, const in
 def _shift_maps(lay: IPMLayout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Source index of every entry of w, λ and z in a guess shifted by one stage.
 
-    As :func:`drivestyle.irl.smpc_problem.shifted_primal` / ``shifted_duals``: stage k takes
+    As :func:`drivestyle.planning.smpc_problem.shifted_primal` / ``shifted_duals``: stage k takes
     stage k + 1's values, the last input, slack and multipliers are repeated (ξ_0 and ξ_N
     are set by the driver: ξ0 and F(ξ_N, u_{N−1})).
     """
@@ -657,8 +657,8 @@ def _key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     fields = (config.horizon, config.max_vehicles, config.weights_as_parameters, config.Q,
               config.Q_N, config.R, config.slack_l1, config.slack_l2, config.uncertainty,
               sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)  # fmt: skip
-    digest = source_digest([__name__, "drivestyle.irl.compiled", "drivestyle.irl.smpc_problem",
-                            "drivestyle.irl.chance", "drivestyle.irl.prediction",
+    digest = source_digest([__name__, "drivestyle.planning.compiled", "drivestyle.planning.smpc_problem",
+                            "drivestyle.planning.chance", "drivestyle.planning.prediction",
                             "drivestyle.envs.dynamics"])  # fmt: skip
     return hashlib.sha256((repr(fields) + digest).encode()).hexdigest()[:20]
 
@@ -733,7 +733,7 @@ class PlanSolver:
 
         Args:
             states: (n, n_state) guesses (mode 0) / solutions on return.
-            P: (n, n_p) parameters (:func:`drivestyle.irl.smpc_problem.nlp_parameters`).
+            P: (n, n_p) parameters (:func:`drivestyle.planning.smpc_problem.nlp_parameters`).
             bnd: (n, 7) bounds (:func:`bounds_vector`).
             src: (n,) source problem of modes 1 and 2 (an earlier index).
             mode: (n,) 0 guess given, 1 shifted source, 2 copied source, 3 skip (solved).
