@@ -657,9 +657,9 @@ def _key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     fields = (config.horizon, config.max_vehicles, config.weights_as_parameters, config.Q,
               config.Q_N, config.R, config.slack_l1, config.slack_l2, config.uncertainty,
               sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)  # fmt: skip
-    digest = source_digest([__name__, "drivestyle.planning.compiled", "drivestyle.planning.smpc_problem",
-                            "drivestyle.planning.chance", "drivestyle.planning.prediction",
-                            "drivestyle.envs.dynamics"])  # fmt: skip
+    digest = source_digest([__name__, "drivestyle.planning.compiled",
+                            "drivestyle.planning.smpc_problem", "drivestyle.planning.chance",
+                            "drivestyle.planning.prediction", "drivestyle.envs.dynamics"])  # fmt: skip
     return hashlib.sha256((repr(fields) + digest).encode()).hexdigest()[:20]
 
 

@@ -7,7 +7,7 @@ One solve of the stochastic MPC is
     s.t.   ξ_{k+1} = F(ξ_k, u_k)                      (the env's RK4 map, envs/dynamics.py)
            ξ_0 = ξ0
            ξ_k ∈ Ξ, u_k ∈ U                           (heading, speed, road, input bounds)
-           g_kj(ξ_k) + s_kj ≥ 0, s_kj ≥ 0, k = 1 … N  (tangent chance constraint, planning/chance.py)
+           g_kj(ξ_k) + s_kj ≥ 0, s_kj ≥ 0, k = 1 … N  (tangent chance constraint, chance.py)
            ‖z̄_kj‖ − 1 ≥ 0, k = 1 … N                 (nominal ellipse, hard)
 
 for every constrained vehicle j = 1 … M, with ξ^ref_k = [x_0 + v_ref t_k, y_ref, 0, v_ref]

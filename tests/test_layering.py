@@ -1,4 +1,4 @@
-"""The package layering common ← envs ← planning ← irl ← agents ← scripts, checked on every import."""
+"""The layering common ← envs ← planning ← irl ← agents ← scripts, checked on every import."""
 
 import ast
 import re
