@@ -659,7 +659,8 @@ def _key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
               sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)  # fmt: skip
     digest = source_digest([__name__, "drivestyle.planning.compiled",
                             "drivestyle.planning.smpc_problem", "drivestyle.planning.chance",
-                            "drivestyle.planning.prediction", "drivestyle.envs.dynamics"])  # fmt: skip
+                            "drivestyle.planning.prediction",
+                            "drivestyle.envs.dynamics"])  # fmt: skip
     return hashlib.sha256((repr(fields) + digest).encode()).hexdigest()[:20]
 
 
