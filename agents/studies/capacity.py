@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.optimize import minimize
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
@@ -151,11 +152,15 @@ def nelder_mead(
 ) -> NelderMeadResult:
     """Minimise ``fun`` by the Nelder–Mead simplex method within ``budget`` evaluations.
 
-    The adaptive coefficients of Gao & Han (2012) keep the method effective beyond a few
-    dimensions. When the simplex collapses (its values within ``ftol`` and its vertices
-    within ``xtol`` of the best), the search restarts around the best point with the
-    initial steps, until a restart improves by less than ``ftol`` or the budget is spent.
-    Non-finite values count as +∞ (a parameter vector that cannot be evaluated).
+    SciPy's simplex (``scipy.optimize.minimize(method="Nelder-Mead")``) with the adaptive
+    coefficients of Gao & Han (2012), which keep the method effective beyond a few
+    dimensions (the standard ones at n = 1, where the adaptive shrink degenerates). This
+    wrapper adds what SciPy's lacks: a hard evaluation budget that keeps the best point
+    found so far, non-finite values counted as +∞ (a parameter vector that cannot be
+    evaluated), and restarts — when the simplex collapses (its values within ``ftol`` and
+    its vertices within ``xtol`` of the best) the search restarts around the best point
+    with the initial steps, until a restart improves by less than ``ftol`` or the budget is
+    spent.
 
     Args:
         fun: the objective, x ↦ value.
@@ -181,11 +186,9 @@ def nelder_mead(
         raise ValueError(f"step must be finite and > 0, got {step}")
     if not (isinstance(budget, int) and budget >= 1):
         raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
-    alpha, beta, gamma, delta = 1.0, 1.0 + 2.0 / n, 0.75 - 0.5 / n, 1.0 - 1.0 / n
-    if n == 1:
-        beta, gamma, delta = 2.0, 0.5, 0.5  # the adaptive coefficients degenerate at n = 1
     best: dict[str, Any] = {"x": x0.copy(), "f": math.inf}
     history: list[float] = []
+    counts = {"iterations": 0}
 
     def f(x: np.ndarray) -> float:
         if len(history) >= budget:
@@ -194,55 +197,23 @@ def nelder_mead(
         if not math.isfinite(value):
             value = math.inf
         if value < best["f"]:
-            best["x"], best["f"] = x.copy(), value
+            best["x"], best["f"] = np.array(x, dtype=float), value
         history.append(best["f"])
         return value
 
-    iterations = restarts = 0
+    def count(_: Any) -> None:
+        counts["iterations"] += 1
+
+    # the budget, not SciPy's caps, ends the search
+    options = {"xatol": xtol, "fatol": ftol, "adaptive": n > 1, "maxiter": 2**62, "maxfev": 2**62}
+    restarts = 0
     try:
         center = x0
         while True:
             start_f = best["f"]
-            simplex = [center.copy()] + [center + steps[i] * np.eye(n)[i] for i in range(n)]
-            values = [f(x) for x in simplex]
-            while True:
-                order = np.argsort(values, kind="stable")
-                simplex = [simplex[i] for i in order]
-                values = [values[i] for i in order]
-                spread_f = values[-1] - values[0]
-                spread_x = max(float(np.max(np.abs(x - simplex[0]))) for x in simplex[1:])
-                if (spread_f <= ftol or not math.isfinite(spread_f)) and spread_x <= xtol:
-                    break
-                if spread_x <= xtol * 1e-3:  # degenerate: all vertices at one point
-                    break
-                iterations += 1
-                c = np.mean(simplex[:-1], axis=0)
-                worst = simplex[-1]
-                xr = c + alpha * (c - worst)
-                fr = f(xr)
-                if values[0] <= fr < values[-2]:
-                    simplex[-1], values[-1] = xr, fr
-                    continue
-                if fr < values[0]:
-                    xe = c + beta * (xr - c)
-                    fe = f(xe)
-                    simplex[-1], values[-1] = (xe, fe) if fe < fr else (xr, fr)
-                    continue
-                if fr < values[-1]:  # outside contraction
-                    xc = c + gamma * (xr - c)
-                    fc = f(xc)
-                    if fc <= fr:
-                        simplex[-1], values[-1] = xc, fc
-                        continue
-                else:  # inside contraction
-                    xc = c - gamma * (xr - c)
-                    fc = f(xc)
-                    if fc < values[-1]:
-                        simplex[-1], values[-1] = xc, fc
-                        continue
-                for i in range(1, n + 1):  # shrink towards the best vertex
-                    simplex[i] = simplex[0] + delta * (simplex[i] - simplex[0])
-                    values[i] = f(simplex[i])
+            simplex = np.vstack([center, center + np.diag(steps)])
+            minimize(f, center, method="Nelder-Mead", callback=count,
+                     options={**options, "initial_simplex": simplex})  # fmt: skip
             if restarts >= max_restarts or start_f - best["f"] <= ftol:
                 break
             restarts += 1
@@ -253,7 +224,7 @@ def nelder_mead(
         x=best["x"],
         fun=best["f"],
         evaluations=len(history),
-        iterations=iterations,
+        iterations=counts["iterations"],
         restarts=restarts,
         history=tuple(history),
     )
