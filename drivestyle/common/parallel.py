@@ -1,30 +1,228 @@
-"""Running independent tasks in worker processes, with Ctrl-C that stops at once.
+"""Running independent tasks in worker processes that never outlive their parent.
 
 CasADi solvers are not thread-safe, so parallel work runs in processes. Workers use one
-BLAS thread each (two solvers on two cores should not fight over four threads) and ignore
-SIGINT: on Ctrl-C the parent terminates them and drops the queue, instead of waiting for
-every running task to finish (``ProcessPoolExecutor``'s own shutdown waits).
+BLAS thread each (two solvers on two cores should not fight over four threads) and:
+
+- ignore SIGINT: on Ctrl-C the parent terminates them and drops the queue, instead of
+  waiting for every running task to finish (``ProcessPoolExecutor``'s own shutdown waits);
+- die with their parent, whatever ends it: on Linux each worker asks the kernel for SIGKILL
+  when its parent dies (``prctl(PR_SET_PDEATHSIG)``), so ``kill -9`` of a job leaves no
+  orphan workers behind (they would hold the job's files and locks forever); while
+  :func:`parallel_map` runs in the main thread, SIGTERM stops the job as Ctrl-C does
+  (workers terminated, cleanup run) and exits with status 143 (128 + SIGTERM).
+
+A worker that dies while running a task (a segfault, ``os._exit``, the OOM killer, a
+``kill``) breaks a ``ProcessPoolExecutor`` and every task in flight with it. Here the tasks
+that had started are run again, each alone in a fresh process: the one that kills its
+process again is reported (``on_crash``, or :class:`WorkerCrashError`), the others finish, and
+the rest of the queue goes on in a new pool. A task thus runs at most twice.
 """
 
 from __future__ import annotations
 
+import ctypes
+import multiprocessing
 import os
 import signal
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import sys
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["parallel_map"]
+__all__ = ["EXIT_TERMINATED", "WorkerCrashError", "parallel_map"]
 
 _ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+EXIT_TERMINATED = 128 + signal.SIGTERM
+"""Exit status of a job stopped by SIGTERM while :func:`parallel_map` ran (the shell's)."""
+
+_STARTED: Any = None
+"""In a worker: the shared flags of the tasks that started (set by :func:`_worker_init`)."""
 
 
-def _worker_init(initializer: Callable[..., None] | None = None, initargs: tuple = ()) -> None:
+class WorkerCrashError(RuntimeError):
+    """A worker process died while running a task (the task raised nothing: it was killed)."""
+
+
+def _die_with_parent(parent: int | None) -> None:
+    """Ask the kernel to SIGKILL this process when its parent dies (Linux; else nothing).
+
+    Args:
+        parent: the pid the parent had; if this process's parent is already another one
+            (it died before the request took effect), die now.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, ctypes.c_ulong(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # no prctl: the SIGTERM path still stops workers
+        return
+    # the parent may have died between fork and prctl: the request then never fires
+    if parent is not None and os.getppid() != parent:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _worker_init(
+    parent: int | None,
+    started: Any,
+    initializer: Callable[..., None] | None = None,
+    initargs: tuple = (),
+) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent's handler is the parent's
+    _die_with_parent(parent)
+    global _STARTED
+    _STARTED = started
     for name in _ONE_THREAD:
         os.environ.setdefault(name, "1")
     if initializer is not None:
         initializer(*initargs)
+
+
+def _run_task(fn: Callable[..., Any], index: int, args: tuple[Any, ...]) -> Any:
+    """In a worker: mark task ``index`` as started (a crash then names it), run it."""
+    _STARTED[index] = 1
+    return fn(*args)
+
+
+@contextmanager
+def _sigterm_stops_the_job() -> Iterator[None]:
+    """While active, SIGTERM raises ``SystemExit(143)`` here (cleanup runs, as on Ctrl-C).
+
+    Only in the main thread (Python runs handlers there) and only when nobody installed a
+    handler of their own (Ray's driver has one, for instance).
+    """
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    ):
+        yield
+        return
+    owner = os.getpid()
+
+    def on_sigterm(signum: int, frame: Any) -> None:
+        if os.getpid() != owner:  # a worker forked before its initializer reset this
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        print("terminated: stopping the worker processes", file=sys.stderr, flush=True)
+        raise SystemExit(EXIT_TERMINATED)
+
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _how_it_died(exitcode: int | None) -> str:
+    if exitcode is None:
+        return "the worker process died"
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        return f"the worker process was killed by {name}"
+    return f"the worker process exited with status {exitcode} while running it"
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Terminate the pool's workers now and drop its queue."""
+    # private, but the only handle on the workers: stop running tasks now
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        proc.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+class _Pool:
+    """One ``parallel_map`` call's state: results, started flags, the pools' settings."""
+
+    def __init__(
+        self,
+        fn: Callable[..., Any],
+        tasks: Sequence[tuple[Any, ...]],
+        on_result: Callable[[int, Any], None] | None,
+        initializer: Callable[..., None] | None,
+        initargs: tuple,
+    ) -> None:
+        self.fn = fn
+        self.tasks = tasks
+        self.on_result = on_result
+        self.results: list[Any] = [None] * len(tasks)
+        self.done = [False] * len(tasks)
+        self.context = multiprocessing.get_context()
+        self.started = self.context.Array("b", len(tasks), lock=False)
+        # a forkserver's workers are its children, not ours: their parent check is moot
+        forked = self.context.get_start_method() in ("fork", "spawn")
+        self.initargs = (os.getpid() if forked else None, self.started, initializer, initargs)
+
+    def finish(self, index: int, result: Any) -> None:
+        self.results[index] = result
+        self.done[index] = True
+        if self.on_result is not None:
+            self.on_result(index, result)
+
+    def executor(self, workers: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=self.context,
+            initializer=_worker_init,
+            initargs=self.initargs,
+        )
+
+    def run(self, indices: list[int], workers: int) -> list[int]:
+        """Run ``indices`` in one pool; the tasks in flight when a worker died (else [])."""
+        pool = self.executor(min(workers, len(indices)))
+        try:
+            futures = {pool.submit(_run_task, self.fn, i, self.tasks[i]): i for i in indices}
+            for fut in as_completed(futures):
+                self.finish(futures[fut], fut.result())
+        except BrokenProcessPool as exc:
+            pool.shutdown(wait=True, cancel_futures=True)
+            suspects = [i for i in indices if not self.done[i] and self.started[i]]
+            if not suspects:
+                raise WorkerCrashError(
+                    f"a worker process died before running a task ({exc})"
+                ) from None
+            return suspects
+        except BaseException:
+            _stop(pool)
+            raise
+        pool.shutdown()
+        return []
+
+    def isolate(self, suspects: list[int]) -> dict[int, str]:
+        """Run each suspect alone in a process of its own; {index: cause} of those that died."""
+        pools: dict[Future[Any], tuple[int, ProcessPoolExecutor]] = {}
+        crashed: dict[int, str] = {}
+        try:
+            for i in suspects:
+                self.started[i] = 0
+                pool = self.executor(1)
+                pools[pool.submit(_run_task, self.fn, i, self.tasks[i])] = (i, pool)
+            for fut in as_completed(pools):
+                i, pool = pools[fut]
+                procs = list((getattr(pool, "_processes", None) or {}).values())
+                try:
+                    result = fut.result()
+                except BrokenProcessPool:
+                    pool.shutdown(wait=True)
+                    for proc in procs:
+                        proc.join(timeout=5)
+                    crashed[i] = _how_it_died(procs[0].exitcode if procs else None)
+                    continue
+                pool.shutdown()
+                self.finish(i, result)
+        except BaseException:
+            for _, pool in pools.values():
+                _stop(pool)
+            raise
+        return crashed
 
 
 def parallel_map(
@@ -34,6 +232,7 @@ def parallel_map(
     on_result: Callable[[int, Any], None] | None = None,
     initializer: Callable[..., None] | None = None,
     initargs: tuple = (),
+    on_crash: Callable[[int, str], Any] | None = None,
 ) -> list[Any]:
     """``[fn(*t) for t in tasks]``, in ``workers`` processes (1: in this process).
 
@@ -46,15 +245,20 @@ def parallel_map(
         initializer: called once per worker process with ``initargs`` before its first
             task (e.g. to build solvers once per worker); in this process when workers ≤ 1.
         initargs: its arguments.
+        on_crash: called with a task's index and the cause (one line) when the task killed
+            its worker process twice (module docstring); its return value is the task's
+            result (and goes to ``on_result``). None: :class:`WorkerCrashError` is raised.
 
     Returns:
         The results in task order.
 
     Raises:
-        Whatever a task raised (the remaining tasks are cancelled), or KeyboardInterrupt.
+        Whatever a task raised (the remaining tasks are cancelled), KeyboardInterrupt,
+        ``SystemExit(143)`` on SIGTERM, or WorkerCrashError (a task killed its worker and
+        ``on_crash`` is None, or a worker died before running any task).
     """
-    results: list[Any] = [None] * len(tasks)
     if workers <= 1 or len(tasks) <= 1:
+        results: list[Any] = [None] * len(tasks)
         if initializer is not None:
             initializer(*initargs)
         for i, args in enumerate(tasks):
@@ -62,23 +266,14 @@ def parallel_map(
             if on_result is not None:
                 on_result(i, results[i])
         return results
-    pool = ProcessPoolExecutor(
-        max_workers=min(workers, len(tasks)),
-        initializer=_worker_init,
-        initargs=(initializer, initargs),
-    )
-    try:
-        futures = {pool.submit(fn, *args): i for i, args in enumerate(tasks)}
-        for fut in as_completed(futures):
-            i = futures[fut]
-            results[i] = fut.result()
-            if on_result is not None:
-                on_result(i, results[i])
-    except BaseException:
-        # private, but the only handle on the workers: stop running tasks now
-        for proc in list(getattr(pool, "_processes", {}).values()):
-            proc.terminate()
-        pool.shutdown(wait=False, cancel_futures=True)
-        raise
-    pool.shutdown()
-    return results
+    state = _Pool(fn, tasks, on_result, initializer, initargs)
+    with _sigterm_stops_the_job():
+        todo = list(range(len(tasks)))
+        while todo:
+            suspects = state.run(todo, workers)
+            for i, cause in state.isolate(suspects).items():
+                if on_crash is None:
+                    raise WorkerCrashError(f"task {i}: {cause}")
+                state.finish(i, on_crash(i, cause))
+            todo = [i for i in todo if not state.done[i]]
+    return state.results
