@@ -8,7 +8,8 @@ demonstrations, the SMPC's risk level ``meta["risk"]`` in (0, 1).
 Construction checks the arrays' form (shapes, finiteness, time order);
 :func:`check_plausible` checks the physics against the model every learner and identifier
 assumes (one lane change to +y, forward driving, lateral speed within what the heading
-allows, lanes that fit the data, no vehicle overlapping the EV at t = 0). Its thresholds
+allows, every step within a vehicle's reach of speed and acceleration, lanes that fit the
+data, no vehicle overlapping the EV at any time). Its thresholds
 are deliberately generous: the SMPC's demonstrations sit far inside them and every recorded
 NGSIM and CATS episode passes; what they refuse cannot be a car on a road in the stated
 frame and units.
@@ -36,6 +37,7 @@ __all__ = [
     "load_demonstration",
     "plausibility_problems",
     "save_demonstration",
+    "step_problems",
 ]
 
 REQUIRED = ("t", "ev", "tv", "u")
@@ -78,9 +80,23 @@ STANDING_SPEED_MPS = 0.5
 STANDING_DRIFT_M = 0.3
 """Lateral displacement allowed in total over the samples where the EV stands [m]."""
 
+SPEED_TOLERANCE_MPS = 1.0
+"""How far a speed may exceed the scenario's v_max (70 m/s by default, the model's bound)
+[m/s]: the speed a step's positions imply carries position noise (0.1 m per sample at
+T_s = 0.2 s). SMPC demonstrations stay at or below v_max, recorded ones below 22 m/s."""
+
+ACCEL_MAX_MPS2 = 25.0
+"""Largest acceleration (magnitude of the change of the velocity the positions imply
+between consecutive steps, any direction) a vehicle may show [m/s²]. Tyres on a road give
+at most ≈ 1.2 g (12 m/s²) and the model bounds a to [−9, 6]; the hardest seen are the
+SMPC's 9 m/s² braking (traffic scenes), 7.7 after the RTS tracker with 1 m of noise, 4.2
+for a recorded NGSIM or CATS EV and 12.2 for a noisy recorded neighbour. 25 (≈ 2.5 g)
+leaves twice that for noise; a position jump of 1 m in one 0.2 s step already implies
+±25 m/s², the tester's 50 m jump 1250."""
+
 OVERLAP_SHRINK = 0.9
-"""At t = 0 two vehicles overlap when their rectangles shrunk to this fraction of the
-scenario's length and width intersect (recorded positions and sizes are approximate)."""
+"""Two vehicles overlap when their rectangles shrunk to this fraction of the scenario's
+length and width intersect (recorded positions and sizes are approximate)."""
 
 LANE_TOLERANCE = 0.25
 """How far (a fraction of the lane width) the EV may be outside its start lane at t = 0,
@@ -235,7 +251,11 @@ def plausibility_problems(demo: Demonstration) -> list[str]:
     5. no lateral motion while standing (:data:`STANDING_SPEED_MPS`,
        :data:`STANDING_DRIFT_M`) and no lateral speed beyond what the heading allows
        (:data:`HEADING_FACTOR`, :data:`LATERAL_NOISE_MPS`);
-    6. no vehicle (TV or traffic) overlaps the EV at t = 0 (:data:`OVERLAP_SHRINK`);
+    6. no vehicle (TV or traffic) overlaps the EV at any time (:data:`OVERLAP_SHRINK`),
+       and every step of every vehicle is within a vehicle's reach (:func:`step_problems`):
+       no speed, stated or implied by two consecutive positions, beyond the scenario's
+       v_max (+ :data:`SPEED_TOLERANCE_MPS`), no implied acceleration beyond
+       :data:`ACCEL_MAX_MPS2`;
     7. the lanes fit the data: the EV starts in ``ev_lane`` (:data:`LANE_TOLERANCE`), the
        TV — which keeps its lane — drives in ``tv_lane`` (its median y, no tolerance);
     8. the data shows one lane change to +y: the EV does not end up more than half a lane
@@ -243,7 +263,8 @@ def plausibility_problems(demo: Demonstration) -> list[str]:
        two-lane change) or its start lane's near edge, by more than
        :data:`LANE_TOLERANCE` lanes.
 
-    Only the first failing check of 3–5 and of 7–8 is reported (a later one would repeat it).
+    Only the first failing check of 3–6 (its speeds and accelerations; an overlap always)
+    and of 7–8 is reported (a later one would repeat it).
 
     Args:
         demo: the demonstration (with ``meta["scenario"]``).
@@ -285,8 +306,14 @@ def plausibility_problems(demo: Demonstration) -> list[str]:
     dt = np.diff(t)
     x_rate, y_rate = np.diff(x) / dt, np.diff(y) / dt
     speed = np.maximum(np.abs(v[:-1]), np.abs(v[1:]))  # the larger end: generous
-    problems.extend(_motion_problems(t, x, v, x_rate) or _lateral_problems(t, y_rate, speed, sc))
-    problems.extend(_overlap_problems(demo))
+    states = _states(demo.ev, demo.vehicles)
+    overlap = _overlap(demo.t, states, sc, 0)
+    problems.extend([overlap] if overlap else [])
+    problems.extend(
+        _motion_problems(t, x, v, x_rate)
+        or _lateral_problems(t, y_rate, speed, sc)
+        or _kinematic_problems(demo.t, states, sc, 0)
+    )
     problems.extend(_lane_problems(demo))
     return problems
 
@@ -349,21 +376,111 @@ def _lateral_problems(
     return []
 
 
-def _overlap_problems(demo: Demonstration) -> list[str]:
-    """Vehicles overlapping the EV at t = 0 (check 6)."""
-    sc = demo.scenario
+def _who(j: int) -> str:
+    """The name of vehicle j of ``[EV, TV, traffic …]`` in a message."""
+    return ("the EV", "the TV")[j] if j < 2 else f"traffic vehicle {j - 2}"
+
+
+def step_problems(
+    t: np.ndarray,
+    ev: np.ndarray,
+    vehicles: np.ndarray,
+    scenario: ScenarioConfig,
+    first: int = 0,
+) -> list[str]:
+    """What no vehicle can do in one step: a speed, jump, acceleration or overlap (check 6).
+
+    Per sample and vehicle (the EV, then ``vehicles``): the stated speed v and the speed
+    two consecutive positions imply must not exceed ``scenario.v_max`` +
+    :data:`SPEED_TOLERANCE_MPS`; the change of the implied velocity between consecutive
+    steps must not exceed :data:`ACCEL_MAX_MPS2`; no vehicle may overlap the EV
+    (rectangles shrunk by :data:`OVERLAP_SHRINK`). Shared by :func:`plausibility_problems`
+    and the online tracker (:class:`drivestyle.irl.online.StyleTracker`), which checks each
+    new sample with the two before it.
+
+    Args:
+        t: sample times, shape (n,) [s], strictly increasing.
+        ev: EV states [x, y, φ, v], shape (n, 4).
+        vehicles: the other vehicles' states, TV first, shape (n, m, 4).
+        scenario: the scenario (v_max, vehicle size).
+        first: the index of sample 0 in the messages (a window of a longer stream).
+
+    Returns:
+        At most one message per kind (speed, acceleration, overlap), each naming the
+        vehicle, the sample's index and time, and the value.
+    """
+    t = np.asarray(t, float)
+    states = _states(ev, vehicles)
+    overlap = _overlap(t, states, scenario, first)
+    return [*_kinematic_problems(t, states, scenario, first), *([overlap] if overlap else [])]
+
+
+def _states(ev: np.ndarray, vehicles: np.ndarray) -> np.ndarray:
+    """The EV and the other vehicles as one array, EV first: shape (n, 1 + m, 4)."""
+    return np.concatenate([np.asarray(ev, float)[:, None, :], np.asarray(vehicles, float)], 1)
+
+
+def _kinematic_problems(
+    t: np.ndarray, states: np.ndarray, scenario: ScenarioConfig, first: int
+) -> list[str]:
+    """Speeds and accelerations beyond a vehicle's reach (:func:`step_problems`)."""
+    problems: list[str] = []
+    v_limit = scenario.v_max + SPEED_TOLERANCE_MPS
+    limit_text = (
+        f"the model's speed bound v_max = {_fmt(scenario.v_max)} m/s (scenario) is the most a "
+        "vehicle drives"
+    )
+    v = np.abs(states[:, :, 3])
+    if v.max() > v_limit:
+        k, j = np.unravel_index(int(np.argmax(v)), v.shape)
+        problems.append(
+            f"{_who(j)}'s speed v = {_fmt(v[k, j])} m/s at t = {_fmt(t[k])} s (sample "
+            f"{first + k}): {limit_text}; speeds in another unit (km/h: ×3.6)?"
+        )
+    if t.size >= 2:
+        dt = np.diff(t)
+        vel = np.diff(states[:, :, :2], axis=0) / dt[:, None, None]  # (n−1, m+1, 2)
+        implied = np.hypot(vel[..., 0], vel[..., 1])
+        if not problems and implied.max() > v_limit:
+            k, j = np.unravel_index(int(np.argmax(implied)), implied.shape)
+            jump = implied[k, j] * dt[k]
+            problems.append(
+                f"{_who(j)} moves {_fmt(jump)} m between t = {_fmt(t[k])} and "
+                f"{_fmt(t[k + 1])} s (samples {first + k} and {first + k + 1}): "
+                f"{_fmt(implied[k, j])} m/s, but {limit_text}; a position jump in the data?"
+            )
+        if t.size >= 3:
+            # between the midpoints of consecutive steps (uneven steps allowed)
+            span = (t[2:] - t[:-2]) / 2
+            dvel = np.diff(vel, axis=0)
+            accel = np.hypot(dvel[..., 0], dvel[..., 1]) / span[:, None]  # (n−2, m+1)
+            if accel.max() > ACCEL_MAX_MPS2:
+                k, j = np.unravel_index(int(np.argmax(accel)), accel.shape)
+                problems.append(
+                    f"{_who(j)}'s positions imply an acceleration of {_fmt(accel[k, j])} m/s² "
+                    f"at t = {_fmt(t[k + 1])} s (sample {first + k + 1}): no vehicle "
+                    f"accelerates or brakes beyond {ACCEL_MAX_MPS2:g} m/s² (≈ 2.5 g); a "
+                    "position jump or a wrong time stamp?"
+                )
+    return problems
+
+
+def _overlap(t: np.ndarray, states: np.ndarray, sc: ScenarioConfig, first: int) -> str | None:
+    """The first sample at which a vehicle overlaps the EV (``states[:, 0]``), said."""
     length, width = OVERLAP_SHRINK * sc.vehicle_length, OVERLAP_SHRINK * sc.vehicle_width
-    ev = vehicle_corners(demo.ev[0], length, width)
-    for j, other in enumerate(demo.vehicles[0]):
-        if rectangles_overlap(ev, vehicle_corners(other, length, width)):
-            who = "the TV" if j == 0 else f"traffic vehicle {j - 1}"
-            dx, dy = other[0] - demo.ev[0, 0], other[1] - demo.ev[0, 1]
-            return [
-                f"{who} overlaps the EV at t = 0 (Δx = {_fmt(dx)} m, Δy = {_fmt(dy)} m; "
-                f"vehicles {_fmt(sc.vehicle_length)} × {_fmt(sc.vehicle_width)} m): "
-                "two cars cannot share a place; check the positions"
-            ]
-    return []
+    d = states[:, 1:, :2] - states[:, :1, :2]
+    # farther apart than the rectangles' diagonal they cannot touch: test only the rest
+    near = np.argwhere(np.hypot(d[..., 0], d[..., 1]) <= math.hypot(length, width))
+    for k, i in near:
+        ev = vehicle_corners(states[k, 0], length, width)
+        if rectangles_overlap(ev, vehicle_corners(states[k, i + 1], length, width)):
+            return (
+                f"{_who(i + 1)} overlaps the EV at t = {_fmt(t[k])} s (sample {first + k}; "
+                f"Δx = {_fmt(d[k, i, 0])} m, Δy = {_fmt(d[k, i, 1])} m; vehicles "
+                f"{_fmt(sc.vehicle_length)} × {_fmt(sc.vehicle_width)} m): two cars cannot "
+                "share a place; check the positions"
+            )
+    return None
 
 
 def _lane_problems(demo: Demonstration) -> list[str]:

@@ -1,6 +1,7 @@
 """Physically impossible or inconsistent demonstrations are refused with what is wrong."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,8 @@ from drivestyle.envs.demonstration import (
     check_plausible,
     plausibility_problems,
 )
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 
 
 def _with_scenario(demo, **fields):
@@ -83,8 +86,58 @@ def _positions_in_feet(demo):
     return replace(demo, ev=ev, tv=tv)
 
 
+def _ev_jumps(metres, k=15):
+    """The EV's positions from sample k on shifted by ``metres`` along x: a jump in one step."""
+
+    def make(demo):
+        ev = demo.ev.copy()
+        ev[k:, 0] += metres
+        return replace(demo, ev=ev)
+
+    return make
+
+
+def _spike(metres, k=15, who="ev"):
+    """One sample displaced by ``metres`` along x (a glitch of the recording)."""
+
+    def make(demo):
+        a = getattr(demo, who).copy()
+        a[k, 0] += metres
+        return replace(demo, **{who: a})
+
+    return make
+
+
+def _speed_at(value, k=15):
+    def make(demo):
+        ev = demo.ev.copy()
+        ev[k, 3] = value
+        return replace(demo, ev=ev)
+
+    return make
+
+
+def _tv_on_ev_later(demo, k=15):
+    tv = demo.tv.copy()
+    tv[k, :2] = demo.ev[k, :2]
+    return replace(demo, tv=tv)
+
+
 CASES = {
     "overlap at t = 0": (_tv_on_ev_at_start, r"the TV overlaps the EV at t = 0"),
+    "overlap later": (_tv_on_ev_later, r"the TV overlaps the EV at t = 3 s \(sample 15;"),
+    "EV jumps 50 m": (
+        _ev_jumps(50.0),
+        r"the EV moves 55.8 m between t = 2.8 and 3 s \(samples 14 and 15\): 279 m/s, but .*"
+        r"v_max = 70 m/s",
+    ),
+    "EV jumps 5 m": (_ev_jumps(5.0), r"the EV's positions imply an acceleration of 1\d\d m/s²"),
+    "EV glitch of 2 m": (
+        _spike(2.0),
+        r"EV.s .*acceleration of 98.9 m/s² at t = 3 s \(sample 15\)",
+    ),
+    "TV glitch of 3 m": (_spike(3.0, who="tv"), r"the TV's positions imply an acceleration"),
+    "speed beyond v_max": (_speed_at(80.0), r"the EV's speed v = 80 m/s at t = 3 s \(sample 15\)"),
     "x decreasing": (_x_decreasing, r"drives backwards: x falls"),
     "negative speed": (_negative_speed, r"drives backwards: speed v = -2\d"),
     "rightward (scenario)": (_rightward_scenario, r"lane 1 to lane 0, towards −y.*\+y"),
@@ -174,3 +227,35 @@ def test_metadata_risk_7_in_a_file_names_the_file(tmp_path, paper_demo):
     np.savez(path, **arrays, meta=np.array(__import__("json").dumps(meta)))
     with pytest.raises(DemonstrationError, match=rf"^{path}: meta 'risk' must lie in \(0, 1\)"):
         load_demonstration(path)
+
+
+def test_tracked_demonstrations_pass_the_step_checks(paper_demo):
+    """The RTS tracker's view, even with 1 m of position noise, is within every step limit."""
+    from drivestyle.envs.demonstration import step_problems
+    from drivestyle.envs.tracking import observe
+
+    rng = np.random.default_rng(3)
+    for sigma in (0.0, 0.3, 1.0):
+        demo = observe(paper_demo, sigma, rng)
+        assert step_problems(demo.t, demo.ev, demo.vehicles, demo.scenario) == []
+
+
+@pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
+def test_every_recorded_episode_passes_the_step_checks():
+    from drivestyle.envs.demonstration import step_problems
+    from drivestyle.envs.real_data import load_cats, load_ngsim
+
+    episodes = [*load_ngsim(DATA / "ngsim"), *load_cats(DATA / "cats-av-lanechange")]
+    demos = [e.demo for e in episodes if e.demo is not None]
+    assert len(demos) > 40
+    for d in demos:
+        assert step_problems(d.t, d.ev, d.vehicles, d.scenario) == [], d.meta["episode_id"]
+
+
+def test_step_messages_count_from_the_window_start(paper_demo):
+    from drivestyle.envs.demonstration import step_problems
+
+    demo = _ev_jumps(50.0, k=2)(paper_demo)
+    (msg,) = [m for m in step_problems(demo.t[:3], demo.ev[:3], demo.vehicles[:3],
+                                       demo.scenario, first=40) if "moves" in m]  # fmt: skip
+    assert "(samples 41 and 42)" in msg
