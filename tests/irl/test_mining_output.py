@@ -1,6 +1,10 @@
 """The output folder of a mining run: repair on entering, one row per id, fingerprint, lock."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
 
 import pytest
 
@@ -91,3 +95,117 @@ def test_the_lock_is_held_inside_the_with_block_only(tmp_path):
         out.append(_row("v1"))
     with pytest.raises(RuntimeError, match="outside"):
         out.append(_row("v2"))
+
+
+_FP_CODE = (
+    "import json\n"
+    "from drivestyle.irl.mining_output import MiningOutput, RunFingerprint\n"
+    f"FP = RunFingerprint.from_json(json.loads({json.dumps(FP.to_json())!r}))"
+)
+"""Code that makes :data:`FP` in another process."""
+
+_HOLD = """
+import fcntl, os, sys, time
+fd = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT)
+fcntl.flock(fd, fcntl.LOCK_EX)
+os.ftruncate(fd, 0)
+os.pwrite(fd, sys.argv[2].encode(), 0)
+print("locked", flush=True)
+time.sleep(60)
+"""
+
+
+def _hold_lock(path, record: str) -> subprocess.Popen:
+    """A process holding ``path``'s flock with ``record`` in it (as an orphaned worker would)."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _HOLD, str(path), record], stdout=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None and proc.stdout.readline().strip() == "locked"
+    return proc
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="needs /proc")
+def test_a_lock_whose_run_is_gone_is_taken_over_with_a_notice(tmp_path, capfd):
+    dead = _dead_pid()
+    holder = _hold_lock(tmp_path / ".lock", f"{dead} 12345")
+    try:
+        with MiningOutput(tmp_path, FP) as out:
+            out.append(_row("v1"))
+            assert (tmp_path / ".lock").read_text().split()[0] == str(os.getpid())
+        err = capfd.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"taking over the lock of pid {dead}" in err[0]
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="needs /proc")
+def test_a_lock_whose_pid_now_names_another_process_is_taken_over(tmp_path, capfd):
+    # the holder's pid is alive, but its start time is not the one the lock recorded
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        sleeper = _hold_lock(tmp_path / ".lock", f"{holder.pid} 1")
+        try:
+            with MiningOutput(tmp_path, FP):
+                pass
+            assert f"taking over the lock of pid {holder.pid}" in capfd.readouterr().err
+        finally:
+            sleeper.kill()
+            sleeper.wait()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_live_holder_is_refused_naming_its_pid(tmp_path):
+    code = (
+        "import sys, time\n"
+        f"{_FP_CODE}\n"
+        "with MiningOutput(sys.argv[1], FP):\n"
+        "    print('locked', flush=True)\n"
+        "    time.sleep(60)\n"
+    )
+    holder = subprocess.Popen(
+        [sys.executable, "-c", code, str(tmp_path)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        with pytest.raises(MiningOutputError, match=rf"in use .* \(pid {holder.pid}\)"):
+            MiningOutput(tmp_path, FP).__enter__()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_a_forked_child_does_not_keep_the_lock_of_a_killed_parent(tmp_path, capfd):
+    # the parent takes the lock, forks a worker and dies without releasing it
+    code = (
+        "import os, sys, time\n"
+        f"{_FP_CODE}\n"
+        "out = MiningOutput(sys.argv[1], FP).__enter__()\n"
+        "child = os.fork()\n"
+        "if child == 0:\n"
+        "    os.closerange(0, 3)\n"  # the test reads the parent's output to its end
+        "    time.sleep(60)\n"
+        "    os._exit(0)\n"
+        "print(child, flush=True)\n"
+        "os._exit(0)\n"
+    )
+    parent = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, check=True
+    )
+    child = int(parent.stdout)
+    try:
+        with MiningOutput(tmp_path, FP):
+            pass
+        # free: the child had dropped its copy; the notice says the last run was killed
+        assert "ended without releasing it" in capfd.readouterr().err
+    finally:
+        os.kill(child, signal.SIGKILL)
