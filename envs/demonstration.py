@@ -406,13 +406,13 @@ def step_problems(
         first: the index of sample 0 in the messages (a window of a longer stream).
 
     Returns:
-        At most one message per kind (speed, acceleration, overlap), each naming the
+        At most one message per kind (overlap, speed, acceleration), each naming the
         vehicle, the sample's index and time, and the value.
     """
     t = np.asarray(t, float)
     states = _states(ev, vehicles)
     overlap = _overlap(t, states, scenario, first)
-    return [*_kinematic_problems(t, states, scenario, first), *([overlap] if overlap else [])]
+    return [*([overlap] if overlap else []), *_kinematic_problems(t, states, scenario, first)]
 
 
 def _states(ev: np.ndarray, vehicles: np.ndarray) -> np.ndarray:

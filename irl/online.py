@@ -17,6 +17,13 @@ So an update costs one plan, or one batch of 13 when the vehicle is near another
 posterior after sample k equals the offline identification of the first k + 1 samples
 (tested to round-off): same residuals, same warm starts, same likelihood
 (:func:`~drivestyle.irl.identification.driver_posterior`).
+
+A sample no vehicle can produce — a speed beyond v_max, a position jump, an implied
+acceleration beyond any car's, a vehicle on top of the tracked one — is refused before it
+touches anything (:func:`~drivestyle.envs.demonstration.step_problems` on it and the two
+samples before it, the offline check): its residual would otherwise dwarf every other and,
+through the residual scale s² it sets, flatten the posterior the earlier samples built. A
+refused update, and one whose planning fails, leaves the tracker as it was.
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.demonstration import Demonstration, step_problems
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import ScenarioConfig
@@ -48,7 +55,7 @@ __all__ = ["StyleTracker", "TrackerError", "track_demo"]
 
 
 class TrackerError(ValueError):
-    """A sample the tracker cannot use (shape, finiteness, vehicle count)."""
+    """A sample the tracker cannot use (shape, finiteness, vehicle count, physics)."""
 
 
 def _vector(value: object, shape: tuple[int, ...], what: str) -> np.ndarray:
@@ -107,8 +114,10 @@ class StyleTracker:
         self._top: PrimalDual | None = None
         self._points: list[PrimalDual | None] = [None] * len(self.risks)
         self._estimate: Identification | None = None
+        # the last two accepted samples [EV, others…] (the step checks' window)
+        self._recent: list[np.ndarray] = []
         self.n_samples = 0
-        """Samples received."""
+        """Samples accepted."""
 
     # ------------------------------------------------------------------ API
     def update(
@@ -128,8 +137,11 @@ class StyleTracker:
             far (the uniform prior, flagged not informative, until a step where p matters).
 
         Raises:
-            TrackerError: a sample of the wrong shape, not finite, or with another number
-                of surrounding vehicles than before.
+            TrackerError: a sample of the wrong shape, not finite, with another number of
+                surrounding vehicles than before, or that no vehicle can produce (a speed
+                beyond v_max, a jump, an acceleration beyond any car's, an overlap with a
+                surrounding vehicle; the message names the sample and the value). The
+                tracker is then as before the call.
         """
         xi = _vector(ev, (4,), "ev")
         others = np.asarray(others, dtype=float)
@@ -137,21 +149,48 @@ class StyleTracker:
             raise TrackerError(f"others must have shape (m, 4) with m >= 1, got {others.shape}")
         if not np.all(np.isfinite(others)):
             raise TrackerError("others must be finite")
+        if self._m is not None and others.shape[0] != self._m:
+            raise TrackerError(
+                f"got {others.shape[0]} surrounding vehicles, earlier samples had {self._m}"
+            )
+        u = None if u_prev is None else _vector(u_prev, (2,), "u_prev")
+        sample = np.vstack([xi, others])
+        self._check_step(sample)
+        # everything below mutates: on any failure (a solver's, say) restore the state, so
+        # that a refused sample leaves the evidence of the earlier ones as it was
+        saved = {**self.__dict__, "_ssr": self._ssr.copy(), "_recent": list(self._recent)}
+        try:
+            return self._accept(xi, others, u, sample)
+        except BaseException:
+            self.__dict__.update(saved)
+            raise
+
+    def _check_step(self, sample: np.ndarray) -> None:
+        """Refuse a sample no vehicle can produce after the accepted ones (module docstring)."""
+        window = np.stack([*self._recent, sample])  # (k ≤ 3, 1 + m, 4), the new sample last
+        k = window.shape[0]
+        first = self.n_samples + 1 - k
+        t = (first + np.arange(k)) * self.scenario.dt
+        problems = step_problems(t, window[:, 0], window[:, 1:], self.scenario, first)
+        if problems:
+            raise TrackerError(f"sample {self.n_samples} refused: {problems[0]}")
+
+    def _accept(
+        self, xi: np.ndarray, others: np.ndarray, u: np.ndarray | None, sample: np.ndarray
+    ) -> Identification:
+        """Add a checked sample: close the step before it, plan from it, the posterior."""
         if self._m is None:
             self._m = others.shape[0]
             n_vehicles = 1 if self._m == 1 else 4  # as the offline pass (_n_vehicles)
             self._planner = planner_for(self.scenario, self.library.style.horizon, n_vehicles)
-        elif others.shape[0] != self._m:
-            raise TrackerError(
-                f"got {others.shape[0]} surrounding vehicles, earlier samples had {self._m}"
-            )
         if self._xi is not None:
-            self._close_step(xi, None if u_prev is None else _vector(u_prev, (2,), "u_prev"))
+            self._close_step(xi, u)
         sc = self.scenario
         s_e = elliptical_index(xi[0] - others[:, 0], xi[1] - others[:, 1], sc.l_a, sc.l_b)
         self._min_s_e = min(self._min_s_e, float(np.min(s_e)))
         self._plan(xi, others)
         self._xi = xi
+        self._recent = [*self._recent[-1:], sample]
         self.n_samples += 1
         self._estimate = driver_posterior([self.profile], self.library, [self._min_s_e], [None])
         return self._estimate
@@ -196,7 +235,7 @@ class StyleTracker:
             lo, hi = (sc.a_min, -sc.delta_max), (sc.a_max, sc.delta_max)
             u = inverse_step(self._xi, xi, sc.dt, sc.l_f, sc.l_r, lo, hi)
         r2 = np.sum(((self._u0 - u) / self._scale) ** 2, axis=1)
-        self._ssr += r2 if self._active else r2[-1]
+        self._ssr = self._ssr + (r2 if self._active else r2[-1])  # a new array: see update
         self._n_residuals += 2
         self._n_active += int(self._active)
 

@@ -88,3 +88,65 @@ def test_the_vehicle_count_must_not_change(paper_demo):
         tracker.update(paper_demo.ev[1], np.zeros((2, 4)))
     with pytest.raises(TrackerError, match="at least two risks"):
         StyleTracker(LIBRARY, paper_demo.scenario, risks=(0.3, 0.7))
+
+
+def _fed(demo, n):
+    tracker = StyleTracker(LIBRARY, demo.scenario)
+    for k in range(n):
+        tracker.update(demo.ev[k], demo.vehicles[k], demo.u[k - 1] if k else None)
+    return tracker
+
+
+def _jumped(demo, k, dx):
+    ev = demo.ev[k].copy()
+    ev[0] += dx
+    return ev
+
+
+@pytest.mark.parametrize(
+    ("sample", "match"),
+    [
+        (lambda d, k: (_jumped(d, k, 50.0), d.vehicles[k]), r"the EV moves 5\d.\d m between"),
+        (lambda d, k: (_jumped(d, k, 3.0), d.vehicles[k]), r"acceleration .* at t = 3.8 s"),
+        (lambda d, k: (d.ev[k] * [1, 1, 1, 3.6], d.vehicles[k]), r"speed v = 1\d\d m/s"),
+        (lambda d, k: (d.ev[k], np.array([[*d.ev[k, :3], 28.0]])), r"TV overlaps the EV at t = 4"),
+    ],
+    ids=["jump of 50 m", "jump of 3 m", "speed in km/h", "TV on the EV"],
+)
+def test_an_impossible_sample_is_refused_and_changes_nothing(paper_demo, history, sample, match):
+    k = 20  # past the trigger: the posterior already holds evidence
+    tracker = _fed(paper_demo, k)
+    before = tracker.estimate
+    profile = tracker.profile
+    assert before.informative
+    ev, others = sample(paper_demo, k)
+    with pytest.raises(TrackerError, match=rf"^sample 20 refused: .*{match}") as info:
+        tracker.update(ev, others, paper_demo.u[k - 1])
+    assert "\n" not in str(info.value)
+    assert tracker.estimate is before and tracker.n_samples == k
+    assert tracker.profile == profile
+    # the stream goes on as if the bad sample had never come
+    after = tracker.update(paper_demo.ev[k], paper_demo.vehicles[k], paper_demo.u[k - 1])
+    np.testing.assert_allclose(after.density, history[k].density, rtol=1e-9, atol=1e-12)
+
+
+def test_a_refused_first_sample_leaves_the_tracker_fresh(paper_demo):
+    tracker = StyleTracker(LIBRARY, paper_demo.scenario)
+    on_top = np.array([[*paper_demo.ev[0, :3], 28.0]])
+    with pytest.raises(TrackerError, match="sample 0 refused: the TV overlaps the EV at t = 0"):
+        tracker.update(paper_demo.ev[0], on_top)
+    assert tracker.estimate is None and tracker.n_samples == 0
+    tracker.update(paper_demo.ev[0], np.vstack([paper_demo.vehicles[0]] * 2))  # any count yet
+
+
+def test_a_failed_plan_leaves_the_tracker_as_it_was(paper_demo, monkeypatch):
+    tracker = _fed(paper_demo, 20)
+    before, profile = tracker.estimate, tracker.profile
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("solver failed")
+
+    monkeypatch.setattr(tracker, "_plan", fail)
+    with pytest.raises(RuntimeError, match="solver failed"):
+        tracker.update(paper_demo.ev[20], paper_demo.vehicles[20], paper_demo.u[19])
+    assert tracker.estimate is before and tracker.profile == profile and tracker.n_samples == 20
