@@ -33,8 +33,9 @@ optimum than fatrop (DESIGN §16); where both converge to the same one they agre
 fatrop's accuracy (2e-4 in the inputs, tested).
 
 The shared library is cached on disk (:func:`drivestyle.planning.compiled.cache_dir`, keyed by
-a hash of the configuration and the defining sources), so only the first process on a
-machine compiles (≈ 10 s); a machine without a C compiler gets ``None`` from
+a hash of the configuration and the defining sources, checksum-verified before every load
+and rebuilt when it does not verify), so only the first process on a machine compiles
+(≈ 10 s); a machine without a C compiler gets ``None`` from
 :func:`compiled_solver` and the callers keep the generic solvers.
 """
 
@@ -42,7 +43,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,7 +50,7 @@ import casadi as ca
 import numpy as np
 
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.planning.compiled import cache_dir, compile_c, source_digest
+from drivestyle.planning.compiled import cache_dir, cached_library, source_digest
 from drivestyle.planning.prediction import tv_covariance
 from drivestyle.planning.smpc_problem import (
     NU,
@@ -819,15 +819,16 @@ def compiled_solver(
         solver = _SOLVERS[key]
         return None if solver is None else _with_options(solver, options)
     lay = ipm_layout(config.horizon, config.max_vehicles)
-    target = cache_dir() / f"ds_ipm_{key}.so"
     solver: PlanSolver | None = None
     try:
-        if not target.exists():
-            if shutil.which("gcc") is None:
-                raise RuntimeError("no C compiler (gcc) on the PATH")
-            compile_c(_generate(config, scenario, lay), target)
-        n_p = 4 + 4 * config.max_vehicles + 3 + (5 if config.weights_as_parameters else 0)
-        solver = PlanSolver(target, lay, n_p, options)
+        folder = cache_dir()  # None: no cache can be had here (said on stderr)
+        if folder is not None:
+            # verified before it is loaded, rebuilt when it does not verify (compiled.py)
+            target = cached_library(
+                folder / f"ds_ipm_{key}.so", lambda: _generate(config, scenario, lay)
+            )
+            n_p = 4 + 4 * config.max_vehicles + 3 + (5 if config.weights_as_parameters else 0)
+            solver = PlanSolver(target, lay, n_p, options)
     except (OSError, RuntimeError):
         solver = None
     _SOLVERS[key] = solver

@@ -5,13 +5,17 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drivestyle.irl.driver_style import DriverStyle, Link, PlanRow, StylePlanner, reproduce
 from drivestyle.irl.risk_profile import risk_profile
+from drivestyle.planning import compiled
+from drivestyle.planning.compiled import verify_library
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs a C compiler")
 
@@ -88,3 +92,103 @@ def test_the_experimental_interior_point_solver_agrees_with_fatrop(paper_demo):
     assert a.ok.all() and b.ok.all()
     assert ipm.fallbacks < len(rows)  # the compiled solver solved some rows itself
     assert np.max(np.abs(a.u0 - b.u0)) < 2e-4
+
+
+# -- the cache under faults: a small function, so that a rebuild costs a fraction of a second
+
+_SQUARE = """
+import casadi as ca
+from drivestyle.planning.compiled import compiled_function
+x = ca.SX.sym("x")
+build = lambda: ca.Function("ds_test_square", [x], [x * x + 1])
+f = compiled_function("ds_test_square", "0" * 20, build)
+print("compiled" if f is not None else "interpreted", float(f(3)) if f is not None else "")
+"""
+needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+
+
+def _square(env: dict[str, str]) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-c", _SQUARE], env=env, capture_output=True, text=True, timeout=60
+    )
+
+
+def _cache_env(cache) -> dict[str, str]:
+    return dict(os.environ, DRIVESTYLE_CACHE=str(cache))
+
+
+def _built(cache) -> Path:
+    out = _square(_cache_env(cache))
+    assert out.returncode == 0 and out.stdout.split() == ["compiled", "10.0"], out.stderr
+    (lib,) = Path(cache).glob("ds_test_square_*.so")
+    assert verify_library(lib) is None
+    return lib
+
+
+@needs_gcc
+@pytest.mark.parametrize(
+    "damage, why",
+    [
+        (lambda b: b[: len(b) // 2], "instead of"),  # cut short: dlopen would die of SIGBUS
+        (lambda b: os.urandom(len(b)), "does not match its checksum"),
+        (lambda b: b"", "instead of"),
+    ],
+    ids=["truncated", "random", "empty"],
+)
+def test_a_damaged_cached_library_is_rebuilt_never_loaded(tmp_path, damage, why):
+    lib = _built(tmp_path)
+    good = lib.read_bytes()
+    lib.write_bytes(damage(good))
+    out = _square(_cache_env(tmp_path))
+    assert out.returncode == 0, out.stderr  # before: SIGBUS (exit 135) or a silent slow path
+    assert out.stdout.split() == ["compiled", "10.0"]  # the same result, compiled
+    assert why in out.stderr and "deleted, rebuilding" in out.stderr
+    assert verify_library(lib) is None and lib.read_bytes() == good  # rebuilt, same bytes
+    # and a later process loads it without a word
+    again = _square(_cache_env(tmp_path))
+    assert again.returncode == 0 and again.stderr == ""
+
+
+@needs_gcc
+def test_a_cached_library_without_its_checksum_is_rebuilt(tmp_path):
+    lib = _built(tmp_path)
+    Path(str(lib) + ".sha256").unlink()
+    out = _square(_cache_env(tmp_path))
+    assert out.returncode == 0 and "no checksum" in out.stderr
+    assert verify_library(lib) is None
+
+
+@needs_gcc
+def test_without_a_usable_home_the_cache_falls_back_to_the_temp_folder(tmp_path):
+    (tmp_path / "a-file").write_text("")
+    env = {k: v for k, v in os.environ.items() if k not in ("DRIVESTYLE_CACHE", "XDG_CACHE_HOME")}
+    env.update(HOME=str(tmp_path / "a-file" / "home"), TMPDIR=str(tmp_path / "tmp"))
+    os.makedirs(env["TMPDIR"])
+    out = _square(env)
+    assert out.returncode == 0 and out.stdout.split() == ["compiled", "10.0"], out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "cached in" in out.stderr
+    assert list((tmp_path / "tmp").glob("drivestyle-cache-*/ds_test_square_*.so"))
+    # HOME unset altogether: the command still works (home from the password file, or the
+    # temp folder)
+    del env["HOME"]
+    out = _square(env)
+    assert out.returncode == 0 and out.stdout.split() == ["compiled", "10.0"], out.stderr
+
+
+def test_no_home_at_all_is_said_once_and_shared_with_workers(tmp_path, monkeypatch, capsys):
+    for name in ("DRIVESTYLE_CACHE", "XDG_CACHE_HOME"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR
+
+    def no_home() -> Path:
+        raise RuntimeError("Could not determine home directory.")
+
+    monkeypatch.setattr(Path, "home", staticmethod(no_home))
+    monkeypatch.setattr(compiled, "_SAID", set())
+    first = compiled.cache_dir()
+    assert first is not None and first.parent == tmp_path
+    assert os.environ["DRIVESTYLE_CACHE"] == str(first)  # worker processes inherit it
+    assert compiled.cache_dir() == first
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "HOME is not set" in err[0]
