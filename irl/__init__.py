@@ -1,4 +1,16 @@
-"""drivestyle IRL: quintic-spline trajectories, reaction-aware features and ME-IRL."""
+"""drivestyle IRL: learning driving styles from trajectories, and using them.
+
+- The paper's model: quintic-spline trajectories (``spline``), the ten reaction-aware
+  features (``features``), the inner problem (``inner``) and ME-IRL (``learner``), its
+  styles (``style``).
+- The default style model, a receding-horizon driver on :mod:`drivestyle.planning`'s NLP:
+  the model and its closed loop (``driver_style``), teacher-forced learning
+  (``driver_learning``), the risk profile S(p) (``risk_profile``).
+- Identification: libraries (``library``), the posterior over the risk
+  (``identification``), online tracking (``online``), prediction (``forecast``), many
+  vehicles (``mining``, ``mining_output``); the learned style as the env's reward
+  (``reward``); error metrics (``metrics``).
+"""
 
 from drivestyle.irl.features import (
     FEATURE_SETS,
