@@ -6,13 +6,17 @@ learned by ME-IRL (θ normalised per group, fit errors), the identified risk wit
 interval (:func:`drivestyle.irl.identification.identify`) and timings. A demonstration that
 cannot be mined (an unreadable file, malformed data, no lane change, a solver failure, any
 error at all) becomes a row with ``status = "failed"`` and a one-line error naming the file,
-never a crashed job.
+never a crashed job. Its ``failure_kind`` says whose failure it is: "data" (the
+demonstration's: final) or "infrastructure" (a worker process that died or was killed, out
+of memory: a resumed run mines it again).
 
 Engines run the rows in parallel and hand each finished row to a callback (so callers can
 write them as they come and resume after an interruption):
 
 - ``local`` (default): worker processes on this machine
-  (:func:`drivestyle.common.parallel.parallel_map`), one :class:`Miner` per worker;
+  (:func:`drivestyle.common.parallel.parallel_map`), one :class:`Miner` per worker; a
+  demonstration whose worker dies is tried again alone, and if that worker dies too it is a
+  failed row naming the cause (the exit status or signal), so neither loses the job;
 - ``ray``: Ray actors, one :class:`Miner` each, on ``ray.init()`` here or a cluster at
   ``address`` (reached within a timeout, else a one-line error); an actor that dies is
   restarted and its task retried (:data:`RAY_TASK_RETRIES` times, then the demonstration
@@ -51,6 +55,8 @@ __all__ = [
     "COLUMNS",
     "CONNECT_TIMEOUT_S",
     "ENGINES",
+    "FAILURE_KINDS",
+    "LEGACY_COLUMNS",
     "RAY_TASK_RETRIES",
     "TIMING_COLUMNS",
     "MinedRow",
@@ -62,6 +68,9 @@ __all__ = [
 
 ENGINES = ("local", "ray")
 STATUSES = ("ok", "failed")
+FAILURE_KINDS = ("data", "infrastructure")
+"""Why a row failed: its demonstration (final: mining it again fails again) or the machinery
+(a worker process that died or was killed, memory; retried when the run is resumed)."""
 TIMING_COLUMNS = ("learn_s", "identify_s")
 """Columns that differ between runs (wall times)."""
 MAX_ERROR_CHARS = 500
@@ -154,6 +163,9 @@ class MinedRow:
     """Wall time of learning the style [s]."""
     identify_s: float | None = None
     """Wall time of identification [s]."""
+    failure_kind: str = ""
+    """A failed row's :data:`FAILURE_KINDS` ("data" or "infrastructure"), empty when ok. Last
+    column: the earlier columns keep their places."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.id, str) and self.id):
@@ -167,8 +179,13 @@ class MinedRow:
         if self.status == "failed":
             if not self.error:
                 raise ValueError(f"row {self.id}: a failed row needs its error")
+            if self.failure_kind not in FAILURE_KINDS:
+                raise ValueError(
+                    f"row {self.id}: failure_kind must be one of {FAILURE_KINDS}, "
+                    f"got {self.failure_kind!r}"
+                )
             return
-        if self.error:
+        if self.error or self.failure_kind:
             raise ValueError(f"row {self.id}: an ok row has no error, got {self.error!r}")
         needed = ("risk_estimate", "risk_lo", "risk_hi", "risk_mean", "theta_normalised")
         missing = [k for k in needed if getattr(self, k) is None]
@@ -180,10 +197,22 @@ class MinedRow:
 
     @classmethod
     def failed(
-        cls, demo_id: str, source: str, error: str, true_risk: float | None = None
+        cls,
+        demo_id: str,
+        source: str,
+        error: str,
+        true_risk: float | None = None,
+        kind: str = "data",
     ) -> MinedRow:
-        """A failed row (``error`` is flattened to one line)."""
-        return cls(demo_id, source, "failed", _one_line(error) or "unknown error", true_risk)
+        """A failed row (``error`` is flattened to one line; ``kind``: :data:`FAILURE_KINDS`)."""
+        return cls(
+            demo_id,
+            source,
+            "failed",
+            _one_line(error) or "unknown error",
+            true_risk,
+            failure_kind=kind,
+        )
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict keyed by :data:`COLUMNS` (missing values None, θ a list)."""
@@ -208,13 +237,19 @@ class MinedRow:
     def from_csv(cls, record: Mapping[str | None, Any]) -> MinedRow:
         """A row from ``styles.csv``'s cells (a ``csv.DictReader`` record).
 
+        A table of the version before ``failure_kind`` (:data:`LEGACY_COLUMNS`) reads too:
+        its failed rows are data failures (its local engine wrote no others).
+
         Raises:
             ValueError: a torn or malformed row (cells missing or extra, a value that does
                 not parse, an inconsistent row).
         """
-        if None in record or any(record.get(c) is None for c in COLUMNS):
+        columns = COLUMNS if "failure_kind" in record else LEGACY_COLUMNS
+        if None in record or any(record.get(c) is None for c in columns):
             raise ValueError("torn row (wrong number of cells)")
-        cell = {c: str(record[c]) for c in COLUMNS}
+        cell = {c: str(record[c]) for c in columns}
+        if columns is LEGACY_COLUMNS:
+            cell["failure_kind"] = "data" if cell["status"] == "failed" else ""
         return cls(
             id=cell["id"],
             source=cell["source"],
@@ -234,6 +269,7 @@ class MinedRow:
             converged=_opt_bool(cell["converged"]),
             learn_s=_opt_float(cell["learn_s"]),
             identify_s=_opt_float(cell["identify_s"]),
+            failure_kind=cell["failure_kind"],
         )
 
     def without_timings(self) -> MinedRow:
@@ -244,6 +280,8 @@ class MinedRow:
 COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(MinedRow))
 """Columns of ``styles.csv``, in :class:`MinedRow`'s field order; ``theta_normalised`` is a
 JSON list in the library's feature order, the interval is [risk_lo, risk_hi]."""
+LEGACY_COLUMNS: tuple[str, ...] = COLUMNS[:-1]
+"""The columns of a table written before ``failure_kind`` (read, and rewritten)."""
 
 
 def _round(value: float | None) -> float | None:
@@ -301,6 +339,10 @@ class Miner:
                 identify_s=identify_s,
             )
         # any error is this demonstration's row, never the job's (Ctrl-C still stops it)
+        except MemoryError as exc:  # the machine's, not the demonstration's: retried
+            return MinedRow.failed(
+                demo_id, source, _describe(exc, where), true_risk, "infrastructure"
+            )
         except Exception as exc:
             return MinedRow.failed(demo_id, source, _describe(exc, where), true_risk)
 
@@ -386,12 +428,23 @@ def _mine_task(demo_id: str, source: str, demo: Demonstration | str | os.PathLik
     return _MINER.mine(demo_id, source, demo)
 
 
+def _where(demo_id: str, demo: Demonstration | str | os.PathLike[str]) -> str:
+    return str(demo) if isinstance(demo, str | PurePath) else f"demonstration {demo_id}"
+
+
 def _run_local(
     tasks: Sequence[MiningTask],
     library: StyleLibrary | DriverLibrary,
     workers: int,
     on_row: Callable[[MinedRow], None],
 ) -> None:
+    def crashed(index: int, cause: str) -> MinedRow:
+        # the task killed its worker process twice (alone the second time): its row
+        demo_id, source, demo = tasks[index]
+        return MinedRow.failed(
+            demo_id, source, f"{_where(demo_id, demo)}: {cause} (2 tries)", kind="infrastructure"
+        )
+
     parallel_map(
         _mine_task,
         list(tasks),
@@ -399,6 +452,7 @@ def _run_local(
         lambda _, row: on_row(row),
         initializer=_init_miner,
         initargs=(library,),
+        on_crash=crashed,
     )
 
 
@@ -489,12 +543,12 @@ def _run_ray(
             try:
                 row = ray.get(ref)
             except RayError as exc:  # the worker died on every try, or Ray failed: a row
-                where = (
-                    str(demo) if isinstance(demo, str | PurePath) else f"demonstration {demo_id}"
-                )
                 tries = f" ({RAY_TASK_RETRIES + 1} tries)" if isinstance(exc, RayActorError) else ""
                 row = MinedRow.failed(
-                    demo_id, source, f"{where}: the Ray worker failed{tries}: {_ray_failure(exc)}"
+                    demo_id,
+                    source,
+                    f"{_where(demo_id, demo)}: the Ray worker failed{tries}: {_ray_failure(exc)}",
+                    kind="infrastructure",
                 )
             on_row(row)
     finally:

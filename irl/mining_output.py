@@ -15,7 +15,11 @@ skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
   although the run that took it is gone (its pid is dead, or now another process: another
   start time) is taken over with a one-line notice on stderr;
 - a last row torn by a kill (no line end) is dropped, and so are malformed and repeated
-  rows, so their demonstrations are mined again instead of being glued to the next row.
+  rows, so their demonstrations are mined again instead of being glued to the next row;
+- rows that failed for an infrastructure reason (``failure_kind``: a worker that died, was
+  killed, ran out of memory) are dropped on entering, so a resumed run mines them again;
+  data failures are final. A table of the version before ``failure_kind`` is read (its
+  failures are data failures) and rewritten with the new header.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from typing import Any
 
 from drivestyle.common.io import write_text
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.mining import COLUMNS, MinedRow
+from drivestyle.irl.mining import COLUMNS, LEGACY_COLUMNS, MinedRow
 
 try:  # POSIX; elsewhere the output folder is not locked
     import fcntl
@@ -114,15 +118,15 @@ class RunFingerprint:
 
 
 def _parse_table(text: str, what: str) -> tuple[list[MinedRow], int, bool]:
-    """(valid rows, first of each id; rows dropped; whether there was a header).
+    """(valid rows, first of each id; rows dropped; whether the header is this version's).
 
     Raises:
-        MiningOutputError: the header is not :data:`COLUMNS`.
+        MiningOutputError: the header is neither :data:`COLUMNS` nor the legacy one.
     """
     reader = csv.DictReader(io.StringIO(text, newline=""))
     if reader.fieldnames is None:
         return [], 0, False
-    if tuple(reader.fieldnames) != COLUMNS:
+    if tuple(reader.fieldnames) not in (COLUMNS, LEGACY_COLUMNS):
         raise MiningOutputError(
             f"{what} is not a styles.csv of this version (columns {reader.fieldnames})"
         )
@@ -140,7 +144,7 @@ def _parse_table(text: str, what: str) -> tuple[list[MinedRow], int, bool]:
             continue
         seen.add(row.id)
         rows.append(row)
-    return rows, dropped, True
+    return rows, dropped, tuple(reader.fieldnames) == COLUMNS
 
 
 def _csv_line(row: MinedRow | None) -> str:
@@ -251,8 +255,9 @@ class MiningOutput:
     On entering: takes the folder's lock (a second run is refused; the lock of a run that
     has ended is taken over, with a notice on stderr), checks ``fingerprint.json`` against this
     run's (``force``: delete the earlier run's results first), repairs ``styles.csv`` (drops
-    a torn last row, malformed rows and repeated ids, so those demonstrations are mined
-    again) and opens it for appending. On leaving: closes the table and releases the lock.
+    a torn last row, malformed rows, repeated ids and infrastructure failures, so those
+    demonstrations are mined again) and opens it for appending. On leaving: closes the
+    table and releases the lock.
 
     Args:
         folder: the output folder (created).
@@ -274,6 +279,9 @@ class MiningOutput:
         self.table = self.folder / TABLE
         self.repaired = 0
         """Rows dropped from the table on entering (torn, malformed or repeated)."""
+        self.retrying: list[str] = []
+        """Ids whose rows failed for an infrastructure reason: dropped on entering, so that
+        this run mines them again (data failures stay: they would fail again)."""
         self._rows: dict[str, MinedRow] = {}
         self._lock_fd: int | None = None
         self._fh: io.TextIOWrapper | None = None
@@ -426,9 +434,11 @@ class MiningOutput:
         raw = self.table.read_bytes()
         complete = raw[: raw.rfind(b"\n") + 1]  # a last line without its end was torn by a kill
         text = complete.decode("utf-8", errors="replace")
-        rows, dropped, has_header = _parse_table(text, str(self.table))
+        rows, dropped, current_header = _parse_table(text, str(self.table))
         self.repaired = dropped + (len(complete) < len(raw))
+        self.retrying = [r.id for r in rows if r.failure_kind == "infrastructure"]
+        rows = [r for r in rows if r.failure_kind != "infrastructure"]
         self._rows = {r.id: r for r in rows}
-        if self.repaired or not has_header:
+        if self.repaired or self.retrying or not current_header:
             # rewritten whole (atomically): appending after a torn line would glue rows
             write_text(self.table, _csv_line(None) + "".join(_csv_line(r) for r in rows))

@@ -121,6 +121,12 @@ def main(argv: list[str] | None = None) -> dict:
                 f"repaired {store.table}: dropped {store.repaired} torn, malformed or repeated "
                 "row(s); their demonstrations are mined again"
             )
+        if store.retrying:
+            print(
+                f"retrying {len(store.retrying)} row(s) that failed for an infrastructure reason "
+                f"(a worker died or was killed): {', '.join(store.retrying[:5])}"
+                f"{' …' if len(store.retrying) > 5 else ''}"
+            )
         done = store.finished_ids()
         todo = [t for t in tasks if t[0] not in done]
         t0 = time.perf_counter()
@@ -151,7 +157,12 @@ def main(argv: list[str] | None = None) -> dict:
             "workers": args.workers,
             **fingerprint.to_json(),
             **summary_numbers(rows),
-            "failed": [{"id": r.id, "error": r.error} for r in rows if r.status == "failed"],
+            "n_failed_infrastructure": sum(r.failure_kind == "infrastructure" for r in rows),
+            "failed": [
+                {"id": r.id, "error": r.error, "failure_kind": r.failure_kind}
+                for r in rows
+                if r.status == "failed"
+            ],
         }
         write_json(args.out / "summary.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         plot_population(

@@ -306,7 +306,7 @@ def test_the_styles_csv_header_is_the_documented_one():
     assert COLUMNS == (
         "id", "source", "status", "error", "true_risk", "risk_estimate", "risk_lo", "risk_hi",
         "risk_mean", "informative", "trigger_fired", "theta_normalised", "rmse_y_m",
-        "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s",
+        "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s", "failure_kind",
     )  # fmt: skip
 
 
@@ -322,3 +322,34 @@ def test_a_driver_library_mines_the_risk_and_the_reproduction(paper_demo):
     assert row.theta_normalised == weights
     assert row.rmse_y_m is not None and row.rmse_y_m < 0.05
     assert row.iterations == 0 and row.converged
+
+
+def _crash_on_boom(self, demo_id, source, demo):
+    """Miner.mine of a test: the worker process dies on demonstration "boom"."""
+    if demo_id == "boom":
+        os._exit(3)  # a crash (segfault, OOM kill), not an exception
+    return MinedRow.failed(demo_id, source, f"DemonstrationError: {demo}: not readable")
+
+
+def test_a_worker_crash_on_the_local_engine_is_an_infrastructure_row(monkeypatch):
+    # forked workers inherit the patched class
+    monkeypatch.setattr(mining.Miner, "mine", _crash_on_boom)
+    tasks = [(f"v{i}", "pop", f"/nowhere/v{i}.npz") for i in range(4)]
+    tasks.insert(2, ("boom", "pop", "/nowhere/boom.npz"))
+    rows = mine(tasks, _placeholder_library(), "local", workers=2)
+    assert [r.id for r in rows] == [t[0] for t in tasks]  # before: BrokenProcessPool, no rows
+    boom = rows[2]
+    assert boom.status == "failed" and boom.failure_kind == "infrastructure"
+    assert "/nowhere/boom.npz" in boom.error and "exited with status 3" in boom.error
+    assert all(r.failure_kind == "data" for r in rows if r.id != "boom")
+
+
+def test_a_failure_kind_is_validated_and_round_trips():
+    row = MinedRow.failed("v", "pop", "worker died", kind="infrastructure")
+    assert MinedRow.from_csv(row.to_csv()) == row
+    with pytest.raises(ValueError, match="failure_kind"):
+        MinedRow.failed("v", "pop", "x", kind="cosmic rays")
+    # a row of the version before failure_kind: its failures are data failures
+    legacy = {k: v for k, v in MinedRow.failed("v", "pop", "x").to_csv().items()}
+    del legacy["failure_kind"]
+    assert MinedRow.from_csv(legacy).failure_kind == "data"

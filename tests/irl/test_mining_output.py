@@ -209,3 +209,30 @@ def test_a_forked_child_does_not_keep_the_lock_of_a_killed_parent(tmp_path, capf
         assert "ended without releasing it" in capfd.readouterr().err
     finally:
         os.kill(child, signal.SIGKILL)
+
+
+def test_infrastructure_failures_are_retried_and_data_failures_are_final(tmp_path):
+    (tmp_path / FINGERPRINT).write_text(json.dumps(FP.to_json()))
+    crashed = MinedRow.failed("v2", "pop", "the worker process was killed", kind="infrastructure")
+    (tmp_path / TABLE).write_text(_csv(_row("v1"), crashed))
+    with MiningOutput(tmp_path, FP) as out:
+        assert out.retrying == ["v2"] and out.finished_ids() == {"v1"}
+        assert out.append(_row("v2"))
+    assert [(r.id, r.failure_kind) for r in read_rows(tmp_path / TABLE)] == [
+        ("v1", "data"),
+        ("v2", "data"),
+    ]
+
+
+def test_a_table_of_the_version_before_failure_kind_is_read_and_rewritten(tmp_path):
+    (tmp_path / FINGERPRINT).write_text(json.dumps(FP.to_json()))
+    legacy = COLUMNS[:-1]
+    row = _row("v1").to_csv()
+    (tmp_path / TABLE).write_text(
+        ",".join(legacy) + "\r\n" + ",".join(row[c] for c in legacy) + "\r\n"
+    )
+    with MiningOutput(tmp_path, FP) as out:
+        assert [(r.id, r.failure_kind) for r in out.rows] == [("v1", "data")]
+        out.append(_row("v2"))
+    assert (tmp_path / TABLE).read_text().splitlines()[0] == ",".join(COLUMNS)
+    assert [r.id for r in read_rows(tmp_path / TABLE)] == ["v1", "v2"]

@@ -20,7 +20,7 @@ from drivestyle.common.io import write_json
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
-from drivestyle.irl.mining import COLUMNS
+from drivestyle.irl.mining import COLUMNS, Miner
 from drivestyle.irl.mining_output import MiningOutput, MiningOutputError, RunFingerprint
 from drivestyle.scripts.mine_styles import main
 
@@ -218,3 +218,34 @@ def test_an_unreachable_ray_head_is_one_error_line(lib, tmp_path):
     lines = [line for line in run.stderr.splitlines() if line.strip()]
     assert lines[-1].startswith("error: ") and address in lines[-1], run.stderr
     assert "Traceback" not in run.stderr
+
+
+def _crash_on_boom(self, demo_id, source, demo):
+    """Miner.mine of a test: the worker process dies on demonstration "boom"."""
+    if demo_id == "boom":
+        os._exit(3)
+    return _REAL_MINE(self, demo_id, source, demo)
+
+
+_REAL_MINE = Miner.mine
+
+
+def test_a_crashed_worker_is_a_row_retried_on_resume(lib, tmp_path, monkeypatch, capsys):
+    inp = _unminable(tmp_path / "in", ["a", "b", "boom"])
+    out = tmp_path / "mined"
+    monkeypatch.setattr(Miner, "mine", _crash_on_boom)
+    first = _mine(inp, lib, out, "--workers", "2")
+    rows = {r["id"]: r for r in _table(out)}
+    assert sorted(rows) == ["a", "b", "boom"]  # before: the job died, no rows
+    assert rows["boom"]["failure_kind"] == "infrastructure"
+    assert "exited with status 3" in rows["boom"]["error"]
+    assert rows["a"]["failure_kind"] == "data"
+    assert first["n_failed_infrastructure"] == 1
+    # the resumed run mines only the infrastructure failure again; data failures are final
+    monkeypatch.setattr(Miner, "mine", _REAL_MINE)
+    capsys.readouterr()
+    second = _mine(inp, lib, out, "--workers", "2")
+    assert "retrying 1 row(s)" in capsys.readouterr().out
+    assert second["n_this_run"] == 1 and second["n"] == 3
+    rows = {r["id"]: r for r in _table(out)}
+    assert rows["boom"]["failure_kind"] == "data" and len(_table(out)) == 3
