@@ -19,7 +19,11 @@ skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
 - rows that failed for an infrastructure reason (``failure_kind``: a worker that died, was
   killed, ran out of memory) are dropped on entering, so a resumed run mines them again;
   data failures are final. A table of the version before ``failure_kind`` is read (its
-  failures are data failures) and rewritten with the new header.
+  failures are data failures) and rewritten with the new header;
+- a demonstration's id is its path under the input folder (:data:`ID_SCHEME`), whatever the
+  other files are; rows of an earlier version (stem ids) are given their path ids on
+  entering, or dropped and mined again where a stem is ambiguous now; rows of
+  demonstrations no longer in the input are dropped (the table is the input's).
 """
 
 from __future__ import annotations
@@ -31,8 +35,9 @@ import json
 import os
 import sys
 import weakref
-from dataclasses import asdict, dataclass
-from pathlib import Path
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path, PurePosixPath
 from types import TracebackType
 from typing import Any
 
@@ -47,6 +52,7 @@ except ImportError:  # pragma: no cover - Windows
 
 __all__ = [
     "FINGERPRINT",
+    "ID_SCHEME",
     "RESULTS",
     "TABLE",
     "MiningOutput",
@@ -60,6 +66,12 @@ TABLE = "styles.csv"
 FINGERPRINT = "fingerprint.json"
 LOCK = ".lock"
 RESULTS = (TABLE, "summary.json", "population.png", FINGERPRINT)
+ID_SCHEME = "path"
+"""A demonstration's id is its path under the input folder, without suffix, with ``/``
+(``sub/v1``; a recorded episode's id): it does not depend on the other files."""
+LEGACY_ID_SCHEME = "stem-or-path"
+"""The ids of earlier versions: every file's stem, or every file's path when two stems
+were equal (so adding one file renamed every row)."""
 """The files a run writes in its output folder (``force`` removes exactly these)."""
 
 
@@ -84,6 +96,9 @@ class RunFingerprint:
     library_sha256: str
     """The library's identity (:func:`library_digest`): a moved copy is the same library,
     one rebuilt in place is not."""
+    id_scheme: str = ID_SCHEME
+    """How the rows' ids were made: :data:`ID_SCHEME`, or :data:`LEGACY_ID_SCHEME` (a
+    fingerprint without this key) whose ids :class:`MiningOutput` maps on entering."""
 
     @classmethod
     def of(
@@ -107,9 +122,13 @@ class RunFingerprint:
         Raises:
             ValueError: not such a dict.
         """
-        if not isinstance(raw, dict) or not all(isinstance(raw.get(k), str) for k in cls.keys()):
+        required = ("input", "library", "library_sha256")
+        if not isinstance(raw, dict) or not all(isinstance(raw.get(k), str) for k in required):
             raise ValueError(f"not a mining fingerprint: {raw!r}")
-        return cls(**{k: raw[k] for k in cls.keys()})
+        scheme = raw.get("id_scheme", LEGACY_ID_SCHEME)  # written before ids were paths
+        if scheme not in (ID_SCHEME, LEGACY_ID_SCHEME):
+            raise ValueError(f"unknown id_scheme {scheme!r}")
+        return cls(**{k: raw[k] for k in required}, id_scheme=scheme)
 
     @classmethod
     def keys(cls) -> tuple[str, ...]:
@@ -263,6 +282,9 @@ class MiningOutput:
         folder: the output folder (created).
         fingerprint: this run's input and library.
         force: start over, deleting the results of any earlier run (:data:`RESULTS`).
+        ids: the ids of this run's demonstrations (:data:`ID_SCHEME`); when given, rows of
+            an earlier version's ids are mapped to them (:meth:`_match_ids`) and rows of
+            demonstrations no longer in the input are dropped.
 
     Raises (on entering):
         MiningOutputError: the folder is in use by another run, holds the rows of another
@@ -271,11 +293,23 @@ class MiningOutput:
     """
 
     def __init__(
-        self, folder: str | Path, fingerprint: RunFingerprint, force: bool = False
+        self,
+        folder: str | Path,
+        fingerprint: RunFingerprint,
+        force: bool = False,
+        ids: Sequence[str] | None = None,
     ) -> None:
         self.folder = Path(folder)
         self.fingerprint = fingerprint
         self.force = force
+        self.ids = None if ids is None else list(ids)
+        self._old_scheme = fingerprint.id_scheme
+        self.renamed = 0
+        """Rows of an earlier version's stem ids given their path ids on entering."""
+        self.unmappable: list[str] = []
+        """Earlier-version ids that name several demonstrations now: dropped, mined again."""
+        self.removed: list[str] = []
+        """Ids of rows whose demonstrations are no longer in the input: dropped."""
         self.table = self.folder / TABLE
         self.repaired = 0
         """Rows dropped from the table on entering (torn, malformed or repeated)."""
@@ -296,9 +330,13 @@ class MiningOutput:
                     (self.folder / name).unlink(missing_ok=True)
             self._check_fingerprint()
             self._load_table()
-            write_text(
-                self.folder / FINGERPRINT, json.dumps(self.fingerprint.to_json(), indent=2) + "\n"
+            # ids not matched here (no ``ids``) keep the scheme they were written with
+            written = (
+                self.fingerprint
+                if self.ids is not None
+                else replace(self.fingerprint, id_scheme=self._old_scheme)
             )
+            write_text(self.folder / FINGERPRINT, json.dumps(written.to_json(), indent=2) + "\n")
             self._fh = self.table.open("a", newline="")
         except BaseException:
             self._release_lock()
@@ -411,6 +449,7 @@ class MiningOutput:
             raise MiningOutputError(
                 f"{path} is malformed ({exc}); pass --force to start over"
             ) from None
+        self._old_scheme = old.id_scheme
         if not has_rows or old.same_run(self.fingerprint):
             return
         new = self.fingerprint
@@ -427,6 +466,37 @@ class MiningOutput:
             "--out or pass --force to start over"
         )
 
+    def _match_ids(self, rows: list[MinedRow]) -> list[MinedRow]:
+        """The rows of this run's demonstrations (``ids``), earlier-version ids mapped.
+
+        An earlier version's id was a file's stem (unless two stems were equal): a row whose
+        id is no demonstration's id now but the stem of exactly one demonstration's path is
+        that demonstration's row; one whose stem several paths share cannot be placed and
+        is dropped (mined again). Rows of demonstrations no longer in the input are dropped.
+        """
+        if self.ids is None:
+            return rows
+        wanted = set(self.ids)
+        if self._old_scheme == LEGACY_ID_SCHEME:
+            by_stem: dict[str, list[str]] = {}
+            for i in self.ids:
+                by_stem.setdefault(PurePosixPath(i).name, []).append(i)
+            taken = {r.id for r in rows} & wanted
+            mapped = []
+            for row in rows:
+                paths = by_stem.get(row.id, [])
+                if row.id in wanted or not paths:
+                    mapped.append(row)
+                elif len(paths) == 1 and paths[0] not in taken:
+                    mapped.append(replace(row, id=paths[0]))
+                    taken.add(paths[0])
+                    self.renamed += 1
+                else:
+                    self.unmappable.append(row.id)
+            rows = mapped
+        self.removed = [r.id for r in rows if r.id not in wanted]
+        return [r for r in rows if r.id in wanted]
+
     def _load_table(self) -> None:
         if not self.table.is_file():
             write_text(self.table, _csv_line(None))
@@ -438,7 +508,10 @@ class MiningOutput:
         self.repaired = dropped + (len(complete) < len(raw))
         self.retrying = [r.id for r in rows if r.failure_kind == "infrastructure"]
         rows = [r for r in rows if r.failure_kind != "infrastructure"]
+        n_before = len(rows)
+        rows = self._match_ids(rows)
         self._rows = {r.id: r for r in rows}
-        if self.repaired or self.retrying or not current_header:
+        changed = self.renamed or len(rows) < n_before
+        if self.repaired or self.retrying or changed or not current_header:
             # rewritten whole (atomically): appending after a torn line would glue rows
             write_text(self.table, _csv_line(None) + "".join(_csv_line(r) for r in rows))

@@ -9,9 +9,13 @@ workers, the input and library, the failed rows with their errors, …) and
 ``OUT/population.png`` (estimated vs true risk; the risk distribution). A demonstration that
 cannot be mined (an unreadable file, any error) is a failed row, never a crashed job.
 
-Rows are appended to ``styles.csv`` as they finish, so the job is resumable: a rerun with
-the same INPUT, library and OUT skips the rows already there, and an interruption loses at
-most the rows in flight (a row torn by a kill is dropped and mined again). OUT remembers its
+A demonstration's id is its path under INPUT without ``.npz`` (``sub/v1``), whatever the
+other files are. Rows are appended to ``styles.csv`` as they finish, so the job is
+resumable: a rerun with the same INPUT, library and OUT skips the rows already there (a row
+that failed for an infrastructure reason, a worker that died or was killed, is mined again;
+rows of files no longer in INPUT are dropped), and an interruption loses at most the rows in
+flight (a row torn by a kill is dropped and mined again; SIGTERM stops the workers as
+Ctrl-C does). OUT remembers its
 input and library (``OUT/fingerprint.json``): a run with another one is refused, ``--force``
 starts over. A run locks OUT; a second run into the same OUT is refused while it lasts.
 ``--engine ray`` runs the same work on Ray actors (``--address`` of a cluster, reached
@@ -99,11 +103,14 @@ def _tasks(args: argparse.Namespace) -> tuple[list[MiningTask], str]:
     if not files:
         raise ValueError(f"no demonstrations (*.npz) under {args.input}")
     root = str(args.input)
-    ids = [f.stem for f in files]
-    if len(set(ids)) < len(ids):  # same names in different folders: keep the path
-        ids = [str(f.relative_to(args.input).with_suffix("")) for f in files]
+    # the path, always: an id must not change when a file of the same name is added
+    ids = [f.relative_to(args.input).with_suffix("").as_posix() for f in files]
     tasks = [(i, root, str(f)) for i, f in zip(ids, files, strict=True)]
     return tasks, str(args.input.resolve())
+
+
+def _first(ids: list[str], n: int = 5) -> str:
+    return ", ".join(ids[:n]) + (" …" if len(ids) > n else "")
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -115,17 +122,32 @@ def main(argv: list[str] | None = None) -> dict:
     library = load_any_library(args.library)
     tasks, input_id = _tasks(args)
     fingerprint = RunFingerprint.of(input_id, args.library, library)
-    with MiningOutput(args.out, fingerprint, force=args.force) as store:
+    with MiningOutput(args.out, fingerprint, force=args.force, ids=[t[0] for t in tasks]) as store:
         if store.repaired:
             print(
                 f"repaired {store.table}: dropped {store.repaired} torn, malformed or repeated "
                 "row(s); their demonstrations are mined again"
             )
+        if store.renamed:
+            print(
+                f"{store.table}: {store.renamed} row(s) of an earlier version renamed from the "
+                "file's name to its path under INPUT"
+            )
+        if store.unmappable:
+            print(
+                f"{store.table}: dropped {len(store.unmappable)} row(s) of an earlier version "
+                f"whose id names several demonstrations now ({_first(store.unmappable)}); "
+                "they are mined again"
+            )
+        if store.removed:
+            print(
+                f"{store.table}: dropped {len(store.removed)} row(s) of demonstrations no longer "
+                f"in the input ({_first(store.removed)})"
+            )
         if store.retrying:
             print(
                 f"retrying {len(store.retrying)} row(s) that failed for an infrastructure reason "
-                f"(a worker died or was killed): {', '.join(store.retrying[:5])}"
-                f"{' …' if len(store.retrying) > 5 else ''}"
+                f"(a worker died or was killed): {_first(store.retrying)}"
             )
         done = store.finished_ids()
         todo = [t for t in tasks if t[0] not in done]

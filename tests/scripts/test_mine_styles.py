@@ -249,3 +249,41 @@ def test_a_crashed_worker_is_a_row_retried_on_resume(lib, tmp_path, monkeypatch,
     assert second["n_this_run"] == 1 and second["n"] == 3
     rows = {r["id"]: r for r in _table(out)}
     assert rows["boom"]["failure_kind"] == "data" and len(_table(out)) == 3
+
+
+def test_ids_do_not_change_when_a_same_named_file_comes_and_goes(lib, tmp_path):
+    inp = _unminable(tmp_path / "in", [f"v{i}" for i in range(10)])
+    out = tmp_path / "mined"
+    assert _mine(inp, lib, out)["n"] == 10
+    _unminable(inp / "sub", ["v3"])  # the same file name in a sub-folder
+    second = _mine(inp, lib, out)
+    # before: every id switched from stem to path, 21 rows for 11 demonstrations
+    assert second["n"] == 11 and second["n_this_run"] == 1
+    assert sorted(r["id"] for r in _table(out)) == sorted([f"v{i}" for i in range(10)] + ["sub/v3"])
+    (inp / "sub" / "v3.npz").unlink()
+    third = _mine(inp, lib, out)
+    assert third["n"] == 10 and third["n_this_run"] == 0 and len(_table(out)) == 10
+
+
+def test_rows_of_the_earlier_stem_ids_are_mapped_or_mined_again(lib, tmp_path, capsys):
+    inp = tmp_path / "in"
+    _unminable(inp / "a", ["v1"])
+    _unminable(inp / "b", ["v2"])
+    out = tmp_path / "mined"
+    _mine(inp, lib, out)
+    # make it an earlier version's folder: stem ids, a fingerprint without id_scheme
+    fp = json.loads((out / "fingerprint.json").read_text())
+    del fp["id_scheme"]
+    (out / "fingerprint.json").write_text(json.dumps(fp))
+    text = (out / "styles.csv").read_text()
+    (out / "styles.csv").write_text(text.replace("a/v1,", "v1,").replace("b/v2,", "v2,"))
+    assert sorted(r["id"] for r in _table(out)) == ["v1", "v2"]
+    _unminable(inp / "c", ["v1"])  # now "v1" could be a/v1 or c/v1
+    capsys.readouterr()
+    payload = _mine(inp, lib, out)
+    said = capsys.readouterr().out
+    assert "1 row(s) of an earlier version renamed" in said
+    assert "whose id names several demonstrations now (v1)" in said
+    assert sorted(r["id"] for r in _table(out)) == ["a/v1", "b/v2", "c/v1"]  # no duplicates
+    assert payload["n"] == 3 and payload["n_this_run"] == 2
+    assert json.loads((out / "fingerprint.json").read_text())["id_scheme"] == "path"
