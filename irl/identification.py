@@ -344,9 +344,28 @@ def posterior_from_scores(
             continue
         best = max(float(np.min(s[np.isfinite(s)])), 1e-9)
         log_lik -= np.where(np.isfinite(s), (s / best - 1.0) / temperature, np.inf)
-    log_lik -= np.max(log_lik)
-    post = np.exp(log_lik)
+    return _normalised(log_lik, f"temperature {temperature:g}")
+
+
+def _normalised(log_lik: np.ndarray, what: str) -> np.ndarray:
+    """exp(ℓ) normalised to sum 1 (:func:`_check_finite` first)."""
+    _check_finite(log_lik, what)
+    post = np.exp(log_lik - np.max(log_lik))
     return post / post.sum()
+
+
+def _check_finite(log_lik: np.ndarray, what: str) -> None:
+    """Refuse a log-likelihood that would make the posterior NaN (never output NaN).
+
+    Raises:
+        LibraryError: ℓ is NaN somewhere, or +inf or −inf everywhere (no risk is possible).
+    """
+    if np.isnan(log_lik).any() or not np.isfinite(np.max(log_lik)):
+        raise LibraryError(
+            f"the posterior over the risk is not finite ({what}): the log-likelihood is "
+            f"{'NaN' if np.isnan(log_lik).any() else 'infinite'}; check the library's "
+            "temperature and the demonstrations"
+        )
 
 
 def risk_interval(
@@ -495,6 +514,8 @@ def risk_log_likelihood(
     Returns:
         ℓ on the grid, max 0.
     """
+    if not (np.isfinite(temperature) and temperature > 0):
+        raise LibraryError(f"temperature must be a finite number > 0, got {temperature}")
     grid = density_grid() if grid is None else np.asarray(grid, float)
     used = [pr for pr in profiles if pr.n_active > 0]
     if not used:
@@ -502,7 +523,11 @@ def risk_log_likelihood(
     total = sum(np.interp(grid, pr.risks, pr.ssr) for pr in used)
     n = sum(pr.n_residuals for pr in used)
     s2 = float(np.min(total)) / n + RESIDUAL_FLOOR**2
-    ll = -(total - np.min(total)) / (2.0 * temperature**2 * s2)
+    # τ² s² as one product of floats: τ**2 of a Python float raises OverflowError
+    with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
+        ll = -(total - np.min(total)) / (2.0 * np.float64(temperature) ** 2 * s2)
+    _check_finite(ll, f"temperature {temperature:g}, residual sums {float(np.min(total)):.3g}"
+                      f" … {float(np.max(total)):.3g}")  # fmt: skip
     return ll - np.max(ll)
 
 
@@ -523,7 +548,7 @@ def _posterior(
 ) -> tuple[np.ndarray, tuple[float, float]]:
     """The posterior mass on ``grid`` (uniform prior) and its central 90 % interval."""
     density = np.exp(risk_log_likelihood(profiles, temperature, grid))
-    density /= density.sum()
+    density /= density.sum()  # finite: risk_log_likelihood refuses a non-finite posterior
     tail = (1 - INTERVAL_MASS) / 2
     return density, (_quantile(grid, density, tail), _quantile(grid, density, 1 - tail))
 

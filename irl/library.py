@@ -16,10 +16,12 @@ that risk in shared scenarios of the random family and one θ per demonstration
 scenarios nearest to an unseen demonstration's (DESIGN §8).
 
 A library is validated whole when it is built or loaded (:class:`LibraryError`, one line
-naming the problem): risks in (0, 1), increasing and distinct; one joint θ and K member θs per
-risk, each positive and of the feature set's length; K training scenarios, each with the
-quantities the scenario distance needs. A library that cannot answer honestly is refused
-rather than answered from.
+naming the problem): a known file ``version``; at least two risks (one risk cannot be told
+from another: its identification would report that risk whatever the data), in (0, 1),
+increasing and distinct; one joint θ and K member θs per risk, each positive and of the
+feature set's length; K training scenarios, each with the quantities the scenario distance
+needs; a driver library's temperature within :data:`TEMPERATURE_RANGE`. A library that
+cannot answer honestly is refused rather than answered from.
 """
 
 from __future__ import annotations
@@ -44,10 +46,14 @@ from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 
 __all__ = [
     "DRIVER_LIBRARY_KIND",
+    "LIBRARY_VERSION",
+    "MIN_RISKS",
     "SCENARIO_SCALE",
+    "TEMPERATURE_RANGE",
     "DriverLibrary",
     "LibraryError",
     "StyleLibrary",
+    "check_temperature",
     "learn_driver_library",
     "learn_library",
     "load_any_library",
@@ -56,12 +62,38 @@ __all__ = [
 
 SCENARIO_SCALE = {"ev_speed": 3.0, "tv_speed": 3.5, "tv_gap": 10.0}
 """Units of the scenario distance: half the random family's range of each quantity."""
-_RESERVED = ("feature_set", "features", "risks", "theta", "feature_config", "members")
+_RESERVED = (
+    "version", "feature_set", "features", "risks", "theta", "feature_config", "members",
+)  # fmt: skip
 """Keys of ``library.json`` that are not metadata (besides ``training_scenarios``)."""
+LIBRARY_VERSION = 1
+"""The ``library.json`` format this code writes and reads (both kinds); a file without a
+``version`` is read as this one (paper-model libraries written before it was recorded)."""
+MIN_RISKS = 2
+"""Fewest risks a library holds: identification compares risks, and with one the posterior's
+mode is that risk whatever the data (``--risks 0.7`` answered 0.7 outside its own interval)."""
 
 
 class LibraryError(ValueError):
     """A style library is empty, corrupt or inconsistent, or cannot answer a question."""
+
+
+def _check_risk_count(risks: Sequence[float]) -> None:
+    if len(risks) < MIN_RISKS:
+        raise LibraryError(
+            f"a library needs at least {MIN_RISKS} risks to tell styles apart, got "
+            f"{len(risks)} ({', '.join(f'{p:g}' for p in risks)}); build it with two or more "
+            "(build-style-library --risks 0.5,0.7,0.9)"
+        )
+
+
+def _check_version(raw: Mapping[str, Any]) -> None:
+    version = raw.get("version", LIBRARY_VERSION)
+    if isinstance(version, bool) or version != LIBRARY_VERSION:
+        raise LibraryError(
+            f"unknown library version {version!r}; this drivestyle reads version "
+            f"{LIBRARY_VERSION} (rebuild the library with build-style-library)"
+        )
 
 
 def _check_theta(theta: Sequence[float], m: int, what: str) -> None:
@@ -97,6 +129,7 @@ class StyleLibrary:
                 raise LibraryError(f"library risk {p!r} is not in (0, 1)")
         if list(self.risks) != sorted(self.risks) or len(set(self.risks)) != len(self.risks):
             raise LibraryError(f"library risks must be distinct and increasing, got {self.risks}")
+        _check_risk_count(self.risks)
         if self.feature_set != self.features.feature_set:
             raise LibraryError(
                 f"feature_set {self.feature_set!r} but the feature configuration is "
@@ -170,6 +203,7 @@ class StyleLibrary:
         """JSON-ready dict (``library.json``)."""
         fc = self.features
         return {
+            "version": LIBRARY_VERSION,
             "feature_set": self.feature_set,
             "features": list(fc.names),
             "risks": list(self.risks),
@@ -187,8 +221,10 @@ class StyleLibrary:
         """From :meth:`to_json`'s form, validated whole.
 
         Raises:
-            LibraryError: a key is missing, malformed or inconsistent with the others.
+            LibraryError: an unknown version, or a key is missing, malformed or inconsistent
+                with the others.
         """
+        _check_version(raw)
         try:
             features = FeatureConfig.from_dict(raw["feature_config"])
         except KeyError:
@@ -326,12 +362,13 @@ def learn_library(
         ``meta["per_risk"]`` holds each risk's fit and timing.
 
     Raises:
-        ValueError: no risks, a risk without demonstrations, or risks demonstrated in
-            different scenarios.
+        ValueError: fewer than two risks (:class:`LibraryError`), a risk without
+            demonstrations, or risks demonstrated in different scenarios.
     """
     risks = sorted(float(p) for p in demos_by_risk)
     if not risks:
         raise ValueError("need demonstrations of at least one risk level")
+    _check_risk_count(risks)  # before the learning, not after it
     by_risk = {float(p): list(ds) for p, ds in demos_by_risk.items()}
     if any(not by_risk[p] for p in risks):
         raise ValueError("every risk level needs at least one demonstration")
@@ -372,9 +409,39 @@ DRIVER_LIBRARY_KIND = "driver-library"
 """``kind`` of a :class:`DriverLibrary` file."""
 TEMPERATURE_DEFAULT = 1.0
 """τ of a library whose build did not calibrate one."""
+TEMPERATURE_RANGE = (0.1, 100.0)
+"""The temperatures τ a driver library may hold. The log-likelihood is
+−(S − min S)/(2 τ² s²) with s² the residual variance the best risk leaves (DESIGN §15):
+τ = 1 treats the residuals as independent, the calibration chooses among 0.5 … 16. Below
+0.1 one residual's worth of difference (S − min S = s²) already weighs e^−50: the posterior
+is a point mass whatever the data (and τ² underflows to 0 for τ < 1e-162: NaN). Above 100
+a whole demonstration's evidence (≈ 100 residuals, S − min S ≲ 100 s²) moves the
+log-likelihood by at most 0.005: the posterior is the prior (and τ² overflows for
+τ > 1e154)."""
 RESIDUAL_FLOOR = 0.1
 """s_floor: the least residual scale the likelihood assumes [σ_u units] (DESIGN §15):
 a demonstration that the style fits exactly does not make the posterior a point mass."""
+
+
+def check_temperature(temperature: float) -> float:
+    """Refuse a likelihood temperature outside :data:`TEMPERATURE_RANGE`.
+
+    Returns:
+        ``temperature`` as a float.
+
+    Raises:
+        LibraryError: not a number, or outside the range (the message says what it would do).
+    """
+    lo, hi = TEMPERATURE_RANGE
+    if isinstance(temperature, bool) or not isinstance(temperature, int | float):
+        raise LibraryError(f"temperature must be a number, got {temperature!r}")
+    if not (math.isfinite(temperature) and lo <= temperature <= hi):
+        raise LibraryError(
+            f"temperature {temperature:g} is outside [{lo:g}, {hi:g}]: below, the posterior "
+            "is a point mass whatever the data; above, it is the prior (calibrated "
+            "temperatures lie in 0.5 … 16)"
+        )
+    return float(temperature)
 
 
 @dataclass(frozen=True)
@@ -398,14 +465,14 @@ class DriverLibrary:
             raise LibraryError(f"library risks must be distinct and increasing, got {self.risks}")
         if not all(lo <= p <= hi for p in self.risks):
             raise LibraryError(f"library risks must lie in [{lo}, {hi}], got {self.risks}")
-        if not (math.isfinite(self.temperature) and self.temperature > 0):
-            raise LibraryError(f"temperature must be > 0, got {self.temperature!r}")
+        _check_risk_count(self.risks)
+        check_temperature(self.temperature)
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``library.json``)."""
         return {
             "kind": DRIVER_LIBRARY_KIND,
-            "version": 1,
+            "version": LIBRARY_VERSION,
             "style": self.style.to_json(),
             "risks": list(self.risks),
             "temperature": self.temperature,
@@ -417,10 +484,11 @@ class DriverLibrary:
         """From :meth:`to_json`'s form.
 
         Raises:
-            LibraryError: a key is missing or invalid.
+            LibraryError: an unknown version, or a key is missing or invalid.
         """
         if raw.get("kind") != DRIVER_LIBRARY_KIND:
             raise LibraryError(f"not a driver library (kind {raw.get('kind')!r})")
+        _check_version(raw)
         try:
             style = DriverStyle.from_json(raw["style"])
         except KeyError:
@@ -467,13 +535,15 @@ def learn_driver_library(
         The library (temperature :data:`TEMPERATURE_DEFAULT` until calibrated) and the fit.
 
     Raises:
-        ValueError: no demonstrations, or a risk outside the model's range.
+        ValueError: no demonstrations, fewer than two risks (:class:`LibraryError`), or a
+            risk outside the model's range.
     """
     risks = sorted(float(p) for p in demos_by_risk)
     demos = [d for p in risks for d in demos_by_risk[p]]
     known = [p for p in risks for _ in demos_by_risk[p]]
     if not demos:
         raise ValueError("need demonstrations of at least one risk level")
+    _check_risk_count(risks)  # before the learning, not after it
     # one LM run: the known risks pin the chance constraint, which removes most of the
     # local minima that a free risk brings (DESIGN §15)
     fit = learn_driver(demos, risks=known, progress=progress, screen=16, restarts=1)

@@ -36,12 +36,13 @@ from drivestyle.agents.demo_generation import (
     generate_demonstrations,
 )
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
-from drivestyle.common.cli import positive_int, risk_list, run_cli
+from drivestyle.common.cli import count, risk_grid, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.envs.tracking import observe
+from drivestyle.irl.driver_style import RISK_RANGE
 from drivestyle.irl.identification import calibrate_temperature
-from drivestyle.irl.library import learn_driver_library, learn_library
+from drivestyle.irl.library import LibraryError, learn_driver_library, learn_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -51,9 +52,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--risks",
-        type=risk_list,
+        type=risk_grid,
         default=[0.5, 0.6, 0.7, 0.8, 0.9, 0.95],
-        help="comma-separated SMPC risk levels p in (0, 1)",
+        help="comma-separated SMPC risk levels p in (0, 1), at least two (the driver model: "
+        "in [0.5, 0.99])",
     )
     p.add_argument(
         "--model",
@@ -63,12 +65,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--scenarios",
-        type=positive_int,
+        type=count(10_000, 30.0, "scenarios"),
         help="K training scenarios per risk (default: 3 for the driver model, 30 for the paper's)",
     )
     p.add_argument(
         "--calibration",
-        type=positive_int,
+        type=count(10_000, 30.0, "scenarios"),
         default=12,
         help="driver model: scenarios (one continuous risk each) calibrating the temperature",
     )
@@ -81,8 +83,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="learn from the demonstrations as a tracker records them (positions only, "
         "envs/tracking.py): the library for identifying noisy recordings",
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
-    p.add_argument("--seed", type=int, default=0, help="seed of the training scenario draws")
+    p.add_argument("--workers", type=workers, default=2, help="worker processes")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the training scenario draws")
     p.add_argument(
         "--out", type=Path, default=Path("runs/library"), help="output folder (replaced whole)"
     )
@@ -95,6 +97,13 @@ def main(argv: list[str] | None = None) -> dict:
     if args.scenarios is None:
         args.scenarios = 3 if args.model == "driver" else 30
     check_output_dir(args.out)
+    lo, hi = RISK_RANGE
+    outside = [p for p in args.risks if not lo <= p <= hi]
+    if args.model == "driver" and outside:
+        raise LibraryError(
+            f"--risks {outside} outside [{lo}, {hi}], the driver model's risk range "
+            "(the risks it infers); use --model paper for other risks"
+        )
     if args.model == "driver":
         return _build_driver(args, argv)
     t0 = time.perf_counter()

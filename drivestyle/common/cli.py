@@ -8,7 +8,10 @@ unexpected ends with one line and exit status 1 (``DRIVESTYLE_TRACEBACK=1`` show
 traceback).
 
 The ``argparse`` types below reject out-of-range values at parse time, so a script never
-starts long work on an argument it would ignore or misread.
+starts long work on an argument it would ignore or misread: every ``--seed`` is a
+:func:`seed`, every ``--workers`` a :func:`workers`, and every number of simulated things
+(scenes, vehicles, scenarios, steps) a :func:`count` bounded where the work would take days
+or the memory run out — the error says the bound and what it would cost.
 """
 
 from __future__ import annotations
@@ -17,22 +20,30 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Hashable, Sequence
+from typing import Any, TypeVar
+
+_T = TypeVar("_T", bound=Hashable)
 
 __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_UNEXPECTED",
     "EXIT_USER_ERROR",
+    "SEED_MAX",
     "USER_ERRORS",
+    "count",
+    "distinct",
     "finite_float",
     "float_list",
     "nonnegative_int",
     "positive_float",
     "positive_int",
+    "risk_grid",
     "risk_list",
     "risk_value",
     "run_cli",
+    "seed",
+    "workers",
 ]
 
 EXIT_USER_ERROR = 2
@@ -41,6 +52,12 @@ EXIT_UNEXPECTED = 1
 """Exit status of an unexpected error (a bug)."""
 EXIT_INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT, the shell's convention)."""
+SEED_MAX = 2**32 - 1
+"""Largest seed: numpy's legacy ``np.random.seed`` (which SB3 and gymnasium's spaces call)
+takes seeds in [0, 2³² − 1]; ``default_rng`` refuses negative ones."""
+WORKERS_PER_CPU = 4
+"""``--workers`` beyond this many per core only add processes (each with its own solvers,
+≈ 0.2 GB) competing for the same cores."""
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     OSError,  # missing, unreadable or unwritable files and folders
@@ -145,3 +162,87 @@ def risk_list(text: str) -> list[float]:
     if len(set(values)) != len(values):
         raise argparse.ArgumentTypeError(f"risks must be distinct, got {values}")
     return sorted(values)
+
+
+def risk_grid(text: str) -> list[float]:
+    """:func:`risk_list` of at least two risks (a library compares risks: one tells nothing)."""
+    values = risk_list(text)
+    if len(values) < 2:
+        raise argparse.ArgumentTypeError(
+            f"need at least two risks to tell styles apart, got {text!r} (e.g. 0.5,0.7,0.9)"
+        )
+    return values
+
+
+def seed(text: str) -> int:
+    """A random seed: an integer in [0, :data:`SEED_MAX`] (numpy refuses negative seeds)."""
+    value = _number(text, int, "an integer")
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(
+            f"a seed is an integer in [0, {SEED_MAX}] (numpy takes no other), got {value}"
+        )
+    return value
+
+
+def workers(text: str) -> int:
+    """A number of worker processes: 1 … :data:`WORKERS_PER_CPU` × the machine's cores."""
+    value = positive_int(text)
+    cores = os.cpu_count() or 1
+    limit = WORKERS_PER_CPU * cores
+    if value > limit:
+        raise argparse.ArgumentTypeError(
+            f"at most {limit} worker processes on this machine ({WORKERS_PER_CPU} per core, "
+            f"{cores} cores: more only add processes of ≈ 0.2 GB each), got {value}"
+        )
+    return value
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def count(limit: int, seconds_each: float, what: str) -> Callable[[str], int]:
+    """An argparse type: how many of something, an integer in [1, ``limit``].
+
+    Args:
+        limit: the largest number a run may ask for (where the work takes days or more).
+        seconds_each: the rough cost of one on one core [s], said in the error.
+        what: what is counted, plural ("scenes"), said in the error.
+
+    Returns:
+        The type function (its error names the bound and the time the bound already takes).
+    """
+
+    def parse(text: str) -> int:
+        value = positive_int(text)
+        if value > limit:
+            raise argparse.ArgumentTypeError(
+                f"at most {limit:,} {what} (≈ {_duration(seconds_each)} each: the bound alone is "
+                f"≈ {_duration(limit * seconds_each)} of work on one core), got {value:,}"
+            )
+        return value
+
+    parse.__name__ = f"count of {what}"  # argparse names the type in some messages
+    return parse
+
+
+def distinct(values: Sequence[_T]) -> tuple[list[_T], list[_T]]:
+    """``values`` without repeats (first occurrences, in order) and the repeated values.
+
+    For options and arguments that list things to count once: the caller says which were
+    given twice (a value counted twice would weigh twice in a summary or a posterior).
+    """
+    seen: set[_T] = set()
+    kept: list[_T] = []
+    repeated: list[_T] = []
+    for v in values:
+        if v in seen:
+            if v not in repeated:
+                repeated.append(v)
+            continue
+        seen.add(v)
+        kept.append(v)
+    return kept, repeated

@@ -135,7 +135,7 @@ def test_driver_library_round_trip_and_dispatch(tmp_path):
     with pytest.raises(LibraryError, match="increasing"):
         DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.7, 0.5))
     with pytest.raises(LibraryError, match="temperature"):
-        DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5,), temperature=0.0)
+        DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.7), temperature=0.0)
 
 
 def test_learning_refuses_bad_input(paper_demo):

@@ -118,9 +118,9 @@ def test_a_library_is_validated_when_built_in_memory():
             "reactive", (1.5,), (theta,), members=((theta,),), training_scenarios=scenarios
         )
     with pytest.raises(LibraryError, match="no training_scenarios"):
-        StyleLibrary("reactive", (0.5,), (theta,), members=((theta,),))
+        StyleLibrary("reactive", (0.5, 0.9), (theta,) * 2, members=((theta,),) * 2)
     with pytest.raises(LibraryError, match="member sets"):
-        StyleLibrary("reactive", (0.5,), (theta,), training_scenarios=scenarios)
+        StyleLibrary("reactive", (0.5, 0.9), (theta,) * 2, training_scenarios=scenarios)
 
 
 def test_malformed_or_missing_files(tmp_path):
@@ -136,10 +136,11 @@ def test_nearest_members_follow_the_scenario():
         PAPER.with_overrides(ev_speed=v, tv_gap=g).to_dict()
         for v, g in ((22.0, -30.0), (28.0, -10.0), (25.0, -20.0))
     ]
-    members = (((1.0,) * 10, (2.0,) * 10, (3.0,) * 10),)
+    members = (((1.0,) * 10, (2.0,) * 10, (3.0,) * 10),) * 2
     lib = StyleLibrary(
-        "reactive", (0.7,), ((1.0,) * 10,), members=members, training_scenarios=tuple(train)
-    )
+        "reactive", (0.5, 0.7), ((1.0,) * 10,) * 2, members=members,
+        training_scenarios=tuple(train),
+    )  # fmt: skip
     here = PAPER.with_overrides(ev_speed=27.5, tv_gap=-11.0)
     assert lib.styles(0, 1, here) == ((2.0,) * 10,)
     assert lib.styles(0, 2, here) == ((2.0,) * 10, (3.0,) * 10)
@@ -164,3 +165,108 @@ def test_learning_refuses_risks_in_different_scenarios(paper_demo):
     )
     with pytest.raises(ValueError, match="same scenarios"):
         learn_library({0.5: [paper_demo], 0.9: [other]}, workers=1)
+
+
+# ------------------------------------------------------------ libraries that cannot be meant
+SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
+
+
+def _small_style_library(risks=(0.5, 0.9)):
+    theta = (1.0,) * 10
+    return StyleLibrary(
+        "reactive", risks, (theta,) * len(risks), members=((theta,),) * len(risks),
+        training_scenarios=(PAPER.to_dict(),),
+    )  # fmt: skip
+
+
+def _driver_library_json(**changes):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    return DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.7, 0.9)).to_json() | changes
+
+
+def test_one_risk_is_refused_when_built_and_when_loaded(tmp_path):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary, load_any_library
+
+    with pytest.raises(LibraryError, match=r"at least 2 risks to tell styles apart, got 1 \(0.7\)"):
+        _small_style_library((0.7,))
+    with pytest.raises(LibraryError, match="at least 2 risks"):
+        DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.7,))
+    raw = _small_style_library().to_json()
+    raw["risks"] = [0.5]
+    for key in ("theta", "members"):
+        raw[key].pop("0.9")
+    with pytest.raises(LibraryError, match="at least 2 risks") as info:
+        load_any_library(_write(tmp_path, raw))
+    assert str(tmp_path) in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(LibraryError, match="at least 2 risks"):
+        load_any_library(_write(tmp_path, _driver_library_json(risks=[0.7])))
+
+
+def test_learning_refuses_one_risk_before_learning(paper_demo, monkeypatch):
+    from drivestyle.irl import library as lib_module
+
+    def no_learning(*args, **kwargs):
+        raise AssertionError("learned before refusing")
+
+    monkeypatch.setattr(lib_module, "learn_driver", no_learning)
+    monkeypatch.setattr(lib_module, "parallel_map", no_learning)
+    with pytest.raises(LibraryError, match="at least 2 risks"):
+        lib_module.learn_driver_library({0.7: [paper_demo]})
+    with pytest.raises(LibraryError, match="at least 2 risks"):
+        lib_module.learn_library({0.7: [paper_demo]})
+
+
+@pytest.mark.parametrize("version", [99, 0, "1", True, None])
+def test_an_unknown_version_is_refused(tmp_path, version):
+    from drivestyle.irl.library import load_any_library
+
+    with pytest.raises(LibraryError, match=rf"unknown library version {version!r}"):
+        load_any_library(_write(tmp_path, _driver_library_json(version=version)))
+    raw = _small_style_library().to_json() | {"version": version}
+    with pytest.raises(LibraryError, match="unknown library version"):
+        load_any_library(_write(tmp_path, raw))
+
+
+def test_the_current_version_and_none_load(tmp_path):
+    from drivestyle.irl.library import LIBRARY_VERSION, load_any_library
+
+    raw = _small_style_library().to_json()
+    assert raw["version"] == LIBRARY_VERSION
+    assert "version" not in load_any_library(_write(tmp_path, raw)).meta
+    raw.pop("version")  # paper-model files written before the version was recorded
+    load_any_library(_write(tmp_path, raw))
+
+
+@pytest.mark.parametrize("temperature", [1e-300, 0.0, -1.0, 0.05, 150.0, 1e300])
+def test_a_temperature_outside_its_range_is_refused(tmp_path, temperature):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary, load_any_library
+
+    with pytest.raises(LibraryError, match=r"temperature .* is outside \[0.1, 100\]"):
+        DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.9), temperature=temperature)
+    path = _write(tmp_path, _driver_library_json(temperature=temperature))
+    with pytest.raises(LibraryError, match="outside"):
+        load_any_library(path)
+
+
+def test_the_posterior_is_never_nan():
+    """The posterior computation refuses what would be NaN (a library bypassing checks)."""
+    from drivestyle.irl.identification import posterior_from_scores, risk_log_likelihood
+    from drivestyle.irl.risk_profile import RiskProfile
+
+    profile = RiskProfile((0.5, 0.7, 0.9), (3.0, 1.0, 2.0), 20, 5)
+    assert np.isfinite(risk_log_likelihood([profile], 1.0)).all()
+    # τ² overflows: no OverflowError, the (flat) likelihood of a prior
+    np.testing.assert_array_equal(risk_log_likelihood([profile], 1e300), 0.0)
+    with pytest.raises(LibraryError, match=r"not finite \(temperature 1e-300.*NaN"):
+        risk_log_likelihood([profile], 1e-300)  # τ² underflows to 0: 0/0 at the best risk
+    with pytest.raises(LibraryError, match="not finite"):
+        risk_log_likelihood([RiskProfile((0.5, 0.9), (np.nan, 1.0), 20, 5)], 1.0)
+    for tau in (np.nan, np.inf, 0.0):
+        with pytest.raises(LibraryError, match="temperature must be a finite number > 0"):
+            risk_log_likelihood([profile], tau)
+    with pytest.raises(ValueError, match="temperature"):
+        posterior_from_scores([[2.0, 1.0]], [True], temperature=np.nan)
