@@ -41,7 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 import drivestyle.envs  # noqa: F401  (registers the ids)
-from drivestyle.common.cli import nonnegative_int, positive_int, run_cli
+from drivestyle.common.cli import count, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.features import FEATURES, FeatureConfig
@@ -86,14 +86,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     p.add_argument("--out", type=Path, default=Path("runs/bench_env.json"), help="output JSON")
-    p.add_argument("--steps", type=positive_int, default=20_000, help="env steps per trial")
+    p.add_argument(
+        "--steps", type=count(10**9, 5e-5, "env steps"), default=20_000, help="env steps per trial"
+    )
     p.add_argument(
         "--trials",
         type=positive_int,
         default=3,
         help="timed repetitions per case; the reported steps/s is their median",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the actions and the resets")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the actions and the resets")
     p.add_argument(
         "--actions",
         default="random",

@@ -37,7 +37,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import load_demonstration, save_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
@@ -61,7 +61,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--identify", type=positive_int, default=20, help="demonstrations to identify (--library)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the identified demonstrations")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the identified demonstrations")
     p.add_argument(
         "--learn", action="store_true", help="also time learn_driver on the paper demonstration"
     )

@@ -27,7 +27,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents.studies.population import simulate_population
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import count, run_cli, seed
 from drivestyle.common.io import check_output_file, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
@@ -43,9 +43,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--vehicles", type=positive_int, default=500, help="simulated demonstrations")
+    p.add_argument(
+        "--vehicles",
+        type=count(1_000_000, 0.7, "demonstrations"),
+        default=500,
+        help="simulated demonstrations",
+    )
     p.add_argument("--library", type=Path, required=True, help="style library folder or json")
-    p.add_argument("--seed", type=int, default=0, help="population seed")
+    p.add_argument("--seed", type=seed, default=0, help="population seed")
     p.add_argument("--no-ray", action="store_true", help="skip the Ray run")
     p.add_argument(
         "--out", type=Path, default=Path("runs/bench_population.json"), help="output JSON"

@@ -32,7 +32,7 @@ from tqdm import tqdm
 
 from drivestyle.agents import SMPCConfig, SMPCExpert, rollout_expert
 from drivestyle.agents.demo_generation import ROBUSTNESS_RISKS, smpc_robustness
-from drivestyle.common.cli import nonnegative_int, positive_int, risk_value, run_cli
+from drivestyle.common.cli import nonnegative_int, positive_int, risk_value, run_cli, seed, workers
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import LaneChangeEnv, ScenarioRanges
 
@@ -48,7 +48,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--repeats", type=positive_int, default=5, help="closed loops of the paper scenario"
     )
     p.add_argument("--random", type=nonnegative_int, default=10, help="random scenarios")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random scenarios")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the random scenarios")
     p.add_argument(
         "--trials",
         type=positive_int,
@@ -62,7 +62,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         metavar="N",
         help="count failures over N random scenarios x 11 risks instead of timing",
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="processes (--robustness only)")
+    p.add_argument("--workers", type=workers, default=2, help="processes (--robustness only)")
     p.add_argument(
         "--scenario",
         default="single",

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from drivestyle.agents.demo_generation import generate_demonstration
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import count, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
@@ -43,8 +43,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--library", type=Path, required=True, help="driver library folder or library.json"
     )
-    p.add_argument("--vehicles", type=positive_int, default=10, help="vehicles to stream")
-    p.add_argument("--seed", type=int, default=0, help="seed of the scenarios and risks")
+    p.add_argument(
+        "--vehicles", type=count(100_000, 2.0, "vehicles"), default=10, help="vehicles to stream"
+    )
+    p.add_argument("--seed", type=seed, default=0, help="seed of the scenarios and risks")
     p.add_argument("--out", type=Path, default=Path("runs/bench_tracker.json"), help="output JSON")
     return p.parse_args(argv)
 

@@ -19,7 +19,7 @@ from tqdm import tqdm
 
 from drivestyle.agents.studies.calibration import uncertainty_scan
 from drivestyle.agents.studies.figures import plot_risk_sweep
-from drivestyle.common.cli import float_list, risk_list, run_cli
+from drivestyle.common.cli import float_list, risk_list, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
@@ -44,7 +44,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--out", type=Path, default=Path("runs/calibration"), help="output folder (replaced whole)"
     )
     p.add_argument("--plot", action="store_true", help="write risk_sweep.png (scale 1)")
-    p.add_argument("--seed", type=int, default=0, help="env seed")
+    p.add_argument("--seed", type=seed, default=0, help="env seed")
     return p.parse_args(argv)
 
 

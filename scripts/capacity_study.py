@@ -19,7 +19,7 @@ from pathlib import Path
 
 from drivestyle.agents.studies.capacity import RiskCapacity, capacity_study
 from drivestyle.agents.studies.reports import capacity_markdown, seconds
-from drivestyle.common.cli import positive_int, risk_list, run_cli
+from drivestyle.common.cli import positive_int, risk_list, run_cli, workers
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -59,7 +59,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="objective evaluations per Nelder–Mead fit (each one reproduces every "
         "training demonstration)",
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="processes (one driver each)")
+    p.add_argument("--workers", type=workers, default=2, help="processes (one driver each)")
     p.add_argument(
         "--out", type=Path, default=Path("runs/capacity"), help="output folder (replaced whole)"
     )

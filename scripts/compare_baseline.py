@@ -31,7 +31,7 @@ from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.studies.compare import LABELS, compare_methods, heldout_comparison
 from drivestyle.agents.studies.figures import plot_comparison, plot_heldout
 from drivestyle.agents.studies.reports import comparison_markdown
-from drivestyle.common.cli import positive_int, risk_value, run_cli
+from drivestyle.common.cli import positive_int, risk_value, run_cli, seed
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -78,7 +78,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--risk", type=risk_value, default=0.7, help="the demonstrator's risk p (--heldout)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the held-out scenarios (--heldout)")
+    p.add_argument(
+        "--seed", type=seed, default=0, help="seed of the held-out scenarios (--heldout)"
+    )
     return p.parse_args(argv)
 
 

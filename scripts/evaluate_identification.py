@@ -59,7 +59,7 @@ from drivestyle.agents.studies.reports import (
     noise_markdown,
     references_markdown,
 )
-from drivestyle.common.cli import float_list, positive_int, risk_list, run_cli
+from drivestyle.common.cli import count, float_list, risk_list, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
@@ -82,7 +82,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="library folder or library.json (repeat for several feature sets; a driver "
         "library is evaluated beside them)",
     )
-    p.add_argument("--scenarios", type=positive_int, default=5, help="M held-out scenarios")
+    p.add_argument(
+        "--scenarios", type=count(10_000, 60.0, "scenarios"), default=5, help="M held-out scenarios"
+    )
     p.add_argument(
         "--draw",
         default="random",
@@ -103,9 +105,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "U[0.5, 0.95] (continuous-risk MAE and coverage)",
     )
     p.add_argument(
-        "--seed", type=int, default=1000, help="held-out scenario seed (not the library's)"
+        "--seed", type=seed, default=1000, help="held-out scenario seed (not the library's)"
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument("--workers", type=workers, default=2, help="worker processes")
     p.add_argument(
         "--noise",
         type=float_list,

@@ -31,7 +31,7 @@ from drivestyle.agents.studies.planning import (
     run_scene,
 )
 from drivestyle.agents.studies.reports import planning_markdown
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.video import write_video
@@ -46,13 +46,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--library", type=Path, required=True, help="driver library folder or library.json"
     )
-    p.add_argument("--scenes", type=positive_int, default=120, help="scenes (each predictor)")
-    p.add_argument("--seed", type=int, default=20000, help="first scene's seed")
-    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument(
+        "--scenes", type=count(100_000, 6.0, "scenes"), default=120, help="scenes (each predictor)"
+    )
+    p.add_argument("--seed", type=seed, default=20000, help="first scene's seed")
+    p.add_argument("--workers", type=workers, default=2, help="worker processes")
     p.add_argument("--videos", action="store_true", help="render one scene per predictor (mp4)")
     p.add_argument(
         "--video-scene",
-        type=int,
+        type=seed,
         help="seed of the rendered scene (default: the scene where CV brakes hardest "
         "relative to the style-aware ego)",
     )

@@ -36,12 +36,13 @@ from drivestyle.agents.studies.prediction import (
     DEFAULT_DATA_DIR,
     T_OBS,
     TEST_SEED,
+    check_observed_times,
     evaluate_prediction,
     example_record,
     spanning_tracks,
 )
 from drivestyle.agents.studies.reports import prediction_markdown
-from drivestyle.common.cli import float_list, positive_int, run_cli
+from drivestyle.common.cli import count, distinct, float_list, run_cli, seed, workers
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -65,13 +66,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--vehicles",
-        type=positive_int,
+        type=count(30_000, 20.0, "vehicles"),
         default=60,
         help="simulated held-out vehicles (60: the reported run, ≈ 10 min on 2 cores)",
     )
     p.add_argument(
         "--seed",
-        type=int,
+        type=seed,
         default=TEST_SEED,
         help="held-out seed (19001: the reported test run; 19000: validation)",
     )
@@ -88,9 +89,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--observe",
         type=float_list,
         default=list(T_OBS),
-        help="comma-separated observed times t_obs [s]",
+        help="comma-separated observed times t_obs [s]: whole numbers of T_s = 0.2 s, shorter "
+        "than the vehicles (simulated 6 s, recorded 8 s); a repeated time counts once",
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument("--workers", type=workers, default=2, help="worker processes")
     return p.parse_args(argv)
 
 
@@ -100,8 +102,18 @@ def main(argv: list[str] | None = None) -> dict:
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     inputs = [args.library] + ([] if args.no_recorded else [args.data_dir])
     check_output_dir(args.out, inputs=inputs)
-    if any(not t > 0 for t in args.observe):
-        raise ValueError(f"--observe times must be > 0 s, got {args.observe}")
+    args.observe, repeated = distinct(args.observe)
+    if repeated:
+        print(
+            f"note: --observe lists {', '.join(f'{t:g}' for t in repeated)} s more than once; "
+            "each time counts once",
+            file=sys.stderr,
+        )
+    if args.no_recorded:  # else evaluate_prediction checks once the episodes are loaded
+        try:
+            check_observed_times(args.observe)
+        except ValueError as exc:
+            raise ValueError(f"--observe: {exc}") from None
     library = load_any_library(args.library)
     if not isinstance(library, DriverLibrary):
         raise LibraryError(

@@ -19,7 +19,14 @@ from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, generate_traffic_demonstration
 from drivestyle.agents.studies.figures import plot_demonstration
 from drivestyle.agents.studies.reports import seconds
-from drivestyle.common.cli import finite_float, nonnegative_int, positive_float, risk_value, run_cli
+from drivestyle.common.cli import (
+    finite_float,
+    nonnegative_int,
+    positive_float,
+    risk_value,
+    run_cli,
+    seed,
+)
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC
@@ -63,7 +70,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--jit", action="store_true", help="compile the NLP with gcc (faster solves, ~5 s compile)"
     )
     p.add_argument("--plot", action="store_true", help="write demo.png (paper Fig. 2)")
-    p.add_argument("--seed", type=int, default=0, help="env seed")
+    p.add_argument("--seed", type=seed, default=0, help="env seed")
     return p.parse_args(argv)
 
 

@@ -12,7 +12,8 @@ one validation picked; see irl/identification.py). Writes
 (90 % of the posterior), ``informative`` (false when no TV came near enough for the risk
 to matter: the interval is then the whole grid), ``scores``, ``ranking``,
 ``trigger_fired`` and, where the demonstrations' metadata holds it, ``true_risk``. Several
-demonstrations of one vehicle pool into one posterior.
+demonstrations of one vehicle pool into one posterior; a file given twice, or two files of
+the same content, count once (one would weigh as two), and a line on stderr says which.
 
 Example:
     python scripts/identify_style.py runs/demo/demo.npz --library runs/library_reactive \\
@@ -22,6 +23,7 @@ Example:
 from __future__ import annotations
 
 import argparse
+import hashlib
 import sys
 import time
 from pathlib import Path
@@ -57,13 +59,14 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out)
     library = load_any_library(args.library)
-    demos = [load_demonstration(p) for p in args.demos]
+    paths = _distinct_files(args.demos)
+    demos = [load_demonstration(p) for p in paths]
     t0 = time.perf_counter()
     ident = identify(demos, library, scorer=args.scorer)
     payload = ident.to_json() | {
         "identify_s": time.perf_counter() - t0,
         "library": str(args.library),
-        "demos": [str(p) for p in args.demos],
+        "demos": [str(p) for p in paths],
     }
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "identify.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
@@ -88,6 +91,36 @@ def main(argv: list[str] | None = None) -> dict:
         print("  note: the trigger never fired (the reactive features are inactive)")
     print(f"  {payload['identify_s']:.2f} s; wrote {args.out}/identify.json")
     return payload
+
+
+def _distinct_files(paths: list[Path]) -> list[Path]:
+    """``paths`` without repeats — the same file (resolved) or the same bytes — said on stderr.
+
+    The first of each is kept; a missing file too (loading it names it).
+    """
+    kept: list[Path] = []
+    spelled: dict[Path, Path] = {}  # a resolved file → how it was first given
+    given: dict[Path, int] = {}  # … → how often it was given
+    by_content: dict[str, Path] = {}
+    copies: list[tuple[Path, Path]] = []  # (a file, the kept one of the same bytes)
+    for path in paths:
+        real = path.resolve()
+        if real in spelled:
+            given[real] += 1
+            continue
+        spelled[real], given[real] = path, 1
+        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+        if digest is not None and digest in by_content:
+            copies.append((path, by_content[digest]))
+            continue
+        if digest is not None:
+            by_content[digest] = path
+        kept.append(path)
+    said = [f"{spelled[r]} given {n} times" for r, n in given.items() if n > 1]
+    said += [f"{p} has the content of {first}" for p, first in copies]
+    if said:
+        print(f"note: each demonstration counts once: {'; '.join(said)}", file=sys.stderr)
+    return kept
 
 
 if __name__ == "__main__":

@@ -45,7 +45,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
@@ -87,7 +87,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=4,
         help="random-family demonstrations identified (risks alternate 0.6, 0.9)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the random-family scenarios")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the random-family scenarios")
     p.add_argument(
         "--no-jit",
         action="store_true",

@@ -34,7 +34,7 @@ from tqdm import tqdm
 from drivestyle.agents.studies.figures import plot_driver_traffic
 from drivestyle.agents.studies.real_traffic import DriverSettings, run_driver_study, run_study
 from drivestyle.agents.studies.reports import driver_traffic_markdown, real_traffic_markdown
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import positive_int, run_cli, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES
@@ -50,7 +50,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--out", type=Path, default=Path("runs/real_traffic"), help="output folder (replaced whole)"
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument("--workers", type=workers, default=2, help="worker processes")
     p.add_argument(
         "--limit", type=positive_int, help="only the first N used episodes (default: all)"
     )

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from drivestyle.agents.studies.compare import policy_frames
-from drivestyle.common.cli import positive_int, risk_value, run_cli
+from drivestyle.common.cli import positive_int, risk_value, run_cli, seed
 from drivestyle.common.io import atomic_output_file, check_output_file, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioConfig
@@ -54,7 +54,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--video", type=Path, required=True, help="output .mp4 or .gif")
     p.add_argument("--fps", type=positive_int, default=5, help="frames per second")
-    p.add_argument("--seed", type=int, default=0, help="env seed")
+    p.add_argument("--seed", type=seed, default=0, help="env seed")
     return p.parse_args(argv)
 
 

@@ -28,7 +28,7 @@ from drivestyle.agents.studies.paper import (
     write_paper_study,
 )
 from drivestyle.agents.studies.reports import paper_console
-from drivestyle.common.cli import positive_float, positive_int, risk_value, run_cli
+from drivestyle.common.cli import positive_float, positive_int, risk_value, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir
 
 
@@ -60,7 +60,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="skip the paper-rule and control-point-rule comparisons",
     )
-    p.add_argument("--seed", type=int, default=0, help="env and training seed")
+    p.add_argument("--seed", type=seed, default=0, help="env and training seed")
     return p.parse_args(argv)
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.population import simulate_population
-from drivestyle.common.cli import positive_int, run_cli
+from drivestyle.common.cli import count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
@@ -28,12 +28,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    p.add_argument("--vehicles", type=positive_int, required=True, help="population size N")
-    p.add_argument("--seed", type=int, default=0, help="population seed")
+    p.add_argument(
+        "--vehicles",
+        type=count(1_000_000, 0.7, "vehicles"),
+        required=True,
+        help="population size N",
+    )
+    p.add_argument("--seed", type=seed, default=0, help="population seed")
     p.add_argument(
         "--traffic-share", type=float, default=0.0, help="share of traffic scenes, in [0, 1]"
     )
-    p.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    p.add_argument("--workers", type=workers, default=2, help="worker processes")
     p.add_argument("--jit", action="store_true", help="compile the SMPC with gcc (faster)")
     p.add_argument(
         "--out", type=Path, default=Path("runs/population"), help="output folder (replaced whole)"

@@ -25,7 +25,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.common.cli import positive_float, positive_int, run_cli
+from drivestyle.common.cli import positive_float, positive_int, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
@@ -83,7 +83,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=float,
         help="initial log std of the Gaussian policy (default: SB3's 0)",
     )
-    p.add_argument("--seed", type=int, default=0, help="training seed")
+    p.add_argument("--seed", type=seed, default=0, help="training seed")
     return p.parse_args(argv)
 
 

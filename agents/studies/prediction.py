@@ -41,6 +41,7 @@ Results are typed: one :class:`PredictionRecord` per (vehicle, t_obs), a
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -58,7 +59,8 @@ from drivestyle.agents.studies.real_traffic import driver_demo
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.real_data import load_cats, load_ngsim
-from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
+from drivestyle.envs.traffic import TrafficRanges
 from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_style
 from drivestyle.irl.forecast import METHODS, ForecastError, Prediction, predict
 from drivestyle.irl.library import DriverLibrary
@@ -83,6 +85,7 @@ __all__ = [
     "SkippedPrediction",
     "TrackingRecord",
     "TrackingSummary",
+    "check_observed_times",
     "draw_simulated",
     "evaluate_prediction",
     "example_record",
@@ -722,6 +725,72 @@ def _geometry(demo: Demonstration) -> tuple:
     return (round(sc.l_f, 6), round(sc.l_r, 6), round(sc.l_a, 6), round(sc.l_b, 6), slots)
 
 
+def _simulated_spans() -> list[tuple[float, float]]:
+    """(T_s, length) [s] of the simulated vehicles' demonstrations (both families)."""
+    bases = (ScenarioRanges().base, TrafficRanges().single.base)
+    return [(b.dt, b.horizon_s) for b in bases]
+
+
+def check_observed_times(
+    t_obs: Sequence[float],
+    recorded: Sequence[Demonstration] = (),
+    simulated: bool = True,
+) -> tuple[float, ...]:
+    """The observed times as the study uses them, refusing times no vehicle can be observed.
+
+    Args:
+        t_obs: observed times [s] (repeats are dropped: a time counted twice would count
+            every vehicle twice in its summary; the caller says so).
+        recorded: the run's recorded episodes (raw demonstrations).
+        simulated: whether the run has simulated vehicles.
+
+    Returns:
+        The distinct times, in the given order.
+
+    Raises:
+        ValueError: no time, a time not finite or not > 0, not a whole number of the
+            vehicles' T_s (the message names the nearest that are), or not shorter than
+            the longest vehicle of the run (nothing would be left to predict for any).
+    """
+    times: list[float] = []
+    for t in (float(v) for v in t_obs):
+        if t not in times:
+            times.append(t)
+    if not times:
+        raise ValueError("need at least one observed time")
+    bad = [t for t in times if not (np.isfinite(t) and t > 0)]
+    if bad:
+        raise ValueError(f"observed times must be finite and > 0 s, got {bad}")
+    spans = (_simulated_spans() if simulated else []) + [
+        (float(d.t[1] - d.t[0]), float(d.t[-1] - d.t[0])) for d in recorded
+    ]
+    if not spans:
+        return tuple(times)
+    longest = max(length for _, length in spans)
+    beyond = [t for t in times if t >= longest - 1e-9]
+    if beyond:
+        lasting = []
+        if simulated:
+            lasting.append(f"simulated ones {max(h for _, h in _simulated_spans()):g} s")
+        if recorded:
+            lasting.append(f"recorded ones at most {max(d.t[-1] - d.t[0] for d in recorded):g} s")
+        raise ValueError(
+            f"observed time(s) {', '.join(f'{t:g}' for t in beyond)} s: no vehicle of this run "
+            "lasts that long, nothing would be left to predict (the "
+            f"{' and '.join(lasting)}); observe less than {longest:g} s"
+        )
+    for dt in sorted({round(dt, 9) for dt, _ in spans}):
+        for t in times:
+            k = t / dt
+            if abs(k - round(k)) > 1e-6:
+                near = sorted({max(math.floor(k), 1) * dt, math.ceil(k) * dt})
+                raise ValueError(
+                    f"observed time {t:g} s is not a whole number of the vehicles' T_s = "
+                    f"{dt:g} s; use {' or '.join(f'{n:g}' for n in near)} s"
+                )
+    return tuple(times)
+
+
 def evaluate_prediction(
     library: DriverLibrary,
     n_vehicles: int,
@@ -750,11 +819,10 @@ def evaluate_prediction(
         The study.
 
     Raises:
-        ValueError: a bad argument, the library's own training seed, or missing data.
+        ValueError: a bad argument (observed times: :func:`check_observed_times`, checked
+            before any vehicle is simulated), the library's own training seed, or missing
+            data.
     """
-    t_obs = tuple(float(t) for t in t_obs)
-    if not t_obs or any(not (np.isfinite(t) and t > 0) for t in t_obs):
-        raise ValueError(f"observed times must be > 0 s, got {list(t_obs)}")
     if library.meta.get("seed") == seed:
         raise ValueError(
             f"seed {seed} is the library's own training seed; use a disjoint held-out seed"
@@ -772,6 +840,7 @@ def evaluate_prediction(
         for ds in DATASETS:
             recorded += [(ds, eid, d) for eid, d in load_recorded(data_dir, ds)]
         recorded_sets = tuple(DATASETS)
+    t_obs = check_observed_times(t_obs, [d for _, _, d in recorded], simulated=n_vehicles > 0)
     t0 = time.perf_counter()
     vehicles = draw_simulated(n_vehicles, seed)
     seconds["draw_scenarios"] = time.perf_counter() - t0

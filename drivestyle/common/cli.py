@@ -198,10 +198,11 @@ def workers(text: str) -> int:
 
 
 def _duration(seconds: float) -> str:
-    for unit, size in (("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0)):
+    units = (("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0), ("s", 1.0), ("ms", 1e-3))
+    for unit, size in units:
         if seconds >= size:
             return f"{seconds / size:.3g} {unit}"
-    return f"{seconds:.3g} s"
+    return f"{seconds / 1e-6:.3g} µs"
 
 
 def count(limit: int, seconds_each: float, what: str) -> Callable[[str], int]:

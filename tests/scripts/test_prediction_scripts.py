@@ -90,3 +90,66 @@ def test_predict_trajectory_on_a_recorded_episode(tmp_path):
     assert js["recorded"] is True and js["true_risk"] is None
     assert list(js["methods"]) == [m for m in METHODS if m != "oracle"]
     assert js["v_ref_mps"] > 1.0
+
+
+class _StartedError(Exception):
+    """Raised instead of the work: the arguments were accepted."""
+
+
+@pytest.mark.parametrize(
+    ("observe", "match"),
+    [
+        ("100", r"100 s: no vehicle of this run lasts that long.*simulated ones 6 s"),
+        ("=1e308", r"1e\+308 s: no vehicle"),
+        ("0.3", r"0.3 s is not a whole number of the vehicles' T_s = 0.2 s; use 0.2 or 0.4 s"),
+        ("inf", r"finite and > 0"),
+        ("nan", r"finite and > 0"),
+    ],
+)
+def test_evaluate_prediction_refuses_observe_times_before_the_work(files, monkeypatch, observe,
+                                                                    match):  # fmt: skip
+    from drivestyle.agents.studies import prediction as study
+
+    def started(*args, **kwargs):
+        raise _StartedError
+
+    monkeypatch.setattr(study, "draw_simulated", started)
+    monkeypatch.setattr(evaluate_prediction, "load_any_library", started)
+    option = ["--observe" + observe] if observe.startswith("=") else ["--observe", observe]
+    with pytest.raises(ValueError, match=rf"^--observe: observed time.*{match}"):
+        evaluate_prediction.main(
+            ["--library", str(files), "--out", str(files / "refused"), "--no-recorded", *option]
+        )
+    assert not (files / "refused").exists()
+
+
+def test_evaluate_prediction_counts_a_repeated_observe_time_once_and_says_so(
+    files, monkeypatch, capsys
+):
+    seen = {}
+
+    def started(library, n, seed, data_dir, t_obs, *args, **kwargs):
+        seen["t_obs"] = t_obs
+        raise _StartedError
+
+    monkeypatch.setattr(evaluate_prediction, "evaluate_prediction", started)
+    with pytest.raises(_StartedError):
+        evaluate_prediction.main(
+            ["--library", str(files), "--out", str(files / "dup"), "--no-recorded",
+             "--observe", "1,1,2,1"]
+        )  # fmt: skip
+    assert seen["t_obs"] == [1.0, 2.0]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["note: --observe lists 1 s more than once; each time counts once"]
+
+
+@pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
+def test_observe_times_reach_the_recorded_episodes():
+    from drivestyle.agents.studies.prediction import check_observed_times, load_recorded
+
+    recorded = [d for ds in ("ngsim", "cats") for _, d in load_recorded(DATA, ds)]
+    assert check_observed_times([7.0, 7.0], recorded) == (7.0,)  # 8 s recorded windows
+    with pytest.raises(ValueError, match=r"simulated ones 6 s and recorded ones at most 8 s"):
+        check_observed_times([8.0], recorded)
+    with pytest.raises(ValueError, match="observe less than 6 s"):
+        check_observed_times([7.0], [])

@@ -1,0 +1,31 @@
+"""identify_style.py: a demonstration given twice (same file or same content) counts once."""
+
+import json
+import shutil
+from dataclasses import replace
+
+from drivestyle.envs.demonstration import save_demonstration
+from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.library import DriverLibrary
+from drivestyle.scripts import identify_style
+
+
+def test_repeated_demonstrations_count_once_and_are_named(tmp_path, paper_demo, capsys):
+    lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
+    (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
+    a, b = tmp_path / "a.npz", tmp_path / "b.npz"
+    save_demonstration(paper_demo, a)
+    save_demonstration(replace(paper_demo, meta={**paper_demo.meta, "note": "b"}), b)
+    shutil.copy(a, tmp_path / "c.npz")  # another name, the same bytes
+    (tmp_path / "sub").mkdir()
+    also_a = tmp_path / "sub" / ".." / "a.npz"  # the same file, spelled differently
+    files = [a, a, also_a, b, tmp_path / "c.npz"]
+    payload = identify_style.main(
+        [*map(str, files), "--library", str(tmp_path), "--out", str(tmp_path / "out")]
+    )
+    assert payload["n_demos"] == 2 and payload["demos"] == [str(a), str(b)]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"note: each demonstration counts once: {a} given 3 times; "
+        f"{tmp_path / 'c.npz'} has the content of {a}"
+    ]
