@@ -3,8 +3,11 @@
 From every recorded state ξ_k the style's plan must start with the input the driver
 applied (Levine & Koltun's locally optimal examples): r_k = (u_0(ξ_k; w, p) − u_k) / σ_u.
 :func:`learn_driver` minimises Σ‖r_k‖² by Levenberg–Marquardt over log w (and p and v_ref
-where free) with forward-difference Jacobians, from several screened starting points;
-:func:`save_driver_style` writes the result as ``style.json``.
+where free) with forward-difference Jacobians, from several screened starting points and
+alternating with a 1-D profile over p (the objective is a saw-tooth in p); it then compares
+each demonstration's residuals with the noise floor one driver of the class leaves
+(``poor_fit`` when no single driver explains them all). :func:`save_driver_style` writes
+the result as ``style.json``.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -41,7 +44,17 @@ from drivestyle.planning.smpc_problem import (
     N_WEIGHTS,
 )
 
-__all__ = ["DriverFit", "learn_driver", "save_driver_style", "step_residuals"]
+__all__ = [
+    "POOR_FIT_RATIO",
+    "PROFILE_RISKS",
+    "RESIDUAL_FLOOR",
+    "RISK_AGREEMENT",
+    "DemoFit",
+    "DriverFit",
+    "learn_driver",
+    "save_driver_style",
+    "step_residuals",
+]
 
 SCREEN_CANDIDATES = 24
 """Starting points :func:`learn_driver` scores before its Levenberg–Marquardt runs."""
@@ -92,6 +105,69 @@ def teacher_forced(
 
 
 # ---------------------------------------------------------------------------- learning
+PROFILE_RISKS = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.99)
+"""Risks of the 1-D profile over p (identification's grid, :data:`RISK_EVAL` of
+:mod:`~drivestyle.irl.risk_profile`): where :func:`learn_driver` looks for a better risk
+than its Levenberg–Marquardt run found, and each demonstration's best risk."""
+PROFILE_ROUNDS = 3
+"""Profile-then-LM rounds per start at most (each round must lower the cost)."""
+RESIDUAL_FLOOR = 0.1
+"""Default noise floor [σ_u units]: the residual RMS one driver of the class leaves on its
+own demonstrations, derived as identification's scale s = √(min S / n + s_floor²) with the
+exact fit min S = 0 of a simulated driver, s = s_floor (DESIGN §15's s_floor = 0.1; a
+driver library's own learning leaves 0.010 below it)."""
+POOR_FIT_RATIO = 3.0
+"""A demonstration (or the whole fit) whose residual RMS exceeds this many noise floors is
+not explained by the learned driver: status ``poor_fit``."""
+RISK_AGREEMENT = 0.05
+"""A demonstration whose best risk alone lies further than this (the profile grid's
+spacing) from the learned risk disagrees with it."""
+_EXACT = 1e-18
+"""A cost this small is an exact fit (simulated drivers reach ~1e-22): nothing to improve."""
+_RISK_STEP = 0.0025
+"""Forward-difference step of the risk coordinate (p itself)."""
+_RISK_MAX_STEP = 0.1
+"""Largest change of p in one Levenberg–Marquardt step."""
+
+
+@dataclass(frozen=True)
+class DemoFit:
+    """How well the learned style explains one demonstration."""
+
+    index: int
+    """Position of the demonstration in the input."""
+    n_residuals: int
+    """Residual entries (2 per step)."""
+    residual_rms: float
+    """RMS of its residuals at the learned style [σ_u units]."""
+    active_steps: int
+    """Steps whose plan has a binding chance constraint (where p matters; 0: the
+    demonstration says nothing about p)."""
+    best_risk: float | None
+    """The risk that fits this demonstration best with the learned weights (the profile's
+    grid risks and the learned one); None when the risks were given."""
+    best_residual_rms: float | None
+    """Its residual RMS at ``best_risk``."""
+    poor: bool
+    """Residual RMS above the poor-fit threshold: the learned driver does not explain it."""
+    disagrees: bool = False
+    """Alone it prefers another risk: ``best_risk`` lies more than :data:`RISK_AGREEMENT`
+    from the learned one (with the learned weights)."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "disagrees": self.disagrees,
+            "index": self.index,
+            "n_residuals": self.n_residuals,
+            "residual_rms": self.residual_rms,
+            "active_steps": self.active_steps,
+            "best_risk": self.best_risk,
+            "best_residual_rms": self.best_residual_rms,
+            "poor": self.poor,
+        }
+
+
 @dataclass(frozen=True)
 class DriverFit:
     """The result of :func:`learn_driver`."""
@@ -109,11 +185,37 @@ class DriverFit:
     iterations: int
     """Levenberg–Marquardt iterations."""
     status: str
-    """'converged', 'max_iter' or 'stalled' (no step lowered the cost)."""
+    """'converged', 'max_iter', 'stalled' (no step lowered the cost) or 'poor_fit' (the
+    optimiser stopped, but some demonstrations' residuals are far above the noise floor:
+    no single driver of the class explains them all; see ``per_demo``)."""
     seconds: float
     """Wall time [s]."""
     history: tuple[float, ...] = field(default=())
     """Cost per iteration."""
+    residual_floor: float = RESIDUAL_FLOOR
+    """The noise floor the residuals were compared with [σ_u units]."""
+    per_demo: tuple[DemoFit, ...] = field(default=())
+    """Per demonstration, in input order: residual RMS, best risk, poor or not."""
+    optimiser_status: str = ""
+    """The optimiser's own status ('converged', 'max_iter' or 'stalled') under
+    ``poor_fit``; equal to ``status`` otherwise."""
+
+    @property
+    def poor_fit_threshold(self) -> float:
+        """Residual RMS above which a demonstration is poorly fitted [σ_u units]."""
+        return POOR_FIT_RATIO * self.residual_floor
+
+    @property
+    def poor_demos(self) -> tuple[int, ...]:
+        """Indices of the demonstrations the learned driver does not explain.
+
+        The poorly fitted ones that alone prefer another risk (the odd ones out: the shared
+        weights compromise for them, which may lift the others above the threshold too),
+        else every poorly fitted one.
+        """
+        poor = [d for d in self.per_demo if d.poor]
+        odd = [d for d in poor if d.disagrees]
+        return tuple(d.index for d in (odd or poor))
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
@@ -125,21 +227,14 @@ class DriverFit:
             "n_residuals": self.n_residuals,
             "iterations": self.iterations,
             "status": self.status,
+            "optimiser_status": self.optimiser_status or self.status,
+            "residual_floor": self.residual_floor,
+            "poor_fit_threshold": self.poor_fit_threshold,
+            "poor_demos": list(self.poor_demos),
+            "per_demo": [d.to_json() for d in self.per_demo],
             "seconds": self.seconds,
             "history": list(self.history),
         }
-
-
-def _risk_of(s: float) -> float:
-    """The risk 0.5 + 0.49·sigmoid(s): an unconstrained coordinate for p ∈ (0.5, 0.99)."""
-    lo, hi = RISK_RANGE
-    return lo + (hi - lo) / (1.0 + math.exp(-s))
-
-
-def _s_of(risk: float) -> float:
-    lo, hi = RISK_RANGE
-    q = min(max((risk - lo) / (hi - lo), 1e-4), 1 - 1e-4)
-    return math.log(q / (1 - q))
 
 
 def learn_driver(
@@ -152,17 +247,29 @@ def learn_driver(
     progress: Callable[[int, float], None] | None = None,
     screen: int = SCREEN_CANDIDATES,
     restarts: int = RESTARTS,
+    residual_floor: float = RESIDUAL_FLOOR,
 ) -> DriverFit:
     """Learn one driver's style from its demonstrations in several scenarios.
 
     Minimises ½ Σ_d Σ_k ‖r_k‖² (:func:`step_residuals`) over log w (w_a = 1), the risk
     p (unless ``risks`` fixes each demonstration's) and the desired speed (``fit_speed``),
-    by Levenberg–Marquardt with forward-difference Jacobians. The objective has local
-    minima (the active set of the chance constraint changes with the weights: a p = 0.9
-    driver's LM run from the normalised start stopped at cost 197 where the truth has
-    1e-23), so ``screen`` starting points — the normalised weights and log-uniform
-    perturbations of e^±2.5 drawn from a fixed seed — are scored first and LM runs from
-    the ``restarts`` best; the lowest cost wins.
+    by Levenberg–Marquardt with forward-difference Jacobians, p and v_ref as bounded
+    coordinates (p reaches 0.5). The objective has local minima (the active set of the
+    chance constraint changes with the weights: a p = 0.9 driver's LM run from the
+    normalised start stopped at cost 197 where the truth has 1e-23), so ``screen``
+    starting points — the normalised weights and log-uniform perturbations of e^±2.5
+    drawn from a fixed seed — are scored first and LM runs from the ``restarts`` best.
+    In p the objective is a saw-tooth (a step's plan switches branch as p moves: with one
+    SMPC(0.5) driver's weights fixed, Σ‖r‖² jumps by 2650 between p = 0.6968 and 0.6944
+    while its trend falls 160-fold to p = 0.5), so LM alone stops on a tooth far from the
+    driver's risk: before and after each LM run the 1-D profile over
+    :data:`PROFILE_RISKS` (weights fixed) moves p to a grid risk that fits better, and
+    LM restarts from there (at most :data:`PROFILE_ROUNDS` runs). The lowest cost wins.
+
+    Each demonstration's residual RMS is then compared with the noise floor: above
+    :data:`POOR_FIT_RATIO` floors the demonstration is not explained by the learned
+    driver and the status is ``poor_fit`` (``per_demo`` says which, and the risk that fits
+    each best alone).
 
     Args:
         demos: demonstrations of one driver (or, with ``risks``, of drivers that share the
@@ -171,29 +278,33 @@ def learn_driver(
             one shared p.
         fit_speed: also learn the desired speed v_ref (recorded traffic: unknown).
         initial: the starting style (default: :func:`initial_weights`, p = 0.7).
-        max_iter: iteration cap.
+        max_iter: iteration cap of each LM run.
         tol: relative cost decrease below which the run has converged.
         progress: called with (iteration, cost) after each iteration.
         screen: starting points scored (1: the normalised start only).
         restarts: LM runs from the best-scored starting points.
+        residual_floor: the residual RMS one driver of the class leaves [σ_u units]
+            (:data:`RESIDUAL_FLOOR`; a driver library's for its kind of data).
 
     Returns:
         The :class:`DriverFit`.
 
     Raises:
-        DriverStyleError: no demonstrations, risks of the wrong length or range, or a
-            demonstration off its scenario's time grid.
+        DriverStyleError: no demonstrations, risks of the wrong length or range, a
+            non-positive floor, or a demonstration off its scenario's time grid.
     """
     demos = list(demos)
     if not demos:
         raise DriverStyleError("need at least one demonstration")
+    lo, hi = RISK_RANGE
     if risks is not None:
         risks = [float(p) for p in risks]
         if len(risks) != len(demos):
             raise DriverStyleError(f"got {len(risks)} risks for {len(demos)} demonstrations")
-        lo, hi = RISK_RANGE
         if not all(lo <= p <= hi for p in risks):
             raise DriverStyleError(f"every risk must lie in [{lo}, {hi}], got {risks}")
+    if not (math.isfinite(residual_floor) and residual_floor > 0):
+        raise DriverStyleError(f"the residual floor must be > 0, got {residual_floor!r}")
     planners = [
         planner_for(check_demo(d), (initial.horizon if initial else 10), n_vehicles(d))
         for d in demos
@@ -201,39 +312,52 @@ def learn_driver(
     start = initial or DriverStyle(tuple(initial_weights()), risk=0.7)
     v0 = start.v_ref or float(np.median([d.scenario.v_ref for d in demos]))
     free = [i for i in range(N_WEIGHTS) if i != GAUGE]
+    risk_free = risks is None
+    i_p = len(free)  # the risk coordinate (when free): p itself, bounded
+    i_v = len(free) + risk_free  # the desired speed's (when fitted)
     t0 = time.perf_counter()
 
     def unpack(z: np.ndarray) -> tuple[DriverStyle, list[float]]:
         w = np.ones(N_WEIGHTS)
         w[free] = np.exp(z[: len(free)])
-        j = len(free)
-        p = _risk_of(z[j]) if risks is None else 0.7
-        j += risks is None
-        # an LM step may carry the raw speed coordinate below 0 (a braking driver):
-        # keep it in DriverStyle's range instead of failing the fit
-        v_ref = float(np.clip(z[j], 0.1, 69.9)) if fit_speed else start.v_ref
+        p = float(np.clip(z[i_p], lo, hi)) if risk_free else 0.7
+        v_ref = float(np.clip(z[i_v], 0.1, 69.9)) if fit_speed else start.v_ref
         style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon)
         return style, (risks if risks is not None else [p] * len(demos))
 
-    def residuals(z: np.ndarray) -> np.ndarray:
+    def parts(z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per demonstration: residuals (n−1, 2) and where a chance constraint binds."""
         style, ps = unpack(z)
-        pairs = zip(demos, ps, strict=True)
-        out = [
-            step_residuals(replace(style, risk=p), d, planners[i])[0].ravel()
-            for i, (d, p) in enumerate(pairs)
+        return [
+            step_residuals(replace(style, risk=p), d, planners[i])
+            for i, (d, p) in enumerate(zip(demos, ps, strict=True))
         ]
-        return np.concatenate(out)
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        return np.concatenate([r.ravel() for r, _ in parts(z)])
 
     w0 = np.asarray(start.weights) / start.weights[GAUGE]
     z = list(np.log(w0[free]))
-    if risks is None:
-        z.append(_s_of(start.risk))
+    fd = [0.02] * len(free)  # forward-difference steps
+    big = [2.0] * len(free)  # log-weights: at most e² per iteration
+    lower, upper = [-np.inf] * len(free), [np.inf] * len(free)
+    if risk_free:
+        # p itself, bounded: a sigmoid coordinate never reaches p = 0.5 (a driver at the
+        # bound sat at s → −∞, its Jacobian column vanishing on the way)
+        z.append(start.risk)
+        fd.append(_RISK_STEP)
+        big.append(_RISK_MAX_STEP)
+        lower.append(lo)
+        upper.append(hi)
     if fit_speed:
+        # an LM step may carry the speed below 0 (a braking driver): bounded, not a failure
         z.append(v0)
+        fd.append(0.05)
+        big.append(2.0)
+        lower.append(0.1)
+        upper.append(69.9)
     z0 = np.array(z, dtype=float)
-    steps = np.full(z0.size, 0.02)
-    if fit_speed:
-        steps[-1] = 0.05
+    box = _Box(np.array(fd), np.array(big), np.array(lower), np.array(upper))
     rng = np.random.default_rng(SCREEN_SEED)
     candidates = [z0]
     for _ in range(max(screen, 1) - 1):
@@ -245,27 +369,163 @@ def learn_driver(
         rc = residuals(c)
         scored.append((0.5 * float(rc @ rc), len(scored), c, rc))
     scored.sort(key=lambda item: (item[0] if np.isfinite(item[0]) else np.inf, item[1]))
-    best: tuple | None = None
+
+    def profile(z: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Σ_k ‖r_k‖² per (grid risk, demonstration) at z's weights, and the residuals."""
+        ssr = np.empty((len(PROFILE_RISKS), len(demos)))
+        rs = []
+        for j, p in enumerate(PROFILE_RISKS):
+            zp = z.copy()
+            zp[i_p] = p
+            pp = parts(zp)
+            ssr[j] = [float(np.sum(r**2)) for r, _ in pp]
+            rs.append(np.concatenate([r.ravel() for r, _ in pp]))
+        return ssr, rs
+
+    best: _Run | None = None
     total_it = 0
     for cost_c, _, c, rc in scored[: max(restarts, 1)]:
-        result = _levenberg_marquardt(residuals, c, rc, cost_c, steps, max_iter, tol, progress)
-        total_it += result[4]
-        if best is None or result[2] < best[2]:
-            best = result
+        run = _descend(residuals, profile if risk_free else None, i_p, c, rc, cost_c, box,
+                       max_iter, tol, progress)  # fmt: skip
+        total_it += run.iterations
+        if best is None or run.cost < best.cost:
+            best = run
     assert best is not None
-    z, r, cost, history, _, status = best
-    style, ps = unpack(z)
+    style, ps = unpack(best.z)
+    final = parts(best.z)
+    per_demo = _diagnose(final, best.ssr, style.risk if risk_free else None, residual_floor)
+    r = best.r
+    rms = float(np.sqrt(np.mean(r**2)))
+    poor = any(d.poor for d in per_demo) or rms > POOR_FIT_RATIO * residual_floor
     return DriverFit(
         style=style,
         risks=tuple(ps),
-        cost=cost,
-        residual_rms=float(np.sqrt(np.mean(r**2))),
+        cost=best.cost,
+        residual_rms=rms,
         n_residuals=int(r.size),
         iterations=total_it,
-        status=status,
+        status="poor_fit" if poor else best.status,
         seconds=time.perf_counter() - t0,
-        history=tuple(history),
+        history=tuple(best.history),
+        residual_floor=float(residual_floor),
+        per_demo=tuple(per_demo),
+        optimiser_status=best.status,
     )
+
+
+def _diagnose(
+    final: list[tuple[np.ndarray, np.ndarray]],
+    ssr: np.ndarray | None,
+    risk: float | None,
+    floor: float,
+) -> list[DemoFit]:
+    """Per demonstration: residual RMS at the learned style and its best risk alone.
+
+    Args:
+        final: each demonstration's residuals and chance activity at the learned style.
+        ssr: Σ‖r‖² per (profile risk, demonstration) at the learned weights, or None
+            (risks given, or an exact fit: the learned risk is each one's best).
+        risk: the learned shared risk (None: the risks were given).
+        floor: the noise floor [σ_u units].
+    """
+    out = []
+    for i, (r, active) in enumerate(final):
+        n = int(r.size)
+        s_here = float(np.sum(r**2))
+        rms = float(np.sqrt(s_here / max(n, 1)))
+        best_risk, best_rms = (risk, rms) if risk is not None else (None, None)
+        if ssr is not None and risk is not None:
+            column = np.append(ssr[:, i], s_here)
+            j = int(np.argmin(column))
+            best_risk = float(PROFILE_RISKS[j]) if j < len(PROFILE_RISKS) else risk
+            best_rms = float(np.sqrt(column[j] / max(n, 1)))
+        poor = rms > POOR_FIT_RATIO * floor
+        disagrees = (
+            best_risk is not None and risk is not None and abs(best_risk - risk) > RISK_AGREEMENT
+        )
+        out.append(DemoFit(i, n, rms, int(active.sum()), best_risk, best_rms, poor, disagrees))
+    return out
+
+
+@dataclass(frozen=True)
+class _Box:
+    """The coordinates' forward-difference steps, largest steps and bounds."""
+
+    fd: np.ndarray
+    max_step: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+class _Run(NamedTuple):
+    """One start's descent (:func:`_descend`)."""
+
+    z: np.ndarray
+    r: np.ndarray
+    cost: float
+    history: list[float]
+    iterations: int
+    status: str
+    ssr: np.ndarray | None
+    """The profile over p at the final weights (None: the risk was not free)."""
+
+
+def _descend(
+    residuals: Callable[[np.ndarray], np.ndarray],
+    profile: Callable[[np.ndarray], tuple[np.ndarray, list[np.ndarray]]] | None,
+    i_p: int,
+    z: np.ndarray,
+    r: np.ndarray,
+    cost: float,
+    box: _Box,
+    max_iter: int,
+    tol: float,
+    progress: Callable[[int, float], None] | None,
+) -> _Run:
+    """LM from z, alternating with the 1-D profile over p while it finds a better risk.
+
+    Args:
+        residuals: z → all residuals.
+        profile: z → (Σ‖r‖² per profile risk and demonstration, the residuals per risk),
+            or None when the risk is not a coordinate.
+        i_p: the risk's coordinate.
+        z: the start.
+        r: its residuals.
+        cost: ½‖r‖².
+        box: the coordinates' steps and bounds.
+        max_iter: iteration cap of each LM run.
+        tol: relative cost decrease below which a run has converged.
+        progress: called with (iteration, cost) after each iteration.
+    """
+    history = [cost]
+    iterations, status = 0, "converged"
+    ssr, rs = profile(z) if profile is not None and cost > _EXACT else (None, [])
+    for round_ in range(PROFILE_ROUNDS):
+        if cost <= _EXACT:
+            break
+        if ssr is not None:
+            totals = 0.5 * ssr.sum(axis=1)
+            j = int(np.argmin(totals))
+            # another grid risk fits clearly better at these weights: LM's p sat on a
+            # tooth of the saw (or the start's p was far off)
+            if totals[j] < cost * (1.0 - tol) - 1e-12:
+                z = z.copy()
+                z[i_p] = PROFILE_RISKS[j]
+                r, cost = rs[j], float(totals[j])
+                history.append(cost)
+            elif round_ > 0:
+                break
+        z, r, cost, h, it, status = _levenberg_marquardt(
+            residuals, z, r, cost, box, max_iter, tol, progress
+        )
+        history.extend(h[1:])
+        iterations += it
+        if profile is None or cost <= _EXACT:
+            break
+        ssr, rs = profile(z)
+    if profile is not None and ssr is None and cost > _EXACT:
+        ssr, _ = profile(z)  # each demonstration's best risk (DriverFit.per_demo)
+    return _Run(z, r, cost, history, iterations, status, ssr)
 
 
 def _levenberg_marquardt(
@@ -273,12 +533,15 @@ def _levenberg_marquardt(
     z: np.ndarray,
     r: np.ndarray,
     cost: float,
-    steps: np.ndarray,
+    box: _Box,
     max_iter: int,
     tol: float,
     progress: Callable[[int, float], None] | None,
 ) -> tuple[np.ndarray, np.ndarray, float, list[float], int, str]:
-    """LM with forward-difference Jacobians from z (residuals r, cost ½‖r‖²).
+    """Projected LM with forward-difference Jacobians from z (residuals r, cost ½‖r‖²).
+
+    A coordinate at its bound whose gradient points out of the box is held for the
+    iteration; the step is clipped to each coordinate's largest step and to the box.
 
     Returns:
         (z, r, cost, cost history, iterations, status).
@@ -287,19 +550,25 @@ def _levenberg_marquardt(
     lam = 1e-2
     status = "max_iter"
     it = 0
+    if cost <= _EXACT:
+        return z, r, cost, history, it, "converged"
     for it in range(1, max_iter + 1):
         J = np.empty((r.size, z.size))
         for i in range(z.size):
+            h = box.fd[i] if z[i] + box.fd[i] <= box.upper[i] else -box.fd[i]
             dz = np.zeros(z.size)
-            dz[i] = steps[i]
-            J[:, i] = (residuals(z + dz) - r) / steps[i]
+            dz[i] = h
+            J[:, i] = (residuals(z + dz) - r) / h
         g = J.T @ r
-        H = J.T @ J
+        held = ((z <= box.lower) & (g > 0)) | ((z >= box.upper) & (g < 0))
+        move = ~held
+        H = (J.T @ J)[np.ix_(move, move)]
         improved = False
         for _ in range(8):
-            step = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
-            step = np.clip(step, -2.0, 2.0)  # log-weights: at most e² per iteration
-            z_try = z + step
+            step = np.zeros(z.size)
+            step[move] = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g[move])
+            step = np.clip(step, -box.max_step, box.max_step)
+            z_try = np.clip(z + step, box.lower, box.upper)
             r_try = residuals(z_try)
             cost_try = 0.5 * float(r_try @ r_try)
             if np.isfinite(cost_try) and cost_try < cost:
@@ -307,7 +576,8 @@ def _levenberg_marquardt(
                 break
             lam *= 10.0
         if not improved:
-            status = "stalled" if it == 1 else "converged"
+            # nothing lowers the cost: a minimum (an exact fit counts, even at once)
+            status = "stalled" if it == 1 and cost > _EXACT else "converged"
             break
         rel = (cost - cost_try) / max(cost, 1e-12)
         z, r, cost = z_try, r_try, cost_try
@@ -338,11 +608,15 @@ def save_driver_style(
     Returns:
         The path written.
     """
+    fitted = fit.to_json()
+    if len(demo_paths) == len(fit.per_demo):  # name the demonstrations, poor ones too
+        paths = [str(p) for p in demo_paths]
+        fitted["per_demo"] = [{"path": paths[d["index"]], **d} for d in fitted["per_demo"]]
     payload = {
         "kind": DRIVER_STYLE_KIND,
         "version": 1,
         "model": "receding-horizon style (DESIGN §15)",
-        **fit.to_json(),
+        **fitted,
         "demos": [{"path": str(p)} for p in demo_paths],
         "reproductions": list(reproductions),
     }

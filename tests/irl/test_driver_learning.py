@@ -1,0 +1,137 @@
+"""Teacher-forced learning of a driver style (irl/driver_learning.py, DESIGN §15): the
+risk reaches the bound p = 0.5, the profile over p leaves the saw-tooth's local minima,
+and the fit says when no single driver explains the demonstrations (``poor_fit``)."""
+
+import numpy as np
+import pytest
+
+from drivestyle.irl.driver_learning import (
+    POOR_FIT_RATIO,
+    RESIDUAL_FLOOR,
+    DemoFit,
+    DriverFit,
+    _Box,
+    _diagnose,
+    _levenberg_marquardt,
+    learn_driver,
+)
+from drivestyle.irl.driver_style import DriverStyle, DriverStyleError
+
+SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
+"""The expert's weights: SMPC(p) drivers are the style (SMPC_WEIGHTS, p)."""
+
+
+@pytest.fixture(scope="module")
+def smpc_demos():
+    """SMPC(p) demonstrations, p ∈ {0.5, 0.55, 0.9}, in 3 interactive scenarios (seed 0)."""
+    from drivestyle.agents.demo_generation import (
+        draw_interactive_scenarios,
+        generate_demonstrations,
+    )
+
+    scenarios = draw_interactive_scenarios(3, seed=0, probe_risk=0.5)
+    return generate_demonstrations([0.5, 0.55, 0.9], scenarios, workers=1)
+
+
+# ---------------------------------------------------------------------------- the optimiser
+def test_projected_lm_reaches_a_bound_exactly():
+    # r(z) = z − (−1, 2): the minimum of the first coordinate lies below its bound 0
+    def residuals(z):
+        return z - np.array([-1.0, 2.0])
+
+    box = _Box(np.full(2, 1e-3), np.full(2, 0.4), np.array([0.0, -np.inf]), np.full(2, np.inf))
+    z0 = np.array([0.7, 0.0])
+    r0 = residuals(z0)
+    z, _, cost, _, _, status = _levenberg_marquardt(
+        residuals, z0, r0, 0.5 * float(r0 @ r0), box, 50, 1e-10, None
+    )
+    assert z[0] == 0.0  # on the bound, not approaching it (a sigmoid never gets there)
+    assert z[1] == pytest.approx(2.0, abs=1e-6)
+    assert cost == pytest.approx(0.5) and status == "converged"
+
+
+# ---------------------------------------------------------------------------- low risks
+@pytest.mark.parametrize("risk", [0.5, 0.55])
+@pytest.mark.parametrize(
+    "n_demos",
+    [1, pytest.param(2, marks=pytest.mark.slow), pytest.param(3, marks=pytest.mark.slow)],
+)  # ≈ 3 s per demonstration: 14 teacher-forced passes each
+def test_a_low_risk_driver_is_learned_from_a_start_on_another_tooth(smpc_demos, risk, n_demos):
+    # the driver's own weights at p = 0.7: LM in p alone stopped on a tooth of the
+    # saw-tooth objective; the profile over p finds the driver's risk
+    demos = smpc_demos[risk][:n_demos]
+    start = DriverStyle(SMPC_WEIGHTS, risk=0.7)
+    fit = learn_driver(demos, initial=start, screen=1, restarts=1, max_iter=5)
+    assert fit.style.risk == risk
+    assert np.allclose(fit.style.normalised(), SMPC_WEIGHTS)
+    assert fit.status == "converged" and fit.residual_rms < 1e-6
+    assert [d.best_risk for d in fit.per_demo] == [risk] * n_demos
+    assert not fit.poor_demos
+
+
+@pytest.mark.slow  # the default search: 24 starts, 2 LM runs (≈ 20–90 s each)
+@pytest.mark.parametrize("risk", [0.5, 0.55])
+@pytest.mark.parametrize("n_demos", [1, 2, 3])
+def test_a_low_risk_driver_is_learned_with_the_default_search(smpc_demos, risk, n_demos):
+    # before the profile over p, two p = 0.5 demonstrations were learned as p = 0.695
+    # ("converged", cost 6698, residual rms 10.6 σ_u)
+    fit = learn_driver(smpc_demos[risk][:n_demos])
+    assert fit.style.risk == pytest.approx(risk, abs=0.01)
+    assert fit.status == "converged" and not fit.poor_demos
+    assert fit.residual_rms < fit.poor_fit_threshold
+
+
+# ---------------------------------------------------------------------------- honest status
+def _fit_with(per_demo):
+    return DriverFit(
+        DriverStyle(SMPC_WEIGHTS, risk=0.5), (0.5,) * len(per_demo), 1.0, 1.0, 120, 3,
+        "poor_fit", 1.0, per_demo=tuple(per_demo), optimiser_status="converged",
+    )  # fmt: skip
+
+
+def test_diagnosis_names_the_demonstration_no_shared_driver_explains():
+    exact, off = np.zeros((30, 2)), np.full((30, 2), 4.0)
+    active = np.ones(30, bool)
+    ssr = np.zeros((13, 2))
+    ssr[:, 1] = np.linspace(960.0, 0.0, 13)  # alone, the second is best at p = 0.99
+    per_demo = _diagnose([(exact, active), (off, active)], ssr, 0.5, RESIDUAL_FLOOR)
+    assert [d.poor for d in per_demo] == [False, True]
+    assert per_demo[1].residual_rms == pytest.approx(4.0)
+    assert per_demo[1].best_risk == 0.99 and per_demo[1].best_residual_rms == 0.0
+    assert per_demo[0].best_risk == 0.5 and per_demo[0].active_steps == 30
+    assert per_demo[1].disagrees and not per_demo[0].disagrees
+    fit = _fit_with(per_demo)
+    assert fit.poor_demos == (1,)
+    assert fit.poor_fit_threshold == pytest.approx(POOR_FIT_RATIO * RESIDUAL_FLOOR)
+    payload = fit.to_json()
+    assert payload["status"] == "poor_fit" and payload["optimiser_status"] == "converged"
+    assert payload["poor_demos"] == [1] and payload["residual_floor"] == RESIDUAL_FLOOR
+    assert payload["per_demo"][1]["best_risk"] == 0.99 and payload["per_demo"][1]["poor"]
+    # the shared weights' compromise lifts an agreeing demonstration too: the odd one is named
+    lifted = [per_demo[1], DemoFit(0, 60, 0.6, 30, 0.5, 0.6, True, False)]
+    assert _fit_with(lifted).poor_demos == (1,)
+    both = [DemoFit(0, 60, 0.6, 30, 0.5, 0.6, True), DemoFit(1, 60, 0.5, 30, 0.5, 0.5, True)]
+    assert _fit_with(both).poor_demos == (0, 1)  # no odd one: every poorly fitted one
+
+
+def test_a_larger_floor_accepts_larger_residuals():
+    off = np.full((30, 2), 0.5)
+    (tight,) = _diagnose([(off, np.ones(30, bool))], None, 0.7, RESIDUAL_FLOOR)
+    (loose,) = _diagnose([(off, np.ones(30, bool))], None, 0.7, 1.0)
+    assert tight.poor and not loose.poor
+    assert isinstance(tight, DemoFit) and tight.best_risk == 0.7
+
+
+def test_learning_refuses_a_non_positive_floor(paper_demo):
+    with pytest.raises(DriverStyleError, match="floor"):
+        learn_driver([paper_demo], residual_floor=0.0)
+
+
+@pytest.mark.slow  # three demonstrations, the default search (≈ 2 min)
+def test_two_drivers_learned_together_are_a_poor_fit_naming_the_odd_one(smpc_demos):
+    demos = [*smpc_demos[0.5][:2], smpc_demos[0.9][2]]
+    fit = learn_driver(demos)
+    assert fit.status == "poor_fit" and fit.optimiser_status in ("converged", "max_iter")
+    assert fit.poor_demos == (2,)
+    assert fit.per_demo[2].best_risk >= 0.85
+    assert fit.per_demo[2].residual_rms > fit.poor_fit_threshold
