@@ -4,7 +4,12 @@
 risk p and (``--fit-speed``) desired speed of one driver, learned from every step of every
 demonstration (teacher forcing), then driven in closed loop in each demonstration's
 scenario. Writes ``OUT/style.json`` (``kind: driver-style``: style, fit status, residuals,
-per-demonstration rmse_y_m / rmse_xy_m of the closed-loop reproduction).
+per-demonstration residual RMS and best risk alone, per-demonstration rmse_y_m / rmse_xy_m
+of the closed-loop reproduction). When some demonstrations' residuals lie far above the
+noise floor (``--residual-floor``: what one driver of the class leaves) no single driver
+explains them all — e.g. two drivers of different risks learned together: ``style.json``
+is still written, with ``"status": "poor_fit"`` and the disagreeing demonstrations named,
+and the script ends with one ``error: poor fit …`` line and exit status 3.
 
 ``--model paper``: the paper's whole-horizon model, feature weights θ by ME-IRL. Writes
 ``OUT/style.json`` (docs/DESIGN.md §7: features, theta, iterations, converged,
@@ -15,8 +20,11 @@ deterministic (no seed). When learning stalls (the inner problem fails at every 
 ``style.json`` is still written, with ``"status": "stalled"`` and the last solved θ, and the
 script ends with an ``error:`` line and a non-zero exit status.
 
+An option of the other model is refused (exit status 2), not ignored.
+
 Example:
-    python scripts/learn_style.py runs/demo/demo.npz --features reactive --out runs/style
+    python scripts/learn_style.py runs/demo/demo.npz --model paper --features reactive \
+        --out runs/style
 """
 
 from __future__ import annotations
@@ -35,18 +43,55 @@ from drivestyle.common.cli import positive_float, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
-from drivestyle.irl.driver_learning import learn_driver, save_driver_style
+from drivestyle.irl.driver_learning import (
+    POOR_FIT_RATIO,
+    RESIDUAL_FLOOR,
+    DriverFit,
+    learn_driver,
+    save_driver_style,
+)
 from drivestyle.irl.driver_style import WEIGHT_NAMES, reproduce
 from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.style import fit_style
 
+EXIT_POOR_FIT = 3
+"""Exit status when the driver model's fit is ``poor_fit`` (``style.json`` is written)."""
+PAPER_OPTIONS = {
+    "features": "reactive",
+    "method": "lm",
+    "control_point_rule": "kinematic",
+    "t_rct": 2.0,
+    "alpha": 3e-4,
+    "plot": False,
+}
+"""Options of ``--model paper`` only, with their defaults (None in the parser: given?)."""
+DRIVER_OPTIONS = {"fit_speed": False, "residual_floor": RESIDUAL_FLOOR}
+"""Options of ``--model driver`` only, with their defaults."""
+
+
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Defaults in the help, except the model-specific ones (None: says its own default)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None:
+            return action.help
+        return super()._get_help_string(action)
+
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    """Command-line arguments."""
+    """Command-line arguments; an option of the model not chosen is refused.
+
+    Raises:
+        ValueError: an option given that does not apply to ``--model`` (one line).
+    """
     p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+        description=__doc__.split("\n\n")[0],
+        formatter_class=_Formatter,
+        epilog=f"exit status: 0 learned; 2 bad input (or paper model stalled); "
+        f"{EXIT_POOR_FIT} driver model poor_fit (style.json written, the demonstrations "
+        "no single driver explains named on stderr)",
     )
     p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s)")
     p.add_argument(
@@ -59,37 +104,82 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--fit-speed",
         action="store_true",
-        help="driver model: also learn the desired speed (recorded traffic: unknown)",
+        default=None,
+        help="driver model only: also learn the desired speed (recorded traffic: unknown)",
     )
     p.add_argument(
-        "--features", default="reactive", choices=sorted(FEATURE_SETS), help="feature set"
+        "--residual-floor",
+        type=positive_float,
+        default=None,
+        help="driver model only: the residual RMS one driver of the class leaves, in units "
+        f"of the input scale σ_u (default {RESIDUAL_FLOOR}: a simulated driver); a "
+        f"demonstration above {POOR_FIT_RATIO:g}× it makes the fit poor_fit",
+    )
+    p.add_argument(
+        "--features",
+        choices=sorted(FEATURE_SETS),
+        default=None,
+        help="paper model only: feature set (default reactive)",
     )
     p.add_argument(
         "--out", type=Path, default=Path("runs/style"), help="output folder (other files kept)"
     )
     p.add_argument(
         "--method",
-        default="lm",
         choices=UPDATE_RULES,
-        help="outer update: Levenberg-Marquardt in log theta, or the paper's rule",
+        default=None,
+        help="paper model only: outer update, Levenberg-Marquardt in log theta or the "
+        "paper's rule (default lm)",
     )
     p.add_argument(
         "--control-point-rule",
         "--rule",
         dest="control_point_rule",
-        default="kinematic",
         choices=CONTROL_POINT_RULES,
-        help="how demo velocities/accelerations are computed (docs/DESIGN.md §4)",
-    )
-    p.add_argument("--t-rct", type=positive_float, default=2.0, help="reaction window T_rct [s]")
-    p.add_argument(
-        "--max-iter", type=positive_int, help="outer iterations (default: 60 lm, 400 paper)"
+        default=None,
+        help="paper model only: how demo velocities/accelerations are computed "
+        "(docs/DESIGN.md §4; default kinematic)",
     )
     p.add_argument(
-        "--alpha", type=positive_float, default=3e-4, help="learning rate of the paper rule"
+        "--t-rct",
+        type=positive_float,
+        default=None,
+        help="paper model only: reaction window T_rct [s] (default 2.0)",
     )
-    p.add_argument("--plot", action="store_true", help="write reproduction figures")
-    return p.parse_args(argv)
+    p.add_argument(
+        "--max-iter",
+        type=positive_int,
+        help="iterations of each Levenberg-Marquardt run (default: 30 driver; paper 60 lm, "
+        "400 paper rule)",
+    )
+    p.add_argument(
+        "--alpha",
+        type=positive_float,
+        default=None,
+        help="paper model only: learning rate of the paper rule (default 0.0003)",
+    )
+    p.add_argument(
+        "--plot",
+        action="store_true",
+        default=None,
+        help="paper model only: write reproduction figures",
+    )
+    args = p.parse_args(argv)
+    own, other = (DRIVER_OPTIONS, PAPER_OPTIONS)
+    if args.model == "paper":
+        own, other = other, own
+    given = [name for name in other if getattr(args, name) is not None]
+    if given:
+        flags = ", ".join("--" + name.replace("_", "-") for name in given)
+        owner = "paper" if args.model == "driver" else "driver"
+        raise ValueError(
+            f"{flags} {'applies' if len(given) == 1 else 'apply'} to --model {owner} only, "
+            f"not to --model {args.model}"
+        )
+    for name, default in {**own, **other}.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
+    return args
 
 
 class LearningStalledError(RuntimeError):
@@ -163,7 +253,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
 
 def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None) -> dict[str, Any]:
-    """The driver model's learning (module docstring)."""
+    """The driver model's learning (module docstring).
+
+    Raises:
+        LearningStalledError: after writing ``style.json``, when learning stalled.
+        SystemExit: status :data:`EXIT_POOR_FIT` after writing ``style.json``, when no
+            single driver explains every demonstration.
+    """
     for path, demo in zip(args.demos, demos, strict=True):
         try:
             check_learnable(demo)
@@ -176,6 +272,7 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
             fit_speed=args.fit_speed,
             max_iter=max_iter,
             progress=lambda it, cost: _tick(bar, cost),
+            residual_floor=args.residual_floor,
         )
     reproductions = []
     for demo in demos:
@@ -193,15 +290,35 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
     print(
         f"wrote {args.out / 'style.json'}: risk {fit.style.risk:.3f}, weights [{w}]"
         + (f", desired speed {fit.style.v_ref:.1f} m/s" if fit.style.v_ref else "")
-        + f"; {fit.status} after {fit.iterations} iterations, {fit.seconds:.0f} s; "
+        + f"; {fit.status} after {fit.iterations} iterations, {fit.seconds:.0f} s, residual "
+        f"rms {fit.residual_rms:.3g} σ_u (floor {fit.residual_floor:g}); "
         f"closed-loop median rmse_y {med_y:.3f} m, rmse_xy {med_xy:.3f} m over {len(demos)} "
         f"demonstration{'s' if len(demos) > 1 else ''}"
     )
-    if fit.status == "stalled":
+    if fit.optimiser_status == "stalled":
         raise LearningStalledError(
             f"learning stalled ({args.out / 'style.json'} holds the starting style)"
         )
+    if fit.status == "poor_fit":
+        print(f"error: {_poor_fit_message(fit, args.demos)}", file=sys.stderr)
+        sys.exit(EXIT_POOR_FIT)
     return payload
+
+
+def _poor_fit_message(fit: DriverFit, paths: list[Path]) -> str:
+    """One line: which demonstrations the learned driver does not explain, and why."""
+    poor = [d for d in fit.per_demo if d.poor] or list(fit.per_demo)
+    named = []
+    for d in poor:
+        alone = "" if d.best_risk is None else f", alone best at p {d.best_risk:.2f}"
+        named.append(f"{paths[d.index].name} (rms {d.residual_rms:.3g}{alone})")
+    return (
+        f"poor fit: residual rms above {POOR_FIT_RATIO:g}× the noise floor "
+        f"{fit.residual_floor:g} σ_u at the learned risk {fit.style.risk:.3f} for "
+        + ", ".join(named)
+        + ": the learned driver does not explain them (drivers of different styles, or "
+        "a local minimum of learning); style.json has status 'poor_fit'"
+    )
 
 
 def _tick(bar: tqdm, cost: float) -> None:

@@ -175,6 +175,71 @@ def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch
     assert js["status"] == "stalled" and js["converged"] is False
 
 
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--features", "reactive"], "--features applies to --model paper only"),
+        (["--plot", "--t-rct", "1.5"], "--t-rct, --plot apply to --model paper only"),
+        (["--model", "paper", "--fit-speed"], "--fit-speed applies to --model driver only"),
+        (["--model", "paper", "--residual-floor", "0.5"], "--residual-floor applies to"),
+    ],
+)
+def test_learn_style_refuses_options_of_the_other_model(
+    tmp_path, demo_file, capsys, options, message
+):
+    from drivestyle.common.cli import run_cli
+
+    out = tmp_path / "style"
+    with pytest.raises(SystemExit) as info:
+        run_cli(_main("learn_style"), [str(demo_file), *options, "--out", str(out)])
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and message in err and len(err.splitlines()) == 1, err
+    assert not out.exists()  # refused before any work
+
+
+def test_learn_style_exits_3_on_a_poor_fit_and_names_the_demonstration(tmp_path, demo_file, capsys):
+    from drivestyle.common.cli import run_cli
+    from drivestyle.irl.driver_learning import DemoFit, DriverFit
+    from drivestyle.irl.driver_style import DriverStyle
+
+    def poor_fit(demos, **kwargs):  # two drivers' demonstrations: the second unexplained
+        per_demo = (
+            DemoFit(0, 60, 0.01, 30, 0.5, 0.01, False),
+            DemoFit(1, 60, 9.5, 30, 0.9, 0.02, True, True),
+        )
+        style = DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.5)
+        return DriverFit(style, (0.5, 0.5), 2700.0, 6.7, 120, 12, "poor_fit", 1.0,
+                         per_demo=per_demo, optimiser_status="converged")  # fmt: skip
+
+    script = runpy.run_path(str(ROOT / "scripts" / "learn_style.py"), run_name="not_main")
+    script["main"].__globals__["learn_driver"] = poor_fit  # run_path returns a copy
+    other = tmp_path / "other.npz"
+    shutil.copy(demo_file, other)
+    out = tmp_path / "style"
+    with pytest.raises(SystemExit) as info:
+        run_cli(script["main"], [str(demo_file), str(other), "--out", str(out)])
+    assert info.value.code == 3
+    printed = capsys.readouterr()
+    assert "poor_fit after 12 iterations" in printed.out
+    err = printed.err.strip().splitlines()[-1]  # after the progress bar's
+    assert (
+        printed.err.count("error:") == 1
+        and err.startswith("error: poor fit")
+        and "other.npz (rms 9.5, alone best at p 0.90)" in err
+    )
+    assert "demo.npz" not in err
+    js = json.loads((out / "style.json").read_text())  # written: nothing is lost
+    assert js["status"] == "poor_fit" and js["optimiser_status"] == "converged"
+    assert js["poor_demos"] == [1] and js["per_demo"][1]["path"] == str(other)
+    assert js["residual_floor"] == 0.1 and js["per_demo"][1]["best_risk"] == 0.9
+
+
+def test_learn_style_help_names_the_exit_status_of_a_poor_fit():
+    proc = _run("learn_style", "--help")
+    assert proc.returncode == 0 and "3 driver model poor_fit" in " ".join(proc.stdout.split())
+
+
 @pytest.mark.slow  # end to end: the whole command
 def test_reproduce_paper_with_baseline(tmp_path):
     out = tmp_path / "paper"
