@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.common.parallel import parallel_map
+from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_stops_the_job
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.identification import Identification, identify
@@ -526,34 +526,41 @@ def _run_ray(
             ray.init(address=address, **kwargs)
         else:
             ray.init(num_cpus=workers, **kwargs)
-    try:
-        retried = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=RAY_TASK_RETRIES)
-        actor: Any = retried(Miner)
-        # the library travels with each actor (small), so a restarted actor rebuilds itself
-        free: list[Any] = [actor.remote(library) for _ in range(min(workers, len(tasks)))]
-        queue = deque(tasks)
-        running: dict[Any, tuple[Any, MiningTask]] = {}
-        while queue or running:
-            while free and queue:
-                a, task = free.pop(), queue.popleft()
-                running[a.mine.remote(*task)] = (a, task)
-            (ref,), _ = ray.wait(list(running), num_returns=1)
-            a, (demo_id, source, demo) = running.pop(ref)
-            free.append(a)
-            try:
-                row = ray.get(ref)
-            except RayError as exc:  # the worker died on every try, or Ray failed: a row
-                tries = f" ({RAY_TASK_RETRIES + 1} tries)" if isinstance(exc, RayActorError) else ""
-                row = MinedRow.failed(
-                    demo_id,
-                    source,
-                    f"{_where(demo_id, demo)}: the Ray worker failed{tries}: {_ray_failure(exc)}",
-                    kind="infrastructure",
-                )
-            on_row(row)
-    finally:
-        if started:
-            ray.shutdown()
+    # SIGTERM: the same clean stop as Ctrl-C, ending in ray.shutdown() below (Ray's own
+    # handler exits with status 1 and no shutdown of ours)
+    with sigterm_stops_the_job(replace=True) as sigterm:
+        try:
+            retried = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=RAY_TASK_RETRIES)
+            actor: Any = retried(Miner)
+            # the library travels with each actor (small), so a restarted actor rebuilds itself
+            free: list[Any] = [actor.remote(library) for _ in range(min(workers, len(tasks)))]
+            queue = deque(tasks)
+            running: dict[Any, tuple[Any, MiningTask]] = {}
+            while queue or running:
+                while free and queue:
+                    a, task = free.pop(), queue.popleft()
+                    running[a.mine.remote(*task)] = (a, task)
+                (ref,), _ = ray.wait(list(running), num_returns=1)
+                a, (demo_id, source, demo) = running.pop(ref)
+                free.append(a)
+                try:
+                    row = ray.get(ref)
+                except RayError as exc:  # the worker died on every try, or Ray failed: a row
+                    tries = (
+                        f" ({RAY_TASK_RETRIES + 1} tries)" if isinstance(exc, RayActorError) else ""
+                    )
+                    why = f"the Ray worker failed{tries}: {_ray_failure(exc)}"
+                    row = MinedRow.failed(
+                        demo_id, source, f"{_where(demo_id, demo)}: {why}", kind="infrastructure"
+                    )
+                on_row(row)
+        except SystemExit:
+            if sigterm.received:  # Ray's blocking calls replace our exit status with 1
+                raise SystemExit(EXIT_TERMINATED) from None
+            raise
+        finally:
+            if started:
+                ray.shutdown()
 
 
 def mine(

@@ -30,9 +30,16 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["EXIT_TERMINATED", "WorkerCrashError", "parallel_map"]
+__all__ = [
+    "EXIT_TERMINATED",
+    "SigtermState",
+    "WorkerCrashError",
+    "parallel_map",
+    "sigterm_stops_the_job",
+]
 
 _ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
@@ -89,18 +96,33 @@ def _run_task(fn: Callable[..., Any], index: int, args: tuple[Any, ...]) -> Any:
     return fn(*args)
 
 
+@dataclass
+class SigtermState:
+    """What :func:`sigterm_stops_the_job` saw."""
+
+    received: bool = False
+    """Whether SIGTERM arrived (a library that turns our SystemExit into its own, as Ray's
+    blocking calls do, can be corrected with it)."""
+
+
 @contextmanager
-def _sigterm_stops_the_job() -> Iterator[None]:
+def sigterm_stops_the_job(replace: bool = False) -> Iterator[SigtermState]:
     """While active, SIGTERM raises ``SystemExit(143)`` here (cleanup runs, as on Ctrl-C).
 
-    Only in the main thread (Python runs handlers there) and only when nobody installed a
-    handler of their own (Ray's driver has one, for instance).
+    Only in the main thread (Python runs handlers there).
+
+    Args:
+        replace: also replace a handler installed by someone else (Ray's driver installs
+            one that exits with status 1); by default only the default action is replaced.
+
+    Yields:
+        Whether SIGTERM arrived.
     """
-    if (
-        threading.current_thread() is not threading.main_thread()
-        or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    state = SigtermState()
+    if threading.current_thread() is not threading.main_thread() or (
+        not replace and signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
     ):
-        yield
+        yield state
         return
     owner = os.getpid()
 
@@ -109,12 +131,13 @@ def _sigterm_stops_the_job() -> Iterator[None]:
             signal.signal(signum, signal.SIG_DFL)
             os.kill(os.getpid(), signum)
             return
+        state.received = True
         print("terminated: stopping the worker processes", file=sys.stderr, flush=True)
         raise SystemExit(EXIT_TERMINATED)
 
     previous = signal.signal(signal.SIGTERM, on_sigterm)
     try:
-        yield
+        yield state
     finally:
         signal.signal(signal.SIGTERM, previous)
 
@@ -267,7 +290,7 @@ def parallel_map(
                 on_result(i, results[i])
         return results
     state = _Pool(fn, tasks, on_result, initializer, initargs)
-    with _sigterm_stops_the_job():
+    with sigterm_stops_the_job():
         todo = list(range(len(tasks)))
         while todo:
             suspects = state.run(todo, workers)

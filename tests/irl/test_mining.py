@@ -217,7 +217,10 @@ def test_a_rerun_skips_finished_rows(population, library, tmp_path):
     (dest / "styles.csv").write_text("\n".join(lines[:3]) + "\n")
     _run_script(str(out), "--library", str(tmp_path / "lib"), "--out", str(dest), "--workers", "1")
     rows = read_rows(dest / "styles.csv")
-    assert sorted(r.id for r in rows) == sorted(p.stem for p in (out / "demos").glob("*.npz"))
+    # ids are paths under the input folder
+    assert sorted(r.id for r in rows) == sorted(
+        f"demos/{p.stem}" for p in (out / "demos").glob("*.npz")
+    )
     summary = json.loads((dest / "summary.json").read_text())
     assert summary["n_skipped_finished"] == 2 and summary["n_this_run"] == 4
     assert summary["n_with_truth"] == summary["n_ok"] > 0
@@ -353,3 +356,72 @@ def test_a_failure_kind_is_validated_and_round_trips():
     legacy = {k: v for k, v in MinedRow.failed("v", "pop", "x").to_csv().items()}
     del legacy["failure_kind"]
     assert MinedRow.from_csv(legacy).failure_kind == "data"
+
+
+_RAY_JOB = """
+import os, sys, time
+from pathlib import Path
+from drivestyle.irl.features import FeatureConfig
+from drivestyle.irl.library import StyleLibrary
+from drivestyle.irl.mining import mine
+
+class Sleeps(os.PathLike):  # defined in __main__: Ray ships it by value to its workers
+    def __init__(self, folder):
+        self.folder = folder
+
+    def __fspath__(self):
+        Path(self.folder, str(os.getpid())).touch()
+        time.sleep(120)
+        return "/nowhere.npz"
+
+fc = FeatureConfig()
+one = (1.0,) * len(fc.names)
+sc = {"ev_speed": 20.0, "tv_speed": 18.0, "tv_gap": 20.0}
+lib = StyleLibrary(fc.feature_set, (0.5, 0.9), (one, one), fc, {}, ((one,) * 5,) * 2, (sc,) * 5)
+mine([(f"v{i}", "pop", Sleeps(sys.argv[1])) for i in range(4)], lib, "ray", workers=2)
+"""
+
+
+def _gone(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return True
+    return stat.rpartition(")")[2].split()[0] in ("Z", "X")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGKILL"])
+def test_ray_workers_die_with_a_killed_driver(tmp_path, sig):
+    import signal
+    import subprocess
+    import time
+
+    (tmp_path / "job.py").write_text(_RAY_JOB)
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    job = subprocess.Popen(
+        [sys.executable, str(tmp_path / "job.py"), str(pids)],
+        stderr=subprocess.PIPE,
+        text=True,
+        env={k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"},
+    )
+    deadline = time.monotonic() + 120
+    while len(os.listdir(pids)) < 2:
+        assert job.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    workers = [int(p) for p in os.listdir(pids)]
+    try:
+        job.send_signal(getattr(signal, sig))
+        code = job.wait(60)
+        if sig == "SIGTERM":
+            assert code == 143  # our clean stop (ray.shutdown), not Ray's exit status 1
+        deadline = time.monotonic() + 30
+        while not all(_gone(p) for p in workers) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert all(_gone(p) for p in workers)
+    finally:
+        for pid in workers:
+            if not _gone(pid):
+                os.kill(pid, signal.SIGKILL)
