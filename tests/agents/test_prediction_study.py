@@ -137,3 +137,18 @@ def test_the_librarys_training_seed_is_refused():
     lib = DriverLibrary(LIBRARY.style, LIBRARY.risks, meta={"seed": 5})
     with pytest.raises(ValueError, match="training seed"):
         evaluate_prediction(lib, 1, 5, data_dir=None)
+
+
+def test_observed_times_are_checked_before_any_vehicle_is_simulated(monkeypatch):
+    from drivestyle.agents.studies import prediction as study
+
+    assert study.check_observed_times([1.0, 1.0, 2.0, 1.0]) == (1.0, 2.0)
+
+    def simulated(*args, **kwargs):
+        raise AssertionError("simulated before checking the observed times")
+
+    monkeypatch.setattr(study, "draw_simulated", simulated)
+    for bad, match in (((100.0,), "no vehicle of this run"), ((0.3,), "whole number"),
+                       ((float("nan"),), "finite")):  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            study.evaluate_prediction(LIBRARY, 2, 5, None, bad, workers=1)
