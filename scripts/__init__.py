@@ -30,13 +30,13 @@ COMMANDS: dict[str, str] = {
     "render-rollout": "a rollout rendered to mp4/gif",
     "evaluate-planning": "an SMPC ego planning around a cut-in: CV vs style-aware vs oracle",
     "calibrate-uncertainty": "the TV-uncertainty scale scan (DESIGN §3)",
-    "capacity-study": "the style model classes' capacity: best fit vs held out (issue 17)",
+    "capacity-study": "the style model classes' capacity: best fit vs held out",
     "bench-smpc": "benchmark the SMPC expert",
     "bench-irl": "benchmark ME-IRL and identification",
     "bench-population": "benchmark mining a population",
     "bench-tracker": "benchmark online identification: latency of one StyleTracker update",
     "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
-    "profile-inner": "profile the inner solvers: where a solve's time goes (issue 18)",
+    "profile-inner": "profile the inner solvers: where a solve's time goes",
 }
 """Subcommand → what it does; the module is the name with ``_`` for ``-``."""
 

@@ -41,7 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 import drivestyle.envs  # noqa: F401  (registers the ids)
-from drivestyle.common.cli import count, nonnegative_int, positive_int, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, count, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.features import FEATURES, FeatureConfig
@@ -82,9 +82,7 @@ def case_list(text: str) -> list[str]:
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--out", type=Path, default=Path("runs/bench_env.json"), help="output JSON")
     p.add_argument(
         "--steps", type=count(10**9, 5e-5, "env steps"), default=20_000, help="env steps per trial"

@@ -37,7 +37,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.cli import positive_int, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import load_demonstration, save_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
@@ -51,9 +51,7 @@ from drivestyle.planning.plan_solver import IPMOptions, bounds_vector, compiled_
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--out", type=Path, default=Path("runs/bench_irl.json"), help="output JSON")
     p.add_argument("--demo", type=Path, help="demonstration (default: generate the paper's)")
     p.add_argument("--repeats", type=positive_int, default=5, help="learning runs per feature set")

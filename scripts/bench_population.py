@@ -27,7 +27,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents.studies.population import simulate_population
-from drivestyle.common.cli import count, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
@@ -40,9 +40,7 @@ TARGET_VEHICLES = 110_000
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--vehicles",
         type=count(1_000_000, 0.7, "demonstrations"),

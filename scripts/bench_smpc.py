@@ -32,16 +32,22 @@ from tqdm import tqdm
 
 from drivestyle.agents import SMPCConfig, SMPCExpert, rollout_expert
 from drivestyle.agents.demo_generation import ROBUSTNESS_RISKS, smpc_robustness
-from drivestyle.common.cli import nonnegative_int, positive_int, risk_value, run_cli, seed, workers
+from drivestyle.common.cli import (
+    HelpFormatter,
+    nonnegative_int,
+    positive_int,
+    risk_value,
+    run_cli,
+    seed,
+    workers,
+)
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import LaneChangeEnv, ScenarioRanges
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--out", type=Path, default=Path("runs/bench_smpc.json"), help="output JSON")
     p.add_argument("--risk", type=risk_value, default=0.7, help="SMPC risk p")
     p.add_argument(

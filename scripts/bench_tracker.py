@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from drivestyle.agents.demo_generation import generate_demonstration
-from drivestyle.common.cli import count, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
@@ -37,9 +37,7 @@ GOAL_MS = 20.0
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--library", type=Path, required=True, help="driver library folder or library.json"
     )

@@ -36,7 +36,7 @@ from drivestyle.agents.demo_generation import (
     generate_demonstrations,
 )
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
-from drivestyle.common.cli import count, risk_grid, run_cli, seed, workers
+from drivestyle.common.cli import HelpFormatter, count, risk_grid, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.envs.tracking import observe
@@ -47,9 +47,7 @@ from drivestyle.irl.library import LibraryError, learn_driver_library, learn_lib
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--risks",
         type=risk_grid,

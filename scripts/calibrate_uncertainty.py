@@ -19,15 +19,13 @@ from tqdm import tqdm
 
 from drivestyle.agents.studies.calibration import uncertainty_scan
 from drivestyle.agents.studies.figures import plot_risk_sweep
-from drivestyle.common.cli import float_list, risk_list, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, float_list, risk_list, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--scales",
         type=float_list,

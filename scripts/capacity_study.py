@@ -19,7 +19,7 @@ from pathlib import Path
 
 from drivestyle.agents.studies.capacity import RiskCapacity, capacity_study
 from drivestyle.agents.studies.reports import capacity_markdown, seconds
-from drivestyle.common.cli import positive_int, risk_list, run_cli, workers
+from drivestyle.common.cli import HelpFormatter, positive_int, risk_list, run_cli, workers
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -31,9 +31,7 @@ from drivestyle.common.io import (
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--risks",
         type=risk_list,

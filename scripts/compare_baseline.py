@@ -31,7 +31,7 @@ from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.studies.compare import LABELS, compare_methods, heldout_comparison
 from drivestyle.agents.studies.figures import plot_comparison, plot_heldout
 from drivestyle.agents.studies.reports import comparison_markdown
-from drivestyle.common.cli import positive_int, risk_value, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, positive_int, risk_value, run_cli, seed
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -47,9 +47,7 @@ from drivestyle.irl.style import Style, StyleError, load_style
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--style",
         type=Path,

@@ -20,7 +20,14 @@ from pathlib import Path
 
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.studies.deviation import deviating_tv_study, write_videos
-from drivestyle.common.cli import finite_float, positive_float, positive_int, risk_value, run_cli
+from drivestyle.common.cli import (
+    HelpFormatter,
+    finite_float,
+    positive_float,
+    positive_int,
+    risk_value,
+    run_cli,
+)
 from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.lane_change import TVDeviation
@@ -29,9 +36,7 @@ from drivestyle.irl.style import load_style
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--style", type=Path, required=True, help="style.json (or its folder)")
     p.add_argument("--model", type=Path, help="train_baseline.py output folder (optional)")
     p.add_argument("--demo", type=Path, help="nominal demonstration (default: the style's own)")

@@ -59,7 +59,15 @@ from drivestyle.agents.studies.reports import (
     noise_markdown,
     references_markdown,
 )
-from drivestyle.common.cli import count, float_list, risk_list, run_cli, seed, workers
+from drivestyle.common.cli import (
+    HelpFormatter,
+    count,
+    float_list,
+    risk_list,
+    run_cli,
+    seed,
+    workers,
+)
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
@@ -71,9 +79,7 @@ DRIVER = "driver"
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--library",
         type=Path,

@@ -31,7 +31,7 @@ from drivestyle.agents.studies.planning import (
     run_scene,
 )
 from drivestyle.agents.studies.reports import planning_markdown
-from drivestyle.common.cli import count, run_cli, seed, workers
+from drivestyle.common.cli import HelpFormatter, count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.video import write_video
@@ -40,9 +40,7 @@ from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--library", type=Path, required=True, help="driver library folder or library.json"
     )

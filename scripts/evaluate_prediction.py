@@ -42,7 +42,7 @@ from drivestyle.agents.studies.prediction import (
     spanning_tracks,
 )
 from drivestyle.agents.studies.reports import prediction_markdown
-from drivestyle.common.cli import count, distinct, float_list, run_cli, seed, workers
+from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed, workers
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -55,9 +55,7 @@ from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--library", type=Path, required=True, help="driver library folder or its library.json"
     )

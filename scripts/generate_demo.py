@@ -20,6 +20,7 @@ from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, generate_traffic
 from drivestyle.agents.studies.figures import plot_demonstration
 from drivestyle.agents.studies.reports import seconds
 from drivestyle.common.cli import (
+    HelpFormatter,
     finite_float,
     nonnegative_int,
     positive_float,
@@ -36,9 +37,7 @@ TRAFFIC_CHOICES = ("traffic", "traffic-random")
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--risk", type=risk_value, default=0.7, help="risk parameter p in (0, 1)")
     p.add_argument(
         "--scenario",

@@ -28,7 +28,7 @@ import sys
 import time
 from pathlib import Path
 
-from drivestyle.common.cli import run_cli
+from drivestyle.common.cli import HelpFormatter, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify
@@ -37,9 +37,7 @@ from drivestyle.irl.library import DriverLibrary, load_any_library
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("demos", nargs="+", type=Path, help="demonstration .npz file(s) of one vehicle")
     p.add_argument("--library", type=Path, required=True, help="library folder or its library.json")
     p.add_argument(

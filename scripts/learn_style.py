@@ -39,7 +39,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import plot_lateral, plot_reproductions
-from drivestyle.common.cli import positive_float, positive_int, run_cli
+from drivestyle.common.cli import HelpFormatter, positive_float, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
@@ -71,7 +71,7 @@ DRIVER_OPTIONS = {"fit_speed": False, "residual_floor": RESIDUAL_FLOOR}
 """Options of ``--model driver`` only, with their defaults."""
 
 
-class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+class _Formatter(HelpFormatter):
     """Defaults in the help, except the model-specific ones (None: says its own default)."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:

@@ -38,7 +38,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import plot_population
-from drivestyle.common.cli import positive_float, positive_int, run_cli
+from drivestyle.common.cli import HelpFormatter, positive_float, positive_int, run_cli
 from drivestyle.common.io import check_output_dir, write_json
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.library import load_any_library
@@ -55,9 +55,7 @@ from drivestyle.irl.mining_output import MiningOutput, RunFingerprint
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("input", nargs="?", type=Path, help="folder of demonstrations (*.npz)")
     p.add_argument("--dataset", choices=("ngsim", "cats"), help="mine a recorded dataset instead")
     p.add_argument("--data", type=Path, help="the recorded dataset's folder (with --dataset)")

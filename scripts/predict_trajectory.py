@@ -26,7 +26,7 @@ from pathlib import Path
 
 from drivestyle.agents.studies.figures import plot_prediction
 from drivestyle.agents.studies.prediction import observed_scenario, oracle_style, prepare_demo
-from drivestyle.common.cli import positive_float, run_cli
+from drivestyle.common.cli import HelpFormatter, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.forecast import predict
@@ -35,9 +35,7 @@ from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("demo", type=Path, help="the vehicle's demonstration (.npz)")
     p.add_argument(
         "--library", type=Path, required=True, help="driver library folder or its library.json"

@@ -45,7 +45,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.cli import positive_int, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
@@ -71,9 +71,7 @@ TOP = 12
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--out", type=Path, default=Path("runs/profile_inner.json"), help="output JSON")
     p.add_argument(
         "--repeats",

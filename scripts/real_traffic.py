@@ -34,7 +34,7 @@ from tqdm import tqdm
 from drivestyle.agents.studies.figures import plot_driver_traffic
 from drivestyle.agents.studies.real_traffic import DriverSettings, run_driver_study, run_study
 from drivestyle.agents.studies.reports import driver_traffic_markdown, real_traffic_markdown
-from drivestyle.common.cli import positive_int, run_cli, workers
+from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES
@@ -42,9 +42,7 @@ from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--dataset", required=True, choices=("ngsim", "cats"), help="which recording")
     p.add_argument("--data", type=Path, required=True, help="the dataset's folder")
     p.add_argument(

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from drivestyle.agents.studies.compare import policy_frames
-from drivestyle.common.cli import positive_int, risk_value, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, positive_int, risk_value, run_cli, seed
 from drivestyle.common.io import atomic_output_file, check_output_file, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioConfig
@@ -29,9 +29,7 @@ from drivestyle.irl.style import load_style
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--policy",
         required=True,

@@ -28,15 +28,20 @@ from drivestyle.agents.studies.paper import (
     write_paper_study,
 )
 from drivestyle.agents.studies.reports import paper_console
-from drivestyle.common.cli import positive_float, positive_int, risk_value, run_cli, seed
+from drivestyle.common.cli import (
+    HelpFormatter,
+    positive_float,
+    positive_int,
+    risk_value,
+    run_cli,
+    seed,
+)
 from drivestyle.common.io import atomic_output_dir, check_output_dir
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--out", type=Path, default=Path("runs/paper"), help="output folder (replaced whole)"
     )

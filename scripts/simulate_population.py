@@ -19,15 +19,13 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.population import simulate_population
-from drivestyle.common.cli import count, run_cli, seed, workers
+from drivestyle.common.cli import HelpFormatter, count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
-    p = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--vehicles",
         type=count(1_000_000, 0.7, "vehicles"),

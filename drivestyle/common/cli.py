@@ -31,6 +31,7 @@ __all__ = [
     "EXIT_USER_ERROR",
     "SEED_MAX",
     "USER_ERRORS",
+    "HelpFormatter",
     "count",
     "distinct",
     "finite_float",
@@ -65,6 +66,22 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     RuntimeError,  # solver failures that the library reports with a message
 )
 """Exceptions that mean "bad input or environment" and carry a message for the user."""
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Help that shows each option's default once.
+
+    ``ArgumentDefaultsHelpFormatter`` appends ``(default: X)`` to every option, also where
+    the help already says its default in words (``(default: all)`` then came twice) and
+    where there is nothing to show (``(default: None)``, ``(default: False)``). This one
+    appends it only where the help is silent about the default and the default is a value.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if "default" in text.lower() or action.default in (None, False, argparse.SUPPRESS):
+            return text
+        return super()._get_help_string(action)
 
 
 def run_cli(main: Callable[[list[str] | None], Any], argv: list[str] | None = None) -> None:

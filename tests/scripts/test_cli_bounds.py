@@ -2,6 +2,7 @@
 
 import argparse
 import importlib.util
+import re
 from pathlib import Path
 
 import pytest
@@ -108,3 +109,22 @@ def test_the_types():
     with pytest.raises(argparse.ArgumentTypeError, match="worker processes on this machine"):
         workers("100000")
     assert workers("1") == 1
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
+def test_help_says_each_default_once_and_cites_no_issue(script, monkeypatch):
+    parser = _parser(script, monkeypatch)
+    formatter = parser._get_formatter()
+    text = parser.format_help()
+    assert not re.search(r"\bissue \d", text), f"{script.name} --help cites an issue"
+    assert "(default: None)" not in text
+    for action in parser._actions:
+        shown = formatter._get_help_string(action) or ""
+        said = re.findall(r"default(?!\)s)", shown.lower())  # not the %(default)s slot
+        assert len(said) <= 1, (script.name, action.option_strings, shown)
+
+
+def test_the_command_list_cites_no_issue():
+    from drivestyle.scripts import COMMANDS
+
+    assert not [c for c, what in COMMANDS.items() if re.search(r"\bissue \d", what)]
