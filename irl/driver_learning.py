@@ -28,6 +28,7 @@ from drivestyle.irl.driver_style import (
     DRIVER_STYLE_KIND,
     GAUGE,
     INPUT_SCALE,
+    RESIDUAL_FLOOR,
     RISK_RANGE,
     DriverStyle,
     DriverStyleError,
@@ -111,11 +112,6 @@ PROFILE_RISKS = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.
 than its Levenberg–Marquardt run found, and each demonstration's best risk."""
 PROFILE_ROUNDS = 3
 """Profile-then-LM rounds per start at most (each round must lower the cost)."""
-RESIDUAL_FLOOR = 0.1
-"""Default noise floor [σ_u units]: the residual RMS one driver of the class leaves on its
-own demonstrations, derived as identification's scale s = √(min S / n + s_floor²) with the
-exact fit min S = 0 of a simulated driver, s = s_floor (DESIGN §15's s_floor = 0.1; a
-driver library's own learning leaves 0.010 below it)."""
 POOR_FIT_RATIO = 3.0
 """A demonstration (or the whole fit) whose residual RMS exceeds this many noise floors is
 not explained by the learned driver: status ``poor_fit``."""

@@ -57,6 +57,7 @@ __all__ = [
     "DRIVER_STYLE_KIND",
     "GAUGE",
     "INPUT_SCALE",
+    "RESIDUAL_FLOOR",
     "RISK_RANGE",
     "WEIGHT_NAMES",
     "DriverStyle",
@@ -81,6 +82,12 @@ WEIGHT_NAMES = ("lane", "heading", "speed", "accel", "steer")
 """Names of the cost weights [w_y, w_φ, w_v, w_a, w_δ] (w_a = 1 is the gauge)."""
 RISK_RANGE = (0.5, 0.99)
 """Risks p the model infers: from the nominal ellipse (0.5) to nearly certain safety."""
+RESIDUAL_FLOOR = 0.1
+"""s_floor: the residual RMS one driver of the class leaves on its own demonstrations
+[σ_u units] (DESIGN §15). Identification's likelihood never assumes a smaller scale (a
+demonstration the style fits exactly does not make the posterior a point mass), and
+learning calls a fit poor far above it (a simulated driver is fitted exactly; a driver
+library's own learning leaves 0.010)."""
 INPUT_SCALE = (0.5, 0.005)
 """σ_u: the scale of the input residuals [m/s², rad] (≈ a tenth of the inputs' ranges in
 the demonstrations: a and δ then weigh alike)."""

@@ -36,10 +36,10 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index
-from drivestyle.irl.driver_style import RISK_RANGE, DriverStyleError
+from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyleError
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.learner import check_learnable
-from drivestyle.irl.library import RESIDUAL_FLOOR, DriverLibrary, LibraryError, StyleLibrary
+from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
 from drivestyle.irl.risk_profile import RiskProfile, risk_profile
 
@@ -502,7 +502,7 @@ def risk_log_likelihood(
     The residual sums of the demonstrations add (one vehicle, one p); between the solved
     risks they are interpolated linearly. With S(p) that sum, n its residual count and
     s² = min S / n + s_floor² the residual scale the best risk leaves (noise and model
-    error; never below :data:`~drivestyle.irl.library.RESIDUAL_FLOOR`),
+    error; never below :data:`~drivestyle.irl.driver_style.RESIDUAL_FLOOR`),
     ℓ(p) = −(S(p) − min S) / (2 τ² s²). Demonstrations without a step at which p matters
     contribute nothing.
 

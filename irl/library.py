@@ -418,9 +418,6 @@ is a point mass whatever the data (and τ² underflows to 0 for τ < 1e-162: NaN
 a whole demonstration's evidence (≈ 100 residuals, S − min S ≲ 100 s²) moves the
 log-likelihood by at most 0.005: the posterior is the prior (and τ² overflows for
 τ > 1e154)."""
-RESIDUAL_FLOOR = 0.1
-"""s_floor: the least residual scale the likelihood assumes [σ_u units] (DESIGN §15):
-a demonstration that the style fits exactly does not make the posterior a point mass."""
 
 
 def check_temperature(temperature: float) -> float:

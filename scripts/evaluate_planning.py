@@ -31,7 +31,7 @@ from drivestyle.agents.studies.planning import (
     run_scene,
 )
 from drivestyle.agents.studies.reports import planning_markdown
-from drivestyle.common.cli import HelpFormatter, count, run_cli, seed, workers
+from drivestyle.common.cli import SEED_MAX, HelpFormatter, count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.video import write_video
@@ -59,7 +59,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--out", type=Path, default=Path("runs/planning"), help="output folder (replaced whole)"
     )
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    last = args.seed + args.scenes - 1
+    if last > SEED_MAX:
+        p.error(
+            f"--seed {args.seed} with --scenes {args.scenes} reaches seed {last}, beyond {SEED_MAX}"
+        )
+    return args
 
 
 def _video_seed(study: PlanningStudy) -> int:

@@ -38,7 +38,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import plot_population
-from drivestyle.common.cli import HelpFormatter, positive_float, positive_int, run_cli
+from drivestyle.common.cli import HelpFormatter, positive_float, run_cli, workers
 from drivestyle.common.io import check_output_dir, write_json
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.library import load_any_library
@@ -65,7 +65,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--engine", default="local", choices=ENGINES, help="where the work runs")
     p.add_argument("--address", help="Ray cluster address (--engine ray; default: start locally)")
-    p.add_argument("--workers", type=positive_int, default=2, help="processes or Ray actors")
+    p.add_argument("--workers", type=workers, default=2, help="processes or Ray actors")
     p.add_argument(
         "--connect-timeout",
         type=positive_float,

@@ -28,7 +28,7 @@ from drivestyle.agents.studies.figures import plot_prediction
 from drivestyle.agents.studies.prediction import observed_scenario, oracle_style, prepare_demo
 from drivestyle.common.cli import HelpFormatter, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.demonstration import load_demonstration
+from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.irl.forecast import predict
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
 
@@ -63,6 +63,7 @@ def main(argv: list[str] | None = None) -> dict:
             "library (build-style-library's default)"
         )
     raw = load_demonstration(args.demo)
+    check_plausible(raw)  # every step, the future the prediction is scored on included
     demo, recorded = prepare_demo(raw)
     scenario = observed_scenario(demo, args.observe) if recorded else None
     pred = predict(demo, library, args.observe, oracle=oracle_style(demo.meta), scenario=scenario)

@@ -88,8 +88,6 @@ def test_a_size_beyond_its_bound_is_refused_with_the_bound(script, option, messa
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
 def test_every_workers_option_is_bounded(script, monkeypatch):
-    if script.stem == "mine_styles":
-        pytest.skip("mine_styles.py is not converted yet (its own --workers: processes or Ray)")
     options = _options(_parser(script, monkeypatch))
     if "--workers" in options:
         assert options["--workers"].type is workers, script.name
@@ -128,3 +126,13 @@ def test_the_command_list_cites_no_issue():
     from drivestyle.scripts import COMMANDS
 
     assert not [c for c, what in COMMANDS.items() if re.search(r"\bissue \d", what)]
+
+
+def test_evaluate_planning_refuses_a_seed_range_past_numpys(capsys):
+    from drivestyle.common.cli import SEED_MAX
+    from drivestyle.scripts import evaluate_planning
+
+    with pytest.raises(SystemExit) as info:
+        evaluate_planning.parse_args(["--library", "x", "--seed", str(SEED_MAX - 5)])
+    assert info.value.code == 2
+    assert "reaches seed" in capsys.readouterr().err.strip().splitlines()[-1]

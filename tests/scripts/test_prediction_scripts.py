@@ -39,6 +39,22 @@ def test_predict_trajectory_writes_every_method(files):
     assert payload["methods"]["oracle"]["fde_m"] < 0.05
 
 
+def test_predict_trajectory_refuses_a_jump_after_the_observed_part(files, paper_demo):
+    from dataclasses import replace
+
+    from drivestyle.envs.demonstration import DemonstrationError
+
+    ev = paper_demo.ev.copy()
+    ev[25:, 0] += 50.0  # the scored future jumps 50 m in one step
+    save_demonstration(replace(paper_demo, ev=ev), files / "jump.npz")
+    with pytest.raises(DemonstrationError, match="implausible"):
+        predict_trajectory.main(
+            [str(files / "jump.npz"), "--library", str(files), "--observe", "2",
+             "--out", str(files / "jumped")]
+        )  # fmt: skip
+    assert not (files / "jumped").exists()
+
+
 @pytest.mark.parametrize("observe", ["0.3", "1000"])
 def test_predict_trajectory_refuses_windows_the_demo_cannot_serve(files, observe):
     with pytest.raises(ForecastError):
