@@ -1,8 +1,10 @@
 """Every script: help on every option, and bad input ends in one `error:` line, no traceback."""
 
 import argparse
+import contextlib
 import importlib
 import importlib.util
+import io
 import os
 import signal
 import subprocess
@@ -141,14 +143,40 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("case", CASES, ids=list(CASES))
-def test_bad_input_ends_in_one_error_line(case, bad_files):
-    args = [a.format(d=bad_files) for a in CASES[case]]
+def _run_in_process(script: str, *args: str) -> tuple[int, str]:
+    """(exit status, stderr) of ``python SCRIPT ARGS`` run through run_cli in this process.
+
+    The same handler as the installed command, without an interpreter start-up per case:
+    an exception that run_cli does not turn into one line propagates and fails the test.
+    """
+    from drivestyle.common.cli import run_cli
+
+    name = Path(script).stem
+    main = importlib.import_module(f"drivestyle.scripts.{name}").main
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), pytest.raises(SystemExit) as info:
+        run_cli(main, list(args))
+    return int(info.value.code or 0), err.getvalue()
+
+
+def test_the_in_process_runner_sees_what_the_interpreter_sees(bad_files):
+    args = ["scripts/learn_style.py", str(bad_files / "nope.npz"), "--out", str(bad_files / "x")]
     run = _run(*args)
-    assert run.returncode == 2, (run.returncode, run.stderr)  # cli.py: 2 for bad input
-    assert "Traceback" not in run.stderr, run.stderr
-    last = run.stderr.strip().splitlines()[-1]
-    assert "error:" in last, run.stderr
+    assert (run.returncode, run.stderr.strip().splitlines()[-1]) == (
+        (lambda code, err: (code, err.strip().splitlines()[-1]))(*_run_in_process(*args))
+    )
+
+
+@pytest.mark.parametrize("case", CASES, ids=list(CASES))
+def test_bad_input_ends_in_one_error_line(case, bad_files, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    monkeypatch.delenv("DRIVESTYLE_TRACEBACK", raising=False)
+    args = [a.format(d=bad_files) for a in CASES[case]]
+    code, stderr = _run_in_process(*args)
+    assert code == 2, (code, stderr)  # cli.py: 2 for bad input
+    assert "Traceback" not in stderr, stderr
+    last = stderr.strip().splitlines()[-1]
+    assert "error:" in last, stderr
     assert not any(p.name.startswith(".o") and "partial" in p.name for p in bad_files.iterdir())
 
 
