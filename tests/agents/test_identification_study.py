@@ -32,6 +32,7 @@ def evaluation(style_library):
     return evaluate_identification(style_library, demos, style_library.risks, workers=1)
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_records_are_typed_per_scorer(evaluation):
     records = evaluation.records
     assert len(records) == 7 and [r.ok for r in records] == [True] * 6 + [False]
@@ -44,6 +45,7 @@ def test_records_are_typed_per_scorer(evaluation):
             assert r.correct(s) == (r.estimate(s) == r.risk)
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_the_json_keeps_its_keys_and_the_summary_counts(evaluation):
     js = evaluation.to_json()
     assert set(js["records"][0]) == RECORD_KEYS
@@ -59,6 +61,7 @@ def test_the_json_keeps_its_keys_and_the_summary_counts(evaluation):
     assert curve == [{"noise_sigma_m": 0.0, **sm[DEFAULT_SCORER]}]
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_markdown_is_written_from_the_typed_results(evaluation):
     refs = References(CeilingSummary(1.0, 0.5, None), {})
     extra = noise_markdown({"reactive": [evaluation]}) + references_markdown(

@@ -62,6 +62,7 @@ def _probe(cache: str, path: str) -> str:
     return out.stdout.strip()
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_a_second_process_loads_the_cached_library_without_a_compiler(tmp_path):
     no_gcc = str(tmp_path / "empty-bin")  # a PATH without gcc
     os.makedirs(no_gcc)

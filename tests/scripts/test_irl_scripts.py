@@ -122,6 +122,7 @@ def test_reproduce_paper(tmp_path):
     assert "| reactive |" in (out / "results.md").read_text()
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_bench_irl(tmp_path, demo_file):
     out = tmp_path / "bench.json"
     argv = ["--out", str(out), "--demo", str(demo_file), "--repeats", "1", "--identify", "1"]

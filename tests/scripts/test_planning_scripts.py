@@ -19,6 +19,7 @@ def library(tmp_path):
     return tmp_path / "lib"
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_evaluate_planning_writes_the_study_and_one_video_per_predictor(tmp_path, library):
     from drivestyle.scripts.evaluate_planning import main
 

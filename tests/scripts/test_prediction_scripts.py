@@ -65,6 +65,7 @@ def test_predict_trajectory_refuses_windows_the_demo_cannot_serve(files, observe
     assert not (files / "bad").exists()
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_evaluate_prediction_writes_json_report_and_figures(files):
     out = files / "eval"
     evaluate_prediction.main(

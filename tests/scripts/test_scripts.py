@@ -76,6 +76,7 @@ def _umask() -> int:
     return mask
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_generate_demo_bad_input_exits_cleanly(tmp_path):
     for args in (["--risk", "1.2"], ["--horizon-s", "-1"], ["--tv-lane", "0", "--tv-gap", "-3"]):
         proc = subprocess.run(
@@ -107,6 +108,7 @@ def test_bench_smpc_json(tmp_path):
     assert res["failures"] == 0
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
     from drivestyle.irl import driver_style, inner
     from drivestyle.planning import smpc_problem
@@ -156,6 +158,7 @@ def test_help(name):
     assert proc.returncode == 0 and "--seed" in proc.stdout
 
 
+@pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_bench_population_mines_with_a_driver_library(tmp_path):
     # the default model's library: mining throughput is measured on it (issue 18)
     from drivestyle.irl.driver_style import DriverStyle
