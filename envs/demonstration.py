@@ -432,7 +432,7 @@ def _kinematic_problems(
     )
     v = np.abs(states[:, :, 3])
     if v.max() > v_limit:
-        k, j = np.unravel_index(int(np.argmax(v)), v.shape)
+        k, j = (int(i) for i in np.unravel_index(int(np.argmax(v)), v.shape))
         problems.append(
             f"{_who(j)}'s speed v = {_fmt(v[k, j])} m/s at t = {_fmt(t[k])} s (sample "
             f"{first + k}): {limit_text}; speeds in another unit (km/h: ×3.6)?"
@@ -442,7 +442,7 @@ def _kinematic_problems(
         vel = np.diff(states[:, :, :2], axis=0) / dt[:, None, None]  # (n−1, m+1, 2)
         implied = np.hypot(vel[..., 0], vel[..., 1])
         if not problems and implied.max() > v_limit:
-            k, j = np.unravel_index(int(np.argmax(implied)), implied.shape)
+            k, j = (int(i) for i in np.unravel_index(int(np.argmax(implied)), implied.shape))
             jump = implied[k, j] * dt[k]
             problems.append(
                 f"{_who(j)} moves {_fmt(jump)} m between t = {_fmt(t[k])} and "
@@ -455,7 +455,7 @@ def _kinematic_problems(
             dvel = np.diff(vel, axis=0)
             accel = np.hypot(dvel[..., 0], dvel[..., 1]) / span[:, None]  # (n−2, m+1)
             if accel.max() > ACCEL_MAX_MPS2:
-                k, j = np.unravel_index(int(np.argmax(accel)), accel.shape)
+                k, j = (int(i) for i in np.unravel_index(int(np.argmax(accel)), accel.shape))
                 problems.append(
                     f"{_who(j)}'s positions imply an acceleration of {_fmt(accel[k, j])} m/s² "
                     f"at t = {_fmt(t[k + 1])} s (sample {first + k + 1}): no vehicle "

@@ -58,7 +58,7 @@ from drivestyle.irl.style import fit_style
 
 EXIT_POOR_FIT = 3
 """Exit status when the driver model's fit is ``poor_fit`` (``style.json`` is written)."""
-PAPER_OPTIONS = {
+PAPER_OPTIONS: dict[str, object] = {
     "features": "reactive",
     "method": "lm",
     "control_point_rule": "kinematic",
@@ -67,7 +67,7 @@ PAPER_OPTIONS = {
     "plot": False,
 }
 """Options of ``--model paper`` only, with their defaults (None in the parser: given?)."""
-DRIVER_OPTIONS = {"fit_speed": False, "residual_floor": RESIDUAL_FLOOR}
+DRIVER_OPTIONS: dict[str, object] = {"fit_speed": False, "residual_floor": RESIDUAL_FLOOR}
 """Options of ``--model driver`` only, with their defaults."""
 
 
