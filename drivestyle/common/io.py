@@ -99,9 +99,16 @@ def fmt(value: Any, digits: int = 3) -> str:
 
 
 def command_line(argv: list[str] | None = None) -> str:
-    """The invoking command, shell-quoted (``python scripts/x.py --flag …``)."""
-    argv = sys.argv if argv is None else argv
-    return "python " + " ".join(shlex.quote(a) for a in argv)
+    """The invoking command as it can be rerun, shell-quoted.
+
+    ``drivestyle <command> …`` for the installed command (whose dispatcher sets
+    ``sys.argv[0]`` to ``"drivestyle <command>"``: quoting that as one word gave the
+    un-runnable ``python 'drivestyle reproduce-paper' …``), else ``python scripts/x.py …``.
+    """
+    argv = list(sys.argv if argv is None else argv)
+    if argv and argv[0].startswith("drivestyle "):
+        return shlex.join([*argv[0].split(), *argv[1:]])
+    return "python " + shlex.join(argv)
 
 
 def _default(obj: Any) -> Any:

@@ -227,3 +227,19 @@ def test_write_json_records_the_command(tmp_path):
     path = write_json(tmp_path / "r.json", {"x": 1}, ["scripts/x.py", "--out", "a b"])
     js = json.loads(path.read_text())
     assert js["x"] == 1 and js["command"] == "python scripts/x.py --out 'a b'"
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (
+            ["drivestyle reproduce-paper", "--out", "runs/p q"],
+            "drivestyle reproduce-paper --out 'runs/p q'",
+        ),
+        (["scripts/learn_style.py", "a.npz"], "python scripts/learn_style.py a.npz"),
+    ],
+)
+def test_the_recorded_command_can_be_rerun(argv, expected):
+    from drivestyle.common.io import command_line
+
+    assert command_line(argv) == expected
