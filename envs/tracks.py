@@ -124,7 +124,7 @@ class Carriageway:
                 f"carriageway {self.name!r}: needs at least three lane lines (two lanes) to "
                 f"change lane, got {len(m)}"
             )
-        if not all(math.isfinite(v) for v in m) or any(b <= a for a, b in zip(m, m[1:])):
+        if not all(math.isfinite(v) for v in m) or bool(np.any(np.diff(m) <= 0)):
             raise TrackError(f"carriageway {self.name!r}: lane lines must increase, got {m}")
         object.__setattr__(self, "markings", m)
         object.__setattr__(self, "tracks", tuple(self.tracks))
