@@ -17,7 +17,18 @@ import numpy as np
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 
-__all__ = ["READERS", "TABLE_COLUMNS", "TABLE_OPTIONAL", "read_table"]
+__all__ = [
+    "INTERACTION_COLUMNS",
+    "LEVELX_TRACK_COLUMNS",
+    "NGSIM_COLUMNS",
+    "READERS",
+    "TABLE_COLUMNS",
+    "TABLE_OPTIONAL",
+    "read_interaction",
+    "read_levelx",
+    "read_ngsim",
+    "read_table",
+]
 
 READERS: dict[str, Callable[..., Recording]] = {}
 """Format name → reader (``READERS[name](path, ...)`` returns a :class:`Recording`)."""
@@ -285,3 +296,663 @@ def _size(data: dict[str, np.ndarray], column: str, a: int, b: int, default: flo
     values = data[column][a:b]
     values = values[np.isfinite(values)]
     return float(np.median(values)) if values.size else default
+
+
+# ------------------------------------------- published formats: NGSIM, levelX, INTERACTION
+
+FOOT = 0.3048
+"""Metres per foot (NGSIM's unit)."""
+
+NGSIM_COLUMNS = (
+    "Vehicle_ID",
+    "Frame_ID",
+    "Total_Frames",
+    "Global_Time",
+    "Local_X",
+    "Local_Y",
+    "Global_X",
+    "Global_Y",
+    "v_Length",
+    "v_Width",
+    "v_Class",
+    "v_Vel",
+    "v_Acc",
+    "Lane_ID",
+    "Preceding",
+    "Following",
+    "Space_Headway",
+    "Time_Headway",
+)
+"""The 18 columns of the classic US-101 / I-80 text files (whitespace separated, no header)."""
+
+NGSIM_FREEWAYS = ("i-80", "us-101")
+"""``Location`` values kept from the data.transportation.gov CSV (the arterials are not)."""
+
+NGSIM_MAIN_LANES = 5
+"""US-101 and I-80 main lanes are Lane_ID 1 (leftmost) to 5; 6–8 are auxiliary lanes and ramps."""
+
+NGSIM_LANE_FT = 12.0
+"""Nominal NGSIM lane width [ft] (``markings="nominal"``: lane k spans 12(k − 1)…12k ft of
+Local_X from the left road edge)."""
+
+NGSIM_MAX_GAP_S = 1.0
+"""A vehicle id seen again after a longer gap is another vehicle (NGSIM reuses ids across its
+15-minute periods) [s]."""
+
+INTERACTION_VEHICLES = frozenset({"car", "truck", "bus", "truck_bus", "van", "motorcycle"})
+"""INTERACTION ``agent_type`` values kept (pedestrians and bicycles are dropped)."""
+
+_AXES = {"x+": 0.0, "y+": math.pi / 2, "x-": math.pi, "y-": -math.pi / 2}
+"""Named road directions of :func:`read_interaction` → angle of travel in the map [rad]."""
+
+
+def _label(value: object) -> str:
+    """A source id or frame as text (12.0 → '12')."""
+    if isinstance(value, (float, np.floating)) and math.isfinite(value) and value == int(value):
+        return str(int(value))
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    return str(value)
+
+
+def _published_columns(df: Any, path: Path, required: Sequence[str], fmt: str) -> None:
+    """Refuse a table without ``required`` columns (one line naming the file)."""
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        raise TrackError(
+            f"{path}: missing column(s) {', '.join(repr(c) for c in missing)} of the {fmt} "
+            f"format; it has {list(df.columns)}"
+        )
+
+
+def _published_numbers(
+    df: Any, path: Path, columns: Sequence[str], ids: Sequence[str], frame: str
+) -> dict[str, np.ndarray]:
+    """The ``columns`` of ``df`` as finite floats.
+
+    Raises:
+        TrackError: a value is missing, not a number or infinite; the message names the file,
+            the vehicle (``ids`` columns), the frame and the column.
+    """
+    import pandas as pd
+
+    values = {c: pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float) for c in columns}
+    bad = np.column_stack([~np.isfinite(values[c]) for c in columns])
+    rows = np.flatnonzero(bad.any(axis=1))
+    if rows.size:
+        i = int(rows[0])
+        column = columns[int(np.flatnonzero(bad[i])[0])]
+        vehicle = ":".join(_label(df[c].iloc[i]) for c in ids)
+        raw = df[column].iloc[i]
+        shown = repr(raw) if isinstance(raw, str) else str(raw)
+        raise TrackError(
+            f"{path}: vehicle {vehicle}, frame {_label(df[frame].iloc[i])}: {column} is "
+            f"{shown}, not a finite number"
+        )
+    return values
+
+
+def _published_tracks(
+    path: Path, ids: np.ndarray, t: np.ndarray, frames: np.ndarray, max_gap_s: float | None = None
+) -> tuple[list[tuple[str, np.ndarray]], int]:
+    """Split rows into tracks: (vehicle id, row indices in time order) and the dropped count.
+
+    Rows may come in any order; a track is a vehicle's rows sorted by time, cut where the
+    time jumps by more than ``max_gap_s`` (a reused id: the later parts are named
+    ``'<id>@<first frame>'``). Tracks of a single sample are dropped (counted).
+
+    Raises:
+        TrackError: a vehicle has two rows at one time or one frame, or frames that do not
+            increase with time; the message names the file, the vehicle and the frame.
+    """
+    from itertools import pairwise
+
+    import pandas as pd
+
+    codes, names = pd.factorize(pd.Series(ids, dtype=str), sort=True)
+    order = np.lexsort((frames, t, codes))
+    c, tt, ff = codes[order], t[order], frames[order]
+    same = c[1:] == c[:-1]
+    dt, df = np.diff(tt), np.diff(ff)
+    bad = np.flatnonzero(same & ((dt <= 0) | (df <= 0)))
+    if bad.size:
+        k = int(bad[0]) + 1
+        here, before = _label(ff[k]), _label(ff[k - 1])
+        if df[k - 1] == 0:
+            problem = "appears twice (each frame once per vehicle)"
+        elif dt[k - 1] == 0:
+            problem = f"has the same time as frame {before} ({tt[k]:.15g} s)"
+        else:
+            problem = f"comes after frame {before} in time (frames must increase with time)"
+        raise TrackError(f"{path}: vehicle {names[c[k]]}, frame {here}: {problem}")
+    cut = ~same
+    if max_gap_s is not None:
+        cut |= dt > max_gap_s
+    bounds = np.concatenate([[0], np.flatnonzero(cut) + 1, [len(order)]])
+    out, dropped, seen = [], 0, set()
+    for a, b in pairwise(bounds):
+        name = str(names[c[a]])
+        key = name if name not in seen else f"{name}@{_label(ff[a])}"
+        seen.add(name)
+        if b - a < 2:
+            dropped += 1
+            continue
+        out.append((key, order[a:b]))
+    return out, dropped
+
+
+# ------------------------------------------------------------------------------ raw NGSIM
+
+
+def _ngsim_table(path: Path) -> Any:
+    """The rows of an NGSIM trajectory file with the standard column names."""
+    import gzip
+
+    import pandas as pd
+
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found (an NGSIM trajectory file)")
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt", errors="replace") as f:
+        first = f.readline().strip()
+    if not first:
+        raise TrackError(f"{path}: empty (an NGSIM trajectory file has one row per vehicle frame)")
+    sep = "," if "," in first else r"\s+"
+    token = first.split(",")[0] if sep == "," else first.split()[0]
+    try:
+        float(token)
+        header = False
+    except ValueError:
+        header = True
+    if header:
+        df = pd.read_csv(path, sep=sep, low_memory=False)
+        canonical = {c.lower(): c for c in (*NGSIM_COLUMNS, "Location")}
+        df = df.rename(columns={c: canonical.get(str(c).strip().lower(), c) for c in df.columns})
+    else:
+        df = pd.read_csv(path, sep=sep, header=None)
+        if df.shape[1] != len(NGSIM_COLUMNS):
+            kind = (
+                " (the 24 columns of the arterial Lankershim / Peachtree files, not a freeway)"
+                if df.shape[1] == 24
+                else ""
+            )
+            raise TrackError(
+                f"{path}: {df.shape[1]} columns{kind}; a headerless NGSIM freeway file (US-101, "
+                f"I-80) has the {len(NGSIM_COLUMNS)} columns {', '.join(NGSIM_COLUMNS)}"
+            )
+        df.columns = list(NGSIM_COLUMNS)
+    return df
+
+
+def _ngsim_carriageway(
+    path: Path, name: str, df: Any, markings: str
+) -> tuple[Carriageway, float, int]:
+    """One NGSIM freeway's rows: its carriageway, Global_Time origin [ms], dropped tracks."""
+    ids, frame = ["Vehicle_ID"], "Frame_ID"
+    cols = ["Vehicle_ID", "Frame_ID", "Global_Time", "Local_X", "Local_Y"]
+    cols += ["v_Length", "v_Width", "v_Vel", "Lane_ID"]
+    num = _published_numbers(df, path, cols, ids, frame)
+    lane_id = num["Lane_ID"]
+    bad = np.flatnonzero((lane_id < 1) | (lane_id != np.round(lane_id)))
+    if bad.size:
+        i = int(bad[0])
+        raise TrackError(
+            f"{path}: vehicle {_label(num['Vehicle_ID'][i])}, frame {_label(num[frame][i])}: "
+            f"Lane_ID {_label(lane_id[i])} is not an NGSIM lane (1 = leftmost, …)"
+        )
+    # lane lines from the data: median Local_X of each main lane against its Lane_ID
+    main = lane_id <= NGSIM_MAIN_LANES
+    present = np.unique(lane_id[main])
+    if present.size < 2:
+        raise TrackError(
+            f"{path} ({name}): vehicles in {present.size} main lane(s) (Lane_ID 1–"
+            f"{NGSIM_MAIN_LANES}); need 2 to check the unit and place the lane lines"
+        )
+    centres = np.array([np.median(num["Local_X"][main & (lane_id == k)]) for k in present])
+    slope, intercept = np.polyfit(present, centres, 1)
+    width_m = slope * FOOT
+    lo, hi = LANE_WIDTH_RANGE_M
+    if not lo <= width_m <= hi:
+        hint = (
+            "the file looks already in metres: NGSIM files are in feet (multiply Local_X, "
+            "Local_Y, v_Length, v_Width, v_Vel, v_Acc by 1/0.3048 = 3.2808 to give feet), or "
+            "read metres with the generic CSV reader"
+            if 0 < width_m < lo
+            else "Local_X does not grow by a lane per Lane_ID (feet from the left road edge)"
+        )
+        raise TrackError(
+            f"{path} ({name}): lanes {width_m:.3g} m wide after the feet → metres conversion "
+            f"(median Local_X per main lane), but a road's lanes are {lo:g}–{hi:g} m: {hint}"
+        )
+    k = np.arange(1, NGSIM_MAIN_LANES + 2)
+    if markings == "data":
+        lines_ft = intercept + slope * (k - 0.5)
+    else:
+        lines_ft = NGSIM_LANE_FT * (k - 1)
+    lines = np.sort(-FOOT * lines_ft)
+    # our lane index: Lane_ID 5 (rightmost main lane) → 0; auxiliary lanes and ramps → −1
+    lane = np.where(main, NGSIM_MAIN_LANES - lane_id, -1.0)
+    t_ms = num["Global_Time"]
+    t0 = float(t_ms.min())
+    t = (t_ms - t0) / 1000.0
+    groups, dropped = _published_tracks(
+        path, num["Vehicle_ID"].astype(np.int64), t, num[frame], NGSIM_MAX_GAP_S
+    )
+    tracks = []
+    for vid, rows in groups:
+        length = float(np.median(num["v_Length"][rows])) * FOOT
+        tracks.append(
+            Track(
+                vehicle_id=vid,
+                t=t[rows],
+                x=num["Local_Y"][rows] * FOOT - length / 2,  # front centre → centre
+                y=-num["Local_X"][rows] * FOOT,
+                frames=num[frame][rows].astype(np.int64),
+                v=num["v_Vel"][rows] * FOOT,
+                lane=lane[rows],
+                length=length,
+                width=float(np.median(num["v_Width"][rows])) * FOOT,
+                source=str(path),
+            )
+        )
+    return Carriageway(name, tuple(lines), tuple(tracks)), t0, dropped
+
+
+def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
+    """A raw NGSIM trajectory file (US-101 or I-80) in the road frame.
+
+    Reads both the classic text files (the 18 columns of :data:`NGSIM_COLUMNS`, whitespace
+    separated, no header) and the data.transportation.gov CSV (a header, more columns and
+    ``Location``: only ``i-80`` and ``us-101`` rows are kept, one carriageway per freeway;
+    column names are matched ignoring case). Rows may come in any order; exact duplicate
+    rows (known in that CSV) are dropped and counted.
+
+    Conversion (NGSIM is 10 Hz, in feet; Local_Y along travel, Local_X from the left road
+    edge growing to the right, both at the vehicle's front centre; Lane_ID 1 leftmost):
+
+    - x = Local_Y·0.3048 − length/2 [m] (front centre → centre), y = −Local_X·0.3048 [m];
+    - v = v_Vel·0.3048 [m/s]; length, width = v_Length, v_Width·0.3048 (per-vehicle median);
+    - t = (Global_Time − the freeway's first Global_Time)/1000 [s]; frames = Frame_ID;
+    - lane = 5 − Lane_ID for the main lanes 1–5 (lane 0 is Lane_ID 5, the rightmost); −1
+      for Lane_ID ≥ 6 (US-101: 6 auxiliary, 7 on-ramp, 8 off-ramp; I-80: 6–7 on-ramp /
+      auxiliary), which lie right of the main lanes;
+    - lane lines (6, for the 5 main lanes, converted to increasing y): ``markings="data"``
+      fits Local_X = a + w·Lane_ID through the median Local_X of each main lane and puts
+      the lines at a + w·(k − ½), k = 1…6 (equal lanes of the data's width, ≈ 12 ft);
+      ``"nominal"`` puts them at 12 ft steps from the left road edge (Local_X = 0).
+    - a vehicle id seen again more than 1 s later (ids are reused across the 15-minute
+      periods of the CSV) is a new track named ``'<id>@<first frame>'``.
+
+    Args:
+        path: the trajectory file (``.txt``/``.csv``, optionally ``.gz``).
+        markings: ``"data"`` or ``"nominal"`` (above).
+
+    Returns:
+        The recording (meta: format, rate, units, dropped rows, each freeway's Global_Time
+        origin [ms] and lane width [m]).
+
+    Raises:
+        FileNotFoundError: no such file.
+        TrackError: a missing column, a value that is not a number, a repeated or
+            non-increasing frame (naming the file, vehicle and frame), no freeway rows, or
+            lanes no road has (a file already in metres: the conversion to apply).
+    """
+    if markings not in ("data", "nominal"):
+        raise ValueError(f"markings must be 'data' or 'nominal', got {markings!r}")
+    path = Path(path)
+    df = _ngsim_table(path)
+    required = ["Vehicle_ID", "Frame_ID", "Global_Time", "Local_X", "Local_Y"]
+    required += ["v_Length", "v_Width", "v_Vel", "Lane_ID"]
+    _published_columns(df, path, required, "NGSIM")
+    n_rows = len(df)
+    df = df.drop_duplicates(ignore_index=True)
+    meta: dict[str, object] = {
+        "format": "ngsim",
+        "rate_hz": 10.0,
+        "units": "feet → metres (× 0.3048); Local_Y front centre → centre",
+        "duplicate_rows_dropped": n_rows - len(df),
+    }
+    if "Location" in df.columns:
+        location = df["Location"].astype(str).str.strip().str.lower()
+        kept = location.isin(NGSIM_FREEWAYS)
+        meta["rows_dropped_not_freeway"] = {
+            str(k): int(v) for k, v in location[~kept].value_counts().items()
+        }
+        if not kept.any():
+            raise TrackError(
+                f"{path}: no freeway rows (Location {sorted(set(location))}); read_ngsim reads "
+                f"{' and '.join(NGSIM_FREEWAYS)} (the arterials are not straight carriageways)"
+            )
+        parts = [(loc, df[location == loc]) for loc in NGSIM_FREEWAYS if (location == loc).any()]
+    else:
+        parts = [("ngsim", df)]
+    carriageways, origins, widths, dropped = [], {}, {}, 0
+    for name, rows in parts:
+        cw, t0, n_dropped = _ngsim_carriageway(path, name, rows.reset_index(drop=True), markings)
+        carriageways.append(cw)
+        origins[name] = t0
+        widths[name] = float(np.median(cw.lane_widths))
+        dropped += n_dropped
+    meta.update(
+        global_time_origin_ms=origins,
+        lane_width_m=widths,
+        markings=markings,
+        single_sample_tracks_dropped=dropped,
+    )
+    return Recording(str(path), tuple(carriageways), meta)
+
+
+# ------------------------------------------------------------------------- levelX (highD)
+
+LEVELX_TRACK_COLUMNS = ("frame", "id", "x", "y", "width", "height", "xVelocity", "yVelocity")
+"""Columns read from a highD ``NN_tracks.csv``."""
+
+
+def _levelx_csv(path: Path, required: Sequence[str]) -> Any:
+    import pandas as pd
+
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{path} not found: read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and "
+            "NN_recordingMeta.csv side by side"
+        )
+    df = pd.read_csv(path)
+    _published_columns(df, path, required, "levelX (highD)")
+    return df
+
+
+def _levelx_markings(path: Path, rec: Any, column: str) -> np.ndarray:
+    text = str(rec[column].iloc[0])
+    try:
+        values = np.array([float(v) for v in text.split(";") if v.strip()])
+    except ValueError:
+        raise TrackError(
+            f"{path}: {column} {text!r} is not semicolon-separated numbers [m]"
+        ) from None
+    if values.size < 3 or not np.all(np.isfinite(values)):
+        raise TrackError(f"{path}: {column} {text!r} needs 3 or more finite lane lines [m]")
+    return values
+
+
+def read_levelx(tracks_csv: str | Path) -> Recording:
+    """A highD recording (levelX format) in the road frame: carriageways 'upper', 'lower'.
+
+    ``NN_tracks.csv`` gives, per frame and vehicle, the bounding box's upper-left corner
+    (x, y) in the image frame scaled to metres (x right, **y down**), its size (width along
+    x = the length, height = the vehicle's width) and the velocity (xVelocity, yVelocity).
+    ``NN_tracksMeta.csv`` gives each vehicle's ``drivingDirection`` and
+    ``NN_recordingMeta.csv`` the ``frameRate`` and the lane lines' image y
+    (``upperLaneMarkings``, ``lowerLaneMarkings``, semicolon-separated).
+
+    Conversion, with the centre (cx, cy) = (x + width/2, y + height/2):
+
+    - upper (drivingDirection 1, driving to image −x; its left is image +y, down):
+      x = −cx, y = cy, velocity (−xVelocity, yVelocity), lines = upperLaneMarkings;
+    - lower (drivingDirection 2, driving to image +x; its left is image −y, up):
+      x = cx, y = −cy, velocity (xVelocity, −yVelocity), lines = −lowerLaneMarkings;
+
+    both mirror the image, so the frame is right-handed with y to the left of travel; lines
+    are sorted increasing (lane 0 is the outer, rightmost lane of each direction; lanes are
+    found from y, highD's ``laneId`` — numbered over both directions — is not used).
+    v = |velocity|, heading = atan2(v_y, v_x) in the new frame, t = frame / frameRate,
+    length, width = the median box width, height.
+
+    Args:
+        tracks_csv: ``NN_tracks.csv`` (its ``NN_tracksMeta.csv`` and
+            ``NN_recordingMeta.csv`` beside it).
+
+    Returns:
+        The recording (meta: format, frame rate, the files read).
+
+    Raises:
+        FileNotFoundError: one of the three files is missing.
+        TrackError: a missing column (the exiD/inD/rounD layout is refused), a value that is
+            not a number, a repeated frame, a vehicle without or with an unknown
+            drivingDirection, a vehicle driving against its direction, or lanes no road has
+            (naming the file, and the vehicle and frame for a track's problem).
+    """
+    import pandas as pd
+
+    path = Path(tracks_csv)
+    if not path.name.endswith("_tracks.csv"):
+        raise TrackError(
+            f"{path}: a levelX tracks file is named NN_tracks.csv (NN_tracksMeta.csv and "
+            "NN_recordingMeta.csv beside it)"
+        )
+    prefix = path.name[: -len("tracks.csv")]
+    rec_path = path.with_name(prefix + "recordingMeta.csv")
+    meta_path = path.with_name(prefix + "tracksMeta.csv")
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found (a levelX NN_tracks.csv)")
+    df = pd.read_csv(path)
+    if "trackId" in df.columns and "xCenter" in df.columns:
+        raise TrackError(
+            f"{path}: the exiD/inD/rounD layout (trackId, xCenter, yCenter, heading…): their "
+            "roads are not straight lanes; read_levelx reads the highD layout (frame, id, x, "
+            "y, width, height, xVelocity, yVelocity)"
+        )
+    _published_columns(df, path, LEVELX_TRACK_COLUMNS, "levelX (highD)")
+    rec = _levelx_csv(rec_path, ("frameRate", "upperLaneMarkings", "lowerLaneMarkings"))
+    if len(rec) != 1:
+        raise TrackError(f"{rec_path}: {len(rec)} rows; a recordingMeta has one")
+    rate = pd.to_numeric(rec["frameRate"], errors="coerce").iloc[0]
+    if not (math.isfinite(rate) and rate > 0):
+        raise TrackError(f"{rec_path}: frameRate {rec['frameRate'].iloc[0]!r} is not > 0 [Hz]")
+    upper = _levelx_markings(rec_path, rec, "upperLaneMarkings")
+    lower = _levelx_markings(rec_path, rec, "lowerLaneMarkings")
+    tm = _levelx_csv(meta_path, ("id", "drivingDirection"))
+    tm_num = _published_numbers(tm, meta_path, ["id", "drivingDirection"], ["id"], "id")
+    direction_of = dict(
+        zip(tm_num["id"].tolist(), tm_num["drivingDirection"].tolist(), strict=True)
+    )
+
+    num = _published_numbers(df, path, LEVELX_TRACK_COLUMNS, ["id"], "frame")
+    t = num["frame"] / float(rate)
+    groups, dropped = _published_tracks(path, num["id"].astype(np.int64), t, num["frame"])
+    cx = num["x"] + num["width"] / 2
+    cy = num["y"] + num["height"] / 2
+    sides = {
+        1: ("upper", -1.0, 1.0, np.sort(upper), "−x"),
+        2: ("lower", 1.0, -1.0, np.sort(-lower), "+x"),
+    }
+    found: dict[int, list[Track]] = {1: [], 2: []}
+    for vid, rows in groups:
+        first = _label(num["frame"][rows[0]])
+        d = direction_of.get(float(vid))
+        if d not in sides:
+            what = "is not in" if d is None else f"has drivingDirection {_label(d)} in"
+            raise TrackError(
+                f"{path}: vehicle {vid}, frame {first}: {what} {meta_path.name} (1 = upper, "
+                "driving to −x; 2 = lower, driving to +x)"
+            )
+        name, sx, sy, _, way = sides[d]
+        vx, vy = sx * num["xVelocity"][rows], sy * num["yVelocity"][rows]
+        if np.median(vx) < -1.0:
+            raise TrackError(
+                f"{path}: vehicle {vid}, frame {first}: drives against its drivingDirection "
+                f"{_label(d)} ({name}, to image {way}): median xVelocity "
+                f"{np.median(num['xVelocity'][rows]):.3g} m/s"
+            )
+        found[d].append(
+            Track(
+                vehicle_id=vid,
+                t=t[rows],
+                x=sx * cx[rows],
+                y=sy * cy[rows],
+                frames=num["frame"][rows].astype(np.int64),
+                v=np.hypot(vx, vy),
+                heading=np.arctan2(vy, vx),
+                length=float(np.median(num["width"][rows])),
+                width=float(np.median(num["height"][rows])),
+                source=str(path),
+            )
+        )
+    carriageways = []
+    for d, (name, _, _, lines, _) in sides.items():
+        _check_markings(lines, rec_path, f"{name}LaneMarkings, in the {name} road frame")
+        carriageways.append(Carriageway(name, tuple(lines), tuple(found[d])))
+    meta = {
+        "format": "highd",
+        "rate_hz": float(rate),
+        "files": [str(path), str(meta_path), str(rec_path)],
+        "single_sample_tracks_dropped": dropped,
+    }
+    return Recording(str(path), tuple(carriageways), meta)
+
+
+# ---------------------------------------------------------------------------- INTERACTION
+
+INTERACTION_COLUMNS = (
+    "case_id",
+    "track_id",
+    "frame_id",
+    "timestamp_ms",
+    "agent_type",
+    "x",
+    "y",
+    "vx",
+    "vy",
+    "psi_rad",
+    "length",
+    "width",
+)
+"""Columns of an INTERACTION ``vehicle_tracks_NNN.csv``."""
+
+
+def _interaction_direction(direction: str | float) -> float:
+    """Angle of travel in the map [rad] from 'x+', 'x-', 'y+', 'y-' or a number."""
+    if isinstance(direction, str):
+        if direction not in _AXES:
+            raise ValueError(
+                f"direction must be one of {', '.join(_AXES)} or an angle [rad], got {direction!r}"
+            )
+        return _AXES[direction]
+    angle = float(direction)
+    if not math.isfinite(angle):
+        raise ValueError(f"direction must be a finite angle [rad], got {direction!r}")
+    return angle
+
+
+def _interaction_lines(
+    lane_markings: Sequence[float | Sequence[float]], direction: str | float, angle: float
+) -> np.ndarray:
+    """Lane lines' lateral positions in the road frame (y = −sin θ·x + cos θ·y), increasing."""
+    out = []
+    for m in lane_markings:
+        if isinstance(m, (int, float, np.integer, np.floating)):
+            if not isinstance(direction, str):
+                raise ValueError(
+                    f"lane line {m!r}: with a direction given as an angle, give each lane line "
+                    "as an (x, y) map point on it"
+                )
+            px, py = (0.0, float(m)) if direction[0] == "x" else (float(m), 0.0)
+        else:
+            px, py = (float(v) for v in m)
+        out.append(-math.sin(angle) * px + math.cos(angle) * py)
+    return np.sort(np.array(out, dtype=float))
+
+
+def read_interaction(
+    path: str | Path,
+    lane_markings: Sequence[float | Sequence[float]],
+    *,
+    direction: str | float,
+) -> Recording:
+    """An INTERACTION ``vehicle_tracks_NNN.csv`` of a straight road, in the road frame.
+
+    The file (map frame, metres, 10 Hz) has no lanes, so the caller gives the road: its
+    direction of travel and its lane lines. Map positions and velocities are rotated by the
+    direction's angle θ: x = cos θ·x_map + sin θ·y_map, y = −sin θ·x_map + cos θ·y_map
+    (a rotation: y stays to the left of travel); heading = psi_rad − θ (wrapped), v = |(vx,
+    vy)|, t = timestamp_ms/1000, frames = frame_id, length and width per track (median).
+    Each ``case_id`` is a separate scene and becomes its own carriageway (``'case <id>'``,
+    all with the same lane lines); a track is a (case_id, track_id), named
+    ``'<case_id>:<track_id>'``. Only vehicles (:data:`INTERACTION_VEHICLES`) are kept, and
+    tracks driving against the direction (median speed along it < −1 m/s: the other
+    carriageway) are dropped; both counted in ``meta``.
+
+    Args:
+        path: the ``vehicle_tracks_NNN.csv``.
+        lane_markings: the lane lines in the map frame: for ``direction`` 'x+'/'x-' each
+            line's map y [m], for 'y+'/'y-' its map x [m]; or, for any direction, a map
+            point (x, y) [m] on each line.
+        direction: the direction of travel in the map: 'x+', 'x-', 'y+', 'y-' or an angle
+            from the map's +x axis, counter-clockwise [rad].
+
+    Returns:
+        The recording (meta: format, rate, direction angle, dropped agents and tracks).
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: a bad direction, or numbers as lane lines with an angle.
+        TrackError: a missing column, a value that is not a number, a repeated or
+            non-increasing frame (naming the file, the track and the frame), no vehicle, or
+            lane lines no road has.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    angle = _interaction_direction(direction)
+    lines = _interaction_lines(lane_markings, direction, angle)
+    _check_markings(lines, path, f"lane_markings along {direction!r}, in the road frame")
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found (an INTERACTION vehicle_tracks_NNN.csv)")
+    df = pd.read_csv(path)
+    _published_columns(df, path, INTERACTION_COLUMNS, "INTERACTION")
+    agent = df["agent_type"].astype(str).str.strip().str.lower()
+    vehicle = agent.isin(INTERACTION_VEHICLES)
+    not_vehicles = {str(k): int(v) for k, v in agent[~vehicle].value_counts().items()}
+    df = df[vehicle].reset_index(drop=True)
+    if df.empty:
+        raise TrackError(
+            f"{path}: no vehicle rows (agent_type {sorted(not_vehicles)}); kept types are "
+            f"{sorted(INTERACTION_VEHICLES)}"
+        )
+    columns = [c for c in INTERACTION_COLUMNS if c != "agent_type"]
+    num = _published_numbers(df, path, columns, ["case_id", "track_id"], "frame_id")
+    c, s = math.cos(angle), math.sin(angle)
+    x = c * num["x"] + s * num["y"]
+    y = -s * num["x"] + c * num["y"]
+    vx = c * num["vx"] + s * num["vy"]
+    heading = np.angle(np.exp(1j * (num["psi_rad"] - angle)))
+    t = num["timestamp_ms"] / 1000.0
+    keys = np.array(
+        [f"{_label(a)}:{_label(b)}" for a, b in zip(num["case_id"], num["track_id"], strict=True)]
+    )
+    groups, dropped = _published_tracks(path, keys, t, num["frame_id"])
+    per_case: dict[str, list[Track]] = {}
+    against = []
+    for vid, rows in groups:
+        if np.median(vx[rows]) < -1.0:
+            against.append(vid)
+            continue
+        per_case.setdefault(vid.split(":")[0], []).append(
+            Track(
+                vehicle_id=vid,
+                t=t[rows],
+                x=x[rows],
+                y=y[rows],
+                frames=num["frame_id"][rows].astype(np.int64),
+                v=np.hypot(num["vx"][rows], num["vy"][rows]),
+                heading=heading[rows],
+                length=float(np.median(num["length"][rows])),
+                width=float(np.median(num["width"][rows])),
+                source=str(path),
+            )
+        )
+    cases = sorted(per_case, key=lambda k: (len(k), k))
+    carriageways = tuple(Carriageway(f"case {k}", tuple(lines), tuple(per_case[k])) for k in cases)
+    meta = {
+        "format": "interaction",
+        "rate_hz": 10.0,
+        "direction_rad": angle,
+        "agents_dropped": not_vehicles,
+        "tracks_against_direction_dropped": against,
+        "single_sample_tracks_dropped": dropped,
+    }
+    return Recording(str(path), carriageways, meta)
+
+
+READERS["ngsim"] = read_ngsim
+READERS["highd"] = read_levelx
+READERS["interaction"] = read_interaction
