@@ -412,9 +412,11 @@ def _published_tracks(
     codes, names = pd.factorize(pd.Series(ids, dtype=str), sort=True)
     order = np.lexsort((frames, t, codes))
     c, tt, ff = codes[order], t[order], frames[order]
-    same = c[1:] == c[:-1]
     dt, df = np.diff(tt), np.diff(ff)
-    bad = np.flatnonzero(same & ((dt <= 0) | (df <= 0)))
+    cut = c[1:] != c[:-1]
+    if max_gap_s is not None:
+        cut |= dt > max_gap_s
+    bad = np.flatnonzero(~cut & ((dt <= 0) | (df <= 0)))
     if bad.size:
         k = int(bad[0]) + 1
         here, before = _label(ff[k]), _label(ff[k - 1])
@@ -425,9 +427,6 @@ def _published_tracks(
         else:
             problem = f"comes after frame {before} in time (frames must increase with time)"
         raise TrackError(f"{path}: vehicle {names[c[k]]}, frame {here}: {problem}")
-    cut = ~same
-    if max_gap_s is not None:
-        cut |= dt > max_gap_s
     bounds = np.concatenate([[0], np.flatnonzero(cut) + 1, [len(order)]])
     out, dropped, seen = [], 0, set()
     for a, b in pairwise(bounds):
@@ -465,7 +464,7 @@ def _ngsim_table(path: Path) -> Any:
     except ValueError:
         header = True
     if header:
-        df = pd.read_csv(path, sep=sep, low_memory=False)
+        df = pd.read_csv(path, sep=sep, low_memory=False, thousands=",")
         canonical = {c.lower(): c for c in (*NGSIM_COLUMNS, "Location")}
         df = df.rename(columns={c: canonical.get(str(c).strip().lower(), c) for c in df.columns})
     else:

@@ -39,7 +39,9 @@ LANE_X_FT = {1: 6.0, 2: 18.0, 3: 30.0, 4: 42.0, 5: 54.0, 6: 66.0}
 """Lane centres' Local_X [ft]: 12 ft lanes from the left road edge."""
 
 
-def _ngsim_vehicle(vid, frames, local_x, lane_id, y0=100.0, vel=50.0, length=15.0, width=6.0):
+def _ngsim_vehicle(
+    vid, frames, local_x, lane_id, y0=100.0, vel=50.0, length=15.0, width=6.0, t0_ms=T0_MS
+):
     frames = np.asarray(frames)
     n = frames.size
     local_y = y0 + vel * 0.1 * (frames - frames[0])
@@ -48,7 +50,7 @@ def _ngsim_vehicle(vid, frames, local_x, lane_id, y0=100.0, vel=50.0, length=15.
             "Vehicle_ID": vid,
             "Frame_ID": frames,
             "Total_Frames": n,
-            "Global_Time": T0_MS + 100 * frames,
+            "Global_Time": t0_ms + 100 * frames,
             "Local_X": np.broadcast_to(local_x, n),
             "Local_Y": local_y,
             "Global_X": 6_451_000.0 + local_y,
@@ -159,10 +161,13 @@ def test_ngsim_csv_with_location_keeps_the_freeways_and_drops_exact_duplicates(t
 
 def test_ngsim_reused_vehicle_id_after_a_gap_is_another_track(tmp_path):
     df = _ngsim_table()
-    later = _ngsim_vehicle(1, np.arange(9000, 9010), LANE_X_FT[3], 3)
-    path = _write_classic(pd.concat([df, later], ignore_index=True), tmp_path / "t.txt")
+    # the next 15-minute period: frames start again, the id is another vehicle's
+    later = _ngsim_vehicle(1, np.arange(5, 15), LANE_X_FT[3], 3, t0_ms=T0_MS + 900_000)
+    path = _write_classic(pd.concat([later, df], ignore_index=True), tmp_path / "t.txt")
     [cw] = read_ngsim(path).carriageways
-    assert _track(cw, "1").n == 20 and _track(cw, "1@9000").n == 10
+    first, second = _track(cw, "1"), _track(cw, "1@5")
+    assert first.n == 20 and second.n == 10
+    assert second.t[0] == pytest.approx(900.0 - 0.5) and np.all(second.lane == 2)
 
 
 def test_ngsim_nominal_markings_are_12_ft_from_the_left_edge(tmp_path):
