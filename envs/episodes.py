@@ -1,0 +1,690 @@
+"""Lane-change episodes of a :class:`~drivestyle.envs.tracks.Recording` as demonstrations.
+
+:func:`extract_episodes` finds, on each carriageway, every lane change of every vehicle
+and turns it into a :class:`~drivestyle.envs.demonstration.Demonstration` in the
+project's frame; :func:`write_episodes` writes them with an ``episodes.csv`` index. The
+rules (the numbers are :class:`ExtractionConfig` fields):
+
+- **Lane.** A sample's lane is the track's ``lane`` where the reader gives one, else the
+  lane its centre y lies in between the carriageway's markings.
+- **Lane change.** The lane changes from one sample to the next by one lane (to either
+  side), the vehicle was in the old lane for ``min_stay_s`` before and stays in the new one
+  for ``min_stay_s`` after. The crossing time t_c is where y crosses the line (linear
+  between the two samples).
+- **Window.** [t_c − ``before_s``, t_c + ``after_s``], cut to the track and to the
+  vehicle's previous and next crossing; it must keep ``min_before_s`` before and
+  ``min_after_s`` after t_c, else the episode is kept unusable with the reason.
+- **Frame.** x as recorded; y moved so that the crossed line lies at y = w (w the mean
+  width of the two lanes) and, for a change to the right, mirrored about it (y → −y, φ →
+  −φ): the change goes to +y, lane 0 = [0, w) is the origin lane, lane 1 the target
+  (the frame of :mod:`drivestyle.envs.real_data`).
+- **Observed part.** The window's first ``observe_s`` seconds (at most ``min_before_s``, so
+  it always ends before the crossing). Every scenario constant estimated from the
+  data comes from it alone (:func:`observed_scenario`): nothing of the manoeuvre after it
+  enters the scenario, so a prediction or identification made at its end is not told the
+  future. The interacting vehicles are chosen at its start.
+- **Interacting vehicles** at the window's start, within ``interaction_range_m`` along x:
+  the nearest vehicles behind (target-lane follower) and ahead (target-lane leader) in the
+  target lane and ahead in the origin lane (own-lane leader). The TV is the first present
+  of follower, leader, own-lane leader (the paper's TV is the target-lane follower); the
+  others become the demonstration's ``others``. Where a vehicle's track ends inside the
+  window it is continued at constant velocity. Without any, the TV is a phantom 1 km
+  behind in the target lane (:data:`PHANTOM_GAP_M`, the CATS loader's convention): the
+  episode is kept and flagged ``no_interaction`` — its risk cannot be identified.
+- **Resampling** to T_s = ``dt`` (:func:`resample_states`): cubic splines through the
+  recorded positions; the recorded heading and speed where the track has them, else the
+  direction and norm of the splines' velocity.
+- **Inputs** [a, δ] are recovered from consecutive states (:func:`recover_inputs`, the one
+  function every recorded path uses).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivestyle.envs.demonstration import (
+    Demonstration,
+    plausibility_problems,
+    save_demonstration,
+)
+from drivestyle.envs.dynamics import inverse_step
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.tracks import Carriageway, Recording, Track
+
+__all__ = [
+    "EPISODE_COLUMNS",
+    "PHANTOM_GAP_M",
+    "Episode",
+    "ExtractionConfig",
+    "LaneChange",
+    "extract_episodes",
+    "find_lane_changes",
+    "interacting_vehicles",
+    "observed_scenario",
+    "recover_inputs",
+    "resample_states",
+    "time_grid",
+    "write_episodes",
+]
+
+PHANTOM_GAP_M = -1000.0
+"""Gap x_TV − x_EV of the phantom TV of an episode without a target vehicle [m]."""
+ROLES = ("target_follower", "target_leader", "own_leader")
+"""Interacting vehicles' roles, in the order the TV is chosen from."""
+
+
+# --------------------------------------------------------------------------- shared helpers
+def time_grid(t: np.ndarray, dt: float) -> np.ndarray:
+    """The multiples of ``dt`` within [min t, max t] (rounded to 1e-9 s), shape (m,) [s]."""
+    t = np.asarray(t, float)
+    start = math.ceil(t.min() / dt - 1e-9) * dt
+    stop = math.floor(t.max() / dt + 1e-9) * dt
+    return np.round(np.arange(start, stop + dt / 2, dt), 9)
+
+
+def resample_states(
+    t_src: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    t_new: np.ndarray,
+    v: np.ndarray | None = None,
+    heading: np.ndarray | None = None,
+) -> np.ndarray:
+    """States [x, y, φ, v] at ``t_new`` from recorded positions (and speed, heading).
+
+    Positions: cubic splines through the samples (they pass through them). Heading: the
+    recorded one (unwrapped, interpolated linearly) or φ = atan2(ẏ, ẋ) of the splines.
+    Speed: the recorded one (linear) or ‖(ẋ, ẏ)‖ of the splines.
+
+    Args:
+        t_src: sample times, shape (n,) [s], increasing, n ≥ 2.
+        x: positions along the road, shape (n,) [m].
+        y: lateral positions, shape (n,) [m].
+        t_new: query times within [t_src[0], t_src[-1]], shape (m,) [s].
+        v: recorded speeds, shape (n,) [m/s], or None.
+        heading: recorded headings, shape (n,) [rad], or None.
+
+    Returns:
+        States, shape (m, 4) [m, m, rad, m/s].
+    """
+    from scipy.interpolate import CubicSpline
+
+    sx, sy = CubicSpline(t_src, x), CubicSpline(t_src, y)
+    dx, dy = sx(t_new, 1), sy(t_new, 1)
+    phi = (
+        np.arctan2(dy, dx)
+        if heading is None
+        else np.interp(t_new, t_src, np.unwrap(np.asarray(heading, float)))
+    )
+    speed = np.hypot(dx, dy) if v is None else np.interp(t_new, t_src, v)
+    return np.column_stack([sx(t_new), sy(t_new), phi, speed])
+
+
+def recover_inputs(
+    ev: np.ndarray, scenario: ScenarioConfig, t: np.ndarray | None = None
+) -> np.ndarray:
+    """The inputs [a, δ] that carry each state to the next (recorded inputs are unseen).
+
+    Per step, :func:`~drivestyle.envs.dynamics.inverse_step`: the input within the
+    scenario's bounds [a_min, a_max] × [−δ_max, δ_max] whose RK4 step of the bicycle model
+    (l_f, l_r of the scenario) comes closest to the next state — exact for states the
+    model produced, the closest input for recorded ones. The online tracker
+    (:class:`drivestyle.irl.online.StyleTracker`) recovers the same inputs sample by sample.
+
+    Args:
+        ev: EV states [x, y, φ, v], shape (n, 4).
+        scenario: the episode's scenario (bounds, axle distances, T_s).
+        t: sample times, shape (n,) [s] (default: T_s apart).
+
+    Returns:
+        Inputs, shape (n − 1, 2) [m/s², rad].
+    """
+    ev = np.asarray(ev, float)
+    steps = np.full(ev.shape[0] - 1, scenario.dt) if t is None else np.diff(np.asarray(t, float))
+    lo, hi = (scenario.a_min, -scenario.delta_max), (scenario.a_max, scenario.delta_max)
+    u = np.zeros((ev.shape[0] - 1, 2))
+    for k, dt in enumerate(steps):
+        u[k] = inverse_step(ev[k], ev[k + 1], float(dt), scenario.l_f, scenario.l_r, lo, hi)
+    return u
+
+
+# --------------------------------------------------------------------------------- the config
+@dataclass(frozen=True)
+class ExtractionConfig:
+    """How lane changes are found and turned into demonstrations (module docstring)."""
+
+    dt: float = 0.2
+    """T_s of the demonstrations [s]."""
+    before_s: float = 4.0
+    """Window before the crossing, as far as the track goes [s]."""
+    after_s: float = 4.0
+    """Window after the crossing, as far as the track goes [s]."""
+    min_before_s: float = 3.0
+    """Track the window must keep before the crossing [s]."""
+    min_after_s: float = 2.0
+    """Track the window must keep after the crossing [s]."""
+    min_stay_s: float = 1.0
+    """Time in the old lane before and in the new lane after a crossing [s] (shorter is a
+    wobble on the line, not a lane change)."""
+    observe_s: float = 2.0
+    """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``)."""
+    interaction_range_m: float = 100.0
+    """Leaders and followers farther along x at the window's start do not interact [m]."""
+    v_ref: float | None = None
+    """The EV's desired speed when known (e.g. the speed limit) [m/s]; None: from the
+    observed part (:func:`observed_scenario`)."""
+
+    def __post_init__(self) -> None:
+        for name in (
+            "dt",
+            "before_s",
+            "after_s",
+            "min_before_s",
+            "min_after_s",
+            "min_stay_s",
+            "observe_s",
+            "interaction_range_m",
+        ):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        if self.min_before_s > self.before_s or self.min_after_s > self.after_s:
+            raise ValueError(
+                f"the window ({self.before_s:g} s before, {self.after_s:g} s after) is shorter "
+                f"than its minimum ({self.min_before_s:g} s, {self.min_after_s:g} s)"
+            )
+        if self.observe_s > self.min_before_s:
+            raise ValueError(
+                f"observe_s = {self.observe_s:g} s exceeds min_before_s = {self.min_before_s:g} "
+                "s: the observed part must end before the lane crossing"
+            )
+        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= 70):
+            raise ValueError(f"v_ref must be in (0, 70] m/s, got {self.v_ref!r}")
+
+
+# --------------------------------------------------------------------------------- the types
+@dataclass(frozen=True)
+class LaneChange:
+    """One lane change of a track (before any window or usability check)."""
+
+    vehicle_id: str
+    from_lane: int
+    """Lane before, in the carriageway's numbering (0 rightmost)."""
+    to_lane: int
+    """Lane after."""
+    t_cross: float
+    """When the centre crosses the line [s] (the source's time)."""
+    index: int
+    """The last sample before the crossing."""
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One extracted lane change, usable or not (then with the reasons)."""
+
+    episode_id: str
+    """``<carriageway>_<vehicle>_<t_c in ms>``: unique within a recording."""
+    source: str
+    """The file the track was read from."""
+    carriageway: str
+    vehicle_id: str
+    from_lane: int
+    to_lane: int
+    mirrored: bool
+    """A change to the right, mirrored to +y."""
+    t_cross: float
+    """Crossing time in the source's clock [s]."""
+    first_frame: float | None
+    """The source frame at (just after) the window's start (None: no window)."""
+    last_frame: float | None
+    """The source frame at (just before) the window's end."""
+    lane_width: float
+    """w of the demonstration's frame: the mean width of the two lanes [m]."""
+    interacting: tuple[tuple[str, str], ...]
+    """(role, vehicle id) of the interacting vehicles, TV first (:data:`ROLES`)."""
+    no_interaction: bool
+    """No interacting vehicle: the TV is a phantom, the risk cannot be identified."""
+    usable: bool
+    reasons: tuple[str, ...]
+    """Why not usable (empty when usable)."""
+    demo: Demonstration | None
+    """The demonstration (None when it could not be built)."""
+    observed_until_s: float = 0.0
+    """End of the observed part in the demonstration's time [s]."""
+    flags: dict[str, Any] = field(default_factory=dict)
+    """Further facts (observed samples, …)."""
+
+    def __post_init__(self) -> None:
+        if self.usable and (self.reasons or self.demo is None):
+            raise ValueError(f"episode {self.episode_id}: usable with reasons or no demo")
+        if abs(self.to_lane - self.from_lane) != 1:
+            raise ValueError(f"episode {self.episode_id}: not a change to a neighbouring lane")
+
+    @property
+    def direction(self) -> str:
+        """'left' (to +y) or 'right'."""
+        return "left" if self.to_lane > self.from_lane else "right"
+
+
+# ---------------------------------------------------------------------------- finding changes
+def _lanes(track: Track, road: Carriageway) -> np.ndarray:
+    """Lane index per sample: the track's own, else from y and the markings."""
+    if track.lane is not None:
+        return np.round(track.lane).astype(int)
+    return np.asarray(road.lane_of(track.y), int)
+
+
+def find_lane_changes(track: Track, road: Carriageway, min_stay_s: float) -> list[LaneChange]:
+    """Every change of lane by one that holds ``min_stay_s`` before and after.
+
+    Args:
+        track: one vehicle.
+        road: its carriageway (markings).
+        min_stay_s: time in the old lane before and the new one after [s].
+
+    Returns:
+        The lane changes in time order.
+    """
+    lane = _lanes(track, road)
+    t, y = track.t, track.y
+    changes = []
+    n_lanes = len(road.markings) - 1
+    for k in np.flatnonzero(lane[1:] != lane[:-1]):
+        a, b = int(lane[k]), int(lane[k + 1])
+        if abs(b - a) != 1 or not (0 <= a < n_lanes and 0 <= b < n_lanes):
+            continue
+        line = road.markings[max(a, b)]
+        if (y[k] - line) * (y[k + 1] - line) <= 0 and y[k + 1] != y[k]:
+            t_c = float(t[k] + (line - y[k]) / (y[k + 1] - y[k]) * (t[k + 1] - t[k]))
+        else:
+            t_c = float((t[k] + t[k + 1]) / 2)
+        before = (t >= t_c - min_stay_s) & (t < t_c)
+        after = (t > t_c) & (t <= t_c + min_stay_s)
+        if t[0] > t_c - min_stay_s or t[-1] < t_c + min_stay_s:
+            continue
+        if np.all(lane[before] == a) and np.all(lane[after] == b):
+            changes.append(LaneChange(track.vehicle_id, a, b, t_c, int(k)))
+    return changes
+
+
+def _crossings(track: Track, road: Carriageway) -> np.ndarray:
+    """Sample index k of every lane-index change of a track (between k and k + 1)."""
+    lane = _lanes(track, road)
+    return np.flatnonzero(lane[1:] != lane[:-1])
+
+
+# -------------------------------------------------------------------------------- the frame
+@dataclass(frozen=True)
+class _Frame:
+    """The map from a carriageway's frame to an episode's: y' = w + s (y − line), φ' = s φ."""
+
+    line: float
+    sign: float
+    w: float
+
+    def states(self, s: np.ndarray) -> np.ndarray:
+        out = s.copy()
+        out[:, 1] = self.w + self.sign * (s[:, 1] - self.line)
+        out[:, 2] = self.sign * s[:, 2]
+        return out
+
+
+def _constant_velocity(state: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """States [x, y, φ, v] ``tau`` seconds from ``state`` at constant velocity, shape (m, 4)."""
+    x, y, phi, v = state
+    return np.column_stack(
+        [x + v * np.cos(phi) * tau, y + v * np.sin(phi) * tau, np.full_like(tau, phi),
+         np.full_like(tau, v)]
+    )  # fmt: skip
+
+
+def _states_on(track: Track, t: np.ndarray) -> np.ndarray:
+    """A track's states on ``t``: resampled where recorded, constant velocity beyond."""
+    inside = (t >= track.t[0] - 1e-9) & (t <= track.t[-1] + 1e-9)
+    out = np.empty((t.size, 4))
+    idx = np.flatnonzero(inside)
+    if idx.size < 2:
+        # (almost) no overlap: the nearest recorded state, carried at constant velocity
+        k = 0 if t[0] < track.t[0] else track.n - 1
+        edge = resample_states(track.t, track.x, track.y, track.t[[k]], track.v, track.heading)
+        return _constant_velocity(edge[0], t - track.t[k])
+    out[idx] = resample_states(track.t, track.x, track.y, t[idx], track.v, track.heading)
+    for edge, span in ((idx[0], slice(0, idx[0])), (idx[-1], slice(idx[-1] + 1, None))):
+        out[span] = _constant_velocity(out[edge], t[span] - t[edge])
+    return out
+
+
+def _position_at(track: Track, t: float) -> tuple[float, float] | None:
+    """(x, y) of a track at time t, None when it is not recorded then."""
+    if not track.t[0] <= t <= track.t[-1]:
+        return None
+    return float(np.interp(t, track.t, track.x)), float(np.interp(t, track.t, track.y))
+
+
+def interacting_vehicles(
+    ev: Track, road: Carriageway, t0: float, from_lane: int, to_lane: int, range_m: float
+) -> list[tuple[str, Track]]:
+    """The interacting vehicles at ``t0`` as (role, track), in :data:`ROLES` order.
+
+    Args:
+        ev: the lane changer.
+        road: its carriageway.
+        t0: when they are chosen (the window's start) [s].
+        from_lane: the origin lane (carriageway numbering).
+        to_lane: the target lane.
+        range_m: farthest distance along x [m].
+
+    Returns:
+        At most one vehicle per role.
+    """
+    here = _position_at(ev, t0)
+    assert here is not None
+    x_ev = here[0]
+    best: dict[str, tuple[float, Track]] = {}
+    for other in road.tracks:
+        if other is ev or other.vehicle_id == ev.vehicle_id:
+            continue
+        pos = _position_at(other, t0)
+        if pos is None:
+            continue
+        if other.lane is not None:
+            lane = round(float(np.interp(t0, other.t, other.lane)))
+        else:
+            lane = int(road.lane_of(pos[1]))
+        dx = pos[0] - x_ev
+        if abs(dx) > range_m:
+            continue
+        role = None
+        if lane == to_lane:
+            role = "target_leader" if dx > 0 else "target_follower"
+        elif lane == from_lane and dx > 0:
+            role = "own_leader"
+        if role is not None and (role not in best or abs(dx) < best[role][0]):
+            best[role] = (abs(dx), other)
+    return [(role, best[role][1]) for role in ROLES if role in best]
+
+
+# ------------------------------------------------------------------------------ the scenario
+def observed_scenario(
+    ev_observed: np.ndarray,
+    tv0: np.ndarray,
+    tv_lane: int,
+    lane_width: float,
+    dt: float,
+    n: int,
+    length: float,
+    width: float,
+    v_ref: float | None = None,
+) -> ScenarioConfig:
+    """An episode's scenario from its observed part only (the loaders' rule, DESIGN §10).
+
+    Lane width from the markings; the speed level v̄ = the 90th percentile of the observed
+    EV speeds; v_ref = ``v_ref`` if known, else v̄ (≥ 1 m/s); the ellipse l_a = max(5 m,
+    15 m · v̄ / 27.5 m/s), l_b = 3 m · w / 5.25 m; v_max = max(70, 1.5 × the observed
+    maximum) m/s; l_f = l_r = 0.4 · length; initial states from the first sample.
+
+    Args:
+        ev_observed: EV states of the observed part, shape (k, 4), k ≥ 1.
+        tv0: the TV's first state, shape (4,).
+        tv_lane: the TV's lane in the episode's frame.
+        lane_width: w [m].
+        dt: T_s [s].
+        n: samples of the whole episode.
+        length: EV length [m].
+        width: EV width [m].
+        v_ref: known desired speed [m/s], or None.
+
+    Returns:
+        The scenario (start-inside-ellipse check off: recorded traffic may start closer).
+    """
+    speeds = ev_observed[:, 3]
+    v_level = float(np.percentile(speeds, 90))
+    return ScenarioConfig(
+        lane_width=lane_width,
+        n_lanes=3,
+        vehicle_length=length,
+        vehicle_width=min(width, 0.9 * lane_width),
+        l_f=0.4 * length,
+        l_r=0.4 * length,
+        v_max=max(70.0, 1.5 * float(speeds.max())),
+        ev_lane=0,
+        target_lane=1,
+        tv_lane=tv_lane,
+        ev_x=float(ev_observed[0, 0]),
+        ev_speed=min(max(float(ev_observed[0, 3]), 0.0), 70.0),
+        tv_gap=float(tv0[0] - ev_observed[0, 0]),
+        tv_speed=max(float(tv0[3]), 0.0),
+        v_ref=v_ref if v_ref is not None else max(v_level, 1.0),
+        dt=dt,
+        horizon_s=round((n - 1) * dt, 9),
+        l_a=max(5.0, 15.0 * v_level / 27.5),
+        l_b=3.0 * lane_width / 5.25,
+        check_start=False,
+    )
+
+
+# ----------------------------------------------------------------------------- the episodes
+def _frame_near(track: Track, t: float, side: str) -> float:
+    """The source frame of the first sample at/after (side 'after') or last before t."""
+    if side == "after":
+        k = min(int(np.searchsorted(track.t, t - 1e-9)), track.n - 1)
+    else:
+        k = max(int(np.searchsorted(track.t, t + 1e-9)) - 1, 0)
+    return float(track.frames[k])
+
+
+def _episode(
+    track: Track, road: Carriageway, change: LaneChange, crossings: np.ndarray,
+    config: ExtractionConfig,
+) -> Episode:  # fmt: skip
+    """One lane change as an :class:`Episode` (usable, or with the reasons)."""
+    a, b, t_c = change.from_lane, change.to_lane, change.t_cross
+    eid = f"{road.name}_{track.vehicle_id}_{round(t_c * 1000)}"
+    widths = road.lane_widths
+    w = float((widths[a] + widths[b]) / 2)
+    line = road.markings[max(a, b)]
+    # the window ends at the vehicle's previous and next change of lane (sample midpoints)
+    earlier, later = crossings[crossings < change.index], crossings[crossings > change.index]
+    t_prev = (track.t[earlier[-1]] + track.t[earlier[-1] + 1]) / 2 if earlier.size else -np.inf
+    t_next = (track.t[later[0]] + track.t[later[0] + 1]) / 2 if later.size else np.inf
+    start = max(track.t[0], t_c - config.before_s, t_prev)
+    stop = min(track.t[-1], t_c + config.after_s, t_next)
+    common = {
+        "episode_id": eid,
+        "source": track.source,
+        "carriageway": road.name,
+        "vehicle_id": track.vehicle_id,
+        "from_lane": a,
+        "to_lane": b,
+        "mirrored": b < a,
+        "t_cross": t_c,
+        "lane_width": w,
+    }
+    reasons = []
+    if t_c - start < config.min_before_s - 1e-9:
+        reasons.append(
+            f"only {t_c - start:.2f} s of track before the crossing (min_before_s "
+            f"{config.min_before_s:g} s)"
+        )
+    if stop - t_c < config.min_after_s - 1e-9:
+        reasons.append(
+            f"only {stop - t_c:.2f} s of track after the crossing (min_after_s "
+            f"{config.min_after_s:g} s)"
+        )
+    if reasons:
+        return Episode(
+            **common, first_frame=None, last_frame=None, interacting=(), no_interaction=False,
+            usable=False, reasons=tuple(reasons), demo=None,
+        )  # fmt: skip
+    dt = config.dt
+    t_grid = np.round(start + np.arange(math.floor((stop - start) / dt + 1e-9) + 1) * dt, 9)
+    frame = _Frame(line, 1.0 if b > a else -1.0, w)
+    ev = frame.states(_states_on(track, t_grid))
+    t_rel = t_grid - t_grid[0]
+    observed = t_rel <= config.observe_s + 1e-9
+    chosen = interacting_vehicles(track, road, float(t_grid[0]), a, b, config.interaction_range_m)
+    vehicles = [frame.states(_states_on(other, t_grid)) for _, other in chosen]
+    if vehicles:
+        tv, others = vehicles[0], vehicles[1:]
+        tv_lane = int(np.clip(math.floor(float(tv[0, 1]) / w), 0, 2))
+    else:
+        tv, others = ev.copy(), []
+        tv[:, 0] += PHANTOM_GAP_M
+        tv[:, 1], tv[:, 2] = 1.5 * w, 0.0
+        tv_lane = 1
+    first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
+    try:
+        sc = observed_scenario(
+            ev[observed], tv[0], tv_lane, w, dt, t_grid.size, track.length, track.width,
+            config.v_ref,
+        )  # fmt: skip
+        meta = {
+            "scenario": sc.to_dict(),
+            "episode_id": eid,
+            "source": track.source,
+            "vehicle_id": track.vehicle_id,
+            "t_cross_rel_s": round(t_c - float(t_grid[0]), 9),
+            "observed_until_s": float(t_rel[observed][-1]),
+            "interacting": [[role, other.vehicle_id] for role, other in chosen],
+            "no_interaction": not chosen,
+            "mirrored": b < a,
+            "heading": "recorded" if track.heading is not None else "course",
+        }
+        demo = Demonstration(
+            t=t_rel, ev=ev, tv=tv, u=recover_inputs(ev, sc, t_rel), meta=meta,
+            others=np.stack(others, axis=1) if others else None,
+        )  # fmt: skip
+    except ValueError as exc:
+        return Episode(**common, first_frame=first, last_frame=last,
+                       interacting=tuple((r, o.vehicle_id) for r, o in chosen),
+                       no_interaction=not chosen, usable=False,
+                       reasons=(f"unusable: {exc}",), demo=None)  # fmt: skip
+    problems = tuple(f"implausible: {p}" for p in plausibility_problems(demo))
+    return Episode(
+        **common,
+        first_frame=first,
+        last_frame=last,
+        interacting=tuple((role, other.vehicle_id) for role, other in chosen),
+        no_interaction=not chosen,
+        usable=not problems,
+        reasons=problems,
+        demo=demo,
+        observed_until_s=float(t_rel[observed][-1]),
+        flags={"observed_samples": int(observed.sum())},
+    )
+
+
+def extract_episodes(
+    recording: Recording, config: ExtractionConfig | None = None, progress: bool = False
+) -> list[Episode]:
+    """Every lane change of a recording as an :class:`Episode` (module docstring's rules).
+
+    Args:
+        recording: tracks in the road frame (any reader).
+        config: the extraction's numbers (default :class:`ExtractionConfig`).
+        progress: show a progress bar over the tracks.
+
+    Returns:
+        The episodes in carriageway, vehicle and time order; unusable ones carry their
+        reasons (too little track around the crossing, an implausible demonstration).
+    """
+    config = config or ExtractionConfig()
+    items = [(road, track) for road in recording.carriageways for track in road.tracks]
+    if progress:
+        from tqdm import tqdm
+
+        items = tqdm(items, desc="lane changes", unit="vehicle")
+    episodes = []
+    for road, track in items:
+        changes = find_lane_changes(track, road, config.min_stay_s)
+        if changes:
+            crossings = _crossings(track, road)
+            episodes.extend(_episode(track, road, c, crossings, config) for c in changes)
+    return episodes
+
+
+# ---------------------------------------------------------------------------------- writing
+EPISODE_COLUMNS = (
+    "episode_id",
+    "file",
+    "source",
+    "carriageway",
+    "vehicle_id",
+    "direction",
+    "mirrored",
+    "from_lane",
+    "to_lane",
+    "t_cross_s",
+    "first_frame",
+    "last_frame",
+    "lane_width_m",
+    "tv_id",
+    "tv_role",
+    "interacting",
+    "no_interaction",
+    "observed_until_s",
+    "usable",
+    "reason",
+)
+"""Columns of ``episodes.csv`` (``interacting``: ``role:id`` joined by ``;``)."""
+
+
+def _cell(value: float | None) -> str:
+    if value is None:
+        return ""
+    return str(int(value)) if float(value).is_integer() else f"{value:g}"
+
+
+def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
+    """Each usable episode's demonstration as ``<episode_id>.npz`` and ``episodes.csv``.
+
+    Args:
+        episodes: from :func:`extract_episodes` (unusable ones appear only in the index).
+        out_dir: the folder (created).
+
+    Returns:
+        The path of ``episodes.csv``.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "episodes.csv"
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(EPISODE_COLUMNS)
+        for ep in episodes:
+            name = ""
+            if ep.usable and ep.demo is not None:
+                name = f"{ep.episode_id}.npz"
+                save_demonstration(ep.demo, out_dir / name)
+            tv_role, tv_id = ep.interacting[0] if ep.interacting else ("phantom", "")
+            writer.writerow(
+                [
+                    ep.episode_id,
+                    name,
+                    ep.source,
+                    ep.carriageway,
+                    ep.vehicle_id,
+                    ep.direction,
+                    ep.mirrored,
+                    ep.from_lane,
+                    ep.to_lane,
+                    f"{ep.t_cross:.3f}",
+                    _cell(ep.first_frame),
+                    _cell(ep.last_frame),
+                    f"{ep.lane_width:.3f}",
+                    tv_id,
+                    tv_role,
+                    ";".join(f"{role}:{vid}" for role, vid in ep.interacting),
+                    ep.no_interaction,
+                    f"{ep.observed_until_s:g}",
+                    ep.usable,
+                    "; ".join(ep.reasons),
+                ]
+            )
+    return path
