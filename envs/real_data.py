@@ -12,7 +12,10 @@ Road frame (the same for both sources):
 - states [x, y, φ, v] are resampled to the learner's T_s (default 0.2 s) by cubic
   splines through the recorded positions (both sources are already smoothed upstream:
   NGSIM by its uploaders, CATS by Savitzky–Golay filtering, see their READMEs), heading
-  φ = atan2(ẏ, ẋ) from the resampled positions, speed v from the recorded speed.
+  φ = atan2(ẏ, ẋ) from the resampled positions, speed v from the recorded speed
+  (:func:`~drivestyle.envs.episodes.resample_states`);
+- the inputs [a, δ] are not recorded and stored as zeros (the driver model recovers them
+  with :func:`~drivestyle.envs.episodes.recover_inputs`).
 
 Scenario constants adapt to each episode (documented rule, :func:`scenario_from_episode`):
 lane width from the data (NGSIM: median spacing of the recording's lane centres; CATS:
@@ -44,12 +47,11 @@ from drivestyle.envs.demonstration import (
     Demonstration,
     plausibility_problems,
 )
+from drivestyle.envs.episodes import PHANTOM_GAP_M, resample_states
+from drivestyle.envs.episodes import time_grid as _grid
 from drivestyle.envs.scenario import ScenarioConfig
 
 __all__ = ["RecordedEpisode", "load_cats", "load_ngsim", "scenario_from_episode"]
-
-PHANTOM_GAP_M = -1000.0
-"""Gap of the phantom TV used when an episode has no target vehicle."""
 
 
 @dataclass(frozen=True)
@@ -252,23 +254,6 @@ def scenario_from_episode(
     )
 
 
-def _resample(
-    t_src: np.ndarray, x: np.ndarray, y: np.ndarray, v: np.ndarray, t_new: np.ndarray
-) -> np.ndarray:
-    """States [x, y, φ, v] on t_new from recorded positions and speeds."""
-    from scipy.interpolate import CubicSpline
-
-    sx, sy = CubicSpline(t_src, x), CubicSpline(t_src, y)
-    phi = np.arctan2(sy(t_new, 1), sx(t_new, 1))
-    return np.column_stack([sx(t_new), sy(t_new), phi, np.interp(t_new, t_src, v)])
-
-
-def _grid(t_rel: np.ndarray, dt: float) -> np.ndarray:
-    start = math.ceil(t_rel.min() / dt - 1e-9) * dt
-    stop = math.floor(t_rel.max() / dt + 1e-9) * dt
-    return np.round(np.arange(start, stop + dt / 2, dt), 9)
-
-
 NEIGHBOUR_RANGE = 100.0
 """Further vehicles are kept when they come within this longitudinal distance of the EV [m]."""
 
@@ -306,12 +291,12 @@ def _build(
     def frame(df, t_query):
         y = df.y_m.to_numpy()
         y = -y if mirror else y
-        return _resample(
+        return resample_states(
             df.t_rel_s.to_numpy(),
             df.x_m.to_numpy(),
             y - y_origin_lower,
-            df.v_mps.to_numpy(),
             t_query,
+            v=df.v_mps.to_numpy(),
         )
 
     ev = frame(ego, t_new)
@@ -356,7 +341,10 @@ def _build(
     L = float(ego.length_m.iloc[0]) if "length_m" in ego else 4.5
     W = float(ego.width_m.iloc[0]) if "width_m" in ego else 1.8
     sc = scenario_from_episode(ev, tv, lane_width, dt, L, W)
-    u = np.zeros((t_new.size - 1, 2))  # inputs are not recorded
+    # inputs are not recorded; recover_inputs(ev, sc, t_new) would give them, but φ here is
+    # the course atan2(ẏ, ẋ) = φ + β, and the spline's kinematic control points add β from
+    # a nonzero δ a second time (irl/spline.py: u ≡ 0 marks recorded data): kept at zero
+    u = np.zeros((t_new.size - 1, 2))
     return Demonstration(
         t=t_new - t_new[0],
         ev=ev,

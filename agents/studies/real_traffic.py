@@ -29,7 +29,7 @@ import numpy as np
 from drivestyle.agents.studies.figures import plot_episode
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.dynamics import inverse_step
+from drivestyle.envs.episodes import recover_inputs
 from drivestyle.envs.real_data import RecordedEpisode
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
 from drivestyle.irl.driver_style import reproduce
@@ -55,7 +55,6 @@ __all__ = [
     "episode_feature_config",
     "learn_general",
     "learn_personal",
-    "recorded_inputs",
     "reproduce_with",
     "run_driver_study",
     "run_study",
@@ -345,39 +344,18 @@ a highway lane change's; the recorded EVs reach 0.07–0.22 rad (CATS at 4–7 m
 stop-and-go), and a plan from a state outside the bound is infeasible."""
 RECORDED_DELTA_MAX = 0.25
 """Steering bound of the driver model on recorded traffic [rad] (the recorded lane changes
-need up to 0.16 rad, :func:`recorded_inputs`; the scenario's 0.05 rad is a highway's)."""
+need up to 0.16 rad, :func:`~drivestyle.envs.episodes.recover_inputs`; the scenario's 0.05 rad
+is a highway's)."""
 DRIVER_REPRODUCTIONS = ("personal", "own_loo", "general_loo")
 """Driver-model reproductions: the episode's own style; a vehicle's style from its other
 episodes (leave-one-out); the style of the other vehicles' episodes (leave-one-out)."""
 
 
-def recorded_inputs(demo: Demonstration) -> np.ndarray:
-    """The inputs [a, δ] that carry each recorded state to the next (inputs are not recorded).
-
-    Per step, the input minimising the scaled mismatch between the bicycle model's RK4 step
-    and the next recorded state (bounded least squares; the recordings are matched to a
-    few cm per step: they are smooth, and φ and v come from the same splines).
-
-    Args:
-        demo: a recorded episode on its T_s grid.
-
-    Returns:
-        Inputs, shape (n−1, 2).
-    """
-    sc = demo.scenario
-    ev = demo.ev
-    lo, hi = (sc.a_min, -RECORDED_DELTA_MAX), (sc.a_max, RECORDED_DELTA_MAX)
-    u = np.zeros((demo.n - 1, 2))
-    for k in range(demo.n - 1):
-        dt = float(demo.t[k + 1] - demo.t[k])
-        u[k] = inverse_step(ev[k], ev[k + 1], dt, sc.l_f, sc.l_r, lo, hi)
-    return u
-
-
 def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
     """A recorded episode as the driver model's demonstration.
 
-    Three changes: the inputs are :func:`recorded_inputs`; the heading and steering bounds
+    Three changes: the inputs are recovered within the bounds below
+    (:func:`~drivestyle.envs.episodes.recover_inputs`); the heading and steering bounds
     are :data:`RECORDED_PHI_MAX` and :data:`RECORDED_DELTA_MAX`; with ``own_line`` every
     vehicle is shifted laterally so that the target lane's centre (the model's y_ref) lies
     on the EV's own line over the last second — the paper-model study's l_des rule
@@ -396,13 +374,12 @@ def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
     shift = np.zeros(4)
     if own_line:
         shift[1] = sc.y_ref - float(demo.ev[-k:, 1].mean())
-    base = replace(demo, meta={**demo.meta, "scenario": sc.to_dict()})
     others = demo.other_vehicles + shift
     return Demonstration(
         t=demo.t,
         ev=demo.ev + shift,
         tv=demo.tv + shift,
-        u=recorded_inputs(base),
+        u=recover_inputs(demo.ev, sc, demo.t),
         meta={**demo.meta, "scenario": sc.to_dict(), "lateral_shift_m": float(shift[1])},
         others=others if others.shape[1] else None,
     )

@@ -140,10 +140,10 @@ def _recorded_like(n: int = 16, brake: float = 0.0, speed: float = 6.0):
 
 
 def test_recorded_inputs_recover_the_applied_inputs():
-    from drivestyle.agents.studies.real_traffic import recorded_inputs
+    from drivestyle.envs.episodes import recover_inputs
 
     demo, u = _recorded_like()
-    np.testing.assert_allclose(recorded_inputs(demo), u, atol=1e-6)
+    np.testing.assert_allclose(recover_inputs(demo.ev, demo.scenario, demo.t), u, atol=1e-6)
 
 
 def test_driver_demo_shifts_every_vehicle_to_the_evs_own_line():
