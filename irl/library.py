@@ -40,7 +40,7 @@ from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.driver_learning import DriverFit, learn_driver
-from drivestyle.irl.driver_style import RISK_RANGE, DriverStyle, DriverStyleError
+from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyle, DriverStyleError
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 
@@ -464,6 +464,34 @@ class DriverLibrary:
             raise LibraryError(f"library risks must lie in [{lo}, {hi}], got {self.risks}")
         _check_risk_count(self.risks)
         check_temperature(self.temperature)
+
+    @property
+    def fit_residual(self) -> float:
+        """The residual RMS its learning left on the training demonstrations [σ_u units].
+
+        ``fit.residual_rms`` of ``library.json``; 0 when the file does not record one.
+        """
+        fit = self.meta.get("fit")
+        value = fit.get("residual_rms") if isinstance(fit, Mapping) else None
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return 0.0
+        value = float(value)
+        return value if math.isfinite(value) and value >= 0 else 0.0
+
+    @property
+    def noise_floor(self) -> float:
+        """The residual RMS one driver of the class leaves under the style [σ_u units].
+
+        √(fit_residual² + s_floor²) (DESIGN §15), s_floor =
+        :data:`~drivestyle.irl.driver_style.RESIDUAL_FLOOR`.
+
+        The learned cost misses its own class by ``fit_residual`` (model error of the
+        shared cost), and a driver of the class is never assumed to be fitted closer than
+        s_floor (the likelihood's own floor); the two are independent, so they add in
+        quadrature. Identification compares a demonstration's residual RMS at its best
+        risk with this floor to say whether the style describes the driver at all.
+        """
+        return math.hypot(self.fit_residual, RESIDUAL_FLOOR)
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``library.json``)."""
