@@ -57,8 +57,11 @@ __all__ = [
     "ENGINES",
     "FAILURE_KINDS",
     "LEGACY_COLUMNS",
+    "PRE_VERDICT_COLUMNS",
     "RAY_TASK_RETRIES",
+    "READABLE_HEADERS",
     "TIMING_COLUMNS",
+    "VERDICT_COLUMNS",
     "MinedRow",
     "Miner",
     "MiningTask",
@@ -164,8 +167,21 @@ class MinedRow:
     identify_s: float | None = None
     """Wall time of identification [s]."""
     failure_kind: str = ""
-    """A failed row's :data:`FAILURE_KINDS` ("data" or "infrastructure"), empty when ok. Last
-    column: the earlier columns keep their places."""
+    """A failed row's :data:`FAILURE_KINDS` ("data" or "infrastructure"), empty when ok.
+    Appended after the first version's columns: the earlier columns keep their places."""
+    residual_rms: float | None = None
+    """The verdict (:class:`~drivestyle.irl.identification.Verdict`, the columns
+    :data:`VERDICT_COLUMNS`, appended last): residual RMS at the best risk [σ_u units]."""
+    noise_floor: float | None = None
+    """The library's noise floor [σ_u units] (driver libraries)."""
+    out_of_class: bool | None = None
+    """Whether the residual RMS exceeds the out-of-class factor times the floor."""
+    kl_nats: float | None = None
+    """KL(posterior ‖ prior) [nats]."""
+    interval_width_ratio: float | None = None
+    """The 90 % interval's width over the prior's."""
+    reason: str = ""
+    """Why the identification is (not) informative or out of class (one line)."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.id, str) and self.id):
@@ -176,6 +192,8 @@ class MinedRow:
             )
         if "\n" in self.error or "\r" in self.error:
             raise ValueError(f"row {self.id}: the error must be one line")
+        if "\n" in self.reason or "\r" in self.reason:
+            raise ValueError(f"row {self.id}: the reason must be one line")
         if self.status == "failed":
             if not self.error:
                 raise ValueError(f"row {self.id}: a failed row needs its error")
@@ -237,19 +255,23 @@ class MinedRow:
     def from_csv(cls, record: Mapping[str | None, Any]) -> MinedRow:
         """A row from ``styles.csv``'s cells (a ``csv.DictReader`` record).
 
-        A table of the version before ``failure_kind`` (:data:`LEGACY_COLUMNS`) reads too:
-        its failed rows are data failures (its local engine wrote no others).
+        Tables of earlier versions read too (:data:`READABLE_HEADERS`): before the verdict
+        (:data:`PRE_VERDICT_COLUMNS`) its cells are missing (None, reason empty); before
+        ``failure_kind`` (:data:`LEGACY_COLUMNS`) the failed rows are data failures (its
+        local engine wrote no others).
 
         Raises:
             ValueError: a torn or malformed row (cells missing or extra, a value that does
                 not parse, an inconsistent row).
         """
-        columns = COLUMNS if "failure_kind" in record else LEGACY_COLUMNS
+        columns = next((h for h in READABLE_HEADERS if h[-1] in record), COLUMNS)
         if None in record or any(record.get(c) is None for c in columns):
             raise ValueError("torn row (wrong number of cells)")
         cell = {c: str(record[c]) for c in columns}
         if columns is LEGACY_COLUMNS:
             cell["failure_kind"] = "data" if cell["status"] == "failed" else ""
+        for c in VERDICT_COLUMNS:
+            cell.setdefault(c, "")
         return cls(
             id=cell["id"],
             source=cell["source"],
@@ -270,6 +292,12 @@ class MinedRow:
             learn_s=_opt_float(cell["learn_s"]),
             identify_s=_opt_float(cell["identify_s"]),
             failure_kind=cell["failure_kind"],
+            residual_rms=_opt_float(cell["residual_rms"]),
+            noise_floor=_opt_float(cell["noise_floor"]),
+            out_of_class=_opt_bool(cell["out_of_class"]),
+            kl_nats=_opt_float(cell["kl_nats"]),
+            interval_width_ratio=_opt_float(cell["interval_width_ratio"]),
+            reason=cell["reason"],
         )
 
     def without_timings(self) -> MinedRow:
@@ -280,8 +308,17 @@ class MinedRow:
 COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(MinedRow))
 """Columns of ``styles.csv``, in :class:`MinedRow`'s field order; ``theta_normalised`` is a
 JSON list in the library's feature order, the interval is [risk_lo, risk_hi]."""
-LEGACY_COLUMNS: tuple[str, ...] = COLUMNS[:-1]
+VERDICT_COLUMNS: tuple[str, ...] = (
+    "residual_rms", "noise_floor", "out_of_class", "kl_nats", "interval_width_ratio", "reason",
+)  # fmt: skip
+"""The verdict's columns (issue 26), the last ones of :data:`COLUMNS`."""
+assert COLUMNS[-len(VERDICT_COLUMNS) :] == VERDICT_COLUMNS
+PRE_VERDICT_COLUMNS: tuple[str, ...] = COLUMNS[: -len(VERDICT_COLUMNS)]
+"""The columns of a table written before the verdict (read, and rewritten)."""
+LEGACY_COLUMNS: tuple[str, ...] = PRE_VERDICT_COLUMNS[:-1]
 """The columns of a table written before ``failure_kind`` (read, and rewritten)."""
+READABLE_HEADERS: tuple[tuple[str, ...], ...] = (COLUMNS, PRE_VERDICT_COLUMNS, LEGACY_COLUMNS)
+"""Every header :meth:`MinedRow.from_csv` reads, newest first (each extends the next)."""
 
 
 def _round(value: float | None) -> float | None:
@@ -394,6 +431,7 @@ def _ok_row(
 ) -> MinedRow:
     """A successful row from an identification and the vehicle's style and fit."""
     lo, hi = ident.risk_interval
+    v = ident.verdict
     return MinedRow(
         id=demo_id,
         source=source,
@@ -412,6 +450,12 @@ def _ok_row(
         converged=converged,
         learn_s=learn_s,
         identify_s=identify_s,
+        residual_rms=None if v is None else _round(v.residual_rms),
+        noise_floor=None if v is None else _round(v.noise_floor),
+        out_of_class=None if v is None else v.out_of_class,
+        kl_nats=None if v is None else _round(v.kl_nats),
+        interval_width_ratio=None if v is None else _round(v.width_ratio),
+        reason="" if v is None else _one_line(v.reason),
     )
 
 

@@ -19,7 +19,8 @@ skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
 - rows that failed for an infrastructure reason (``failure_kind``: a worker that died, was
   killed, ran out of memory) are dropped on entering, so a resumed run mines them again;
   data failures are final. A table of the version before ``failure_kind`` is read (its
-  failures are data failures) and rewritten with the new header;
+  failures are data failures) and rewritten with the new header; so is one of the version
+  before the verdict columns (its rows keep empty verdict cells);
 - a demonstration's id is its path under the input folder (:data:`ID_SCHEME`), whatever the
   other files are; rows of an earlier version (stem ids) are given their path ids on
   entering, or dropped and mined again where a stem is ambiguous now; rows of
@@ -43,7 +44,7 @@ from typing import Any
 
 from drivestyle.common.io import write_text
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.mining import COLUMNS, LEGACY_COLUMNS, MinedRow
+from drivestyle.irl.mining import COLUMNS, READABLE_HEADERS, MinedRow
 
 try:  # POSIX; elsewhere the output folder is not locked
     import fcntl
@@ -140,12 +141,12 @@ def _parse_table(text: str, what: str) -> tuple[list[MinedRow], int, bool]:
     """(valid rows, first of each id; rows dropped; whether the header is this version's).
 
     Raises:
-        MiningOutputError: the header is neither :data:`COLUMNS` nor the legacy one.
+        MiningOutputError: the header is none of :data:`READABLE_HEADERS`.
     """
     reader = csv.DictReader(io.StringIO(text, newline=""))
     if reader.fieldnames is None:
         return [], 0, False
-    if tuple(reader.fieldnames) not in (COLUMNS, LEGACY_COLUMNS):
+    if tuple(reader.fieldnames) not in READABLE_HEADERS:
         raise MiningOutputError(
             f"{what} is not a styles.csv of this version (columns {reader.fieldnames})"
         )
