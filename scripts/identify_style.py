@@ -11,7 +11,15 @@ one validation picked; see irl/identification.py). Writes
 ``risk_interpolated`` (posterior mean), ``posterior`` (per library risk), ``risk_interval``
 (90 % of the posterior), ``informative`` (false when no TV came near enough for the risk
 to matter: the interval is then the whole grid), ``scores``, ``ranking``,
-``trigger_fired`` and, where the demonstrations' metadata holds it, ``true_risk``. Several
+``trigger_fired`` and, where the demonstrations' metadata holds it, ``true_risk``. The
+verdict on fit (:class:`~drivestyle.irl.identification.Verdict`): ``informative`` (the
+data moved the posterior: KL and interval width against the prior, a binding chance
+constraint), ``out_of_class`` (residual RMS at the best risk above k noise floors),
+``residual_rms``, ``noise_floor``, ``residual_floors``, ``kl_nats``,
+``interval_width_ratio``, ``constraint_binds`` and ``reason``; the summary line says it.
+``--plot`` also writes ``OUT/identify.png``: the posterior with the prior and the 90 %
+interval, and the library's style driven in closed loop at the identified risk over each
+recorded path (driver libraries). Several
 demonstrations of one vehicle pool into one posterior; a file given twice, or two files of
 the same content, count once (one would weigh as two), and a line on stderr says which.
 
@@ -26,13 +34,15 @@ import argparse
 import hashlib
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from drivestyle.common.cli import HelpFormatter, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.demonstration import load_demonstration
-from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, identify
-from drivestyle.irl.library import DriverLibrary, load_any_library
+from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.irl.driver_style import DriverStyleError, Reproduction, reproduce
+from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, Identification, identify
+from drivestyle.irl.library import DriverLibrary, StyleLibrary, load_any_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -48,6 +58,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--out", type=Path, default=Path("runs/identify"), help="output folder (replaced whole)"
+    )
+    p.add_argument(
+        "--plot",
+        action="store_true",
+        help="also write identify.png: the posterior with the prior and the 90 %% interval, "
+        "and the style's reproduction at the identified risk over the recorded path",
     )
     return p.parse_args(argv)
 
@@ -68,6 +84,8 @@ def main(argv: list[str] | None = None) -> dict:
     }
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "identify.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+        if args.plot:
+            _plot(ident, demos, library, tmp / "identify.png")
     known = sorted({p for p in ident.true_risks if p is not None})
     lo, hi = ident.risk_interval
     print(
@@ -75,20 +93,53 @@ def main(argv: list[str] | None = None) -> dict:
         f"posterior mean {ident.risk_interpolated:.3f} ({ident.scorer} scorer, "
         f"{len(demos)} demonstration{'s' if len(demos) > 1 else ''}"
         + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
+        + f"; {_verdict_text(ident)}"
     )
+    if ident.reason:
+        print(f"  verdict: {ident.reason}")
     print(
         "  posterior: " + ", ".join(f"p={p:g}: {q:.2f}" for p, q in ident.posterior_by_risk.items())
     )
-    if not ident.informative:
-        min_s_e = min(d.min_s_e for d in ident.per_demo)
-        print(
-            "  not informative: the TV never came near enough for the risk to matter "
-            f"(min s_e {min_s_e:.1f}); the interval is the whole grid"
-        )
     if not ident.trigger_fired and not isinstance(library, DriverLibrary):
         print("  note: the trigger never fired (the reactive features are inactive)")
-    print(f"  {payload['identify_s']:.2f} s; wrote {args.out}/identify.json")
+    wrote = "identify.json" + (" and identify.png" if args.plot else "")
+    print(f"  {payload['identify_s']:.2f} s; wrote {wrote} in {args.out}")
     return payload
+
+
+def _verdict_text(ident: Identification) -> str:
+    """The verdict in a few words: informative or not, in class or not, KL and width."""
+    v = ident.verdict
+    if v is None:
+        return "informative" if ident.informative else "not informative"
+    words = ["informative" if v.informative else "NOT informative"]
+    if v.floors is not None:
+        fit = "OUT OF CLASS" if v.out_of_class else "in class"
+        words.append(f"{fit} (residual {v.residual_rms:.2f} σ_u = {v.floors:.1f} floors)")
+    words.append(f"KL {v.kl_nats:.2f} nats, interval {v.width_ratio:.0%} of the prior's")
+    return ", ".join(words)
+
+
+def _plot(
+    ident: Identification,
+    demos: list[Demonstration],
+    library: DriverLibrary | StyleLibrary,
+    path: Path,
+) -> None:
+    """identify.png: posterior and prior, and the reproduction at the identified risk."""
+    from drivestyle.agents.studies.figures import plot_identification  # matplotlib: on demand
+
+    reproductions: list[Reproduction | None] = []
+    for demo in demos:
+        rep = None
+        if isinstance(library, DriverLibrary):
+            style = replace(library.style, risk=ident.risk_interpolated)
+            try:
+                rep = reproduce(style, demo)
+            except DriverStyleError as exc:  # the posterior is still worth a figure
+                print(f"  note: no reproduction drawn: {exc}", file=sys.stderr)
+        reproductions.append(rep)
+    plot_identification(ident, demos, reproductions, path)
 
 
 def _distinct_files(paths: list[Path]) -> list[Path]:
