@@ -179,6 +179,9 @@ class ExtractionConfig:
     v_ref: float | None = None
     """The EV's desired speed when known (e.g. the speed limit) [m/s]; None: from the
     observed part (:func:`observed_scenario`)."""
+    l_a: float | None = None
+    """The safety ellipse's semi-major axis when known (e.g. the model's or a library's) [m];
+    None: scaled with the observed speed level (:func:`observed_scenario`)."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -206,6 +209,8 @@ class ExtractionConfig:
             )
         if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= 70):
             raise ValueError(f"v_ref must be in (0, 70] m/s, got {self.v_ref!r}")
+        if self.l_a is not None and not (math.isfinite(self.l_a) and self.l_a > 0):
+            raise ValueError(f"l_a must be a finite number > 0 [m], got {self.l_a!r}")
 
 
 # --------------------------------------------------------------------------------- the types
@@ -421,6 +426,7 @@ def observed_scenario(
     length: float,
     width: float,
     v_ref: float | None = None,
+    l_a: float | None = None,
 ) -> ScenarioConfig:
     """An episode's scenario from its observed part only (the loaders' rule, DESIGN §10).
 
@@ -439,6 +445,7 @@ def observed_scenario(
         length: EV length [m].
         width: EV width [m].
         v_ref: known desired speed [m/s], or None.
+        l_a: known semi-major axis of the ellipse [m], or None.
 
     Returns:
         The scenario (start-inside-ellipse check off: recorded traffic may start closer).
@@ -463,7 +470,7 @@ def observed_scenario(
         v_ref=v_ref if v_ref is not None else max(v_level, 1.0),
         dt=dt,
         horizon_s=round((n - 1) * dt, 9),
-        l_a=max(5.0, 15.0 * v_level / 27.5),
+        l_a=l_a if l_a is not None else max(5.0, 15.0 * v_level / 27.5),
         l_b=3.0 * lane_width / 5.25,
         check_start=False,
     )
@@ -542,7 +549,7 @@ def _episode(
     try:
         sc = observed_scenario(
             ev[observed], tv[0], tv_lane, w, dt, t_grid.size, track.length, track.width,
-            config.v_ref,
+            config.v_ref, config.l_a,
         )  # fmt: skip
         meta = {
             "scenario": sc.to_dict(),
