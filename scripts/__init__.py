@@ -24,6 +24,7 @@ COMMANDS: dict[str, str] = {
     "mine-styles": "personal style and risk of many demonstrations (local or Ray)",
     "simulate-population": "SMPC vehicles with known risks (ground truth for mining)",
     "real-traffic": "styles of recorded lane changes (NGSIM, CATS)",
+    "extract-episodes": "lane changes of your own trajectories as demonstrations",
     "train-baseline": "a stable-baselines3 policy on a learned style's reward",
     "compare-baseline": "SMPC vs spline reproduction vs SB3 policy",
     "deviating-tv": "drivers facing a TV that deviates from its prediction",

@@ -22,6 +22,7 @@ SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init
 NO_SEED = {
     "capacity_study",
     "deviating_tv",
+    "extract_episodes",
     "identify_style",
     "learn_style",
     "mine_styles",
@@ -199,6 +200,7 @@ WRITES = {
     "evaluate_identification": ("--out", "ev", ["--library", MISSING]),
     "evaluate_planning": ("--out", "plan", ["--library", MISSING]),
     "evaluate_prediction": ("--out", "pe", ["--library", MISSING]),
+    "extract_episodes": ("--out", "ep", [MISSING]),
     "generate_demo": ("--out", "demo", []),
     "identify_style": ("--out", "id", [f"{MISSING}.npz", "--library", MISSING]),
     "learn_style": ("--out", "style", [f"{MISSING}.npz"]),

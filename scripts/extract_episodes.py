@@ -1,0 +1,151 @@
+r"""Extract the lane changes of your own trajectories as demonstrations (``.npz``).
+
+Reads DATA with a reader of ``--format`` (``csv``: the generic long table with columns
+``id, t, x, y`` and optionally ``v, heading, length, width, lane, frame``; ``ngsim``,
+``highd``, ``interaction``: those datasets' published files), finds every lane change
+(envs/episodes.py: a lane line crossed and the new lane held, enough track before and
+after), mirrors rightward changes to +y, keeps the interacting vehicles (target-lane
+follower and leader, own-lane leader), resamples to ``--dt``, recovers the inputs and sets
+each scenario from the episode's observed part only. Writes ``OUT/<episode>.npz`` for every
+usable episode, ``OUT/episodes.csv`` (every episode found, usable or not and why) and
+``OUT/extract.json`` (counts and settings).
+
+Example:
+    python scripts/extract_episodes.py tracks.csv --format csv --lane-width 3.75 \\
+        --out runs/episodes
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from drivestyle.common.cli import HelpFormatter, float_list, positive_float, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.envs.episodes import ExtractionConfig, extract_episodes, write_episodes
+from drivestyle.envs.readers import READERS
+
+FORMATS = ("csv", "ngsim", "highd", "interaction")
+"""``--format`` choices (each a key of :data:`drivestyle.envs.readers.READERS`)."""
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    d = ExtractionConfig()
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
+    p.add_argument("data", type=Path, help="the trajectory file (or the dataset's file)")
+    p.add_argument("--format", default="csv", choices=FORMATS, help="how DATA is written")
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/episodes"), help="output folder (replaced whole)"
+    )
+    p.add_argument(
+        "--lane-width",
+        type=positive_float,
+        help="csv: lane width [m], lane lines at its multiples (y = 0 a line); "
+        "default: --lane-markings, else the table's lane column",
+    )
+    p.add_argument(
+        "--lane-markings",
+        type=float_list,
+        help="csv: the lane lines' y in the file's frame [m], e.g. 0,3.75,7.5,11.25",
+    )
+    p.add_argument("--dt", type=positive_float, default=d.dt, help="T_s of the demonstrations [s]")
+    p.add_argument(
+        "--before", type=positive_float, default=d.before_s, help="window before the crossing [s]"
+    )
+    p.add_argument(
+        "--after", type=positive_float, default=d.after_s, help="window after the crossing [s]"
+    )
+    p.add_argument(
+        "--min-before",
+        type=positive_float,
+        default=d.min_before_s,
+        help="track needed before the crossing [s]",
+    )
+    p.add_argument(
+        "--min-after",
+        type=positive_float,
+        default=d.min_after_s,
+        help="track needed after the crossing [s]",
+    )
+    p.add_argument(
+        "--min-stay",
+        type=positive_float,
+        default=d.min_stay_s,
+        help="time in the old lane before and the new lane after a crossing [s]",
+    )
+    p.add_argument(
+        "--observe",
+        type=positive_float,
+        default=d.observe_s,
+        help="the observed part: the window's first seconds, the only data the scenario "
+        "constants (v_ref, ellipse) come from [s]; at most --min-before",
+    )
+    p.add_argument(
+        "--v-ref",
+        type=positive_float,
+        help="the drivers' desired speed when known (e.g. the speed limit) [m/s]; default: "
+        "each episode's observed speed level",
+    )
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    """Extract; returns extract.json's payload."""
+    args = parse_args(argv)
+    check_output_dir(args.out, inputs=[args.data])
+    config = ExtractionConfig(
+        dt=args.dt,
+        before_s=args.before,
+        after_s=args.after,
+        min_before_s=args.min_before,
+        min_after_s=args.min_after,
+        min_stay_s=args.min_stay,
+        observe_s=args.observe,
+        v_ref=args.v_ref,
+    )
+    if args.format != "csv" and (args.lane_width is not None or args.lane_markings is not None):
+        raise ValueError(
+            f"--lane-width and --lane-markings are for --format csv; {args.format} files "
+            "carry their own lane geometry"
+        )
+    t0 = time.perf_counter()
+    if args.format == "csv":
+        recording = READERS["csv"](
+            args.data,
+            lane_width=args.lane_width,
+            lane_markings=args.lane_markings,
+            progress=True,
+        )
+    else:
+        recording = READERS[args.format](args.data)
+    episodes = extract_episodes(recording, config, progress=True)
+    usable = [e for e in episodes if e.usable]
+    payload = {
+        "data": str(args.data),
+        "format": args.format,
+        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+        "vehicles": sum(len(c.tracks) for c in recording.carriageways),
+        "carriageways": [c.name for c in recording.carriageways],
+        "n_episodes": len(episodes),
+        "n_usable": len(usable),
+        "n_mirrored": sum(e.mirrored for e in usable),
+        "n_no_interaction": sum(e.no_interaction for e in usable),
+        "wall_s": time.perf_counter() - t0,
+    }
+    with atomic_output_dir(args.out) as tmp:
+        write_episodes(episodes, tmp)
+        write_json(tmp / "extract.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    print(
+        f"{len(episodes)} lane change(s) in {payload['vehicles']} vehicles, {len(usable)} usable "
+        f"({payload['n_mirrored']} mirrored, {payload['n_no_interaction']} without an "
+        f"interacting vehicle); wrote {args.out}/episodes.csv"
+    )
+    return payload
+
+
+if __name__ == "__main__":
+    run_cli(main)
