@@ -52,6 +52,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=float_list,
         help="csv: the lane lines' y in the file's frame [m], e.g. 0,3.75,7.5,11.25",
     )
+    p.add_argument(
+        "--direction",
+        help="interaction: the direction of travel in the map frame (its reader's direction=)",
+    )
     p.add_argument("--dt", type=positive_float, default=d.dt, help="T_s of the demonstrations [s]")
     p.add_argument(
         "--before", type=positive_float, default=d.before_s, help="window before the crossing [s]"
@@ -107,11 +111,15 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         observe_s=args.observe,
         v_ref=args.v_ref,
     )
-    if args.format != "csv" and (args.lane_width is not None or args.lane_markings is not None):
+    if args.format in ("ngsim", "highd") and (
+        args.lane_width is not None or args.lane_markings is not None
+    ):
         raise ValueError(
-            f"--lane-width and --lane-markings are for --format csv; {args.format} files "
-            "carry their own lane geometry"
+            f"--lane-width and --lane-markings are for --format csv and interaction; "
+            f"{args.format} files carry their own lane geometry"
         )
+    if args.format == "interaction" and (args.lane_markings is None or args.direction is None):
+        raise ValueError("--format interaction needs --lane-markings and --direction")
     t0 = time.perf_counter()
     if args.format == "csv":
         recording = READERS["csv"](
@@ -120,6 +128,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             lane_markings=args.lane_markings,
             progress=True,
         )
+    elif args.format == "interaction":
+        direction = args.direction
+        try:
+            direction = float(direction)
+        except ValueError:
+            pass  # a named direction
+        recording = READERS["interaction"](args.data, args.lane_markings, direction=direction)
     else:
         recording = READERS[args.format](args.data)
     episodes = extract_episodes(recording, config, progress=True)
