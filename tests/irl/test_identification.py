@@ -5,6 +5,7 @@ import runpy
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from drivestyle.agents import generate_demonstration
@@ -39,6 +40,15 @@ IDENTIFY_JSON_KEYS = {
     "trigger_fired",
     "trigger_fired_per_demo",
     "true_risk",
+    # the verdict (issue 26)
+    "out_of_class",
+    "residual_rms",
+    "noise_floor",
+    "residual_floors",
+    "kl_nats",
+    "interval_width_ratio",
+    "constraint_binds",
+    "reason",
 }
 
 
@@ -122,3 +132,24 @@ def test_identify_script_has_no_seed_option():
     parse = runpy.run_path(str(ROOT / "scripts" / "identify_style.py"), run_name="x")["parse_args"]
     with pytest.raises(SystemExit):
         parse(["demo.npz", "--library", "lib", "--seed", "3"])
+
+
+def test_scrambled_inputs_are_out_of_class(paper_demo):
+    # an SMPC(0.7) drive whose recorded inputs carry noise of 10 σ_u: far above the floor
+    from drivestyle.irl.driver_style import INPUT_SCALE, DriverStyle
+    from drivestyle.irl.identification import driver_posterior
+    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.risk_profile import risk_profile
+
+    n = 8  # a prefix keeps the test fast
+    demo = Demonstration(t=paper_demo.t[:n], ev=paper_demo.ev[:n], tv=paper_demo.tv[:n],
+                         u=paper_demo.u[: n - 1], meta=paper_demo.meta)  # fmt: skip
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
+    noise = np.random.default_rng(0).normal(0.0, 10.0, demo.u.shape) * np.asarray(INPUT_SCALE)
+    verdicts = {}
+    for name, d in [("exact", demo), ("scrambled", replace(demo, u=demo.u + noise))]:
+        res = driver_posterior([risk_profile(library.style, d)], library, [5.0], [None])
+        verdicts[name] = res.verdict
+    assert not verdicts["exact"].out_of_class and verdicts["exact"].residual_rms < 0.1
+    assert verdicts["scrambled"].out_of_class and verdicts["scrambled"].residual_rms > 5.0
+    assert "out of class" in verdicts["scrambled"].reason

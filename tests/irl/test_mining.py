@@ -310,6 +310,8 @@ def test_the_styles_csv_header_is_the_documented_one():
         "id", "source", "status", "error", "true_risk", "risk_estimate", "risk_lo", "risk_hi",
         "risk_mean", "informative", "trigger_fired", "theta_normalised", "rmse_y_m",
         "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s", "failure_kind",
+        "residual_rms", "noise_floor", "out_of_class", "kl_nats", "interval_width_ratio",
+        "reason",
     )  # fmt: skip
 
 
@@ -354,8 +356,45 @@ def test_a_failure_kind_is_validated_and_round_trips():
         MinedRow.failed("v", "pop", "x", kind="cosmic rays")
     # a row of the version before failure_kind: its failures are data failures
     legacy = {k: v for k, v in MinedRow.failed("v", "pop", "x").to_csv().items()}
-    del legacy["failure_kind"]
+    for column in ("failure_kind", *mining.VERDICT_COLUMNS):
+        del legacy[column]
     assert MinedRow.from_csv(legacy).failure_kind == "data"
+
+
+def test_the_verdict_columns_round_trip_and_an_older_row_reads():
+    row = MinedRow(
+        "v", "pop", "ok", risk_estimate=0.7, risk_lo=0.52, risk_hi=0.94, risk_mean=0.7,
+        informative=False, theta_normalised=(1.0, 2.0), residual_rms=5.04,
+        noise_floor=0.1005, out_of_class=False, kl_nats=0.046, interval_width_ratio=0.94,
+        reason="the data barely moved the posterior (KL 0.05 nats, σ_u, a comma)",
+    )  # fmt: skip
+    assert mining.COLUMNS[-len(mining.VERDICT_COLUMNS) :] == mining.VERDICT_COLUMNS
+    assert MinedRow.from_csv(row.to_csv()) == row
+    older = {k: v for k, v in row.to_csv().items() if k not in mining.VERDICT_COLUMNS}
+    read = MinedRow.from_csv(older)
+    assert read.residual_rms is None and read.out_of_class is None and read.reason == ""
+    assert read.risk_mean == 0.7 and read.informative is False
+    with pytest.raises(ValueError, match="one line"):
+        MinedRow("v", "pop", "failed", error="x", failure_kind="data", reason="a\nb")
+
+
+def test_a_driver_library_row_carries_the_verdict(paper_demo):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.identification import driver_posterior
+    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
+    flat = RiskProfile(RISK_EVAL, (0.6,) * len(RISK_EVAL), 60, 0)
+    ident = driver_posterior([flat], library, [95.0], [None])
+    row = mining._ok_row(
+        "v", "pop", None, ident, theta_normalised=(1.0,) * 5, rmse_y_m=0.1, rmse_xy_m=0.2,
+        iterations=0, converged=True, learn_s=0.0, identify_s=0.0,
+    )  # fmt: skip
+    assert row.informative is False and row.out_of_class is False
+    assert row.kl_nats == 0.0 and row.interval_width_ratio == 1.0
+    assert row.residual_rms == pytest.approx(0.1, abs=1e-6)
+    assert "cannot inform the risk" in row.reason
 
 
 _RAY_JOB = """

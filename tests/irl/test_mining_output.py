@@ -224,9 +224,12 @@ def test_infrastructure_failures_are_retried_and_data_failures_are_final(tmp_pat
     ]
 
 
-def test_a_table_of_the_version_before_failure_kind_is_read_and_rewritten(tmp_path):
+@pytest.mark.parametrize("version", ["before failure_kind", "before the verdict"])
+def test_a_table_of_an_earlier_version_is_read_and_rewritten(tmp_path, version):
+    from drivestyle.irl.mining import LEGACY_COLUMNS, PRE_VERDICT_COLUMNS
+
     (tmp_path / FINGERPRINT).write_text(json.dumps(FP.to_json()))
-    legacy = COLUMNS[:-1]
+    legacy = LEGACY_COLUMNS if version == "before failure_kind" else PRE_VERDICT_COLUMNS
     row = _row("v1").to_csv()
     (tmp_path / TABLE).write_text(
         ",".join(legacy) + "\r\n" + ",".join(row[c] for c in legacy) + "\r\n"

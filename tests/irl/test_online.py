@@ -35,6 +35,21 @@ def test_the_stream_equals_the_offline_identification_of_its_prefix(paper_demo, 
     assert online.risk_interval == offline.risk_interval
     assert online.risk_estimate == offline.risk_estimate
     assert online.per_demo[0].min_s_e == pytest.approx(offline.per_demo[0].min_s_e)
+    # the verdict (issue 26) too: the same residual sums give the same flags and numbers
+    on, off = online.verdict, offline.verdict
+    assert (on.informative, on.out_of_class, on.constraint_binds) == (
+        off.informative, off.out_of_class, off.constraint_binds,
+    )  # fmt: skip
+    assert on.residual_rms == pytest.approx(off.residual_rms, abs=1e-9)
+    assert on.kl_nats == pytest.approx(off.kl_nats, rel=1e-6, abs=1e-9)
+    assert on.width_ratio == pytest.approx(off.width_ratio)
+
+
+def test_the_verdict_of_an_smpc_driver_is_informative_and_in_class(history):
+    first, last = history[0].verdict, history[-1].verdict
+    assert first.residual_rms is None and not first.informative and "no step yet" in first.reason
+    assert last.informative and not last.out_of_class and last.constraint_binds
+    assert last.residual_rms < last.noise_floor and last.width_ratio < 0.2
 
 
 def test_the_posterior_narrows_onto_the_true_risk(history):

@@ -29,3 +29,34 @@ def test_repeated_demonstrations_count_once_and_are_named(tmp_path, paper_demo, 
         f"note: each demonstration counts once: {a} given 3 times; "
         f"{tmp_path / 'c.npz'} has the content of {a}"
     ]
+
+
+def test_plot_writes_a_figure_and_the_summary_says_the_verdict(tmp_path, paper_demo, capsys,
+                                                               monkeypatch):  # fmt: skip
+    import numpy as np
+    from PIL import Image
+
+    from drivestyle.irl.identification import driver_posterior
+    from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+
+    lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
+    (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
+    demo = tmp_path / "a.npz"
+    save_demonstration(paper_demo, demo)
+    ssr = np.full(len(RISK_EVAL), 100.0)
+    ssr[RISK_EVAL.index(0.7)] = 0.0  # the SMPC(0.7) shape, without the 13 re-solves
+
+    def fake_identify(demos, library, scorer):
+        profile = RiskProfile(RISK_EVAL, tuple(ssr), 2 * (paper_demo.n - 1), 30)
+        return driver_posterior([profile], library, [2.0], [0.7])
+
+    monkeypatch.setattr(identify_style, "identify", fake_identify)
+    out = tmp_path / "out"
+    payload = identify_style.main([str(demo), "--library", str(tmp_path), "--out", str(out),
+                                   "--plot"])  # fmt: skip
+    assert payload["informative"] is True and payload["out_of_class"] is False
+    first = capsys.readouterr().out.splitlines()[0]
+    assert "informative, in class (residual 0.00 σ_u = 0.0 floors), KL" in first
+    png = np.asarray(Image.open(out / "identify.png").convert("L"), float)
+    assert png.shape[0] > 200 and png.shape[1] > 600
+    assert png.std() > 10  # not blank: lines and text on white
