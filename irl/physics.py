@@ -1,0 +1,380 @@
+"""A physics baseline for highway prediction: IDM car following plus a fitted lane change.
+
+What a highway researcher compares a learned predictor with (DESIGN §17). From the observed
+part only — the vehicle's states ξ_0 … ξ_k and the surrounding vehicles' states at sample k —
+it predicts the vehicle's positions ξ_{k+1} … ξ_{k+H} in the road frame (x along the road,
+y lateral, lanes ``lane_width`` wide with lane i covering [i·w, (i+1)·w)):
+
+- **Longitudinal: the Intelligent Driver Model** (Treiber, Hennecke, Helbing 2000) behind
+  the leader. The surrounding vehicles are predicted at constant velocity from their last
+  observed states; the leader at step j is the nearest vehicle ahead whose predicted lateral
+  position is within half a lane of the vehicle's own predicted one (so the leader changes
+  when the predicted lane change crosses into the target lane):
+
+      a = a_max [1 − (v / v0)^4 − (s* / s)²],   s* = s0 + max(0, v T + v Δv / (2 √(a_max b))),
+
+  with s the bumper gap (front-to-front distance minus the vehicle length) [m], Δv = v − v_l
+  the approach rate [m/s], v the longitudinal speed v cos φ. The desired speed is the
+  vehicle's own: v0 = ρ · v_90 with v_90 the 90th percentile of its *observed* longitudinal
+  speeds and ρ calibrated (one v0 in m/s for congested NGSIM and a free CATS test track would
+  be an average of two regimes). Integration: v_{j+1} = max(0, v_j + a_j T_s),
+  x_{j+1} = x_j + ½ (v_j + v_{j+1}) T_s.
+- **Lateral: a quintic (minimum-jerk) lane change of duration D.** Its observed lateral
+  velocity v_y (over the last :data:`LATERAL_WINDOW_S`) decides: below
+  :attr:`PhysicsParams.trigger_mps` in magnitude the vehicle keeps its lateral position;
+  otherwise it is changing lane towards the *target line*: the centre of the next lane in the
+  direction of v_y (or of its current lane if it crossed into it in that direction during
+  the observation) — never the recorded final lane. Its progress
+  u_k ∈ [0, 1] through a change from the origin line (target − w) is read from its offset,
+  f = s(u_k), with s(u) = 10u³ − 15u⁴ + 6u⁵; the rest of the change continues from y_k:
+
+      y(t_k + τ) = y_k + (y_T − y_k) [s(min(1, u_k + τ/D)) − s(u_k)] / (1 − s(u_k)).
+
+The parameters (:class:`PhysicsParams`: ρ, T, s0, a_max, b, D) are calibrated by least
+squares of the displacement errors on the benchmark's train split
+(:func:`calibrate_physics`, deterministic) and stored in a small JSON
+(:func:`save_params` / :func:`load_params`). MOBIL-style timing (when a change starts) is not
+modelled: a change that has not started by t_obs is predicted as lane keeping.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "LATERAL_WINDOW_S",
+    "PhysicsCalibration",
+    "PhysicsCase",
+    "PhysicsParams",
+    "calibrate_physics",
+    "idm_acceleration",
+    "lateral_forecast",
+    "load_params",
+    "longitudinal_forecast",
+    "physics_forecast",
+    "quintic_progress",
+    "save_params",
+]
+
+LATERAL_WINDOW_S = 0.6
+"""The observed lateral velocity is the mean over the last this many seconds [s]."""
+IDM_DELTA = 4.0
+"""IDM's free-road exponent δ (the model's standard value, not calibrated)."""
+MIN_GAP_M = 0.1
+"""Bumper gaps are floored here so that s*/s stays finite [m]."""
+
+
+@dataclass(frozen=True)
+class PhysicsParams:
+    """The physics baseline's parameters (module docstring)."""
+
+    v0_factor: float = 1.1
+    """ρ: the IDM desired speed v0 = ρ · (90th percentile of the observed speeds) [-]."""
+    time_gap_s: float = 1.2
+    """T: desired time gap [s]."""
+    min_gap_m: float = 2.0
+    """s0: jam distance [m]."""
+    accel_mps2: float = 1.0
+    """a_max: maximum acceleration [m/s²]."""
+    decel_mps2: float = 1.5
+    """b: comfortable deceleration [m/s²]."""
+    lc_duration_s: float = 5.0
+    """D: duration of a whole lane change (origin line to target line) [s]."""
+    trigger_mps: float = 0.1
+    """|v_y| above which a lane change is under way [m/s] (fixed a priori, not calibrated)."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+                raise ValueError(f"{f.name} must be a finite number > 0, got {value!r}")
+
+    def to_json(self) -> dict[str, float]:
+        """JSON-ready dict."""
+        return {k: float(v) for k, v in asdict(self).items()}
+
+
+CALIBRATED = ("v0_factor", "time_gap_s", "min_gap_m", "accel_mps2", "decel_mps2", "lc_duration_s")
+"""The parameters :func:`calibrate_physics` fits (in this order)."""
+BOUNDS = {
+    "v0_factor": (0.8, 2.0),
+    "time_gap_s": (0.3, 3.0),
+    "min_gap_m": (0.5, 6.0),
+    "accel_mps2": (0.2, 4.0),
+    "decel_mps2": (0.3, 5.0),
+    "lc_duration_s": (2.0, 12.0),
+}
+"""Their bounds in the calibration (the ranges reported for highway traffic, widened)."""
+
+
+# ---------------------------------------------------------------------------- the model
+def idm_acceleration(
+    v: float, gap: float | None, dv: float, v0: float, params: PhysicsParams
+) -> float:
+    """IDM acceleration [m/s²] (module docstring).
+
+    Args:
+        v: own longitudinal speed [m/s].
+        gap: bumper gap to the leader [m] (None: no leader, the free-road term only).
+        dv: approach rate v − v_leader [m/s].
+        v0: desired speed [m/s].
+        params: T, s0, a_max, b.
+    """
+    a, b = params.accel_mps2, params.decel_mps2
+    free = 1.0 - (max(v, 0.0) / max(v0, 1e-3)) ** IDM_DELTA
+    if gap is None:
+        return a * free
+    s_star = params.min_gap_m + max(0.0, v * params.time_gap_s + v * dv / (2.0 * np.sqrt(a * b)))
+    return a * (free - (s_star / max(gap, MIN_GAP_M)) ** 2)
+
+
+def quintic_progress(u: np.ndarray | float) -> np.ndarray:
+    """s(u) = 10u³ − 15u⁴ + 6u⁵ on u clipped to [0, 1] (minimum-jerk transition)."""
+    u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
+    return u**3 * (10.0 + u * (-15.0 + 6.0 * u))
+
+
+def _inverse_progress(f: float) -> float:
+    """The progress u with s(u) = f, f clipped to [0, 1] (s is increasing: bisection to 1e-9)."""
+    f = float(np.clip(f, 0.0, 1.0))
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if quintic_progress(mid) < f else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def lateral_forecast(
+    y: np.ndarray, dt: float, steps: int, lane_width: float, params: PhysicsParams
+) -> np.ndarray:
+    """Lateral positions over the prediction (module docstring's lane-change model).
+
+    Args:
+        y: the observed lateral positions y_0 … y_k [m], shape (k + 1,).
+        dt: T_s [s].
+        steps: H.
+        lane_width: w [m].
+        params: D and the trigger.
+
+    Returns:
+        y at j = 0 … H, shape (H + 1,) (row 0: y_k).
+    """
+    y = np.asarray(y, dtype=float)
+    m = min(len(y) - 1, max(1, round(LATERAL_WINDOW_S / dt)))
+    vy = (y[-1] - y[-1 - m]) / (m * dt) if m >= 1 else 0.0
+    yk = float(y[-1])
+    if abs(vy) < params.trigger_mps:
+        return np.full(steps + 1, yk)
+    d = 1.0 if vy > 0 else -1.0
+    # the neighbouring lane's centre in the direction d, or the current lane's if the vehicle
+    # crossed into it in that direction during the observation (lane i: [i w, (i + 1) w))
+    lane, first = np.floor(yk / lane_width), np.floor(y[0] / lane_width)
+    target = float((lane + (0.0 if lane == first + d else d) + 0.5) * lane_width)
+    origin = target - d * lane_width
+    u_k = _inverse_progress((yk - origin) / (target - origin))
+    s_k = float(quintic_progress(u_k))
+    tau = np.arange(steps + 1) * dt
+    share = (quintic_progress(u_k + tau / params.lc_duration_s) - s_k) / max(1.0 - s_k, 1e-9)
+    return yk + (target - yk) * share
+
+
+def longitudinal_forecast(
+    ev: np.ndarray,
+    others: np.ndarray,
+    y_path: np.ndarray,
+    dt: float,
+    lane_width: float,
+    length: float,
+    params: PhysicsParams,
+) -> np.ndarray:
+    """Longitudinal positions under IDM behind the leader of the predicted lane.
+
+    Args:
+        ev: the observed states [x, y, φ, v] ξ_0 … ξ_k, shape (k + 1, 4).
+        others: the surrounding vehicles' states at sample k, shape (m, 4) (predicted at
+            constant velocity from here).
+        y_path: the vehicle's predicted lateral positions, shape (H + 1,).
+        dt: T_s [s].
+        lane_width: w [m] (a vehicle within w/2 laterally is in the same lane).
+        length: the leader's length, subtracted from the front-to-front distance [m].
+        params: the IDM parameters.
+
+    Returns:
+        x at j = 0 … H, shape (H + 1,) (row 0: x_k).
+    """
+    steps = len(y_path) - 1
+    v_obs = ev[:, 3] * np.cos(ev[:, 2])
+    v0 = params.v0_factor * max(float(np.percentile(v_obs, 90)), 1.0)
+    others = np.asarray(others, dtype=float).reshape(-1, 4)
+    ox0, oy0 = others[:, 0], others[:, 1]
+    ovx, ovy = others[:, 3] * np.cos(others[:, 2]), others[:, 3] * np.sin(others[:, 2])
+    x = np.empty(steps + 1)
+    x[0], v = float(ev[-1, 0]), float(v_obs[-1])
+    for j in range(steps):
+        t = j * dt
+        ox, oy = ox0 + ovx * t, oy0 + ovy * t
+        ahead = (ox > x[j]) & (np.abs(oy - y_path[j]) < 0.5 * lane_width)
+        if ahead.any():
+            i = int(np.flatnonzero(ahead)[np.argmin(ox[ahead])])
+            acc = idm_acceleration(v, float(ox[i] - x[j] - length), v - float(ovx[i]), v0, params)
+        else:
+            acc = idm_acceleration(v, None, 0.0, v0, params)
+        v_next = max(0.0, v + acc * dt)
+        x[j + 1] = x[j] + 0.5 * (v + v_next) * dt
+        v = v_next
+    return x
+
+
+def physics_forecast(
+    ev: np.ndarray,
+    others: np.ndarray,
+    dt: float,
+    steps: int,
+    lane_width: float,
+    length: float,
+    params: PhysicsParams,
+) -> np.ndarray:
+    """The physics baseline's positions: the lateral model, then IDM along it.
+
+    Args:
+        ev: the observed states ξ_0 … ξ_k, shape (k + 1, 4).
+        others: the surrounding vehicles' states at sample k, shape (m, 4) (m may be 0).
+        dt: T_s [s].
+        steps: H.
+        lane_width: w [m].
+        length: vehicle length [m].
+        params: the model's parameters.
+
+    Returns:
+        Positions at j = 0 … H, shape (H + 1, 2) (row 0: the last observed position).
+    """
+    ev = np.asarray(ev, dtype=float)
+    y = lateral_forecast(ev[:, 1], dt, steps, lane_width, params)
+    x = longitudinal_forecast(ev, others, y, dt, lane_width, length, params)
+    return np.column_stack([x, y])
+
+
+# ---------------------------------------------------------------------------- calibration
+@dataclass(frozen=True)
+class PhysicsCase:
+    """One (vehicle, t_obs) of the calibration set: the observed part and the truth."""
+
+    ev: np.ndarray
+    """Observed states ξ_0 … ξ_k, shape (k + 1, 4)."""
+    others: np.ndarray
+    """Surrounding vehicles at sample k, shape (m, 4)."""
+    actual: np.ndarray
+    """True positions at j = 0 … H, shape (H + 1, 2)."""
+    dt: float
+    lane_width: float
+    length: float
+
+
+@dataclass(frozen=True)
+class PhysicsCalibration:
+    """The result of :func:`calibrate_physics`."""
+
+    params: PhysicsParams
+    initial: PhysicsParams
+    n_cases: int
+    rmse_m: float
+    """Root mean square displacement over every predicted sample (each case weighted
+    equally) at the fitted parameters [m]."""
+    rmse_initial_m: float
+    """The same at the initial parameters [m]."""
+    message: str
+    """The optimiser's message."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (the file :func:`load_params` reads)."""
+        return {
+            "params": self.params.to_json(),
+            "initial": self.initial.to_json(),
+            "calibrated": list(CALIBRATED),
+            "bounds": {k: list(v) for k, v in BOUNDS.items()},
+            "n_cases": self.n_cases,
+            "rmse_m": self.rmse_m,
+            "rmse_initial_m": self.rmse_initial_m,
+            "message": self.message,
+        }
+
+
+def _residuals(params: PhysicsParams, cases: Sequence[PhysicsCase]) -> np.ndarray:
+    out = []
+    for c in cases:
+        xy = physics_forecast(c.ev, c.others, c.dt, len(c.actual) - 1, c.lane_width, c.length,
+                              params)  # fmt: skip
+        d = (xy[1:] - c.actual[1:]).ravel()
+        out.append(d / np.sqrt(len(c.actual) - 1))
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def calibrate_physics(
+    cases: Sequence[PhysicsCase], initial: PhysicsParams | None = None
+) -> PhysicsCalibration:
+    """Least squares of the displacement errors over every case (deterministic).
+
+    Minimises Σ_cases (1/H) Σ_j ‖p̂_j − p_j‖² over :data:`CALIBRATED` within :data:`BOUNDS`
+    (``scipy.optimize.least_squares``, trust-region reflective, finite differences from
+    ``initial``): the mean squared displacement, each (vehicle, t_obs) counted once.
+
+    Args:
+        cases: the calibration cases (the train split's).
+        initial: the start (default :class:`PhysicsParams`'s).
+
+    Raises:
+        ValueError: no case.
+    """
+    from scipy.optimize import least_squares
+
+    if not cases:
+        raise ValueError("need at least one case to calibrate the physics baseline")
+    initial = initial or PhysicsParams()
+    fixed = asdict(initial)
+    lo = np.array([BOUNDS[k][0] for k in CALIBRATED])
+    hi = np.array([BOUNDS[k][1] for k in CALIBRATED])
+    x0 = np.clip([fixed[k] for k in CALIBRATED], lo, hi)
+
+    def make(z: np.ndarray) -> PhysicsParams:
+        return PhysicsParams(**(fixed | {k: float(v) for k, v in zip(CALIBRATED, z, strict=True)}))
+
+    res = least_squares(
+        lambda z: _residuals(make(z), cases), x0, bounds=(lo, hi), method="trf",
+        diff_step=1e-3, x_scale=hi - lo, max_nfev=200,
+    )  # fmt: skip
+    n = len(cases)
+    best = make(res.x)
+    return PhysicsCalibration(
+        params=best,
+        initial=initial,
+        n_cases=n,
+        rmse_m=float(np.sqrt(np.sum(_residuals(best, cases) ** 2) / n)),
+        rmse_initial_m=float(np.sqrt(np.sum(_residuals(make(x0), cases) ** 2) / n)),
+        message=str(res.message),
+    )
+
+
+def save_params(calibration: PhysicsCalibration, path: str | Path) -> None:
+    """Write the calibration as JSON (sorted keys, a trailing newline)."""
+    text = json.dumps(calibration.to_json(), indent=2, sort_keys=True)
+    Path(path).write_text(text + "\n")
+
+
+def load_params(path: str | Path) -> PhysicsParams:
+    """The parameters of a file :func:`save_params` wrote (its ``params`` entry).
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: not such a file.
+    """
+    raw = json.loads(Path(path).read_text())
+    try:
+        return PhysicsParams(**raw["params"])
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{path} holds no physics parameters ({exc})") from None
