@@ -6,6 +6,8 @@ vehicles around it (constant velocity plus a growing covariance, inside the NLP)
 
 - ``cv``: constant velocity, the last velocity vector (v cos φ, v sin φ) held;
 - ``ca``: constant acceleration, the last velocity change per step held as well;
+- ``physics``: IDM car following behind the observed leader plus a fitted quintic lane
+  change (:mod:`drivestyle.irl.physics`), with calibrated parameters;
 - ``style`` rollouts (:func:`style_rollout`): the receding-horizon style model
   (:mod:`drivestyle.irl.driver_style`) driven in closed loop from ξ_k, the surrounding
   vehicles predicted at constant velocity from their last observed states (the observer
@@ -19,7 +21,8 @@ vehicles around it (constant velocity plus a growing covariance, inside the NLP)
   :func:`~drivestyle.irl.driver_style.expert_style`).
 
 :func:`predict` runs every method on one demonstration after ``t_obs`` seconds and scores
-each with the average and final displacement errors (ADE, FDE) over the rest of it.
+each with the average and final displacement errors (ADE, FDE) over the rest of it, and
+their lateral (|Δy|) and longitudinal (|Δx|) parts in the road frame.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from drivestyle.irl.driver_style import DriverStyle, StylePlanner, closed_loop, 
 from drivestyle.irl.identification import Identification
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
+from drivestyle.irl.physics import PhysicsParams, physics_forecast
 from drivestyle.planning.smpc_problem import PrimalDual
 
 __all__ = [
@@ -46,13 +50,14 @@ __all__ = [
     "constant_acceleration",
     "constant_velocity",
     "displacement_errors",
+    "error_parts",
     "others_at_constant_velocity",
     "predict",
     "rollout_from",
     "style_rollout",
 ]
 
-METHODS = ("cv", "ca", "population", "mode", "mixture", "oracle")
+METHODS = ("cv", "ca", "physics", "population", "mode", "mixture", "oracle")
 """Every prediction method, in report order (``oracle`` only where the truth is known)."""
 MIXTURE_MIN_MASS = 1e-3
 """Library risks with less posterior mass are left out of the mixture."""
@@ -207,6 +212,31 @@ def displacement_errors(predicted: np.ndarray, actual: np.ndarray) -> tuple[floa
     return float(d.mean()), float(d[-1])
 
 
+def error_parts(predicted: np.ndarray, actual: np.ndarray) -> dict[str, float]:
+    """ADE and FDE and their lateral and longitudinal parts [m].
+
+    In the road frame: ADE = mean_j ‖p̂_j − p_j‖, ADE_lat = mean_j |ŷ_j − y_j|,
+    ADE_lon = mean_j |x̂_j − x_j| over j = 1 … H; FDE, FDE_lat, FDE_lon the same at j = H.
+
+    Args:
+        predicted: positions at j = 0 … H, shape (H + 1, 2) (row 0 not scored).
+        actual: the true positions, same shape.
+
+    Returns:
+        ``ade``, ``ade_lat``, ``ade_lon``, ``fde``, ``fde_lat``, ``fde_lon``.
+    """
+    ade, fde = displacement_errors(predicted, actual)
+    d = np.abs(predicted[1:, :2] - actual[1:, :2])
+    return {
+        "ade": ade,
+        "ade_lat": float(d[:, 1].mean()),
+        "ade_lon": float(d[:, 0].mean()),
+        "fde": fde,
+        "fde_lat": float(d[-1, 1]),
+        "fde_lon": float(d[-1, 0]),
+    }
+
+
 # ---------------------------------------------------------------------------- one demonstration
 @dataclass(frozen=True)
 class MethodPrediction:
@@ -225,13 +255,22 @@ class MethodPrediction:
     the longitudinal error, i.e. the speed prediction)."""
     risk: float | None = None
     """The risk the style methods used (the mixture: its posterior mean)."""
+    ade_lat_m: float = float("nan")
+    """The average error's lateral part, mean |Δy| [m]."""
+    ade_lon_m: float = float("nan")
+    """The average error's longitudinal part, mean |Δx| [m]."""
+    fde_lon_m: float = float("nan")
+    """The final error's longitudinal part |Δx| [m]."""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``prediction.json``'s per-method entry)."""
         return {
             "ade_m": self.ade_m,
+            "ade_lat_m": self.ade_lat_m,
+            "ade_lon_m": self.ade_lon_m,
             "fde_m": self.fde_m,
             "fde_lat_m": self.fde_lat_m,
+            "fde_lon_m": self.fde_lon_m,
             "risk": self.risk,
             "path": self.xy.round(4).tolist(),
         }
@@ -251,8 +290,8 @@ class Prediction:
     """The observed positions, shape (k_obs + 1, 2) [m]."""
     methods: dict[str, MethodPrediction]
     """Method name → prediction (in :data:`METHODS` order)."""
-    identification: Identification
-    """The online posterior at t_obs."""
+    identification: Identification | None
+    """The online posterior at t_obs (None: no identified-style method was run)."""
     true_risk: float | None
     """The vehicle's true risk, where known."""
 
@@ -263,7 +302,9 @@ class Prediction:
             "t_obs_s": self.t_obs,
             "horizon_s": float(self.t[-1] - self.t[0]),
             "true_risk": self.true_risk,
-            "identified": {
+            "identified": None
+            if ident is None
+            else {
                 "risk_mean": ident.risk_interpolated,
                 "risk_interval": list(ident.risk_interval),
                 "informative": ident.informative,
@@ -303,6 +344,7 @@ def predict(
     oracle: DriverStyle | None = None,
     scenario: ScenarioConfig | None = None,
     methods: Sequence[str] = METHODS,
+    physics: PhysicsParams | None = None,
 ) -> Prediction:
     """Observe a demonstration for ``t_obs`` seconds and predict the rest by every method.
 
@@ -317,6 +359,8 @@ def predict(
         scenario: the scenario the style methods plan in (default: the demonstration's;
             recorded traffic passes one whose v_ref comes from the observed part only).
         methods: the methods to run (a subset of :data:`METHODS`).
+        physics: the physics baseline's parameters (default: :class:`PhysicsParams`'s; the
+            benchmark passes the calibrated ones).
 
     Returns:
         The :class:`Prediction`.
@@ -334,9 +378,9 @@ def predict(
     vehicles = demo.vehicles
     tracker = StyleTracker(library, sc)
     ident = None
-    for j in range(k + 1):
-        ident = tracker.update(demo.ev[j], vehicles[j])
-    assert ident is not None
+    if {"mode", "mixture"} & set(methods):  # the online posterior (inputs recovered)
+        for j in range(k + 1):
+            ident = tracker.update(demo.ev[j], vehicles[j])
     actual = demo.ev[k:, :2]
     xi, others = demo.ev[k], vehicles[k]
 
@@ -349,13 +393,17 @@ def predict(
         paths["cv"] = (constant_velocity(xi, sc.dt, steps), None)
     if "ca" in methods:
         paths["ca"] = (constant_acceleration(demo.ev[: k + 1], sc.dt, steps), None)
+    if "physics" in methods:
+        xy = physics_forecast(demo.ev[: k + 1], others, sc.dt, steps, sc.lane_width,
+                              sc.vehicle_length, physics or PhysicsParams())  # fmt: skip
+        paths["physics"] = (xy, None)
     if "population" in methods:
         p_pop = float(np.median(library.risks))
         paths["population"] = (rollout(replace(library.style, risk=p_pop)), p_pop)
     if "mode" in methods:
         style = tracker.style("mode")
         paths["mode"] = (rollout(style), style.risk)
-    if "mixture" in methods:
+    if "mixture" in methods and ident is not None:
         mass = np.asarray(ident.posterior)
         keep = mass >= MIXTURE_MIN_MASS
         w = mass[keep] / mass[keep].sum()
@@ -369,9 +417,9 @@ def predict(
     for name in METHODS:
         if name in paths:
             xy, risk = paths[name]
-            ade, fde = displacement_errors(xy, actual)
-            lateral = float(abs(xy[-1, 1] - actual[-1, 1]))
-            out[name] = MethodPrediction(name, xy, ade, fde, lateral, risk)
+            e = error_parts(xy, actual)
+            out[name] = MethodPrediction(name, xy, e["ade"], e["fde"], e["fde_lat"], risk,
+                                         e["ade_lat"], e["ade_lon"], e["fde_lon"])  # fmt: skip
     true = demo.meta.get("risk")
     return Prediction(
         t_obs=float(t_obs),

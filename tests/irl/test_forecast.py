@@ -79,7 +79,16 @@ def test_predict_runs_every_method_on_the_rest(prediction, paper_demo):
         np.testing.assert_allclose(m.xy[0], paper_demo.ev[k, :2], atol=1e-9)
         assert (m.ade_m, m.fde_m) == pytest.approx(displacement_errors(m.xy, prediction.actual))
     js = prediction.to_json()
-    assert set(js["methods"]["mode"]) == {"ade_m", "fde_m", "fde_lat_m", "risk", "path"}
+    assert set(js["methods"]["mode"]) == {
+        "ade_m",
+        "ade_lat_m",
+        "ade_lon_m",
+        "fde_m",
+        "fde_lat_m",
+        "fde_lon_m",
+        "risk",
+        "path",
+    }
     assert js["true_risk"] == 0.7
 
 
