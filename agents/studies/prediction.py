@@ -19,14 +19,40 @@ The vehicles:
   reported, once.
 - **recorded**: the NGSIM and CATS episodes as the driver model sees them
   (:func:`~drivestyle.agents.studies.real_traffic.driver_demo` with ``own_line=False``:
-  the own-line shift would use the episode's last second, i.e. the future). The style
-  methods plan in :func:`observed_scenario`: the episode's scenario with v_ref the 90th
-  percentile of the *observed* speeds (the episode's own v_ref is computed from the whole
-  episode). The ellipse l_a is still the episode's (from its 90th-percentile speed over the
-  whole window): recomputing it per t_obs would compile one more solver per geometry and
-  t_obs, for a constant the speeds barely move. No oracle. Episodes too short for a t_obs,
-  or whose prediction fails, are skipped and counted with the reason
-  (:class:`SkippedPrediction`).
+  the own-line shift would use the episode's last second, i.e. the future), seen through
+  :func:`observed_view` after t_obs: every method gets only what an observer knows then
+  (module section "No leak"). No oracle. Episodes too short for a t_obs, or whose prediction
+  fails, are skipped and counted with the reason (:class:`SkippedPrediction`).
+
+**The recorded benchmark** (issue 26). Every shipped NGSIM and CATS episode is assigned once,
+by *vehicle* (all of a vehicle's episodes in one split), to train / validation / test
+(:func:`benchmark_split`, seed :data:`SPLIT_SEED`, stratified by dataset; committed as
+``docs/benchmark_split.csv``, :data:`SPLIT_FILE`). A vehicle is an NGSIM ego vehicle
+(``ngsim:<site>:<id>``) or a CATS *driver* of vehicle 3 (``cats:AV``, the computer, and
+``cats:HV``, the human): CATS's lane changes are all by one car, so its two drivers are
+the only units that can be held out. The benchmark evaluates the episodes of one split that
+load and are plausible (the learning studies' "used" selection — designed manoeuvres,
+complete windows, no ramps — is not applied: every recorded lane change is one to predict).
+The physics baseline's parameters are calibrated on the train split
+(:func:`calibrate_on_split`) and read from :data:`PHYSICS_FILE`. Summaries carry bootstrap
+95 % intervals of the mean and median of every error, resampling vehicles
+(:func:`bootstrap_stats`, seed :data:`BOOTSTRAP_SEED`).
+
+**No leak** (:func:`observed_view`, tested by perturbing the future). After t_obs a recorded
+episode is seen as: the scenario's v_ref and v_max from the observed speeds, the ellipse l_a
+from the observed 90th-percentile speed (the episode's rule, rounded up to 1 m so that few
+solvers are compiled); the frame shifted laterally by whole lanes so that the vehicle's
+current lane is the middle one of three (the episode's frame puts its origin lane at the
+road's edge, on the side away from the recorded change: the road edge would tell the
+direction); the target lane the neighbouring one in the direction of the observed lateral
+velocity (:data:`LATERAL_WINDOW_S`), not the recorded destination; the vehicle it reacts to
+first (the TV slot) the nearest observed vehicle in that lane, not the episode's target
+(chosen at the recorded crossing); a vehicle not yet recorded at t_obs (the loader continues
+it backwards at constant velocity from its first recorded state, i.e. from the future) is
+replaced by a phantom 1 km behind. Residual leaks, in the loader (``envs/real_data.py``):
+the resampling splines are global (a state at t ≤ t_obs moves by a decaying amount with the
+later recorded positions); NGSIM's lane grid is placed at the recorded crossing; the
+episode's window is centred on the recorded crossing (the lane change is known to happen).
 
 Online identification (:func:`track_vehicle`): each simulated demonstration is fed whole to
 the :class:`~drivestyle.irl.online.StyleTracker` without its inputs (an observer does not
@@ -65,26 +91,44 @@ from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_st
 from drivestyle.irl.forecast import METHODS, ForecastError, Prediction, predict
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker, TrackerError
+from drivestyle.irl.physics import (
+    LATERAL_WINDOW_S,
+    PhysicsCalibration,
+    PhysicsCase,
+    PhysicsParams,
+    calibrate_physics,
+)
 from drivestyle.planning.smpc_problem import SMPCConfig
 
 __all__ = [
+    "BOOTSTRAP_SEED",
     "DATASETS",
     "DEFAULT_DATA_DIR",
+    "ERROR_METRICS",
     "GOALS",
     "NARROW_WIDTH",
+    "PHYSICS_FILE",
     "RISK_RANGE",
+    "SPLITS",
+    "SPLIT_FILE",
+    "SPLIT_SEED",
     "STYLE_METHODS",
     "TEST_SEED",
     "T_OBS",
     "VALIDATION_SEED",
+    "ErrorStat",
     "GoalCheck",
     "MethodSummary",
     "PredictionRecord",
     "PredictionStudy",
     "SimulatedVehicle",
     "SkippedPrediction",
+    "SplitRow",
     "TrackingRecord",
     "TrackingSummary",
+    "benchmark_split",
+    "bootstrap_stats",
+    "calibrate_on_split",
     "check_observed_times",
     "draw_simulated",
     "evaluate_prediction",
@@ -92,12 +136,15 @@ __all__ = [
     "goal_checks",
     "load_recorded",
     "observed_scenario",
+    "observed_view",
     "oracle_style",
     "prepare_demo",
+    "read_split",
     "spanning_tracks",
     "summarise_records",
     "summarise_tracking",
     "track_vehicle",
+    "write_split",
 ]
 
 T_OBS = (1.0, 2.0, 3.0)
@@ -125,6 +172,109 @@ GOALS = {
 ones (each dataset and both pooled), and FDE ≤ 1.25 × the oracle's on simulated ones."""
 RECORDED = "recorded"
 """The pooled set of every recorded episode (NGSIM and CATS)."""
+SPLITS = ("train", "validation", "test")
+"""The benchmark's splits."""
+SPLIT_FRACTIONS = {"test": 0.2, "validation": 0.2}
+"""Share of each dataset's vehicles held out per split (train: the rest)."""
+SPLIT_SEED = 26
+"""The seed of the benchmark's split (issue 26)."""
+_REPO = Path(__file__).resolve().parents[2]
+SPLIT_FILE = _REPO / "docs" / "benchmark_split.csv"
+"""The committed split (:func:`write_split` of :func:`benchmark_split`)."""
+PHYSICS_FILE = _REPO / "docs" / "benchmark_physics.json"
+"""The physics baseline's parameters calibrated on the train split (:func:`calibrate_on_split`)."""
+BOOTSTRAP_SEED = 26
+"""The seed of the bootstrap intervals."""
+BOOTSTRAP_SAMPLES = 2000
+"""Bootstrap replicates per interval."""
+ERROR_METRICS = ("ade", "ade_lat", "ade_lon", "fde", "fde_lat", "fde_lon")
+"""The errors summarised per method (:func:`~drivestyle.irl.forecast.error_parts`)."""
+PHANTOM_BEHIND_M = 1000.0
+"""A vehicle not yet observed at t_obs is replaced by one this far behind the vehicle [m]."""
+
+
+# ---------------------------------------------------------------------------- the split
+@dataclass(frozen=True)
+class SplitRow:
+    """One episode's place in the benchmark split."""
+
+    dataset: str
+    """``ngsim`` or ``cats``."""
+    episode_id: str
+    vehicle_id: str
+    """``ngsim:<site>:<ego id>`` or ``cats:AV`` / ``cats:HV`` (the driver of vehicle 3)."""
+    split: str
+    """A name of :data:`SPLITS`."""
+
+
+def _episode_vehicles(data_dir: Path, dataset: str) -> list[tuple[str, str]]:
+    """(episode id, vehicle id) of every episode in a dataset's ``episodes.csv``."""
+    import pandas as pd
+
+    path = Path(data_dir) / DATASETS[dataset] / "episodes.csv"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found (the dataset folder's episodes.csv)")
+    df = pd.read_csv(path)
+    if dataset == "ngsim":
+        site = df.recording.astype(str).str.split("_").str[0]
+        ids = "ngsim:" + site + ":" + df.ego_id.astype(int).astype(str)
+    else:
+        ids = "cats:" + df["set"].astype(str)
+    return list(zip(df.episode_id.astype(str), ids, strict=True))
+
+
+def benchmark_split(
+    data_dir: str | Path = DEFAULT_DATA_DIR, seed: int = SPLIT_SEED
+) -> list[SplitRow]:
+    """Assign every episode to a split by its vehicle (module docstring).
+
+    Per dataset the distinct vehicles, sorted, are shuffled by ``default_rng([seed, i])``
+    (i the dataset's index in :data:`DATASETS`); the first ⌊0.2 n + ½⌋ (at least 1 where
+    n ≥ 2) go to test, the next ⌊0.2 n + ½⌋ (at least 1 where n ≥ 3) to validation, the rest
+    to train. With two vehicles (CATS's drivers) one is train and one test.
+
+    Returns:
+        One row per episode, sorted by dataset and episode id.
+    """
+    rows = []
+    for i, ds in enumerate(DATASETS):
+        pairs = _episode_vehicles(Path(data_dir), ds)
+        vehicles = sorted({v for _, v in pairs})
+        order = [vehicles[j] for j in np.random.default_rng([seed, i]).permutation(len(vehicles))]
+        n = len(order)
+        n_test = max(1 if n >= 2 else 0, math.floor(SPLIT_FRACTIONS["test"] * n + 0.5))
+        n_val = max(1 if n >= 3 else 0, math.floor(SPLIT_FRACTIONS["validation"] * n + 0.5))
+        split = {v: "test" for v in order[:n_test]}
+        split |= {v: "validation" for v in order[n_test : n_test + n_val]}
+        split |= {v: "train" for v in order[n_test + n_val :]}
+        rows += [SplitRow(ds, e, v, split[v]) for e, v in pairs]
+    return sorted(rows, key=lambda r: (r.dataset, r.episode_id))
+
+
+def write_split(rows: Sequence[SplitRow], path: str | Path = SPLIT_FILE) -> None:
+    """Write the split as CSV: ``dataset,episode_id,vehicle_id,split``."""
+    lines = ["dataset,episode_id,vehicle_id,split"]
+    lines += [f"{r.dataset},{r.episode_id},{r.vehicle_id},{r.split}" for r in rows]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def read_split(path: str | Path = SPLIT_FILE) -> list[SplitRow]:
+    """The split :func:`write_split` wrote.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: a malformed row or an unknown split.
+    """
+    lines = Path(path).read_text().splitlines()
+    if not lines or lines[0] != "dataset,episode_id,vehicle_id,split":
+        raise ValueError(f"{path}: expected the header dataset,episode_id,vehicle_id,split")
+    rows = []
+    for n, line in enumerate(lines[1:], start=2):
+        parts = line.split(",")
+        if len(parts) != 4 or parts[3] not in SPLITS or parts[0] not in DATASETS:
+            raise ValueError(f"{path}:{n}: malformed row {line!r}")
+        rows.append(SplitRow(*parts))
+    return rows
 
 
 # ---------------------------------------------------------------------------- vehicles
@@ -198,14 +348,92 @@ def oracle_style(meta: dict[str, Any]) -> DriverStyle | None:
 def observed_scenario(demo: Demonstration, t_obs: float) -> ScenarioConfig:
     """The scenario a recorded episode's style methods plan in after ``t_obs`` seconds.
 
-    The episode's scenario with v_ref the 90th percentile of the speeds observed so far
-    (samples 0 … k_obs; at least 1 m/s, as the episode's rule), so nothing of the future
-    enters the prediction through the desired speed.
+    :func:`observed_view`'s scenario: nothing of the future enters it.
     """
+    return observed_view(demo, t_obs)[1]
+
+
+def _observed_index(demo: Demonstration, t_obs: float) -> int:
     dt = float(demo.t[1] - demo.t[0])
-    k = min(max(round(t_obs / dt), 0), demo.n - 1)
-    v_level = float(np.percentile(demo.ev[: k + 1, 3], 90))
-    return replace(demo.scenario, v_ref=max(v_level, 1.0))
+    return min(max(round(t_obs / dt), 0), demo.n - 2)
+
+
+def _not_yet_observed(states: np.ndarray, k: int) -> bool:
+    """Whether a vehicle's states 0 … k are the loader's backward continuation.
+
+    The loader holds φ and v exactly before a vehicle's first recorded sample; recorded
+    states never repeat bitwise over k + 1 samples (a vehicle first recorded at sample k
+    counts as not yet observed).
+    """
+    head = states[: k + 1]
+    return bool(np.all(head[:, 2] == head[0, 2]) and np.all(head[:, 3] == head[0, 3]))
+
+
+def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, ScenarioConfig]:
+    """A recorded episode as an observer knows it after ``t_obs`` s (module docstring, No leak).
+
+    The returned demonstration has the same samples (the truth after t_obs is still there, to
+    score against; no method reads it), its vehicles reordered (the observed TV first),
+    unobserved ones replaced by phantoms, and every position shifted by whole lanes
+    laterally; the scenario is built from samples 0 … k_obs only.
+
+    Args:
+        demo: a recorded episode as :func:`prepare_demo` returns it.
+        t_obs: observed time [s].
+
+    Returns:
+        (the demonstration, its scenario; ``meta["scenario"]`` is that scenario and
+        ``meta["observed_shift_m"]`` the lateral shift).
+    """
+    sc = demo.scenario
+    w, dt = sc.lane_width, float(demo.t[1] - demo.t[0])
+    k = _observed_index(demo, t_obs)
+    ev = demo.ev.copy()
+    vehicles = demo.vehicles.copy()  # (n, 1 + m, 4), the episode's TV first
+    for j in range(vehicles.shape[1]):
+        if _not_yet_observed(vehicles[:, j], k):
+            vehicles[:, j, 0] = ev[0, 0] - PHANTOM_BEHIND_M + ev[0, 3] * demo.t
+            vehicles[:, j, 1] = ev[0, 1]
+            vehicles[:, j, 2] = 0.0
+            vehicles[:, j, 3] = ev[0, 3]
+    shift = w * (1.0 - math.floor(ev[k, 1] / w))
+    ev[:, 1] += shift
+    vehicles[..., 1] += shift
+    m = min(k, max(1, round(LATERAL_WINDOW_S / dt)))
+    d = 1 if ev[k, 1] >= ev[k - m, 1] else -1
+    lane0 = min(max(math.floor(ev[0, 1] / w), 0), 2)
+    target = 1 if lane0 == 1 - d else 1 + d  # crossed into the middle lane while observed
+    ev_lane = lane0 if lane0 != target else 1
+    lanes_k = np.floor(vehicles[k, :, 1] / w)
+    in_target = np.flatnonzero(lanes_k == target)
+    pool = in_target if in_target.size else np.arange(vehicles.shape[1])
+    first = int(pool[np.argmin(np.abs(vehicles[k, pool, 0] - ev[k, 0]))])
+    order = [first] + [j for j in range(vehicles.shape[1]) if j != first]
+    vehicles = vehicles[:, order]
+    tv = vehicles[:, 0]
+    v_level = float(np.percentile(ev[: k + 1, 3], 90))
+    observed = replace(
+        sc,
+        ev_lane=ev_lane,
+        target_lane=target,
+        tv_lane=int(min(max(lanes_k[first], 0), 2)),
+        ev_x=float(ev[0, 0]),
+        ev_speed=float(ev[0, 3]),
+        tv_gap=float(tv[0, 0] - ev[0, 0]),
+        tv_speed=float(tv[0, 3]),
+        v_ref=max(v_level, 1.0),
+        v_max=max(70.0, 1.5 * float(ev[: k + 1, 3].max())),
+        l_a=float(math.ceil(max(5.0, 15.0 * v_level / 27.5))),
+    )
+    out = Demonstration(
+        t=demo.t,
+        ev=ev,
+        tv=tv,
+        u=demo.u,
+        meta={**demo.meta, "scenario": observed.to_dict(), "observed_shift_m": shift},
+        others=vehicles[:, 1:] if vehicles.shape[1] > 1 else None,
+    )
+    return out, observed
 
 
 def prepare_demo(demo: Demonstration) -> tuple[Demonstration, bool]:
@@ -219,8 +447,16 @@ def prepare_demo(demo: Demonstration) -> tuple[Demonstration, bool]:
     return demo, False
 
 
-def load_recorded(data_dir: str | Path, dataset: str) -> list[tuple[str, Demonstration]]:
-    """The used episodes of one dataset as (episode id, raw demonstration).
+def load_recorded(
+    data_dir: str | Path, dataset: str, episodes: Sequence[str] | None = None
+) -> list[tuple[str, Demonstration]]:
+    """A dataset's episodes as (episode id, raw demonstration).
+
+    Args:
+        data_dir: the folder holding the datasets.
+        dataset: a key of :data:`DATASETS`.
+        episodes: the benchmark's episodes to take (those of one split): each that loads and
+            is plausible, whether or not the learning studies use it. None: the used ones.
 
     Raises:
         ValueError: an unknown dataset; the loaders' errors for missing or malformed files.
@@ -228,8 +464,17 @@ def load_recorded(data_dir: str | Path, dataset: str) -> list[tuple[str, Demonst
     if dataset not in DATASETS:
         raise ValueError(f"unknown dataset {dataset!r}; known: {sorted(DATASETS)}")
     loader = load_ngsim if dataset == "ngsim" else load_cats
-    episodes = loader(Path(data_dir) / DATASETS[dataset])
-    return [(e.episode_id, e.demo) for e in episodes if e.used and e.demo is not None]
+    loaded = loader(Path(data_dir) / DATASETS[dataset])
+    if episodes is None:
+        return [(e.episode_id, e.demo) for e in loaded if e.used and e.demo is not None]
+    wanted = set(episodes)
+    return [
+        (e.episode_id, e.demo)
+        for e in loaded
+        if e.episode_id in wanted
+        and e.demo is not None
+        and not any(r.startswith(("implausible", "unusable")) for r in e.reasons)
+    ]
 
 
 # ---------------------------------------------------------------------------- records
@@ -255,6 +500,15 @@ class PredictionRecord:
     """Method → final displacement error [m]."""
     fde_lat_m: dict[str, float] = field(default_factory=dict)
     """Method → the final error's lateral part |Δy| [m]."""
+    fde_lon_m: dict[str, float] = field(default_factory=dict)
+    """Method → the final error's longitudinal part |Δx| [m]."""
+    ade_lat_m: dict[str, float] = field(default_factory=dict)
+    """Method → the average error's lateral part, mean |Δy| [m]."""
+    ade_lon_m: dict[str, float] = field(default_factory=dict)
+    """Method → the average error's longitudinal part, mean |Δx| [m]."""
+    unit: str = ""
+    """The vehicle the bootstrap resamples (recorded: the split's vehicle id; simulated:
+    the vehicle id); empty: :attr:`vehicle_id`."""
     prediction: Prediction | None = field(default=None, repr=False, compare=False)
     """The whole prediction (paths; kept in memory for the figures, not in the JSON)."""
 
@@ -271,7 +525,23 @@ class PredictionRecord:
             "ade_m": dict(self.ade_m),
             "fde_m": dict(self.fde_m),
             "fde_lat_m": dict(self.fde_lat_m),
+            "fde_lon_m": dict(self.fde_lon_m),
+            "ade_lat_m": dict(self.ade_lat_m),
+            "ade_lon_m": dict(self.ade_lon_m),
+            "unit": self.unit or self.vehicle_id,
         }
+
+    def error(self, metric: str, method: str) -> float:
+        """One error of :data:`ERROR_METRICS` of one method [m] (NaN: not recorded)."""
+        table = {
+            "ade": self.ade_m,
+            "ade_lat": self.ade_lat_m,
+            "ade_lon": self.ade_lon_m,
+            "fde": self.fde_m,
+            "fde_lat": self.fde_lat_m,
+            "fde_lon": self.fde_lon_m,
+        }
+        return float(table[metric].get(method, np.nan))
 
 
 @dataclass(frozen=True)
@@ -290,7 +560,7 @@ class SkippedPrediction:
                 "reason": self.reason}  # fmt: skip
 
 
-def _record(set_name: str, vehicle_id: str, pred: Prediction) -> PredictionRecord:
+def _record(set_name: str, vehicle_id: str, pred: Prediction, unit: str = "") -> PredictionRecord:
     mode = pred.methods.get("mode")
     return PredictionRecord(
         set=set_name,
@@ -299,10 +569,16 @@ def _record(set_name: str, vehicle_id: str, pred: Prediction) -> PredictionRecor
         horizon_s=float(pred.t[-1] - pred.t[0]),
         true_risk=pred.true_risk,
         risk_mode=None if mode is None else mode.risk,
-        risk_mean=float(pred.identification.risk_interpolated),
+        risk_mean=float("nan")
+        if pred.identification is None
+        else float(pred.identification.risk_interpolated),
         ade_m={m: p.ade_m for m, p in pred.methods.items()},
         fde_m={m: p.fde_m for m, p in pred.methods.items()},
         fde_lat_m={m: p.fde_lat_m for m, p in pred.methods.items()},
+        fde_lon_m={m: p.fde_lon_m for m, p in pred.methods.items()},
+        ade_lat_m={m: p.ade_lat_m for m, p in pred.methods.items()},
+        ade_lon_m={m: p.ade_lon_m for m, p in pred.methods.items()},
+        unit=unit or vehicle_id,
         prediction=pred,
     )
 
@@ -318,8 +594,11 @@ def predict_vehicle(
     library: DriverLibrary,
     t_obs: Sequence[float],
     oracle: DriverStyle | None = None,
+    physics: PhysicsParams | None = None,
+    methods: Sequence[str] = METHODS,
+    unit: str = "",
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
-    """Predict one vehicle at every observed time (recorded episodes: the observed v_ref).
+    """Predict one vehicle at every observed time (recorded episodes: :func:`observed_view`).
 
     Args:
         set_name: the set the vehicle belongs to.
@@ -328,6 +607,9 @@ def predict_vehicle(
         library: the driver library.
         t_obs: observed times [s].
         oracle: its true style (None: no oracle).
+        physics: the physics baseline's parameters (None: the defaults).
+        methods: the methods to run.
+        unit: the vehicle the bootstrap resamples (default: ``vehicle_id``).
 
     Returns:
         (records, skipped).
@@ -336,12 +618,13 @@ def predict_vehicle(
     records, skipped = [], []
     for t in t_obs:
         try:
-            sc = observed_scenario(demo, t) if recorded else None
-            pred = predict(demo, library, t, oracle=oracle, scenario=sc)
+            seen, sc = observed_view(demo, t) if recorded else (demo, None)
+            pred = predict(seen, library, t, oracle=oracle, scenario=sc, methods=methods,
+                           physics=physics)  # fmt: skip
         except PREDICTION_ERRORS as exc:
             skipped.append(SkippedPrediction(set_name, vehicle_id, float(t), str(exc)))
             continue
-        records.append(_record(set_name, vehicle_id, pred))
+        records.append(_record(set_name, vehicle_id, pred, unit))
     return records, skipped
 
 
@@ -516,10 +799,75 @@ class MethodSummary:
     oracle_gain_share: float | None = None
     """(FDE_cv − FDE) / (FDE_cv − FDE_oracle): the share of the oracle's gain over constant
     velocity this method achieves (1: as good as the oracle)."""
+    stats: dict[str, ErrorStat] = field(default_factory=dict)
+    """Error of :data:`ERROR_METRICS` → its mean and median with bootstrap 95 % intervals."""
+    n_units: int = 0
+    """Distinct vehicles the records come from (what the bootstrap resamples)."""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {k: getattr(self, k) for k in self.__dataclass_fields__} | {"t_obs_s": self.t_obs}
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "stats"}
+        return out | {
+            "t_obs_s": self.t_obs,
+            "stats": {k: v.to_json() for k, v in self.stats.items()},
+        }
+
+
+@dataclass(frozen=True)
+class ErrorStat:
+    """One error's mean and median over a set of records, with bootstrap 95 % intervals [m]."""
+
+    mean: float
+    mean_lo: float
+    mean_hi: float
+    median: float
+    median_lo: float
+    median_hi: float
+
+    def to_json(self) -> dict[str, float]:
+        """JSON-ready dict."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def bootstrap_stats(
+    values: np.ndarray,
+    units: Sequence[str],
+    samples: int = BOOTSTRAP_SAMPLES,
+    seed: int = BOOTSTRAP_SEED,
+) -> list[ErrorStat]:
+    """Mean and median of each column with percentile bootstrap 95 % intervals over units.
+
+    A replicate draws the distinct units (vehicles) with replacement, as many as there are,
+    and takes every record of each drawn unit; the interval is the 2.5–97.5 % percentile of
+    the replicates' statistic. The same replicates serve every column (paired comparisons).
+
+    Args:
+        values: errors, shape (records, columns) [m]; a column with NaN gets NaN statistics.
+        units: each record's unit, length records.
+        samples: replicates B.
+        seed: the replicates' seed.
+
+    Returns:
+        One :class:`ErrorStat` per column.
+    """
+    values = np.asarray(values, dtype=float).reshape(len(units), -1)
+    names = sorted(set(units))
+    rows = [np.flatnonzero(np.asarray(units) == u) for u in names]
+    draws = np.random.default_rng(seed).integers(0, len(names), (samples, len(names)))
+    means = np.empty((samples, values.shape[1]))
+    medians = np.empty_like(means)
+    for b, pick in enumerate(draws):
+        sub = values[np.concatenate([rows[i] for i in pick])]
+        means[b] = sub.mean(axis=0)
+        medians[b] = np.median(sub, axis=0)
+    out = []
+    for c in range(values.shape[1]):
+        mlo, mhi = np.percentile(means[:, c], [2.5, 97.5])
+        dlo, dhi = np.percentile(medians[:, c], [2.5, 97.5])
+        col = values[:, c]
+        out.append(ErrorStat(float(col.mean()), float(mlo), float(mhi),
+                             float(np.median(col)), float(dlo), float(dhi)))  # fmt: skip
+    return out
 
 
 @dataclass(frozen=True)
@@ -578,11 +926,14 @@ def _summary(
     )
 
 
-def summarise_records(records: Sequence[PredictionRecord]) -> list[MethodSummary]:
+def summarise_records(
+    records: Sequence[PredictionRecord], samples: int = BOOTSTRAP_SAMPLES
+) -> list[MethodSummary]:
     """Per (set, t_obs, method) the errors over the records that have the method.
 
     Sets: every record's own, and :data:`RECORDED` pooling NGSIM and CATS when both are
-    present.
+    present. Each summary's :attr:`MethodSummary.stats` are :func:`bootstrap_stats` over the
+    records' units (``samples`` replicates).
     """
     by_set: dict[str, list[PredictionRecord]] = {}
     for r in records:
@@ -597,8 +948,18 @@ def summarise_records(records: Sequence[PredictionRecord]) -> list[MethodSummary
             for method in METHODS:
                 have = [r for r in at_t if method in r.fde_m]
                 if have:
-                    out.append(_summary(set_name, t, method, have))
+                    out.append(_with_stats(_summary(set_name, t, method, have), have, samples))
     return out
+
+
+def _with_stats(
+    summary: MethodSummary, recs: Sequence[PredictionRecord], samples: int
+) -> MethodSummary:
+    values = np.array([[r.error(m, summary.method) for m in ERROR_METRICS] for r in recs])
+    units = [r.unit or r.vehicle_id for r in recs]
+    stats = bootstrap_stats(values, units, samples, BOOTSTRAP_SEED)
+    return replace(summary, stats=dict(zip(ERROR_METRICS, stats, strict=True)),
+                   n_units=len(set(units)))  # fmt: skip
 
 
 def goal_checks(summaries: Sequence[MethodSummary]) -> list[GoalCheck]:
@@ -641,6 +1002,14 @@ class PredictionStudy:
     """Wall time per stage [s]."""
     demos: dict[str, Demonstration] = field(default_factory=dict, repr=False, compare=False)
     """Vehicle id → the demonstration predicted (in memory, for figures)."""
+    split: str | None = None
+    """The benchmark split of the recorded episodes (None: the used episodes)."""
+    physics: PhysicsParams | None = None
+    """The physics baseline's parameters (None: the defaults)."""
+
+    def physics_json(self) -> dict[str, float]:
+        """The physics baseline's parameters as used."""
+        return (self.physics or PhysicsParams()).to_json()
 
     def summary(self, set_name: str, t_obs: float, method: str) -> MethodSummary | None:
         """The summary of one (set, t_obs, method), if any."""
@@ -672,6 +1041,15 @@ class PredictionStudy:
                 for v in self.vehicles
             ],
             "recorded_sets": list(self.recorded_sets),
+            "split": self.split,
+            "split_seed": SPLIT_SEED,
+            "bootstrap": {
+                "seed": BOOTSTRAP_SEED,
+                "samples": BOOTSTRAP_SAMPLES,
+                "resampled": "vehicles",
+                "interval": 0.95,
+            },
+            "physics_params": (self.physics or PhysicsParams()).to_json(),
             "n_geometries": dict(self.n_geometries),
             "summaries": [s.to_json() for s in self.summaries],
             "goal_checks": [g.to_json() for g in self.goals],
@@ -708,15 +1086,59 @@ def _simulated_task(
 
 
 def _recorded_task(
-    set_name: str, episode_id: str, raw: Demonstration, library: DriverLibrary,
-    t_obs: tuple[float, ...],
+    set_name: str, episode_id: str, raw: Demonstration, unit: str, library: DriverLibrary,
+    t_obs: tuple[float, ...], physics: PhysicsParams | None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:  # fmt: skip
     """Worker: predict one recorded episode at every t_obs."""
     try:
         demo, _ = prepare_demo(raw)
     except PREDICTION_ERRORS as exc:
         return [], [SkippedPrediction(set_name, episode_id, None, f"driver_demo: {exc}")]
-    return predict_vehicle(set_name, episode_id, demo, library, t_obs)
+    return predict_vehicle(set_name, episode_id, demo, library, t_obs, physics=physics, unit=unit)
+
+
+def physics_cases(
+    recorded: Sequence[tuple[str, Demonstration]], t_obs: Sequence[float] = T_OBS
+) -> list[PhysicsCase]:
+    """The physics calibration's cases: each episode at each t_obs, as :func:`observed_view`.
+
+    Episodes too short for a t_obs, or that :func:`prepare_demo` refuses, are left out.
+    """
+    cases = []
+    for _, raw in recorded:
+        try:
+            demo, _ = prepare_demo(raw)
+        except PREDICTION_ERRORS:
+            continue
+        dt = float(demo.t[1] - demo.t[0])
+        for t in t_obs:
+            k = round(t / dt)
+            if k >= demo.n - 1:
+                continue
+            seen, sc = observed_view(demo, t)
+            cases.append(PhysicsCase(seen.ev[: k + 1], seen.vehicles[k], seen.ev[k:, :2], dt,
+                                     sc.lane_width, sc.vehicle_length))  # fmt: skip
+    return cases
+
+
+def calibrate_on_split(
+    data_dir: str | Path = DEFAULT_DATA_DIR,
+    rows: Sequence[SplitRow] | None = None,
+    t_obs: Sequence[float] = T_OBS,
+) -> PhysicsCalibration:
+    """The physics baseline calibrated on the train split's episodes at every t_obs.
+
+    Args:
+        data_dir: the folder holding the datasets.
+        rows: the split (default: :func:`read_split` of :data:`SPLIT_FILE`).
+        t_obs: observed times [s].
+    """
+    rows = read_split() if rows is None else rows
+    recorded = []
+    for ds in DATASETS:
+        ids = [r.episode_id for r in rows if r.dataset == ds and r.split == "train"]
+        recorded += load_recorded(data_dir, ds, ids)
+    return calibrate_physics(physics_cases(recorded, t_obs))
 
 
 def _geometry(demo: Demonstration) -> tuple:
@@ -800,6 +1222,9 @@ def evaluate_prediction(
     workers: int = 2,
     progress: Callable[[str, int], Any] | None = None,
     on_plan: Callable[[str, int], Any] | None = None,
+    split: str | None = None,
+    split_rows: Sequence[SplitRow] | None = None,
+    physics: PhysicsParams | None = None,
 ) -> PredictionStudy:
     """Run the comparison (module docstring).
 
@@ -814,6 +1239,10 @@ def evaluate_prediction(
         workers: processes (CasADi is not thread-safe).
         progress: called with (stage, 1) after each vehicle of a stage.
         on_plan: called with (stage, number of vehicles) before a stage starts.
+        split: the benchmark split whose recorded episodes are predicted (None: the
+            learning studies' used episodes, each its own vehicle).
+        split_rows: the split (default: :data:`SPLIT_FILE`'s).
+        physics: the physics baseline's parameters (None: the defaults).
 
     Returns:
         The study.
@@ -834,15 +1263,22 @@ def evaluate_prediction(
             on_plan(name, n)
         return None if progress is None else lambda *_: progress(name, 1)
 
-    recorded: list[tuple[str, str, Demonstration]] = []
+    if split is not None and split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; known: {list(SPLITS)}")
+    recorded: list[tuple[str, str, Demonstration, str]] = []
     recorded_sets: tuple[str, ...] = ()
     if data_dir is not None:
+        rows = (split_rows if split_rows is not None else read_split()) if split else []
+        unit_of = {r.episode_id: r.vehicle_id for r in rows}
         for ds in DATASETS:
-            recorded += [(ds, eid, d) for eid, d in load_recorded(data_dir, ds)]
+            ids = None if split is None else [r.episode_id for r in rows
+                                               if r.dataset == ds and r.split == split]  # fmt: skip
+            recorded += [(ds, eid, d, unit_of.get(eid, eid))
+                         for eid, d in load_recorded(data_dir, ds, ids)]  # fmt: skip
         recorded_sets = tuple(DATASETS)
-    t_obs = check_observed_times(t_obs, [d for _, _, d in recorded], simulated=n_vehicles > 0)
+    t_obs = check_observed_times(t_obs, [r[2] for r in recorded], simulated=n_vehicles > 0)
     t0 = time.perf_counter()
-    vehicles = draw_simulated(n_vehicles, seed)
+    vehicles = draw_simulated(n_vehicles, seed) if n_vehicles > 0 else []
     seconds["draw_scenarios"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     sim = parallel_map(
@@ -870,7 +1306,7 @@ def evaluate_prediction(
         order = sorted(range(len(recorded)), key=lambda i: _geometry(recorded[i][2]))
         out = parallel_map(
             _recorded_task,
-            [(*recorded[i], library, t_obs) for i in order],
+            [(*recorded[i], library, t_obs, physics) for i in order],
             workers,
             stage("recorded", len(recorded)),
         )
@@ -879,8 +1315,8 @@ def evaluate_prediction(
             records += recs
             skipped += skips
         for ds in recorded_sets:
-            n_geometries[ds] = len({_geometry(d) for s, _, d in recorded if s == ds})
-        demos |= {eid: d for _, eid, d in recorded}
+            n_geometries[ds] = len({_geometry(r[2]) for r in recorded if r[0] == ds})
+        demos |= {r[1]: r[2] for r in recorded}
     summaries = summarise_records(records)
     return PredictionStudy(
         seed=seed,
@@ -896,6 +1332,8 @@ def evaluate_prediction(
         n_geometries=n_geometries,
         seconds=seconds,
         demos=demos,
+        split=split,
+        physics=physics,
     )
 
 

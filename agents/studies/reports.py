@@ -515,6 +515,45 @@ def _pct(value: float | None) -> str:
     return "—" if value is None else f"{100 * value:.0f} %"
 
 
+def _ci(stat: Any, kind: str) -> str:
+    """``value [lo, hi]`` of an ErrorStat's mean or median [m]."""
+    v, lo, hi = (getattr(stat, f"{kind}{s}") for s in ("", "_lo", "_hi"))
+    return f"{v:.2f} [{lo:.2f}, {hi:.2f}]"
+
+
+def _benchmark_tables(study: PredictionStudy) -> list[str]:
+    """The recorded benchmark's tables: per set, medians and means with bootstrap intervals."""
+    from drivestyle.agents.studies.prediction import BOOTSTRAP_SAMPLES, ERROR_METRICS
+
+    sets = [s for s in dict.fromkeys(x.set for x in study.summaries) if s != "simulated"]
+    if not sets:
+        return []
+    lines = [
+        f"## Recorded benchmark: split {study.split or '(used episodes)'}",
+        "",
+        "Every error [m] as value [bootstrap 95 % interval] over vehicles "
+        f"({BOOTSTRAP_SAMPLES} replicates); lat = |Δy|, lon = |Δx| in the road frame. "
+        "Physics parameters: "
+        + ", ".join(f"{k} {v:.3g}" for k, v in (study.physics_json()).items())
+        + ".",
+        "",
+    ]
+    for set_name in sets:
+        rows = [s for s in study.summaries if s.set == set_name and s.stats]
+        for kind in ("median", "mean"):
+            lines += [
+                f"### {set_name}: {kind}s",
+                "",
+                "| t_obs | method | n (vehicles) | " + " | ".join(ERROR_METRICS) + " |",
+                "|---|---|---|" + "---|" * len(ERROR_METRICS),
+            ]
+            for s in rows:
+                cells = " | ".join(_ci(s.stats[m], kind) for m in ERROR_METRICS)
+                lines.append(f"| {seconds(s.t_obs)} | {s.method} | {s.n} ({s.n_units}) | {cells} |")
+            lines.append("")
+    return lines
+
+
 def prediction_markdown(study: PredictionStudy, command: str) -> str:
     """``report.md`` of the prediction comparison (docs/RESULTS.md quotes it).
 
@@ -575,6 +614,7 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
                 )
             lines.append(line)
         lines.append("")
+    lines += _benchmark_tables(study)
     lines += [
         "## Goals",
         "",

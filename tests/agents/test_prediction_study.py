@@ -1,25 +1,37 @@
 """The prediction comparison (agents/studies/prediction.py): a tiny run, summaries, goals."""
 
+import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from drivestyle.agents.studies.prediction import (
+    DEFAULT_DATA_DIR,
     GOALS,
     RISK_RANGE,
+    SPLIT_FILE,
+    SPLITS,
+    T_OBS,
     TEST_SEED,
     VALIDATION_SEED,
     MethodSummary,
     PredictionRecord,
+    SplitRow,
+    benchmark_split,
+    bootstrap_stats,
     draw_simulated,
     evaluate_prediction,
     example_record,
     goal_checks,
     observed_scenario,
+    observed_view,
     oracle_style,
+    predict_vehicle,
+    read_split,
     spanning_tracks,
     summarise_records,
+    write_split,
 )
 from drivestyle.irl.driver_style import DriverStyle, expert_style
 from drivestyle.irl.forecast import METHODS
@@ -152,3 +164,118 @@ def test_observed_times_are_checked_before_any_vehicle_is_simulated(monkeypatch)
                        ((float("nan"),), "finite")):  # fmt: skip
         with pytest.raises(ValueError, match=match):
             study.evaluate_prediction(LIBRARY, 2, 5, None, bad, workers=1)
+
+
+# ---------------------------------------------------------------------------- the benchmark
+DATA = DEFAULT_DATA_DIR
+needs_data = pytest.mark.skipif(
+    not (DATA / "ngsim" / "episodes.csv").is_file(), reason="the shipped datasets are absent"
+)
+
+
+@needs_data
+def test_the_committed_split_is_the_functions_and_no_vehicle_is_in_two_splits():
+    rows = benchmark_split(DATA)
+    assert read_split(SPLIT_FILE) == rows
+    split_of: dict[str, set[str]] = {}
+    for r in rows:
+        split_of.setdefault(r.vehicle_id, set()).add(r.split)
+    assert all(len(s) == 1 for s in split_of.values())
+    assert {r.split for r in rows} == set(SPLITS)
+    assert {r.dataset for r in rows if r.split == "test"} == {"ngsim", "cats"}
+    assert len({r.episode_id for r in rows}) == len(rows)
+
+
+def test_write_and_read_split_round_trip(tmp_path):
+    rows = [
+        SplitRow("ngsim", "e1", "ngsim:i80:1", "train"),
+        SplitRow("cats", "e2", "cats:AV", "test"),
+    ]
+    write_split(rows, tmp_path / "s.csv")
+    assert read_split(tmp_path / "s.csv") == rows
+    (tmp_path / "bad.csv").write_text("dataset,episode_id,vehicle_id,split\nngsim,e,v,holdout\n")
+    with pytest.raises(ValueError, match="malformed"):
+        read_split(tmp_path / "bad.csv")
+
+
+def test_bootstrap_resamples_vehicles_with_a_fixed_seed():
+    values = np.array([[1.0, 10.0], [1.0, 12.0], [5.0, 0.0], [3.0, 1.0]])
+    units = ["a", "a", "b", "c"]
+    stats = bootstrap_stats(values, units, samples=500, seed=1)
+    assert stats == bootstrap_stats(values, units, samples=500, seed=1)
+    assert stats[0].mean == pytest.approx(2.5) and stats[0].median == pytest.approx(2.0)
+    for st in stats:
+        assert st.mean_lo <= st.mean <= st.mean_hi and st.median_lo <= st.median_hi
+    # a replicate takes every record of a drawn vehicle: the mean stays within the units' means
+    assert stats[0].mean_lo >= 1.0 and stats[0].mean_hi <= 5.0
+    one = bootstrap_stats(values[:2], units[:2], samples=50, seed=1)[0]
+    assert one.mean_lo == one.mean_hi == 1.0  # one vehicle: nothing to resample
+
+
+def _as_recorded(demo):
+    """A simulated demonstration presented as a recorded episode (observed_view applies)."""
+    from drivestyle.agents.studies.real_traffic import driver_demo
+
+    rng = np.random.default_rng(0)
+    others = np.repeat(demo.tv[:, None, :], 2, axis=1).copy()
+    others[:, 0, 0] += 30.0  # a leader in the target lane, speed varying (as recorded)
+    others[:, 1, 0] += 60.0
+    others[:, 1, 1] -= demo.scenario.lane_width
+    others[:, :, 3] += 0.01 * rng.standard_normal(others.shape[:2])
+    raw = replace(demo, meta={**demo.meta, "episode_id": "sim-as-recorded"}, others=others)
+    return driver_demo(raw, own_line=False)
+
+
+def _change_the_future(demo, k):
+    ev, tv, others = demo.ev.copy(), demo.tv.copy(), demo.other_vehicles.copy()
+    ev[k + 1 :, 0] += np.linspace(0, 30, demo.n - k - 1)
+    ev[k + 1 :, 1] -= 2.0
+    ev[k + 1 :, 3] *= 0.5
+    tv[k + 1 :, :2] += 7.0
+    others[k + 1 :, :, 0] -= 12.0
+    others[k + 1 :, :, 3] += 5.0
+    return replace(demo, ev=ev, tv=tv, others=others)
+
+
+def test_the_observed_view_does_not_read_the_future(paper_demo):
+    demo = _as_recorded(paper_demo)
+    k = round(2.0 / demo.scenario.dt)
+    seen, sc = observed_view(demo, 2.0)
+    seen2, sc2 = observed_view(_change_the_future(demo, k), 2.0)
+    assert sc2 == sc
+    assert np.array_equal(seen.ev[: k + 1], seen2.ev[: k + 1])
+    assert np.array_equal(seen.vehicles[: k + 1], seen2.vehicles[: k + 1])
+    # the EV's current lane is the middle one; the target the next in the observed direction
+    assert math.floor(seen.ev[k, 1] / sc.lane_width) == 1 and sc.target_lane in (0, 2)
+    # a vehicle first recorded after t_obs (held constant before it, as the loader does) is
+    # replaced by a phantom far behind
+    late = demo.other_vehicles.copy()
+    late[: k + 3, 0, 2:] = late[k + 3, 0, 2:]
+    seen3, _ = observed_view(replace(demo, others=late), 2.0)
+    assert np.min(seen3.vehicles[k, :, 0] - seen3.ev[k, 0]) < -900
+
+
+def test_cv_ca_and_physics_predictions_do_not_read_the_future(paper_demo):
+    demo = _as_recorded(paper_demo)
+    for t_obs in T_OBS:
+        k = round(t_obs / demo.scenario.dt)
+        a = predict_vehicle("ngsim", "e", demo, LIBRARY, (t_obs,), methods=("cv", "ca", "physics"))
+        b = predict_vehicle("ngsim", "e", _change_the_future(demo, k), LIBRARY, (t_obs,),
+                            methods=("cv", "ca", "physics"))  # fmt: skip
+        pa, pb = a[0][0].prediction, b[0][0].prediction
+        for m in ("cv", "ca", "physics"):
+            assert np.array_equal(pa.methods[m].xy, pb.methods[m].xy), (t_obs, m)
+        assert not np.array_equal(pa.actual, pb.actual)  # the scored truth did change
+
+
+@pytest.mark.slow  # the style methods' rollouts (≈ 10–20 s)
+def test_no_method_reads_the_future(paper_demo):
+    demo = _as_recorded(paper_demo)
+    k = round(2.0 / demo.scenario.dt)
+    a = predict_vehicle("ngsim", "e", demo, LIBRARY, (2.0,))
+    b = predict_vehicle("ngsim", "e", _change_the_future(demo, k), LIBRARY, (2.0,))
+    assert a[1] == b[1] == []
+    pa, pb = a[0][0].prediction, b[0][0].prediction
+    assert list(pa.methods) == [m for m in METHODS if m != "oracle"]
+    for m in pa.methods:
+        assert np.array_equal(pa.methods[m].xy, pb.methods[m].xy), m
