@@ -13,8 +13,17 @@ met or missed, the online identification; with the command), ``OUT/report.md``,
 The study is agents/studies/prediction.py; its validation seed is 19000 (tests, choices),
 the reported test seed 19001 (the default).
 
+The recorded episodes are the benchmark's ``--split`` (docs/benchmark_split.csv, by vehicle;
+validation by default — the test split is run once, by the issue it judges); every method,
+the physics baseline (IDM + a quintic lane change, parameters from
+docs/benchmark_physics.json, calibrated on the train split) among them, is summarised by
+ADE and FDE and their lateral and longitudinal parts, means and medians with bootstrap 95 %
+intervals over vehicles. ``--write-split`` rewrites the split file and
+``--calibrate-physics`` the parameters, and exit.
+
 Example:
     python scripts/evaluate_prediction.py --library runs/library --out runs/prediction
+    drivestyle evaluate-prediction --library runs/library --no-simulated --out runs/benchmark_val
 """
 
 from __future__ import annotations
@@ -27,6 +36,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import (
+    METHOD_STYLES,
     plot_posterior_over_time,
     plot_prediction,
     plot_prediction_errors,
@@ -34,12 +44,19 @@ from drivestyle.agents.studies.figures import (
 from drivestyle.agents.studies.prediction import (
     DATASETS,
     DEFAULT_DATA_DIR,
+    PHYSICS_FILE,
+    SPLIT_FILE,
+    SPLITS,
     T_OBS,
     TEST_SEED,
+    benchmark_split,
+    calibrate_on_split,
     check_observed_times,
     evaluate_prediction,
     example_record,
+    read_split,
     spanning_tracks,
+    write_split,
 )
 from drivestyle.agents.studies.reports import prediction_markdown
 from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed, workers
@@ -51,13 +68,39 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.physics import load_params, save_params
+
+# the physics baseline's line in the figures (figures.py predates it)
+METHOD_STYLES.setdefault("physics", {"color": "#7c3aed", "ls": "-", "lw": 1.4})
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
+    p.add_argument("--library", type=Path, help="driver library folder or its library.json")
     p.add_argument(
-        "--library", type=Path, required=True, help="driver library folder or its library.json"
+        "--split",
+        choices=SPLITS,
+        default="validation",
+        help="the benchmark split of the recorded episodes (test: run once, by the issue it "
+        "judges)",
+    )
+    p.add_argument("--split-file", type=Path, default=SPLIT_FILE, help="the benchmark split (CSV)")
+    p.add_argument(
+        "--physics", type=Path, default=PHYSICS_FILE, help="the physics baseline's parameters"
+    )
+    p.add_argument(
+        "--write-split",
+        action="store_true",
+        help="write the split of --data-dir's episodes to --split-file and exit",
+    )
+    p.add_argument(
+        "--calibrate-physics",
+        action="store_true",
+        help="calibrate the physics baseline on the train split, write --physics and exit",
+    )
+    p.add_argument(
+        "--no-simulated", action="store_true", help="recorded episodes only (no simulated vehicles)"
     )
     p.add_argument(
         "--out", type=Path, default=Path("runs/prediction"), help="output folder (replaced whole)"
@@ -98,6 +141,21 @@ def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns prediction_eval.json's payload."""
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
+    if args.write_split:
+        rows = benchmark_split(args.data_dir)
+        write_split(rows, args.split_file)
+        print(f"wrote {args.split_file} ({len(rows)} episodes)")
+        return {"split_file": str(args.split_file), "episodes": len(rows)}
+    if args.calibrate_physics:
+        cal = calibrate_on_split(args.data_dir, read_split(args.split_file), args.observe)
+        save_params(cal, args.physics)
+        print(f"wrote {args.physics}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
+              f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip
+        return cal.to_json()
+    if args.library is None:
+        raise ValueError("--library is required (except with --write-split or --calibrate-physics)")
+    if args.no_recorded and args.no_simulated:
+        raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
     inputs = [args.library] + ([] if args.no_recorded else [args.data_dir])
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
@@ -134,13 +192,16 @@ def main(argv: list[str] | None = None) -> dict:
     try:
         study = evaluate_prediction(
             library,
-            args.vehicles,
+            0 if args.no_simulated else args.vehicles,
             args.seed,
             None if args.no_recorded else args.data_dir,
             args.observe,
             args.workers,
             progress=lambda stage, k: bars[stage].update(k),
             on_plan=on_plan,
+            split=None if args.no_recorded else args.split,
+            split_rows=None if args.no_recorded else read_split(args.split_file),
+            physics=load_params(args.physics),
         )
     finally:
         for bar in bars.values():
@@ -152,7 +213,8 @@ def main(argv: list[str] | None = None) -> dict:
         write_json(tmp / "prediction_eval.json", payload, argv_used)
         write_text(tmp / "report.md", markdown)
         plot_prediction_errors(study, tmp / "fde_by_method.png")
-        plot_posterior_over_time(spanning_tracks(study.tracks), tmp / "posterior_over_time.png")
+        if study.tracks:
+            plot_posterior_over_time(spanning_tracks(study.tracks), tmp / "posterior_over_time.png")
         example = example_record(study)
         if example is not None and example.prediction is not None:
             plot_prediction(
