@@ -47,7 +47,7 @@ from drivestyle.envs.demonstration import (
     Demonstration,
     plausibility_problems,
 )
-from drivestyle.envs.episodes import PHANTOM_GAP_M, resample_states
+from drivestyle.envs.episodes import PHANTOM_GAP_M, recover_inputs, resample_states
 from drivestyle.envs.episodes import time_grid as _grid
 from drivestyle.envs.scenario import ScenarioConfig
 
@@ -341,16 +341,21 @@ def _build(
     L = float(ego.length_m.iloc[0]) if "length_m" in ego else 4.5
     W = float(ego.width_m.iloc[0]) if "width_m" in ego else 1.8
     sc = scenario_from_episode(ev, tv, lane_width, dt, L, W)
-    # inputs are not recorded; recover_inputs(ev, sc, t_new) would give them, but φ here is
-    # the course atan2(ẏ, ẋ) = φ + β, and the spline's kinematic control points add β from
-    # a nonzero δ a second time (irl/spline.py: u ≡ 0 marks recorded data): kept at zero
-    u = np.zeros((t_new.size - 1, 2))
+    # inputs are not recorded: the closest ones the model has (identification compares its
+    # plans with them; zeros moved a simulated p = 0.9 to 0.73). φ here is the course
+    # atan2(ẏ, ẋ) = φ + β, which meta["heading"] says, so the spline does not add β again
+    u = recover_inputs(ev, sc, t_new)
     return Demonstration(
         t=t_new - t_new[0],
         ev=ev,
         tv=tv,
         u=u,
-        meta={"scenario": sc.to_dict(), "episode_id": ep_id, "t_cross_rel_s": float(-t_new[0])},
+        meta={
+            "scenario": sc.to_dict(),
+            "episode_id": ep_id,
+            "t_cross_rel_s": float(-t_new[0]),
+            "heading": "course",
+        },
         others=np.stack(others, axis=1) if others else None,
     )
 

@@ -162,8 +162,9 @@ def demo_control_points(demo: Demonstration, control_point_rule: str = "kinemati
     - ``"kinematic"`` (default): the bicycle model's own velocity, v^x = v cos(φ+β),
       v^y = v sin(φ+β) with β = atan(l_r/(l_f+l_r)·tan δ) from the applied steering, and
       accelerations as central differences of those velocities (one-sided at the ends),
-      which keeps the v·φ̇ term. If the demonstration has no steering input (recorded
-      data: ``meta["scenario"]`` absent or u ≡ 0), β = 0.
+      which keeps the v·φ̇ term. If the demonstration's heading is the course
+      (``meta["heading"] == "course"``: recorded data, whose heading is atan2(ẏ, ẋ) = φ + β)
+      or it has no steering input (u ≡ 0), β = 0.
 
     Args:
         demo: the demonstration.
@@ -178,6 +179,9 @@ def demo_control_points(demo: Demonstration, control_point_rule: str = "kinemati
     except ValueError:
         ratio = 0.5
     delta = np.append(demo.u[:, 1], demo.u[-1, 1])
+    if demo.meta.get("heading") == "course":
+        # a recorded heading is the course atan2(ẏ, ẋ) = φ + β: β is in it already
+        delta = np.zeros_like(delta)
     return state_control_points(demo.t, demo.ev, delta, control_point_rule, ratio)
 
 
