@@ -250,8 +250,9 @@ def _ten_hz(states, u, sc):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("columns", ["xy", "xyvh"])
 @pytest.mark.parametrize("risk", [0.6, 0.9])
-def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, risk):
+def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, risk, columns):
     from drivestyle.agents import generate_demonstration
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.identification import identify
@@ -264,18 +265,21 @@ def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, 
     frames = []
     for vid, states, u in (("ev", demo.ev, demo.u), ("tv", demo.tv, np.zeros_like(demo.u))):
         s = _ten_hz(states, u, sc)
-        frames.append(pd.DataFrame({"id": vid, "t": t, "x": s[:, 0], "y": s[:, 1],
-                                    "v": s[:, 3], "heading": s[:, 2]}))  # fmt: skip
+        table = pd.DataFrame({"id": vid, "t": t, "x": s[:, 0], "y": s[:, 1]})
+        if columns == "xyvh":
+            table["v"], table["heading"] = s[:, 3], s[:, 2]
+        frames.append(table)
     path = tmp_path / "smpc.csv"
     pd.concat(frames).to_csv(path, index=False)
-    # the SMPC changes lane at once (crossing after 1.5-2.3 s); its desired speed and
-    # ellipse are known constants of the vehicle's model, given as a researcher would
-    config = ExtractionConfig(min_before_s=1.0, observe_s=1.0, after_s=6.0, v_ref=30.0, l_a=15.0)
+    # the SMPC changes lane at once (crossing after 1.5-2.3 s): a short observed part; the
+    # desired speed comes from it, the ellipse is the model's (the default)
+    config = ExtractionConfig(min_before_s=1.0, observe_s=1.0, after_s=6.0)
     (ep,) = [e for e in extract_episodes(read_table(path, lane_width=w), config)
              if e.vehicle_id == "ev"]  # fmt: skip
     assert ep.usable and dict(ep.interacting) == {"target_follower": "tv"}
-    np.testing.assert_allclose(ep.demo.ev, demo.ev, atol=1e-9)
-    np.testing.assert_allclose(ep.demo.u, demo.u, atol=1e-9)
+    if columns == "xyvh":  # the recorded heading and speed: the same states and inputs
+        np.testing.assert_allclose(ep.demo.ev, demo.ev, atol=1e-9)
+        np.testing.assert_allclose(ep.demo.u, demo.u, atol=1e-9)
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)),
                             risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))  # fmt: skip
     from_npz = identify(demo, library).risk_interpolated
