@@ -285,3 +285,53 @@ def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, 
     from_npz = identify(demo, library).risk_interpolated
     from_csv = identify(ep.demo, library).risk_interpolated
     assert from_csv == pytest.approx(from_npz, abs=0.05)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("risk", [0.6, 0.9])
+def test_an_smpc_lane_change_in_levelx_image_coordinates_is_identified_like_its_npz(tmp_path, risk):
+    """highD's layout, lower direction (driving to image +x, its left is image −y)."""
+    from drivestyle.agents import generate_demonstration
+    from drivestyle.envs.readers import read_levelx
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.identification import identify
+    from drivestyle.irl.library import DriverLibrary
+
+    w = 3.75
+    sc = replace(PAPER, lane_width=w, l_b=3 * w / 5.25)
+    demo, _ = generate_demonstration(risk, sc)
+    rate, length, width, offset = 25.0, sc.vehicle_length, sc.vehicle_width, 40.0
+    t = np.arange(0.0, demo.t[-1] + 1e-9, 1 / rate)
+    rows = []
+    for vid, states in ((1, demo.ev), (2, demo.tv)):
+        x = np.interp(t, demo.t, states[:, 0])
+        y = np.interp(t, demo.t, states[:, 1])
+        vx = np.gradient(x, t)
+        vy = np.gradient(y, t)
+        # our frame (x along travel, y to its left) → image: x_img = x, y_img = offset − y
+        rows.append(pd.DataFrame({
+            "frame": np.arange(t.size) + 1, "id": vid,
+            "x": x - length / 2, "y": offset - y - width / 2, "width": length, "height": width,
+            "xVelocity": vx, "yVelocity": -vy, "xAcceleration": 0.0, "yAcceleration": 0.0,
+            "laneId": 0,
+        }))  # fmt: skip
+    pd.concat(rows, ignore_index=True).to_csv(tmp_path / "01_tracks.csv", index=False)
+    pd.DataFrame({"id": [1, 2], "drivingDirection": [2, 2], "class": "Car"}).to_csv(
+        tmp_path / "01_tracksMeta.csv", index=False
+    )
+    lower = [offset - k * w for k in (3, 2, 1, 0)]  # image y of the lines, increasing
+    upper = [offset - 30.0 - k * w for k in (3, 2, 1, 0)]
+    pd.DataFrame({
+        "id": [1], "frameRate": [rate],
+        "upperLaneMarkings": [";".join(f"{m:g}" for m in upper)],
+        "lowerLaneMarkings": [";".join(f"{m:g}" for m in lower)],
+    }).to_csv(tmp_path / "01_recordingMeta.csv", index=False)  # fmt: skip
+    recording = read_levelx(tmp_path / "01_tracks.csv")
+    config = ExtractionConfig(min_before_s=1.0, observe_s=1.0, after_s=6.0)
+    (ep,) = [e for e in extract_episodes(recording, config) if e.vehicle_id == "1"]
+    assert ep.usable and dict(ep.interacting) == {"target_follower": "2"}
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)),
+                            risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))  # fmt: skip
+    from_npz = identify(demo, library).risk_interpolated
+    from_levelx = identify(ep.demo, library).risk_interpolated
+    assert from_levelx == pytest.approx(from_npz, abs=0.05)
