@@ -8,6 +8,7 @@ against docs/RESULTS.md's measurements elsewhere; this file checks order and pat
 """
 
 import fnmatch
+import json
 import re
 import shlex
 from pathlib import Path
@@ -20,30 +21,36 @@ README = ROOT / "README.md"
 WRITES = {
     "reproduce-paper": ("demo/demo.npz", "reactive/style.json", "base/style.json"),
     "build-style-library": ("demos/p*_s*.npz", "library.json"),
+    "extract-episodes": ("*.npz", "episodes.csv"),
 }
 """Files inside its --out folder that a command writes and the README reads."""
 WRITTEN_BY = {
     "reproduce-paper": ("agents/studies/paper.py", ('"demo" / "demo.npz"', '"style.json"')),
     "build-style-library": ("scripts/build_style_library.py", ('f"p{p:g}_s{i}.npz"',)),
+    "extract-episodes": ("envs/episodes.py", ('f"{ep.episode_id}.npz"', "episodes.csv")),
 }
 """Where the code writes :data:`WRITES` (the test fails if the code stops writing them)."""
 OUTPUT_OPTIONS = ("--out", "--video")
 
 
-def _blocks(language: str) -> list[str]:
-    return re.findall(rf"(?ms)^```{language}\n(.*?)^```", README.read_text())
-
-
-def _commands() -> list[list[str]]:
-    commands = []
-    for block in _blocks("bash"):
+def _steps() -> list[tuple[str, object]]:
+    """The README's code in document order: ("bash", tokens) per command, ("python", text)."""
+    steps: list[tuple[str, object]] = []
+    for language, block in re.findall(r"(?ms)^```(bash|python)\n(.*?)^```", README.read_text()):
+        if language == "python":
+            steps.append(("python", block))
+            continue
         for line in block.splitlines():
             line = line.split(" #", 1)[0].strip()
             if not line or line.startswith("#"):
                 continue
             for part in line.split("&&"):
-                commands.append(shlex.split(part))
-    return commands
+                steps.append(("bash", shlex.split(part)))
+    return steps
+
+
+def _commands() -> list[list[str]]:
+    return [tokens for language, tokens in _steps() if language == "bash"]  # type: ignore[misc]
 
 
 def _outputs(tokens: list[str]) -> list[str]:
@@ -68,10 +75,22 @@ def _written(path: str, written: dict[str, str]) -> bool:
     return False
 
 
+PYTHON_WRITES = re.compile(r"to_csv\(\s*\"(runs/[^\"]+)\"")
+"""A path a Python example writes (its other ``runs/…`` strings are read)."""
+
+
 def _missing_inputs() -> list[str]:
     written: dict[str, str] = {}
     missing = []
-    for tokens in _commands():
+    for language, step in _steps():
+        if language == "python":
+            outs = set(PYTHON_WRITES.findall(step))
+            for path in re.findall(r"\"(runs/[^\"]+)\"", step):
+                if path not in outs and not _written(path, written):
+                    missing.append(f"a Python example reads {path}")
+            written.update(dict.fromkeys(outs, "python"))
+            continue
+        tokens = step
         if tokens[:1] != ["drivestyle"]:
             continue
         command = tokens[1]
@@ -80,10 +99,6 @@ def _missing_inputs() -> list[str]:
         ]
         for out in _outputs(tokens):
             written[out] = command
-    for block in _blocks("python"):
-        for path in re.findall(r"\"(runs/[^\"]+)\"", block):
-            if not _written(path, written):
-                missing.append(f"a Python example reads {path}")
     return missing
 
 
@@ -106,3 +121,32 @@ def test_the_files_the_readme_reads_inside_an_output_folder_are_written_by_the_c
     source, snippets = WRITTEN_BY[command]
     text = (ROOT / source).read_text()
     assert all(s in text for s in snippets), (command, source, snippets)
+
+
+@pytest.mark.slow
+def test_the_your_own_data_example_runs_as_written(tmp_path):
+    """The README's own-data blocks, verbatim, in a folder with a (smaller) library.
+
+    The library's p = 0.6 demonstration of scenario 0 is the same file whatever the
+    library's size, so the example's episode name and answer hold.
+    """
+    import subprocess
+    import sys
+
+    text = README.read_text()
+    section = text[text.index("### Your own data") :]
+    python = re.search(r"(?ms)^```python\n(.*?)^```", section).group(1)
+    bash = re.search(r"(?ms)^```bash\n(.*?)^```", section).group(1)
+    build = ["drivestyle", "build-style-library", "--risks", "0.5,0.6", "--scenarios", "1",
+             "--calibration", "2", "--out", "runs/library"]  # fmt: skip
+    run = subprocess.run(build, cwd=tmp_path, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    run = subprocess.run(
+        [sys.executable, "-c", python], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stderr
+    for line in bash.strip().splitlines():
+        run = subprocess.run(shlex.split(line), cwd=tmp_path, capture_output=True, text=True)
+        assert run.returncode == 0, (line, run.stderr)
+    identified = json.loads((tmp_path / "runs" / "identify_own" / "identify.json").read_text())
+    assert identified["risk_estimate"] == pytest.approx(0.6, abs=0.05)
