@@ -97,26 +97,26 @@ SMPC's path (probes with the TV 60–150 m behind: identical paths for p = 0.5 �
 INTERVAL_MASS = 0.9
 """Posterior mass of the reported risk interval."""
 OUT_OF_CLASS_FACTOR = 55.0
-"""k: a demonstration is *out of class* when its residual RMS at the best risk exceeds k
-noise floors (:attr:`~drivestyle.irl.library.DriverLibrary.noise_floor`, 0.1005 σ_u for
+"""k: a demonstration is *out of class* when its residual RMS at the best risk exceeds k noise
+floors (:attr:`~drivestyle.irl.library.DriverLibrary.noise_floor`, 0.1005 σ_u for
 runs/library). Measured with runs/library: 10 simulated SMPC drivers of continuous risk
 (random interactive scenarios, seed 4000) 2–50 floors exact and 10–52 through the 0.1 m
-tracker — large because the 13-risk profile misses the true risk's sharp minimum (a
-0.01 grid around it gives 0.3–11 floors exact, 9–51 tracked); 12 NGSIM episodes 49–63;
-6 CATS AV episodes 47–61; inputs with 3 σ_u of added noise 27–61. k = 55 is the smallest
-round factor above every simulated in-class driver: on the coarse profile the flag is a
-weak test (it fires for 4 of 12 NGSIM and 3 of 6 CATS AV episodes) and means "not of the
-class" only when it fires."""
+tracker — large because the 13-risk profile misses the true risk's sharp minimum (a 0.01
+grid around it gives 0.3–11 floors exact, 9–51 tracked); recorded episodes (recovered
+inputs) 12 NGSIM 50–75, 6 CATS AV 48–73; inputs with 3 σ_u of added noise 27–61. k = 55 is
+the smallest round factor above every simulated in-class driver: on the coarse profile the
+flag is a weak test (it fires for 8 of 12 NGSIM and 4 of 6 CATS AV episodes) and means "not
+of the class" only when it fires."""
 KL_INFORMATIVE = float(np.log(4 / 3))
 """Least KL(posterior ‖ prior) [nats] of an informative identification: log(4/3) ≈ 0.29,
 the KL of a posterior uniform on three quarters of the prior's range (the data ruled out a
 quarter). Demonstrations without a binding constraint give 0 exactly; 12 NGSIM episodes
-0.01–0.29, 6 CATS AV 0.00–0.19; simulated SMPC drivers whose risk the profile resolves
+0.01–0.25, 6 CATS AV 0.01–0.17; simulated SMPC drivers whose risk the profile resolves
 0.4–4.5."""
 WIDTH_INFORMATIVE = 0.75
 """Largest 90 % interval width, relative to the prior's (0.45), of an informative
 identification: the same quarter ruled out (:data:`KL_INFORMATIVE`). NGSIM 0.84–0.99,
-CATS AV 0.94–0.99; simulated SMPC drivers whose risk the profile resolves 0.0–0.66."""
+CATS AV 0.96–1.00; simulated SMPC drivers whose risk the profile resolves 0.0–0.66."""
 
 
 @dataclass(frozen=True)
