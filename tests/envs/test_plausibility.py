@@ -240,6 +240,7 @@ def test_tracked_demonstrations_pass_the_step_checks(paper_demo):
         assert step_problems(demo.t, demo.ev, demo.vehicles, demo.scenario) == []
 
 
+@pytest.mark.slow  # reads every recorded episode: CI runs it (pytest -m slow)
 @pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
 def test_every_recorded_episode_passes_the_step_checks():
     from drivestyle.envs.demonstration import step_problems

@@ -160,6 +160,7 @@ def test_evaluate_prediction_counts_a_repeated_observe_time_once_and_says_so(
     assert err == ["note: --observe lists 1 s more than once; each time counts once"]
 
 
+@pytest.mark.slow  # reads every recorded episode: CI runs it (pytest -m slow)
 @pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
 def test_observe_times_reach_the_recorded_episodes():
     from drivestyle.agents.studies.prediction import check_observed_times, load_recorded
