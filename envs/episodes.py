@@ -505,7 +505,7 @@ def _episode(
     t_next = (track.t[later[0]] + track.t[later[0] + 1]) / 2 if later.size else np.inf
     start = max(track.t[0], t_c - config.before_s, t_prev)
     stop = min(track.t[-1], t_c + config.after_s, t_next)
-    common = {
+    common: dict[str, Any] = {
         "episode_id": eid,
         "source": track.source,
         "carriageway": road.name,
@@ -610,7 +610,7 @@ def extract_episodes(
         from tqdm import tqdm
 
         items = tqdm(items, desc="lane changes", unit="vehicle")
-    episodes = []
+    episodes: list[Episode] = []
     for road, track in items:
         changes = find_lane_changes(track, road, config.min_stay_s)
         if changes:

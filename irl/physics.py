@@ -137,7 +137,7 @@ def idm_acceleration(
 def quintic_progress(u: np.ndarray | float) -> np.ndarray:
     """s(u) = 10u³ − 15u⁴ + 6u⁵ on u clipped to [0, 1] (minimum-jerk transition)."""
     u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
-    return u**3 * (10.0 + u * (-15.0 + 6.0 * u))
+    return np.asarray(u**3 * (10.0 + u * (-15.0 + 6.0 * u)))
 
 
 def _inverse_progress(f: float) -> float:

@@ -80,6 +80,8 @@ def main(argv: list[str] | None = None) -> dict:
             pred, demo, tmp / "prediction.png", f"{name}: prediction after {args.observe:g} s"
         )
     ident = pred.identification
+    if ident is None:  # no style method was run: nothing identified to report
+        return payload
     lo, hi = ident.risk_interval
     print(
         f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; identified risk "
