@@ -174,16 +174,36 @@ def inverse_step(
     u = np.array([float(np.clip((xi_next[3] - xi[3]) / T_s, lo[0], hi[0])), 0.0])
     r = mismatch(u)
     h = np.array([1e-6, 1e-7])
-    for _ in range(8):
+    for _ in range(20):
         J = np.stack([(mismatch(u + np.eye(2)[i] * h[i]) - r) / h[i] for i in range(2)], 1)
         step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        # an input held at its bound by a step pointing outside stays there, and the other
+        # one is fitted alone (else the clipped two-input step is not the constrained one)
+        held = ((u <= lo) & (step < 0)) | ((u >= hi) & (step > 0))
+        if held.any() and not held.all():
+            free = ~held
+            step = np.zeros(2)
+            step[free] = np.linalg.lstsq(J[:, free], -r, rcond=None)[0]
+        elif held.all():
+            return u
         u_new = np.clip(u + step, lo, hi)
         r_new = mismatch(u_new)
+        for _ in range(4):  # backtrack a step that overshoots a recorded pair's residual
+            if r_new @ r_new <= r @ r:
+                break
+            step = step / 2
+            u_new = np.clip(u + step, lo, hi)
+            r_new = mismatch(u_new)
+        # converged when the projected step vanishes (1e-9: far below any input's
+        # meaning), also where a bound holds the input (recorded steering beyond δ_max);
+        # at a recorded pair's non-zero residual the last steps only move rounding noise
+        converged = bool(np.all(np.abs(u_new - u) < 1e-9))
         if r_new @ r_new > r @ r:
+            if converged:
+                return u
             break  # no descent (a bound or a poor model fit): the general solver decides
         u, r = u_new, r_new
-        if np.all(np.abs(step) < 1e-10):
-            # converged; at a bound only if the unconstrained step points outside it
+        if converged:
             return u
     from scipy.optimize import least_squares
 
