@@ -90,3 +90,30 @@ def test_inverse_step_recovers_the_input_and_respects_its_bounds():
     nxt = rk4_step(xi, np.array([0.0, 0.08]), 0.2, 2.0, 2.0)
     got = inverse_step(xi, nxt, 0.2, 2.0, 2.0, (-9.0, -0.05), (6.0, 0.05))
     assert got[1] == pytest.approx(0.05)
+
+
+def test_inverse_step_on_a_pair_no_bounded_input_reaches_equals_bounded_least_squares():
+    from scipy.optimize import least_squares
+
+    from drivestyle.envs.dynamics import INPUT_FIT_SCALE, inverse_step, rk4_step_scalar
+
+    rng = np.random.default_rng(3)
+    lo, hi = (-9.0, -0.05), (6.0, 0.05)
+    held = 0
+    for _ in range(20):
+        xi = np.array([100.0, 3.0, rng.uniform(-0.05, 0.05), rng.uniform(8.0, 30.0)])
+        u = (rng.uniform(-3.0, 3.0), rng.choice([-1, 1]) * rng.uniform(0.06, 0.15))  # beyond δ_max
+        nxt = np.array(rk4_step_scalar(*xi, *u, 0.2, 2.0, 2.0)) + rng.normal(0, 0.05, 4)
+
+        def mismatch(w, xi=xi, nxt=nxt):
+            return (
+                np.array(rk4_step_scalar(*xi, w[0], w[1], 0.2, 2.0, 2.0)) - nxt
+            ) / INPUT_FIT_SCALE
+
+        expected = least_squares(mismatch, [0.0, 0.0], bounds=(lo, hi), xtol=1e-12).x
+        got = inverse_step(xi, nxt, 0.2, 2.0, 2.0, lo, hi)
+        np.testing.assert_allclose(got, expected, atol=1e-5)  # [m/s², rad]
+        cost = (mismatch(got) @ mismatch(got), mismatch(expected) @ mismatch(expected))
+        assert cost[0] <= cost[1] * (1 + 1e-9)  # never a worse fit than SciPy's
+        held += abs(got[1]) == pytest.approx(0.05)
+    assert held >= 10  # most of these pairs need more steering than the bound allows
