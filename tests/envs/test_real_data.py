@@ -214,20 +214,20 @@ def test_a_file_instead_of_the_folder_is_a_clear_error():
         load_ngsim(DATA / "ngsim" / "episodes.csv")
 
 
-def test_recorded_neighbours_become_others():
-    from drivestyle.envs.real_data import NEIGHBOUR_RANGE, load_cats, load_ngsim
+def test_recorded_neighbours_become_others(ngsim, cats):
+    from drivestyle.envs.real_data import NEIGHBOUR_RANGE
 
-    ngsim = [e for e in load_ngsim(DATA / "ngsim") if e.used]
+    with_neighbours = [e for e in ngsim if e.used]
     alone = [e for e in load_ngsim(DATA / "ngsim", neighbours=False) if e.used]
-    for with_n, without in zip(ngsim, alone, strict=True):
+    for with_n, without in zip(with_neighbours, alone, strict=True):
         d = with_n.demo
         assert d.others.shape[0] == d.n and d.others.shape[1] > 0
         assert without.demo.others.shape[1] == 0
         np.testing.assert_array_equal(d.ev, without.demo.ev)  # the EV is untouched
         gap = np.min(np.abs(d.others[:, :, 0] - d.ev[:, None, 0]), axis=0)
         assert np.all(gap <= NEIGHBOUR_RANGE)
-    cats = {e.episode_id: e for e in load_cats(DATA / "cats-av-lanechange") if e.used}
-    assert max(e.demo.others.shape[1] for e in cats.values()) >= 1
+    used = [e for e in cats if e.used]
+    assert max(e.demo.others.shape[1] for e in used) >= 1
 
 
 # ------------------------------------------------------------------- plausibility

@@ -143,9 +143,10 @@ def test_bench_irl(tmp_path, demo_file):
 @pytest.mark.parametrize(
     ("name", "seeded"), [("learn_style", False), ("reproduce_paper", True), ("bench_irl", True)]
 )
-def test_help(name, seeded):
-    proc = _run(name, "--help")
-    assert proc.returncode == 0 and ("--seed" in proc.stdout) == seeded
+def test_help(name, seeded, capsys):
+    with pytest.raises(SystemExit) as info:
+        _main(name)(["--help"])
+    assert info.value.code == 0 and ("--seed" in capsys.readouterr().out) == seeded
 
 
 def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch, capsys):
