@@ -47,7 +47,12 @@ from drivestyle.envs.demonstration import (
     Demonstration,
     plausibility_problems,
 )
-from drivestyle.envs.episodes import PHANTOM_GAP_M, recover_inputs, resample_states
+from drivestyle.envs.episodes import (
+    PHANTOM_GAP_M,
+    observed_scenario,
+    recover_inputs,
+    resample_states,
+)
 from drivestyle.envs.episodes import time_grid as _grid
 from drivestyle.envs.scenario import ScenarioConfig
 
@@ -228,30 +233,9 @@ def scenario_from_episode(
         The scenario (its start-inside-ellipse check disabled: recorded traffic may start
         closer than any ellipse).
     """
-    v_level = float(np.percentile(ev[:, 3], 90))
-    n = ev.shape[0]
-    return ScenarioConfig(
-        lane_width=lane_width,
-        n_lanes=3,
-        vehicle_length=length,
-        vehicle_width=min(width, 0.9 * lane_width),
-        l_f=0.4 * length,
-        l_r=0.4 * length,
-        v_max=max(70.0, 1.5 * float(ev[:, 3].max())),
-        ev_lane=0,
-        target_lane=1,
-        tv_lane=1,
-        ev_x=float(ev[0, 0]),
-        ev_speed=float(ev[0, 3]),
-        tv_gap=float(tv[0, 0] - ev[0, 0]),
-        tv_speed=float(tv[0, 3]),
-        v_ref=max(v_level, 1.0),
-        dt=dt,
-        horizon_s=round((n - 1) * dt, 9),
-        l_a=max(5.0, 15.0 * v_level / 27.5),
-        l_b=3.0 * lane_width / 5.25,
-        check_start=False,
-    )
+    # the whole window is "observed" here: the loaders' documented rule (DESIGN §10); the
+    # extraction of envs.episodes passes its observed part only
+    return observed_scenario(ev, tv[0], 1, lane_width, dt, ev.shape[0], length, width)
 
 
 NEIGHBOUR_RANGE = 100.0
