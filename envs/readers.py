@@ -27,6 +27,7 @@ __all__ = [
     "read_interaction",
     "read_levelx",
     "read_ngsim",
+    "read_sample",
     "read_table",
 ]
 
@@ -955,3 +956,85 @@ def read_interaction(
 READERS["ngsim"] = read_ngsim
 READERS["highd"] = read_levelx
 READERS["interaction"] = read_interaction
+
+
+# ------------------------------------------------- the project's shipped samples (shared/data)
+
+SAMPLE_MAIN_LANES = {"i80": 6, "us101": 5}
+"""Main lanes of the NGSIM sample's freeways by recording prefix (README: I-80 lane 7 and
+US-101 lanes 6–8 are ramps or the auxiliary lane)."""
+
+
+def read_sample(folder: str | Path) -> Recording:
+    """A shipped sample's ``tracks.csv.gz`` (``shared/data/ngsim`` or ``cats-av-lanechange``).
+
+    One carriageway per recording (NGSIM ``recording``, CATS ``run_id``); positions are
+    already in metres. NGSIM: x along travel and y from the left road edge growing right,
+    both at the front centre, lane_id 1 leftmost: x → x − length/2, y → −y, lane = (main
+    lanes) − lane_id, −1 for ramps and the auxiliary lane; the lane lines are equal lanes
+    fitted through the main lanes' median y. CATS: already our frame (y to the left, y = 0
+    the right edge of lane 0, lane k in [k·w, (k+1)·w), w from ``summary.json``, 3.95 m),
+    antenna positions, no vehicle sizes (5 m × 2 m); its lane column is kept (ids outside
+    0…2 are off the grid).
+
+    Raises:
+        FileNotFoundError: no ``tracks.csv.gz`` in ``folder``.
+        TrackError: neither sample's columns, or a malformed track (naming the vehicle).
+    """
+    import json
+
+    path = Path(folder) / "tracks.csv.gz"
+    df = _read_frame(path)
+    cats = "run_id" in df.columns
+    key, t_col = ("run_id", "t_s") if cats else ("recording", "time_s")
+    lane_col = "lane" if cats else "lane_id"
+    _published_columns(
+        df, path, [key, "vehicle_id", t_col, "x_m", "y_m", "v_mps", lane_col], "sample"
+    )
+    if cats:
+        summary = Path(folder) / "summary.json"
+        w = json.loads(summary.read_text())["lanes"]["width_m"] if summary.is_file() else 3.95
+    carriageways = []
+    for name, g in df.groupby(key, sort=True):
+        g = g.reset_index(drop=True)
+        num = _published_numbers(
+            g, path, [t_col, "x_m", "y_m", "v_mps", lane_col], ["vehicle_id"], t_col
+        )
+        t, lane_id = num[t_col], num[lane_col]
+        if cats:
+            frames, x, y, lane = np.round(t * 10), num["x_m"], num["y_m"], lane_id
+            lines = np.arange(4) * w
+            size = np.full(len(g), 5.0), np.full(len(g), 2.0)
+        else:
+            n_main = SAMPLE_MAIN_LANES.get(str(name).split("_")[0], NGSIM_MAIN_LANES)
+            main = lane_id <= n_main
+            ids = np.unique(lane_id[main])
+            centres = [np.median(num["y_m"][main & (lane_id == k)]) for k in ids]
+            slope, intercept = np.polyfit(ids, centres, 1)
+            lines = np.sort(-(intercept + slope * (np.arange(1, n_main + 2) - 0.5)))
+            size = g["length_m"].to_numpy(float), g["width_m"].to_numpy(float)
+            frames, x, y = g["frame"].to_numpy(), num["x_m"] - size[0] / 2, -num["y_m"]
+            lane = np.where(main, n_main - lane_id, -1.0)
+        lines = _check_markings(lines, path, f"{key} {name}")
+        groups, _ = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
+        tracks = [
+            Track(
+                vid,
+                t[r],
+                x[r],
+                y[r],
+                frames[r],
+                v=num["v_mps"][r],
+                lane=lane[r],
+                length=float(np.median(size[0][r])),
+                width=float(np.median(size[1][r])),
+                source=str(path),
+            )
+            for vid, r in groups
+        ]
+        carriageways.append(Carriageway(str(name), tuple(lines), tuple(tracks)))
+    meta = {"format": "sample", "dataset": "cats" if cats else "ngsim", "units": "metres"}
+    return Recording(str(path), tuple(carriageways), meta)
+
+
+READERS["sample"] = read_sample
