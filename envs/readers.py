@@ -330,7 +330,22 @@ NGSIM_FREEWAYS = ("i-80", "us-101")
 """``Location`` values kept from the data.transportation.gov CSV (the arterials are not)."""
 
 NGSIM_MAIN_LANES = 5
-"""US-101 and I-80 main lanes are Lane_ID 1 (leftmost) to 5; 6–8 are auxiliary lanes and ramps."""
+"""US-101's main lanes are Lane_ID 1 (leftmost) to 5 (6 auxiliary, 7 on-ramp, 8 off-ramp)."""
+NGSIM_MAIN_LANES_BY_FREEWAY = {"i-80": 6, "us-101": NGSIM_MAIN_LANES}
+"""Main lanes per freeway: I-80 has six (Lane_ID 1, the HOV lane, to 6; 7 is the on-ramp)."""
+
+
+def _ngsim_main_lanes(name: str, lane_id: np.ndarray) -> int:
+    """Main lanes of a freeway by its name, or for a headerless file by its lane ids.
+
+    A Lane_ID 8 (US-101's off-ramp) says US-101; a 7 without an 8 says I-80 (its on-ramp);
+    otherwise US-101's five.
+    """
+    if name in NGSIM_MAIN_LANES_BY_FREEWAY:
+        return NGSIM_MAIN_LANES_BY_FREEWAY[name]
+    ids = set(np.unique(lane_id).astype(int).tolist())
+    return 6 if 7 in ids and 8 not in ids else NGSIM_MAIN_LANES
+
 
 NGSIM_LANE_FT = 12.0
 """Nominal NGSIM lane width [ft] (``markings="nominal"``: lane k spans 12(k − 1)…12k ft of
@@ -501,12 +516,13 @@ def _ngsim_carriageway(
             f"Lane_ID {_label(lane_id[i])} is not an NGSIM lane (1 = leftmost, …)"
         )
     # lane lines from the data: median Local_X of each main lane against its Lane_ID
-    main = lane_id <= NGSIM_MAIN_LANES
+    n_main = _ngsim_main_lanes(name, lane_id)
+    main = lane_id <= n_main
     present = np.unique(lane_id[main])
     if present.size < 2:
         raise TrackError(
             f"{path} ({name}): vehicles in {present.size} main lane(s) (Lane_ID 1–"
-            f"{NGSIM_MAIN_LANES}); need 2 to check the unit and place the lane lines"
+            f"{n_main}); need 2 to check the unit and place the lane lines"
         )
     centres = np.array([np.median(num["Local_X"][main & (lane_id == k)]) for k in present])
     slope, intercept = np.polyfit(present, centres, 1)
@@ -524,14 +540,14 @@ def _ngsim_carriageway(
             f"{path} ({name}): lanes {width_m:.3g} m wide after the feet → metres conversion "
             f"(median Local_X per main lane), but a road's lanes are {lo:g}–{hi:g} m: {hint}"
         )
-    k = np.arange(1, NGSIM_MAIN_LANES + 2)
+    k = np.arange(1, n_main + 2)
     if markings == "data":
         lines_ft = intercept + slope * (k - 0.5)
     else:
         lines_ft = NGSIM_LANE_FT * (k - 1)
     lines = np.sort(-FOOT * lines_ft)
-    # our lane index: Lane_ID 5 (rightmost main lane) → 0; auxiliary lanes and ramps → −1
-    lane = np.where(main, NGSIM_MAIN_LANES - lane_id, -1.0)
+    # our lane index: the rightmost main lane → 0; auxiliary lanes and ramps → −1
+    lane = np.where(main, n_main - lane_id, -1.0)
     t_ms = num["Global_Time"]
     t0 = float(t_ms.min())
     t = (t_ms - t0) / 1000.0
@@ -573,12 +589,13 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
     - x = Local_Y·0.3048 − length/2 [m] (front centre → centre), y = −Local_X·0.3048 [m];
     - v = v_Vel·0.3048 [m/s]; length, width = v_Length, v_Width·0.3048 (per-vehicle median);
     - t = (Global_Time − the freeway's first Global_Time)/1000 [s]; frames = Frame_ID;
-    - lane = 5 − Lane_ID for the main lanes 1–5 (lane 0 is Lane_ID 5, the rightmost); −1
-      for Lane_ID ≥ 6 (US-101: 6 auxiliary, 7 on-ramp, 8 off-ramp; I-80: 6–7 on-ramp /
-      auxiliary), which lie right of the main lanes;
-    - lane lines (6, for the 5 main lanes, converted to increasing y): ``markings="data"``
+    - lane = M − Lane_ID for the M main lanes (US-101: 5, Lane_ID 6 auxiliary, 7 on-ramp,
+      8 off-ramp; I-80: 6, Lane_ID 7 on-ramp; a headerless file's freeway is told by its
+      lane ids, :func:`_ngsim_main_lanes`): lane 0 is the rightmost main lane; −1 for the
+      auxiliary lanes and ramps, which lie right of the main lanes;
+    - lane lines (M + 1, converted to increasing y): ``markings="data"``
       fits Local_X = a + w·Lane_ID through the median Local_X of each main lane and puts
-      the lines at a + w·(k − ½), k = 1…6 (equal lanes of the data's width, ≈ 12 ft);
+      the lines at a + w·(k − ½), k = 1…M + 1 (equal lanes of the data's width, ≈ 12 ft);
       ``"nominal"`` puts them at 12 ft steps from the left road edge (Local_X = 0).
     - a vehicle id seen again more than 1 s later (ids are reused across the 15-minute
       periods of the CSV) is a new track named ``'<id>@<first frame>'``.
@@ -960,7 +977,7 @@ READERS["interaction"] = read_interaction
 
 # ------------------------------------------------- the project's shipped samples (shared/data)
 
-SAMPLE_MAIN_LANES = {"i80": 6, "us101": 5}
+SAMPLE_MAIN_LANES = {"i80": NGSIM_MAIN_LANES_BY_FREEWAY["i-80"], "us101": NGSIM_MAIN_LANES}
 """Main lanes of the NGSIM sample's freeways by recording prefix (README: I-80 lane 7 and
 US-101 lanes 6–8 are ramps or the auxiliary lane)."""
 

@@ -496,3 +496,22 @@ def test_readers_are_registered():
     assert READERS["ngsim"] is read_ngsim
     assert READERS["highd"] is read_levelx
     assert READERS["interaction"] is read_interaction
+
+
+def test_ngsim_i80_has_six_main_lanes_and_us101_five(tmp_path):
+    df = pd.concat(
+        [_ngsim_table().assign(Location="us-101"), _ngsim_table().assign(Location="i-80")],
+        ignore_index=True,
+    )
+    path = tmp_path / "ngsim.csv"
+    df.to_csv(path, index=False)
+    i80, us101 = read_ngsim(path).carriageways
+    assert (len(i80.markings), len(us101.markings)) == (7, 6)
+    assert np.all(_track(i80, "6").lane == 0)  # I-80's Lane_ID 6: its rightmost main lane
+    assert np.all(_track(us101, "6").lane == -1)  # US-101's: the auxiliary lane
+    # a headerless file with an on-ramp (7) and no off-ramp (8) is I-80
+    ramp = _ngsim_vehicle(7, np.arange(10, 30), 78.0, 7, y0=20.0)
+    [cw] = read_ngsim(
+        _write_classic(pd.concat([_ngsim_table(), ramp]), tmp_path / "i80.txt")
+    ).carriageways
+    assert len(cw.markings) == 7 and np.all(_track(cw, "7").lane == -1)
