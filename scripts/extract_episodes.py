@@ -28,7 +28,7 @@ from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.episodes import ExtractionConfig, extract_episodes, write_episodes
 from drivestyle.envs.readers import READERS
 
-FORMATS = ("csv", "ngsim", "highd", "interaction")
+FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
 """``--format`` choices (each a key of :data:`drivestyle.envs.readers.READERS`)."""
 
 
@@ -36,7 +36,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
     d = ExtractionConfig()
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
-    p.add_argument("data", type=Path, help="the trajectory file (or the dataset's file)")
+    p.add_argument(
+        "data", type=Path, help="the trajectory file (sample: the shipped sample's folder)"
+    )
     p.add_argument("--format", default="csv", choices=FORMATS, help="how DATA is written")
     p.add_argument(
         "--out", type=Path, default=Path("runs/episodes"), help="output folder (replaced whole)"
@@ -111,7 +113,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         observe_s=args.observe,
         v_ref=args.v_ref,
     )
-    if args.format in ("ngsim", "highd") and (
+    if args.format in ("ngsim", "highd", "sample") and (
         args.lane_width is not None or args.lane_markings is not None
     ):
         raise ValueError(

@@ -65,3 +65,16 @@ def test_bad_input_is_one_error_line(tmp_path, args, message):
     )
     assert proc.returncode == 2 and proc.stderr.startswith("error:"), proc.stderr
     assert message in proc.stderr and proc.stderr.count("\n") == 1
+
+
+def test_the_shipped_ngsim_sample_goes_through_the_command(tmp_path):
+    data = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ngsim"
+    if not data.is_dir():
+        pytest.skip("../shared/data not beside the checkout")
+    from drivestyle.scripts import extract_episodes
+
+    extract_episodes.main([str(data), "--format", "sample", "--out", str(tmp_path / "out")])
+    rows = (tmp_path / "out" / "episodes.csv").read_text().splitlines()
+    assert (
+        len(rows) - 1 == 19
+    )  # every lane change of the sample (tests/envs/test_sample_extraction.py)
