@@ -1050,7 +1050,11 @@ def read_sample(folder: str | Path) -> Recording:
             for vid, r in groups
         ]
         carriageways.append(Carriageway(str(name), tuple(lines), tuple(tracks)))
-    meta = {"format": "sample", "dataset": "cats" if cats else "ngsim", "units": "metres"}
+    meta: dict[str, object] = {
+        "format": "sample",
+        "dataset": "cats" if cats else "ngsim",
+        "units": "metres",
+    }
     return Recording(str(path), tuple(carriageways), meta)
 
 
