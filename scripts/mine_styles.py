@@ -2,7 +2,8 @@ r"""Mine the styles of many vehicles: per demonstration a personal style and its
 
 INPUT is a folder of demonstrations (``*.npz``, searched recursively, e.g. a
 ``simulate_population.py`` output) or, with ``--dataset ngsim|cats --data DIR``, a recorded
-dataset. Writes ``OUT/styles.csv`` (one row per demonstration: id, source, status, error,
+sample's every usable lane change, extracted as anyone's own data is (``extract-episodes
+--format sample``). Writes ``OUT/styles.csv`` (one row per demonstration: id, source, status, error,
 true risk where known, risk estimate, 90 % interval, posterior mean, θ normalised, fit
 errors, timings), ``OUT/summary.json`` (n, n_ok, n_failed, wall_s, demos_per_s, engine,
 workers, the input and library, the failed rows with their errors, …) and
@@ -40,7 +41,8 @@ from tqdm import tqdm
 from drivestyle.agents.studies.figures import plot_population
 from drivestyle.common.cli import HelpFormatter, positive_float, run_cli, workers
 from drivestyle.common.io import check_output_dir, write_json
-from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+from drivestyle.envs.readers import read_sample
 from drivestyle.irl.library import load_any_library
 from drivestyle.irl.mining import (
     CONNECT_TIMEOUT_S,
@@ -86,11 +88,17 @@ def _tasks(args: argparse.Namespace) -> tuple[list[MiningTask], str]:
     if args.dataset:
         if args.data is None or args.input is not None:
             raise ValueError("--dataset needs --data DIR and no INPUT folder")
-        loader = load_ngsim if args.dataset == "ngsim" else load_cats
+        # the same extraction as anyone's own data (envs.episodes): every usable lane change
+        recording = read_sample(args.data)
+        if recording.meta.get("dataset") != args.dataset:
+            raise ValueError(
+                f"--data {args.data} holds the {recording.meta.get('dataset')} sample, not "
+                f"--dataset {args.dataset}"
+            )
         tasks: list[MiningTask] = [
             (e.episode_id, args.dataset, e.demo)
-            for e in loader(args.data)
-            if e.used and e.demo is not None
+            for e in extract_episodes(recording, ExtractionConfig())
+            if e.usable and e.demo is not None
         ]
         return tasks, f"{args.dataset}:{args.data.resolve()}"
     if args.input is None:

@@ -287,3 +287,23 @@ def test_rows_of_the_earlier_stem_ids_are_mapped_or_mined_again(lib, tmp_path, c
     assert sorted(r["id"] for r in _table(out)) == ["a/v1", "b/v2", "c/v1"]  # no duplicates
     assert payload["n"] == 3 and payload["n_this_run"] == 2
     assert json.loads((out / "fingerprint.json").read_text())["id_scheme"] == "path"
+
+
+@pytest.mark.parametrize("dataset", ["ngsim", "cats"])
+def test_a_recorded_sample_is_mined_through_the_extraction(dataset):
+    data = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+    folder = data / ("ngsim" if dataset == "ngsim" else "cats-av-lanechange")
+    if not folder.is_dir():
+        pytest.skip("../shared/data not beside the checkout")
+    from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+    from drivestyle.envs.readers import read_sample
+    from drivestyle.scripts import mine_styles
+
+    args = mine_styles.parse_args(["--dataset", dataset, "--data", str(folder), "--library", "x"])
+    tasks, source = mine_styles._tasks(args)
+    usable = [e for e in extract_episodes(read_sample(folder), ExtractionConfig()) if e.usable]
+    assert [t[0] for t in tasks] == [e.episode_id for e in usable] and source.startswith(dataset)
+    other = "cats" if dataset == "ngsim" else "ngsim"
+    wrong = mine_styles.parse_args(["--dataset", other, "--data", str(folder), "--library", "x"])
+    with pytest.raises(ValueError, match=f"holds the {dataset} sample"):
+        mine_styles._tasks(wrong)
