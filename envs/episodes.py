@@ -69,6 +69,7 @@ __all__ = [
     "observed_scenario",
     "recover_inputs",
     "resample_states",
+    "speed_constants",
     "time_grid",
     "write_episodes",
 ]
@@ -419,6 +420,21 @@ def interacting_vehicles(
 
 
 # ------------------------------------------------------------------------------ the scenario
+def speed_constants(speeds: np.ndarray) -> tuple[float, float, float]:
+    """The scenario constants a vehicle's observed speeds give (DESIGN §10).
+
+    Args:
+        speeds: the EV's observed speeds, shape (k,) [m/s].
+
+    Returns:
+        (v̄, v_max, l_a): the speed level v̄ = the 90th percentile (≥ 1 m/s), the desired
+        speed when none is known [m/s]; v_max = max(70, 1.5 × the fastest) [m/s]; the
+        speed-scaled ellipse l_a = max(5 m, 15 m · v̄ / 27.5 m/s).
+    """
+    level = float(np.percentile(speeds, 90))
+    return max(level, 1.0), max(70.0, 1.5 * float(np.max(speeds))), max(5.0, 15.0 * level / 27.5)
+
+
 def observed_scenario(
     ev_observed: np.ndarray,
     tv0: np.ndarray,
@@ -453,8 +469,7 @@ def observed_scenario(
     Returns:
         The scenario (start-inside-ellipse check off: recorded traffic may start closer).
     """
-    speeds = ev_observed[:, 3]
-    v_level = float(np.percentile(speeds, 90))
+    v_level, v_max, l_a_rule = speed_constants(ev_observed[:, 3])
     return ScenarioConfig(
         lane_width=lane_width,
         n_lanes=3,
@@ -462,7 +477,7 @@ def observed_scenario(
         vehicle_width=min(width, 0.9 * lane_width),
         l_f=0.4 * length,
         l_r=0.4 * length,
-        v_max=max(70.0, 1.5 * float(speeds.max())),
+        v_max=v_max,
         ev_lane=0,
         target_lane=1,
         tv_lane=tv_lane,
@@ -470,10 +485,10 @@ def observed_scenario(
         ev_speed=min(max(float(ev_observed[0, 3]), 0.0), 70.0),
         tv_gap=float(tv0[0] - ev_observed[0, 0]),
         tv_speed=max(float(tv0[3]), 0.0),
-        v_ref=v_ref if v_ref is not None else max(v_level, 1.0),
+        v_ref=v_ref if v_ref is not None else v_level,
         dt=dt,
         horizon_s=round((n - 1) * dt, 9),
-        l_a=l_a if l_a is not None else max(5.0, 15.0 * v_level / 27.5),
+        l_a=l_a if l_a is not None else l_a_rule,
         l_b=3.0 * lane_width / 5.25,
         check_start=False,
     )

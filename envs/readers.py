@@ -499,6 +499,33 @@ def _ngsim_table(path: Path) -> Any:
     return df
 
 
+def _left_numbered_lanes(
+    lateral: np.ndarray, lane_id: np.ndarray, n_main: int
+) -> tuple[np.ndarray, float, float, np.ndarray]:
+    """Lane lines of lanes numbered from the left (NGSIM's Lane_ID 1 leftmost).
+
+    ``lateral`` grows to the right from the left road edge. The main lanes (Lane_ID ≤
+    ``n_main``) are taken as equally wide: lateral = a + w·Lane_ID is fitted through each
+    present main lane's median position, the lines lie at a + w·(k − ½), k = 1 … n_main + 1.
+
+    Args:
+        lateral: lateral position of every row, shape (r,) [the source's unit].
+        lane_id: its Lane_ID, shape (r,).
+        n_main: the number of main lanes.
+
+    Returns:
+        (the present main Lane_IDs, w, a, our lane index per row: the rightmost main lane
+        0, auxiliary lanes and ramps −1).
+    """
+    main = lane_id <= n_main
+    present = np.unique(lane_id[main])
+    if present.size < 2:
+        return present, math.nan, math.nan, np.where(main, n_main - lane_id, -1.0)
+    centres = np.array([np.median(lateral[main & (lane_id == k)]) for k in present])
+    slope, intercept = np.polyfit(present, centres, 1)
+    return present, float(slope), float(intercept), np.where(main, n_main - lane_id, -1.0)
+
+
 def _ngsim_carriageway(
     path: Path, name: str, df: Any, markings: str
 ) -> tuple[Carriageway, float, int]:
@@ -517,15 +544,12 @@ def _ngsim_carriageway(
         )
     # lane lines from the data: median Local_X of each main lane against its Lane_ID
     n_main = _ngsim_main_lanes(name, lane_id)
-    main = lane_id <= n_main
-    present = np.unique(lane_id[main])
+    present, slope, intercept, lane = _left_numbered_lanes(num["Local_X"], lane_id, n_main)
     if present.size < 2:
         raise TrackError(
             f"{path} ({name}): vehicles in {present.size} main lane(s) (Lane_ID 1–"
             f"{n_main}); need 2 to check the unit and place the lane lines"
         )
-    centres = np.array([np.median(num["Local_X"][main & (lane_id == k)]) for k in present])
-    slope, intercept = np.polyfit(present, centres, 1)
     width_m = slope * FOOT
     lo, hi = LANE_WIDTH_RANGE_M
     if not lo <= width_m <= hi:
@@ -546,8 +570,6 @@ def _ngsim_carriageway(
     else:
         lines_ft = NGSIM_LANE_FT * (k - 1)
     lines = np.sort(-FOOT * lines_ft)
-    # our lane index: the rightmost main lane → 0; auxiliary lanes and ramps → −1
-    lane = np.where(main, n_main - lane_id, -1.0)
     t_ms = num["Global_Time"]
     t0 = float(t_ms.min())
     t = (t_ms - t0) / 1000.0
@@ -1024,14 +1046,10 @@ def read_sample(folder: str | Path) -> Recording:
             size = np.full(len(g), 5.0), np.full(len(g), 2.0)
         else:
             n_main = SAMPLE_MAIN_LANES.get(str(name).split("_")[0], NGSIM_MAIN_LANES)
-            main = lane_id <= n_main
-            ids = np.unique(lane_id[main])
-            centres = [np.median(num["y_m"][main & (lane_id == k)]) for k in ids]
-            slope, intercept = np.polyfit(ids, centres, 1)
+            _, slope, intercept, lane = _left_numbered_lanes(num["y_m"], lane_id, n_main)
             lines = np.sort(-(intercept + slope * (np.arange(1, n_main + 2) - 0.5)))
             size = g["length_m"].to_numpy(float), g["width_m"].to_numpy(float)
             frames, x, y = g["frame"].to_numpy(), num["x_m"] - size[0] / 2, -num["y_m"]
-            lane = np.where(main, n_main - lane_id, -1.0)
         lines = _check_markings(lines, path, f"{key} {name}")
         groups, _ = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
         tracks = [

@@ -84,6 +84,7 @@ from drivestyle.agents.demo_generation import (
 from drivestyle.agents.studies.real_traffic import driver_demo
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.episodes import speed_constants
 from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
@@ -411,7 +412,7 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
     order = [first] + [j for j in range(vehicles.shape[1]) if j != first]
     vehicles = vehicles[:, order]
     tv = vehicles[:, 0]
-    v_level = float(np.percentile(ev[: k + 1, 3], 90))
+    v_ref, v_max, l_a = speed_constants(ev[: k + 1, 3])
     observed = replace(
         sc,
         ev_lane=ev_lane,
@@ -421,9 +422,9 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
         ev_speed=float(ev[0, 3]),
         tv_gap=float(tv[0, 0] - ev[0, 0]),
         tv_speed=float(tv[0, 3]),
-        v_ref=max(v_level, 1.0),
-        v_max=max(70.0, 1.5 * float(ev[: k + 1, 3].max())),
-        l_a=float(math.ceil(max(5.0, 15.0 * v_level / 27.5))),
+        v_ref=v_ref,
+        v_max=v_max,
+        l_a=float(math.ceil(l_a)),
     )
     out = Demonstration(
         t=demo.t,
