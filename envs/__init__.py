@@ -1,4 +1,10 @@
-"""drivestyle environments: the paper's three-lane highway with an EV and a scripted TV.
+"""drivestyle environments: the world and its data.
+
+The three-lane highway (scenarios, the bicycle dynamics, safety geometry, the Gymnasium
+envs, rendering and videos), demonstrations and their plausibility, and recorded data:
+the one road frame of recorded tracks (``tracks``), readers of published formats
+(``readers``), lane-change episodes from them (``episodes``), the shipped NGSIM/CATS
+samples' loaders (``real_data``) and a tracker's noise model (``tracking``).
 
 Importing this package registers the Gymnasium ids (idempotently):
 
