@@ -96,6 +96,7 @@ def test_train_save_reload_identical_actions(tmp_path, style_file, algo):
         obs, *_ = env.step(ua)
 
 
+@pytest.mark.slow  # trains two policies: CI runs it (pytest -m slow)
 def test_training_is_deterministic_given_seed(tmp_path, style_file):
     cfg = TrainConfig(algo="ppo", timesteps=256, eval_freq=256, seed=3)
     train_baseline(style_file, tmp_path / "a", cfg, progress=False)

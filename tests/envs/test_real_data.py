@@ -74,6 +74,7 @@ def test_missing_folder_is_a_clear_error(tmp_path):
         load_ngsim(tmp_path)
 
 
+@pytest.mark.slow  # reloads the whole NGSIM sample: CI runs it (pytest -m slow)
 def test_bad_rows_are_dropped_and_counted(tmp_path):
     import shutil
 
@@ -188,6 +189,7 @@ def test_non_numeric_track_value_is_named(tmp_path):
         load_ngsim(folder)
 
 
+@pytest.mark.slow  # reloads the whole NGSIM sample: CI runs it (pytest -m slow)
 def test_episode_without_track_rows_is_kept_unused(tmp_path):
     folder = _copy(tmp_path)
     first = "us101_scene_ego320_v323_t16.7"
