@@ -62,11 +62,14 @@ def _read_frame(path: Path) -> Any:
         except (OSError, ValueError) as exc:
             raise ValueError(f"{path} is not a readable Parquet file ({exc})") from None
     try:
-        return pd.read_csv(path)
+        df = pd.read_csv(path)
     except pd.errors.EmptyDataError:
         raise ValueError(f"{path} is empty (no header, no rows)") from None
     except (pd.errors.ParserError, UnicodeDecodeError, EOFError, OSError) as exc:
         raise ValueError(f"{path} is not a readable CSV ({exc})") from None
+    if df.empty:
+        raise ValueError(f"{path} has a header but no rows")
+    return df
 
 
 def _numeric(df: Any, column: str, path: Path) -> np.ndarray:

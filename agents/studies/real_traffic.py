@@ -7,13 +7,13 @@ For each recorded episode four reproductions are compared with the recording:
   dataset (leave-one-out), reproduced in this episode's scenario;
 - ``constant_velocity``: the EV's velocity at the window's start, extrapolated.
 
-Errors are taken at the recording's samples: rmse_y, rmse_xy and the final displacement error (fde).
-Feature constants adapt to each episode: the scenario's lane width, v_ref and ellipse come from
-:func:`drivestyle.envs.real_data.scenario_from_episode`; l_initial and l_des are the EV's own mean
-lateral positions over the window's first and last second (drivers keep their own line, not the
-painted lane centre, and a constant offset would otherwise be charged as lane deviation), and v_des
-= v_lane is its mean speed over the last second (the speed it settles at, rather than the scenario's
-v_ref).
+Errors are taken at the recording's samples: rmse_y, rmse_xy and the final displacement
+error (fde). Feature constants adapt to each episode: the scenario's lane width, v_ref and
+ellipse come from the observed part (:mod:`drivestyle.envs.real_data`, DESIGN §10);
+l_initial and l_des are the EV's own mean lateral positions over the window's first and
+last second (drivers keep their own line, not the painted lane centre, and a constant
+offset would otherwise be charged as lane deviation), and v_des = v_lane is its mean speed
+over the last second (the speed it settles at, rather than the scenario's v_ref).
 """
 
 from __future__ import annotations
