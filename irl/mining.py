@@ -67,6 +67,7 @@ __all__ = [
     "MiningTask",
     "mine",
     "summary_numbers",
+    "verdict_numbers",
 ]
 
 ENGINES = ("local", "ray")
@@ -666,11 +667,38 @@ def mine(
     return [rows[i] for i in ids]
 
 
+def _range(values: Sequence[float | None]) -> list[float] | None:
+    kept = [float(v) for v in values if v is not None and math.isfinite(v)]
+    return [min(kept), max(kept)] if kept else None
+
+
+def verdict_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
+    """The verdicts on fit over the ok rows (DESIGN §8): counts and ranges.
+
+    Returns:
+        ``n_informative``, ``n_out_of_class`` and the [min, max] of the residual in noise
+        floors (``residual_floors``), of ``kl_nats`` and of ``interval_width_ratio`` (None
+        where no row has the number).
+    """
+    ok = [r for r in rows if r.status == "ok"]
+    floors = [
+        r.residual_rms / r.noise_floor for r in ok if r.residual_rms is not None and r.noise_floor
+    ]
+    return {
+        "n_informative": sum(bool(r.informative) for r in ok),
+        "n_out_of_class": sum(bool(r.out_of_class) for r in ok),
+        "residual_floors": _range(floors),
+        "kl_nats": _range([r.kl_nats for r in ok]),
+        "interval_width_ratio": _range([r.interval_width_ratio for r in ok]),
+    }
+
+
 def summary_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
-    """Accuracy of the estimates where the true risk is known (ok rows)."""
+    """Accuracy of the estimates where the true risk is known (ok rows), and the verdicts."""
+    verdicts = verdict_numbers(rows)
     ok = [r for r in rows if r.status == "ok" and r.true_risk is not None]
     if not ok:
-        return {"n_with_truth": 0}
+        return {"n_with_truth": 0, **verdicts}
     true = np.array([r.true_risk for r in ok], float)
     mean = np.array([r.risk_mean for r in ok], float)
     lo = np.array([r.risk_lo for r in ok], float)
@@ -679,4 +707,5 @@ def summary_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
         "n_with_truth": len(ok),
         "mae_posterior_mean": float(np.mean(np.abs(mean - true))),
         "interval_coverage": float(np.mean((lo - 1e-9 <= true) & (true <= hi + 1e-9))),
+        **verdicts,
     }

@@ -203,6 +203,11 @@ def main(argv: list[str] | None = None) -> dict:
         f"failed; {payload['n_skipped_finished']} already there), {len(todo)} in {wall:.1f} s "
         f"on {args.engine} x{args.workers}"
     )
+    if payload["n_ok"]:
+        print(
+            f"verdicts: {payload['n_informative']} of {payload['n_ok']} informative, "
+            f"{payload['n_out_of_class']} out of class (summary.json: the ranges)"
+        )
     return payload
 
 

@@ -24,15 +24,16 @@ The vehicles:
   (module section "No leak"). No oracle. Episodes too short for a t_obs, or whose prediction
   fails, are skipped and counted with the reason (:class:`SkippedPrediction`).
 
-**The recorded benchmark** (issue 26). Every shipped NGSIM and CATS episode is assigned once,
-by *vehicle* (all of a vehicle's episodes in one split), to train / validation / test
-(:func:`benchmark_split`, seed :data:`SPLIT_SEED`, stratified by dataset; committed as
-``docs/benchmark_split.csv``, :data:`SPLIT_FILE`). A vehicle is an NGSIM ego vehicle
-(``ngsim:<site>:<id>``) or a CATS *driver* of vehicle 3 (``cats:AV``, the computer, and
-``cats:HV``, the human): CATS's lane changes are all by one car, so its two drivers are
-the only units that can be held out. The benchmark evaluates the episodes of one split that
-load and are plausible (the learning studies' "used" selection — designed manoeuvres,
-complete windows, no ramps — is not applied: every recorded lane change is one to predict).
+**The recorded benchmark** (issue 26). Every lane change the extraction finds in the shipped
+NGSIM and CATS samples (:func:`recorded_episodes`: every vehicle's, not only the converters'
+curated ones) is assigned once, by *vehicle* (all of a vehicle's episodes in one split), to
+train / validation / test (:func:`benchmark_split`, seed :data:`SPLIT_SEED`, stratified by
+dataset; committed as ``docs/benchmark_split.csv``, :data:`SPLIT_FILE`). A vehicle is an
+NGSIM vehicle (``ngsim:<site>:<id>``) or a CATS vehicle on one day (``cats:AV:<id>``, the
+automated-driving day, ``cats:HV:<id>``, the human-driven one: vehicle 3 is the automated
+car, resp. the human-driven one, and 1, 2, 4 the others). The learning studies' "used"
+selection (designed manoeuvres, complete windows) is not applied: every recorded lane
+change is one to predict.
 The physics baseline's parameters are calibrated on the train split
 (:func:`calibrate_on_split`) and read from :data:`PHYSICS_FILE`. Summaries carry bootstrap
 95 % intervals of the mean and median of every error, resampling vehicles
@@ -67,6 +68,7 @@ Results are typed: one :class:`PredictionRecord` per (vehicle, t_obs), a
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -85,7 +87,6 @@ from drivestyle.agents.studies.real_traffic import driver_demo
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import speed_constants
-from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
 from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_style
@@ -141,6 +142,7 @@ __all__ = [
     "oracle_style",
     "prepare_demo",
     "read_split",
+    "recorded_episodes",
     "spanning_tracks",
     "summarise_records",
     "summarise_tracking",
@@ -208,20 +210,48 @@ class SplitRow:
     """A name of :data:`SPLITS`."""
 
 
-def _episode_vehicles(data_dir: Path, dataset: str) -> list[tuple[str, str]]:
-    """(episode id, vehicle id) of every episode in a dataset's ``episodes.csv``."""
-    import pandas as pd
+@functools.lru_cache(maxsize=4)
+def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demonstration], ...]:
+    """Every usable lane change of a shipped sample, as the extraction finds it.
 
-    path = Path(data_dir) / DATASETS[dataset] / "episodes.csv"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (the dataset folder's episodes.csv)")
-    df = pd.read_csv(path)
-    if dataset == "ngsim":
-        site = df.recording.astype(str).str.split("_").str[0]
-        ids = "ngsim:" + site + ":" + df.ego_id.astype(int).astype(str)
-    else:
-        ids = "cats:" + df["set"].astype(str)
-    return list(zip(df.episode_id.astype(str), ids, strict=True))
+    The sample's whole ``tracks.csv.gz`` goes through
+    :func:`~drivestyle.envs.readers.read_sample` and
+    :func:`~drivestyle.envs.episodes.extract_episodes` with the default
+    :class:`~drivestyle.envs.episodes.ExtractionConfig` (the path ``drivestyle
+    extract-episodes --format sample`` takes); every vehicle's changes count, not only the
+    converters' curated ones.
+
+    Args:
+        data_dir: the folder holding the datasets (a string: the result is cached).
+        dataset: a key of :data:`DATASETS`.
+
+    Returns:
+        (episode id, vehicle id, demonstration) per usable episode, in extraction order. A
+        vehicle is ``ngsim:<site>:<id>`` (site: the recording's prefix, ``i80`` or
+        ``us101``) or ``cats:<set>:<id>`` (set: ``AV`` or ``HV``, the day and driver of
+        the run, from its ``run_id``).
+
+    Raises:
+        ValueError: an unknown dataset; the reader's errors for missing or malformed files.
+    """
+    from drivestyle.envs.episodes import extract_episodes
+    from drivestyle.envs.readers import read_sample
+
+    if dataset not in DATASETS:
+        raise ValueError(f"unknown dataset {dataset!r}; known: {sorted(DATASETS)}")
+    recording = read_sample(Path(data_dir) / DATASETS[dataset])
+    out = []
+    for e in extract_episodes(recording):
+        if not e.usable or e.demo is None:
+            continue
+        group = e.carriageway.split("_" if dataset == "ngsim" else "-")[0]
+        out.append((e.episode_id, f"{dataset}:{group}:{e.vehicle_id}", e.demo))
+    return tuple(out)
+
+
+def _episode_vehicles(data_dir: Path, dataset: str) -> list[tuple[str, str]]:
+    """(episode id, vehicle id) of every usable episode of a sample (:func:`recorded_episodes`)."""
+    return [(eid, vid) for eid, vid, _ in recorded_episodes(str(data_dir), dataset)]
 
 
 def benchmark_split(
@@ -451,31 +481,30 @@ def prepare_demo(demo: Demonstration) -> tuple[Demonstration, bool]:
 def load_recorded(
     data_dir: str | Path, dataset: str, episodes: Sequence[str] | None = None
 ) -> list[tuple[str, Demonstration]]:
-    """A dataset's episodes as (episode id, raw demonstration).
+    """A sample's extracted episodes as (episode id, demonstration).
 
     Args:
         data_dir: the folder holding the datasets.
         dataset: a key of :data:`DATASETS`.
-        episodes: the benchmark's episodes to take (those of one split): each that loads and
-            is plausible, whether or not the learning studies use it. None: the used ones.
+        episodes: the benchmark's episodes to take (those of one split); None: every usable
+            extracted episode.
 
     Raises:
-        ValueError: an unknown dataset; the loaders' errors for missing or malformed files.
+        ValueError: an unknown dataset, an episode the sample does not have; the reader's
+            errors for missing or malformed files.
     """
-    if dataset not in DATASETS:
-        raise ValueError(f"unknown dataset {dataset!r}; known: {sorted(DATASETS)}")
-    loader = load_ngsim if dataset == "ngsim" else load_cats
-    loaded = loader(Path(data_dir) / DATASETS[dataset])
+    found = recorded_episodes(str(data_dir), dataset)
     if episodes is None:
-        return [(e.episode_id, e.demo) for e in loaded if e.used and e.demo is not None]
-    wanted = set(episodes)
-    return [
-        (e.episode_id, e.demo)
-        for e in loaded
-        if e.episode_id in wanted
-        and e.demo is not None
-        and not any(r.startswith(("implausible", "unusable")) for r in e.reasons)
-    ]
+        return [(eid, demo) for eid, _, demo in found]
+    by_id = {eid: demo for eid, _, demo in found}
+    missing = [e for e in episodes if e not in by_id]
+    if missing:
+        raise ValueError(
+            f"{dataset}: episode(s) {missing[:3]} of the split are not among the sample's "
+            f"{len(by_id)} extracted episodes; was the split written for another data folder "
+            "or extraction? (drivestyle evaluate-prediction --write-split)"
+        )
+    return [(e, by_id[e]) for e in dict.fromkeys(episodes)]
 
 
 # ---------------------------------------------------------------------------- records

@@ -279,3 +279,11 @@ def test_no_method_reads_the_future(paper_demo):
     assert list(pa.methods) == [m for m in METHODS if m != "oracle"]
     for m in pa.methods:
         assert np.array_equal(pa.methods[m].xy, pb.methods[m].xy), m
+
+
+@needs_data
+def test_a_split_naming_an_episode_the_sample_lacks_is_a_clear_error():
+    from drivestyle.agents.studies.prediction import load_recorded
+
+    with pytest.raises(ValueError, match=r"cats: episode\(s\) \['nope'\].*--write-split"):
+        load_recorded(DATA, "cats", ["nope"])

@@ -116,6 +116,27 @@ def test_summary_numbers_use_ok_rows_with_a_true_risk():
     assert summary["n_with_truth"] == 1
     assert summary["mae_posterior_mean"] == pytest.approx(0.031)
     assert summary["interval_coverage"] == 1.0
+    # the verdicts count every ok row, with or without a true risk
+    assert summary["n_informative"] == sum(bool(r.informative) for r in rows[:2])
+    assert summary["n_out_of_class"] == sum(bool(r.out_of_class) for r in rows[:2])
+
+
+def test_verdict_ranges_are_in_noise_floors():
+    from drivestyle.irl.mining import verdict_numbers
+
+    rows = [
+        dataclasses.replace(OK_ROW, id="a", residual_rms=0.2, noise_floor=0.1, kl_nats=0.5,
+                            interval_width_ratio=0.4, informative=True, out_of_class=False),
+        dataclasses.replace(OK_ROW, id="b", residual_rms=6.0, noise_floor=0.1, kl_nats=0.01,
+                            interval_width_ratio=0.99, informative=False, out_of_class=True),
+        MinedRow.failed("c", "p", "x"),
+    ]  # fmt: skip
+    v = verdict_numbers(rows)
+    assert v["n_informative"] == 1 and v["n_out_of_class"] == 1
+    assert v["residual_floors"] == pytest.approx([2.0, 60.0])
+    assert v["kl_nats"] == pytest.approx([0.01, 0.5])
+    assert v["interval_width_ratio"] == pytest.approx([0.4, 0.99])
+    assert verdict_numbers([])["residual_floors"] is None
 
 
 def test_any_error_while_mining_a_demonstration_is_its_failed_row(
