@@ -1,13 +1,13 @@
-"""Issue 26: the shipped NGSIM and CATS samples through the new extraction.
+"""Issue 26: the shipped NGSIM and CATS samples through the one extraction.
 
 ``read_sample`` reads each sample's ``tracks.csv.gz`` (every vehicle of every recording) and
-:func:`extract_episodes` finds every lane change in it; the loaders of
-:mod:`drivestyle.envs.real_data` read the converters' curated ``episodes.csv``. An extracted
-episode matches a loader episode when it has the same recording, the same ego vehicle and
-a crossing time within ±0.5 s (the loaders' t_cross is the first sample in the new lane,
-the extraction's the interpolated line crossing: I-80 is sampled at 2 Hz). Every *used*
-loader episode must be found and usable; the remaining differences are counted and
-explained below.
+:func:`extract_episodes` finds every lane change in it; the converters' curated
+``episodes.csv`` lists the changes the learning studies use, and the loaders of
+:mod:`drivestyle.envs.real_data` match each of its rows to an extracted change. A row
+matches when it has the same recording, the same ego vehicle and a crossing time within
+±0.5 s (the converters' t_cross is the first sample in the new lane, the extraction's the
+interpolated line crossing: I-80 is sampled at 2 Hz). Every *used* curated episode must be
+found and usable; the remaining differences are counted and explained below.
 """
 
 from __future__ import annotations
