@@ -45,6 +45,7 @@ from drivestyle.irl.risk_profile import RiskProfile, risk_profile
 
 __all__ = [
     "DEFAULT_SCORER",
+    "ENTERS_REGION_S_E",
     "MIN_MEMBERS",
     "SCORERS",
     "Calibration",
@@ -113,6 +114,14 @@ the KL of a posterior uniform on three quarters of the prior's range (the data r
 quarter). Demonstrations without a binding constraint give 0 exactly; 12 NGSIM episodes
 0.01–0.25, 6 CATS AV 0.01–0.17; simulated SMPC drivers whose risk the profile resolves
 0.4–4.5."""
+ENTERS_REGION_S_E = 0.95
+"""A recorded vehicle *enters the safety region* when another vehicle comes within this
+elliptical index (s_e < 0.95): every risk p ≥ 0.5 of the class keeps s_e ≥ 1 in its plans
+(the chance constraint's nominal ellipse; the tightening only grows with p), and the
+library's own SMPC demonstrations come no closer than 1.0000001, so a vehicle inside is
+less cautious than the least cautious style and its risk lies outside the library's range.
+A tight made-up cut-in at s_e 0.25 was identified *more* cautious than a roomy one before
+this flag; 11 of the 14 NGSIM lane changes and 12 of 88 CATS ones enter the 15 m region."""
 WIDTH_INFORMATIVE = 0.75
 """Largest 90 % interval width, relative to the prior's (0.45), of an informative
 identification: the same quarter ruled out (:data:`KL_INFORMATIVE`). NGSIM 0.84–0.99,
@@ -179,6 +188,12 @@ class Verdict:
     """Whether the data moved the posterior (class docstring)."""
     reason: str
     """One line saying why (the numbers behind the flags)."""
+    enters_region: bool = False
+    """Whether another vehicle came inside the safety region every risk keeps clear of
+    (closest s_e < :data:`ENTERS_REGION_S_E`): less cautious than the class allows, so
+    also ``out_of_class`` and never ``informative``."""
+    min_s_e: float | None = None
+    """The closest approach of any other vehicle [ellipse units] (None: paper model)."""
 
     @property
     def floors(self) -> float | None:
@@ -198,6 +213,8 @@ class Verdict:
             "kl_nats": self.kl_nats,
             "interval_width_ratio": self.width_ratio,
             "constraint_binds": self.constraint_binds,
+            "enters_region": self.enters_region,
+            "min_s_e": self.min_s_e,
             "reason": self.reason,
         }
 
@@ -262,10 +279,11 @@ def fit_verdict(
         :data:`WIDTH_INFORMATIVE`).
     """
     rms = float(np.sqrt(max(float(np.min(ssr)), 0.0) / n_residuals)) if n_residuals else None
+    inside = bool(n_residuals) and min_s_e < ENTERS_REGION_S_E
     out = rms is not None and rms > OUT_OF_CLASS_FACTOR * noise_floor
     kl = kl_from_uniform(mass)
     width = (interval[1] - interval[0]) / (prior_interval[1] - prior_interval[0])
-    informative = binds and _moved(kl, width)
+    informative = binds and _moved(kl, width) and not inside
     if not n_residuals:
         why = "no step yet: the posterior is the prior"
     elif not binds:
@@ -290,7 +308,14 @@ def fit_verdict(
             f"class's noise floor {noise_floor:.3f} (above {OUT_OF_CLASS_FACTOR:g}×), the "
             f"style does not describe this driver; {why}"
         )
-    return Verdict(rms, noise_floor, out, kl, float(width), binds, informative, why)
+    if inside:
+        why = (
+            f"less cautious than the class: another vehicle came to s_e {min_s_e:.2f}, inside "
+            "the safety region every risk keeps clear of (s_e ≥ 1), so the risk lies below the "
+            f"library's range and is not identified; {why}"
+        )
+    return Verdict(rms, noise_floor, out or inside, kl, float(width), binds, informative, why,
+                   inside, float(min_s_e))  # fmt: skip
 
 
 def _paper_verdict(

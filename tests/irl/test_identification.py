@@ -48,6 +48,8 @@ IDENTIFY_JSON_KEYS = {
     "kl_nats",
     "interval_width_ratio",
     "constraint_binds",
+    "enters_region",
+    "min_s_e",
     "reason",
 }
 

@@ -151,6 +151,24 @@ def test_residuals_far_above_the_floor_are_out_of_class_and_near_it_in_class():
     assert res.to_json()["residual_floors"] == pytest.approx(2 * OUT_OF_CLASS_FACTOR)
 
 
+@pytest.mark.parametrize("s_e", [0.25, 0.9])
+def test_a_vehicle_inside_the_safety_region_is_less_cautious_than_the_class(s_e):
+    from drivestyle.irl.identification import driver_posterior
+
+    sharp = np.full(13, 100.0)
+    sharp[4] = 0.0  # a sharp minimum that would otherwise be informative
+    inside = driver_posterior([_profile(sharp)], _driver_library(), [s_e], [None])
+    touching = driver_posterior([_profile(sharp)], _driver_library(), [1.0], [None])
+    assert touching.informative and not touching.out_of_class  # SMPC(0.5) touches s_e = 1
+    v = inside.verdict
+    assert v.enters_region and v.out_of_class and not inside.informative
+    assert v.min_s_e == pytest.approx(s_e)
+    assert (
+        inside.reason.startswith("less cautious than the class") and f"{s_e:.2f}" in inside.reason
+    )
+    assert inside.to_json()["enters_region"] is True
+
+
 def test_the_noise_floor_combines_the_fit_residual_and_s_floor():
     from drivestyle.irl.driver_style import RESIDUAL_FLOOR
     from drivestyle.irl.library import DriverLibrary
