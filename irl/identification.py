@@ -41,7 +41,7 @@ from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.learner import check_learnable
 from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
-from drivestyle.irl.risk_profile import RiskProfile, risk_profile
+from drivestyle.irl.risk_profile import RiskProfile, refined_profile
 
 __all__ = [
     "DEFAULT_SCORER",
@@ -819,7 +819,7 @@ def identify_driver(
         _check_kind(d)
     if profiles is None:
         try:
-            profiles = [risk_profile(library.style, d) for d in demos]
+            profiles = [refined_profile(library.style, d) for d in demos]
         except DriverStyleError as exc:
             raise LibraryError(f"cannot identify this demonstration: {exc}") from None
     return driver_posterior(
@@ -943,7 +943,7 @@ def calibrate_temperature(
         truth = _true_risk(d)
         if truth is None:
             continue
-        pr = risk_profile(library.style, d)
+        pr = refined_profile(library.style, d)
         if pr.n_active > 0:
             pairs.append((pr, truth))
     if not pairs:
