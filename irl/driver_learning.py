@@ -28,8 +28,10 @@ from drivestyle.irl.driver_style import (
     DRIVER_STYLE_KIND,
     GAUGE,
     INPUT_SCALE,
+    MIN_GAP_RANGE,
     RESIDUAL_FLOOR,
     RISK_RANGE,
+    TIME_GAP_RANGE,
     DriverStyle,
     DriverStyleError,
     Link,
@@ -244,6 +246,7 @@ def learn_driver(
     screen: int = SCREEN_CANDIDATES,
     restarts: int = RESTARTS,
     residual_floor: float = RESIDUAL_FLOOR,
+    fit_region: bool = False,
 ) -> DriverFit:
     """Learn one driver's style from its demonstrations in several scenarios.
 
@@ -281,6 +284,10 @@ def learn_driver(
         restarts: LM runs from the best-scored starting points.
         residual_floor: the residual RMS one driver of the class leaves [σ_u units]
             (:data:`RESIDUAL_FLOOR`; a driver library's for its kind of data).
+        fit_region: also learn the speed-scaled safety region, its time gap T and
+            standstill axis s_0 (:meth:`DriverStyle.region`, DESIGN §18), as bounded
+            coordinates starting from ``initial``'s (T = 0 and s_0 = the demonstrations'
+            median l_a when it has none: the fixed ellipse the fit improves on).
 
     Returns:
         The :class:`DriverFit`.
@@ -311,6 +318,7 @@ def learn_driver(
     risk_free = risks is None
     i_p = len(free)  # the risk coordinate (when free): p itself, bounded
     i_v = len(free) + risk_free  # the desired speed's (when fitted)
+    i_t = i_v + fit_speed  # the region's time gap and standstill axis (when fitted)
     t0 = time.perf_counter()
 
     def unpack(z: np.ndarray) -> tuple[DriverStyle, list[float]]:
@@ -318,7 +326,12 @@ def learn_driver(
         w[free] = np.exp(z[: len(free)])
         p = float(np.clip(z[i_p], lo, hi)) if risk_free else 0.7
         v_ref = float(np.clip(z[i_v], 0.1, 69.9)) if fit_speed else start.v_ref
-        style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon)
+        gap, s0 = start.time_gap, start.min_gap
+        if fit_region:
+            gap = float(np.clip(z[i_t], *TIME_GAP_RANGE))
+            s0 = float(np.clip(z[i_t + 1], *MIN_GAP_RANGE))
+        style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon,
+                            time_gap=gap, min_gap=s0)  # fmt: skip
         return style, (risks if risks is not None else [p] * len(demos))
 
     def parts(z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -352,6 +365,17 @@ def learn_driver(
         big.append(2.0)
         lower.append(0.1)
         upper.append(69.9)
+    if fit_region:
+        # T and s_0 bounded: a region can shrink to the class's least (T = 0, s_0 = 1 m)
+        # from the demonstrations' own ellipse (T = 0, s_0 = their l_a): the fit can only
+        # improve on the fixed region (from T = 1 s, s_0 = 5 m LM stalled on 3 of 4 NGSIM
+        # episodes at a worse cost than the fixed ellipse's)
+        s0 = start.min_gap or float(np.median([d.scenario.l_a for d in demos]))
+        z += [start.time_gap, float(np.clip(s0, *MIN_GAP_RANGE))]
+        fd += [0.02, 0.1]
+        big += [0.5, 5.0]
+        lower += [TIME_GAP_RANGE[0], MIN_GAP_RANGE[0]]
+        upper += [TIME_GAP_RANGE[1], MIN_GAP_RANGE[1]]
     z0 = np.array(z, dtype=float)
     box = _Box(np.array(fd), np.array(big), np.array(lower), np.array(upper))
     rng = np.random.default_rng(SCREEN_SEED)

@@ -57,8 +57,10 @@ __all__ = [
     "DRIVER_STYLE_KIND",
     "GAUGE",
     "INPUT_SCALE",
+    "MIN_GAP_RANGE",
     "RESIDUAL_FLOOR",
     "RISK_RANGE",
+    "TIME_GAP_RANGE",
     "WEIGHT_NAMES",
     "DriverStyle",
     "DriverStyleError",
@@ -93,6 +95,10 @@ INPUT_SCALE = (0.5, 0.005)
 the demonstrations: a and δ then weigh alike)."""
 GAUGE = 3
 """Index of the weight fixed at 1 (w_a)."""
+TIME_GAP_RANGE = (0.0, 4.0)
+"""Time gaps T the style class admits [s] (highway drivers keep 0.5–2.5 s)."""
+MIN_GAP_RANGE = (1.0, 60.0)
+"""Standstill semi-major axes s_0 the class admits [m]."""
 
 
 class DriverStyleError(ValueError):
@@ -124,6 +130,11 @@ class DriverStyle:
     """Desired speed [m/s]; None: the scenario's v_ref."""
     horizon: int = 10
     """N: the planning horizon [steps of T_s]."""
+    time_gap: float = 0.0
+    """T: the safety region grows with the EV's speed, l_a = s_0 + T·v (:meth:`region`)
+    [s]; 0: a fixed ellipse (the SMPC expert's, DESIGN §18)."""
+    min_gap: float | None = None
+    """s_0: the region's semi-major axis at standstill [m]; None: the scenario's l_a."""
 
     def __post_init__(self) -> None:
         w = tuple(float(x) for x in self.weights)
@@ -139,6 +150,25 @@ class DriverStyle:
             raise DriverStyleError(f"v_ref must be in (0, 70) m/s, got {self.v_ref!r}")
         if not (isinstance(self.horizon, int) and 1 <= self.horizon <= 50):
             raise DriverStyleError(f"horizon must be an integer in [1, 50], got {self.horizon!r}")
+        lo_t, hi_t = TIME_GAP_RANGE
+        if not (isinstance(self.time_gap, (int, float)) and lo_t <= self.time_gap <= hi_t):
+            raise DriverStyleError(
+                f"time_gap must lie in [{lo_t}, {hi_t}] s, got {self.time_gap!r}"
+            )
+        lo_g, hi_g = MIN_GAP_RANGE
+        if self.min_gap is not None and not (
+            isinstance(self.min_gap, (int, float)) and lo_g <= self.min_gap <= hi_g
+        ):
+            raise DriverStyleError(f"min_gap must lie in [{lo_g}, {hi_g}] m, got {self.min_gap!r}")
+
+    def region(self, speed: float, scenario: ScenarioConfig) -> float:
+        """l_a = s_0 + T·max(v, 0): the safety region's semi-major axis at speed v [m].
+
+        A headway-like region (DESIGN §18): drivers keep a time gap, not a fixed
+        distance; with T = 0 and s_0 the scenario's l_a it is the SMPC expert's ellipse.
+        """
+        s0 = scenario.l_a if self.min_gap is None else self.min_gap
+        return float(s0 + self.time_gap * max(float(speed), 0.0))
 
     @property
     def kappa(self) -> float:
@@ -158,6 +188,8 @@ class DriverStyle:
             "risk": self.risk,
             "v_ref": self.v_ref,
             "horizon": self.horizon,
+            "time_gap": self.time_gap,
+            "min_gap": self.min_gap,
         }
 
     @classmethod
@@ -176,6 +208,8 @@ class DriverStyle:
                 risk=float(raw["risk"]),
                 v_ref=None if raw.get("v_ref") is None else float(raw["v_ref"]),
                 horizon=int(raw.get("horizon", 10)),
+                time_gap=float(raw.get("time_gap", 0.0)),
+                min_gap=None if raw.get("min_gap") is None else float(raw["min_gap"]),
             )
         except KeyError as exc:
             raise DriverStyleError(f"driver style is missing key {exc}") from None
@@ -403,7 +437,8 @@ class StylePlanner:
         cfg = self.config
         vehicles = constrained_vehicles(xi0, others, cfg.max_vehicles, cfg.vehicle_range)
         v_ref = scenario.v_ref if style.v_ref is None else style.v_ref
-        return nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights)
+        return nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights,
+                              style.region(xi0[3], scenario))  # fmt: skip
 
     def _plan_generic(
         self, p: np.ndarray, scenario: ScenarioConfig, guess: PrimalDual
@@ -514,8 +549,8 @@ def planner_for(scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> Styl
     Its fatrop is the compiled one cached on disk (:attr:`SMPCConfig.compiled`), or the
     interpreted one when no C compiler is available.
     """
-    key = (scenario.dt, scenario.l_f, scenario.l_r, scenario.l_a, scenario.l_b,
-           horizon, n_vehicles)  # fmt: skip
+    # l_a is a parameter of the style's NLP (DESIGN §18): one planner serves every region
+    key = (scenario.dt, scenario.l_f, scenario.l_r, scenario.l_b, horizon, n_vehicles)
     if key not in _PLANNERS:
         _PLANNERS[key] = StylePlanner(scenario, horizon, n_vehicles)
     return _PLANNERS[key]

@@ -41,7 +41,7 @@ from drivestyle.irl.inner import InnerProblem, InnerSolveError
 from drivestyle.irl.learner import check_learnable
 from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
-from drivestyle.irl.risk_profile import RiskProfile, risk_profile
+from drivestyle.irl.risk_profile import RiskProfile, refined_profile
 
 __all__ = [
     "DEFAULT_SCORER",
@@ -777,14 +777,29 @@ def _quantile(grid: np.ndarray, density: np.ndarray, q: float) -> float:
     return float(grid[min(int(np.searchsorted(np.cumsum(density), q - 1e-12)), grid.size - 1)])
 
 
+def _interval(grid: np.ndarray, density: np.ndarray) -> tuple[float, float]:
+    """The central :data:`INTERVAL_MASS` interval of a mass on ``grid``, to its cells' edges.
+
+    Each grid point's mass stands for its cell [g − h/2, g + h/2] (h = :data:`DENSITY_STEP`),
+    so the quantiles' cells are included whole (clipped to the range): with the refined
+    profile a posterior can be a few cells wide, and a true risk between two grid points
+    then fell outside the points-only interval (validation, continuous risks: 59 % covered
+    at the cells' centres, 86 % to their edges).
+    """
+    tail = (1 - INTERVAL_MASS) / 2
+    half = DENSITY_STEP / 2
+    lo = max(_quantile(grid, density, tail) - half, float(grid[0]))
+    hi = min(_quantile(grid, density, 1 - tail) + half, float(grid[-1]))
+    return lo, hi
+
+
 def _posterior(
     profiles: Sequence[RiskProfile], temperature: float, grid: np.ndarray
 ) -> tuple[np.ndarray, tuple[float, float]]:
     """The posterior mass on ``grid`` (uniform prior) and its central 90 % interval."""
     density = np.exp(risk_log_likelihood(profiles, temperature, grid))
     density /= density.sum()  # finite: risk_log_likelihood refuses a non-finite posterior
-    tail = (1 - INTERVAL_MASS) / 2
-    return density, (_quantile(grid, density, tail), _quantile(grid, density, 1 - tail))
+    return density, _interval(grid, density)
 
 
 def identify_driver(
@@ -819,7 +834,7 @@ def identify_driver(
         _check_kind(d)
     if profiles is None:
         try:
-            profiles = [risk_profile(library.style, d) for d in demos]
+            profiles = [refined_profile(library.style, d) for d in demos]
         except DriverStyleError as exc:
             raise LibraryError(f"cannot identify this demonstration: {exc}") from None
     return driver_posterior(
@@ -850,8 +865,7 @@ def driver_posterior(
     grid = density_grid()
     density, (lo, hi) = _posterior(profiles, library.temperature, grid)
     uniform = np.full(grid.size, 1.0 / grid.size)
-    tail = (1 - INTERVAL_MASS) / 2
-    prior_interval = (_quantile(grid, uniform, tail), _quantile(grid, uniform, 1 - tail))
+    prior_interval = _interval(grid, uniform)
     verdict = fit_verdict(
         sum((np.interp(grid, pr.risks, pr.ssr) for pr in profiles), np.zeros(grid.size)),
         sum(pr.n_residuals for pr in profiles),
@@ -943,7 +957,7 @@ def calibrate_temperature(
         truth = _true_risk(d)
         if truth is None:
             continue
-        pr = risk_profile(library.style, d)
+        pr = refined_profile(library.style, d)
         if pr.n_active > 0:
             pairs.append((pr, truth))
     if not pairs:
@@ -954,7 +968,7 @@ def calibrate_temperature(
         hits = 0
         for pr, truth in pairs:
             _, (lo, hi) = _posterior([pr], tau, grid)
-            hits += lo - DENSITY_STEP / 2 <= truth <= hi + DENSITY_STEP / 2
+            hits += lo - 1e-9 <= truth <= hi + 1e-9  # the interval reaches its cells' edges
         coverage[float(tau)] = hits / len(pairs)
     chosen = next((t for t, c in coverage.items() if c >= target), float(candidates[-1]))
     return Calibration(chosen, coverage, len(pairs))

@@ -29,7 +29,7 @@ from drivestyle.planning.smpc_problem import (
     PrimalDual,
 )
 
-__all__ = ["RISK_EVAL", "RiskProfile", "risk_profile"]
+__all__ = ["REFINE_PER_SIDE", "RISK_EVAL", "RiskProfile", "refined_profile", "risk_profile"]
 
 # ---------------------------------------------------------------------------- risk profile
 RISK_EVAL = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.99)
@@ -107,3 +107,52 @@ def risk_profile(
     else:
         ssr[:-1] = constant
     return RiskProfile(risks, tuple(ssr.tolist()), 2 * n, int(active.sum()))
+
+
+REFINE_PER_SIDE = 2
+"""Risks :func:`refined_profile` adds inside each grid interval next to the coarse minimum."""
+
+
+def refined_profile(
+    style: DriverStyle,
+    demo: Demonstration,
+    risks: Sequence[float] = RISK_EVAL,
+    planner: StylePlanner | None = None,
+) -> RiskProfile:
+    """:func:`risk_profile` on ``risks``, refined around its minimum.
+
+    Between grid risks S(p) is interpolated linearly, and a driver's minimum is sharp (an
+    SMPC driver's S vanishes at its own risk only): with the 13-risk grid alone the
+    posterior mean of drivers of continuous risk was off by 0.042 on average, of those at
+    the grid's midpoints by 0.014. So :data:`REFINE_PER_SIDE` risks are added, evenly,
+    inside each of the two grid intervals beside the coarse minimum and solved the same
+    way; the merged profile is what identification interpolates.
+
+    Args:
+        style: the driver style (its ``risk`` is ignored).
+        demo: the demonstration.
+        risks: the coarse grid (increasing, in :data:`RISK_RANGE`).
+        planner: the NLP (default: the cached one of the demo's geometry).
+
+    Returns:
+        The merged :class:`RiskProfile` (``n_active`` the coarse profile's); the coarse
+        one when no chance constraint binds (S is flat: nothing to refine).
+    """
+    coarse = risk_profile(style, demo, risks, planner)
+    if coarse.n_active == 0 or len(coarse.risks) < 2:
+        return coarse
+    grid = coarse.risks
+    j = int(np.argmin(coarse.ssr))
+    extra: list[float] = []
+    for a, b in ((max(j - 1, 0), j), (j, min(j + 1, len(grid) - 1))):
+        if a != b:
+            inner = np.linspace(grid[a], grid[b], REFINE_PER_SIDE + 2)[1:-1]
+            extra += [round(float(p), 6) for p in inner]
+    fine = risk_profile(style, demo, extra, planner)
+    solved = dict(zip(grid, coarse.ssr, strict=True))
+    solved.update(zip(fine.risks, fine.ssr, strict=True))
+    merged = sorted(solved.items())
+    return RiskProfile(
+        tuple(p for p, _ in merged), tuple(v for _, v in merged), coarse.n_residuals,
+        coarse.n_active,
+    )  # fmt: skip

@@ -238,7 +238,7 @@ def _fraction_to_boundary(v: ca.SX, dv: ca.SX, tau: float | ca.SX) -> ca.SX:
     return ca.fmin(1.0, ca.mmin(ratios))
 
 
-def _stage_inequalities(k, N, M, x, u, s, vehicles, kappa, bnd, sigma, sc) -> list[ca.SX]:
+def _stage_inequalities(k, N, M, x, u, s, vehicles, kappa, bnd, sigma, sc, l_a=None) -> list[ca.SX]:
     """h_k ≥ 0 of stage k in :class:`IPMLayout` order."""
     rows: list[ca.SX] = []
     if k < N:
@@ -247,7 +247,7 @@ def _stage_inequalities(k, N, M, x, u, s, vehicles, kappa, bnd, sigma, sc) -> li
         rows += [x[1] - bnd[0], bnd[1] - x[1], x[2] + bnd[2], bnd[2] - x[2], x[3],
                  bnd[3] - x[3]]  # fmt: skip
         for j in range(M):
-            chance, nominal = smpc_ellipse_margins(x, vehicles[j], k, sigma, sc, kappa)
+            chance, nominal = smpc_ellipse_margins(x, vehicles[j], k, sigma, sc, kappa, l_a=l_a)
             rows += [s[j], chance + s[j], nominal]
     return rows
 
@@ -316,7 +316,8 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
             else ca.mtimes([e.T, QN, e])
         )
         h_all = _stage_inequalities(k, N, M, x, us[k] if k < N else None, ss[k],
-                                    sym.vehicles, sym.kappa, bnd, sigma, scenario)  # fmt: skip
+                                    sym.vehicles, sym.kappa, bnd, sigma, scenario,
+                                    sym.l_a)  # fmt: skip
         base = int(lay.h_stage[k][0]) if len(lay.h_stage[k]) else 0
         general, s_rows, c_rows = stage_rows[k]
         h_gen = ca.vertcat(*[h_all[r - base] for r in general])
@@ -484,6 +485,7 @@ def _ineq_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
         rows += _stage_inequalities(
             k, N, M, w[nl.ix[k]], w[nl.iu[k]] if k < N else None,
             w[nl.i_s[k - 1]] if k >= 1 else None, sym.vehicles, sym.kappa, bnd, sigma, scenario,
+            sym.l_a,
         )  # fmt: skip
     return ca.Function("ds_ipm_ineq", [w, sym.P, bnd], [ca.vertcat(*rows)])
 
@@ -656,7 +658,8 @@ def _key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     sc = scenario
     fields = (config.horizon, config.max_vehicles, config.weights_as_parameters, config.Q,
               config.Q_N, config.R, config.slack_l1, config.slack_l2, config.uncertainty,
-              sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)  # fmt: skip
+              sc.dt, sc.l_f, sc.l_r, None if config.weights_as_parameters else sc.l_a,
+              sc.l_b)  # fmt: skip
     digest = source_digest([__name__, "drivestyle.planning.compiled",
                             "drivestyle.planning.smpc_problem", "drivestyle.planning.chance",
                             "drivestyle.planning.prediction",
@@ -827,7 +830,7 @@ def compiled_solver(
             target = cached_library(
                 folder / f"ds_ipm_{key}.so", lambda: _generate(config, scenario, lay)
             )
-            n_p = 4 + 4 * config.max_vehicles + 3 + (5 if config.weights_as_parameters else 0)
+            n_p = 4 + 4 * config.max_vehicles + 3 + (6 if config.weights_as_parameters else 0)
             solver = PlanSolver(target, lay, n_p, options)
     except (OSError, RuntimeError):
         solver = None

@@ -273,6 +273,7 @@ def nlp_parameters(
     v_ref: float,
     kappa: float,
     weights: ArrayLike | None = None,
+    l_a: float | None = None,
 ) -> np.ndarray:
     """The parameter vector p of one solve (module docstring).
 
@@ -286,9 +287,11 @@ def nlp_parameters(
         kappa: Φ⁻¹(p), the back-off quantile.
         weights: [q_y, q_φ, q_v, r_a, r_δ] for an NLP built with
             :attr:`SMPCConfig.weights_as_parameters` (None for the expert's NLP).
+        l_a: the safety region's semi-major axis [m] of such an NLP (required with
+            ``weights``; the expert's NLP takes the scenario's).
 
     Returns:
-        p, shape (4 + 4M + 3,) or (4 + 4M + 3 + 5,) with weights.
+        p, shape (4 + 4M + 3,) or (4 + 4M + 3 + 5 + 1,) with weights and l_a.
     """
     parts: list[np.ndarray] = [
         np.asarray(xi0, dtype=float),
@@ -299,7 +302,14 @@ def nlp_parameters(
         w = np.asarray(weights, dtype=float).ravel()
         if w.shape != (N_WEIGHTS,):
             raise ValueError(f"weights must have {N_WEIGHTS} entries, got shape {w.shape}")
-        parts.append(w)
+        if l_a is None or not (math.isfinite(l_a) and l_a > 0):
+            raise ValueError(
+                f"a parametric NLP takes the safety region's semi-major axis l_a > 0 [m], got "
+                f"{l_a!r}"
+            )
+        parts += [w, np.array([l_a], dtype=float)]
+    elif l_a is not None:
+        raise ValueError("l_a is a parameter of the parametric (weights) NLP only")
     return np.concatenate(parts)
 
 
@@ -377,12 +387,13 @@ class _Symbols:
     kappa: ca.SX
     weights: ca.SX | None  # [q_y, q_φ, q_v, r_a, r_δ] of a parametric NLP
     paths: bool = False  # vehicles are predicted paths [x_1, y_1, …, x_N, y_N]
+    l_a: ca.SX | None = None  # the safety region's semi-major axis of a parametric NLP
 
 
 def _symbols(N: int, M: int, parametric: bool = False, paths: bool = False) -> _Symbols:
     b = 2 * N if paths else 4  # a vehicle's block: its predicted path, or its state
     n_base = NX + b * M + 3
-    P = ca.SX.sym("P", n_base + (N_WEIGHTS if parametric else 0))
+    P = ca.SX.sym("P", n_base + (N_WEIGHTS + 1 if parametric else 0))
     return _Symbols(
         xs=[ca.SX.sym(f"x{k}", NX) for k in range(N + 1)],
         us=[ca.SX.sym(f"u{k}", NU) for k in range(N)],
@@ -393,8 +404,9 @@ def _symbols(N: int, M: int, parametric: bool = False, paths: bool = False) -> _
         y_ref=P[NX + b * M],
         v_ref=P[NX + b * M + 1],
         kappa=P[NX + b * M + 2],
-        weights=P[n_base:] if parametric else None,
+        weights=P[n_base : n_base + N_WEIGHTS] if parametric else None,
         paths=paths,
+        l_a=P[n_base + N_WEIGHTS] if parametric else None,
     )
 
 
@@ -417,13 +429,17 @@ def _ellipse_margins(
     sc: ScenarioConfig,
     kappa: ca.SX,
     paths: bool = False,
+    l_a: ca.SX | None = None,
 ) -> tuple[ca.SX, ca.SX]:
     """(chance margin g_k, nominal margin ‖z̄_k‖ − 1) of the EV at ξ_k against one vehicle.
 
     The vehicle is predicted at constant velocity from its state ``vehicle`` (the mean of
     :func:`drivestyle.planning.prediction.tv_mean_prediction`), or, with ``paths``, ``vehicle``
-    is its predicted path; covariance Σ_k.
+    is its predicted path; covariance Σ_k. The ellipse's semi-major axis is ``l_a`` (a
+    parametric NLP's parameter: the style's speed-scaled region, DESIGN §18) or the
+    scenario's.
     """
+    l_a = sc.l_a if l_a is None else l_a
     if paths:
         dx, dy = x_k[0] - vehicle[2 * (k - 1)], x_k[1] - vehicle[2 * (k - 1) + 1]
     else:
@@ -431,9 +447,9 @@ def _ellipse_margins(
         dx = x_k[0] - (vehicle[0] + vehicle[3] * ca.cos(vehicle[2]) * t_k)
         dy = x_k[1] - (vehicle[1] + vehicle[3] * ca.sin(vehicle[2]) * t_k)
     chance = chance_margin(
-        dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], sc.l_a, sc.l_b, kappa
+        dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], l_a, sc.l_b, kappa
     )
-    nominal = chance_margin(dx, dy, 0.0, 0.0, 0.0, sc.l_a, sc.l_b, 0.0)
+    nominal = chance_margin(dx, dy, 0.0, 0.0, 0.0, l_a, sc.l_b, 0.0)
     return chance, nominal
 
 
@@ -477,7 +493,7 @@ def _constraints(cfg: SMPCConfig, sc: ScenarioConfig, sym: _Symbols, F: ca.Funct
         rows = []
         for j, vehicle in enumerate(sym.vehicles):
             chance, nominal = _ellipse_margins(
-                sym.xs[k], vehicle, k, sigma, sc, sym.kappa, sym.paths
+                sym.xs[k], vehicle, k, sigma, sc, sym.kappa, sym.paths, sym.l_a
             )
             rows += [chance + sym.ss[k][j], nominal]
         g.append(ca.vertcat(*rows))
@@ -640,7 +656,8 @@ class SMPCProblem:
 
     def serves(self, scenario: ScenarioConfig) -> bool:
         """Whether this NLP is the one of ``scenario`` (same T_s, l_f, l_r and ellipse)."""
-        return _geometry_key(scenario) == _geometry_key(self.scenario)
+        given = self.config.weights_as_parameters
+        return _geometry_key(scenario, given) == _geometry_key(self.scenario, given)
 
     def bounds(self, scenario: ScenarioConfig) -> NLPBounds:
         """:func:`nlp_bounds` of ``scenario`` for this layout."""
@@ -883,7 +900,7 @@ def _compiled_key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     fields = (c.horizon, c.max_vehicles, c.weights_as_parameters, c.predicted_paths,
               c.Q, c.Q_N, c.R, c.uncertainty, c.max_iter, c.tol, c.mu_init, c.slack_l1,
               c.slack_l2,
-              _geometry_key(scenario))  # fmt: skip
+              _geometry_key(scenario, c.weights_as_parameters))  # fmt: skip
     digest = source_digest([
         "drivestyle.envs.dynamics", "drivestyle.planning.chance", "drivestyle.planning.compiled",
         "drivestyle.planning.prediction", "drivestyle.planning.smpc_problem",
@@ -891,5 +908,6 @@ def _compiled_key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
     return hashlib.sha256((repr(fields) + digest).encode()).hexdigest()
 
 
-def _geometry_key(sc: ScenarioConfig) -> tuple:
-    return (sc.dt, sc.l_f, sc.l_r, sc.l_a, sc.l_b)
+def _geometry_key(sc: ScenarioConfig, l_a_given: bool = False) -> tuple:
+    """What an NLP depends on of the scenario (l_a not, when it is a parameter)."""
+    return (sc.dt, sc.l_f, sc.l_r, None if l_a_given else sc.l_a, sc.l_b)

@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "evaluate-identification": "identification on held-out scenarios, risks and noise",
     "predict-trajectory": "predict a vehicle's rest of trajectory after t_obs s (style vs CV)",
     "evaluate-prediction": "style-aware prediction vs CV on held-out and recorded vehicles",
+    "learn-population": "one style learned from the recorded benchmark's train split",
     "mine-styles": "personal style and risk of many demonstrations (local or Ray)",
     "simulate-population": "SMPC vehicles with known risks (ground truth for mining)",
     "real-traffic": "styles of recorded lane changes (NGSIM, CATS)",

@@ -88,6 +88,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="driver model: episodes a vehicle needs for its leave-one-out test (>= 2)",
     )
     p.add_argument(
+        "--fit-region",
+        action="store_true",
+        help="driver model: also learn the speed-scaled safety region (time gap, standstill axis)",
+    )
+    p.add_argument(
         "--scenario-line",
         action="store_true",
         help="driver model: aim at the target lane's centre, not the EV's own final line",
@@ -97,6 +102,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         p.error(f"--min-episodes must be >= 2 (one learns, one held out), not {args.min_episodes}")
     if args.restarts > args.screen:
         p.error(f"--restarts ({args.restarts}) cannot exceed --screen ({args.screen})")
+    if args.fit_region and args.model == "paper":
+        p.error("--fit-region is an option of the driver model (--model driver or both)")
     return args
 
 
@@ -117,7 +124,7 @@ def main(argv: list[str] | None = None) -> dict:
                 )
         if args.model in ("driver", "both"):
             settings = DriverSettings(
-                args.screen, args.restarts, not args.scenario_line, args.max_iter
+                args.screen, args.restarts, not args.scenario_line, args.max_iter, args.fit_region
             )
             with tqdm(desc=f"{args.dataset} driver-model fits", unit="fit") as bar:
                 driver = run_driver_study(

@@ -50,7 +50,7 @@ from drivestyle.irl.identification import (
 )
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
-from drivestyle.irl.risk_profile import RiskProfile, risk_profile
+from drivestyle.irl.risk_profile import RiskProfile, refined_profile
 
 __all__ = [
     "CONTINUOUS_RANGE",
@@ -472,7 +472,7 @@ def _driver_task(
     )
     out: DriverOutcome | str
     try:
-        profile = risk_profile(library.style, observed)
+        profile = refined_profile(library.style, observed)
         out = (observed, profile, identify_driver(observed, library, profiles=[profile]))
     except (LibraryError, DriverStyleError) as exc:
         out = str(exc)

@@ -397,6 +397,8 @@ class DriverSettings:
     """Shift each episode to the EV's own final line (:func:`driver_demo`)."""
     max_iter: int = 30
     """Levenberg–Marquardt iteration cap per run (:func:`learn_driver`'s default: 30)."""
+    fit_region: bool = False
+    """Also learn the speed-scaled safety region (time gap, standstill axis; DESIGN §18)."""
 
     def __post_init__(self) -> None:
         for name in ("screen", "restarts", "max_iter"):
@@ -415,6 +417,7 @@ class DriverSettings:
             "restarts": self.restarts,
             "own_line": self.own_line,
             "max_iter": self.max_iter,
+            "fit_region": self.fit_region,
         }
 
 
@@ -482,6 +485,7 @@ def _driver_fit_task(
         screen=settings.screen,
         restarts=settings.restarts,
         max_iter=settings.max_iter,
+        fit_region=settings.fit_region,
     )
     fit_json = {k: v for k, v in fit.to_json().items() if k != "history"}
     return {"fit": fit_json, "test": {j: _reproduction_errors(fit.style, demos[j]) for j in test}}

@@ -1,0 +1,102 @@
+"""Learn the population's style from the recorded benchmark's train split (issue 27).
+
+One style — cost weights, risk and the speed-scaled safety region l_a = s_0 + T·v (DESIGN
+§18) — by teacher forcing over every lane change of the split (docs/benchmark_split.csv),
+starting from a driver library's weights. Writes ``OUT/library.json``: a driver library
+with that style and the starting library's risks and temperature, which
+``identify-style``, ``mine-styles``, ``predict-trajectory`` and ``evaluate-prediction``
+take like any other (``fit`` records the learning: status, residual RMS — the library's
+noise floor — iterations, seconds; ``split`` the episodes learned from and those skipped).
+Learning is deterministic.
+
+Example:
+    drivestyle learn-population --library runs/library --out runs/people
+    drivestyle evaluate-prediction --library runs/people --no-simulated --out runs/benchmark_people
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from drivestyle.agents.studies.population_style import (
+    PopulationSettings,
+    learn_population,
+    population_library,
+    split_demos,
+)
+from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, SPLIT_FILE, SPLITS, read_split
+from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
+    p.add_argument("--library", type=Path, required=True, help="the driver library to start from")
+    p.add_argument("--out", type=Path, default=Path("runs/people"), help="output folder")
+    p.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR,
+                   help="folder holding ngsim/ and cats-av-lanechange/")  # fmt: skip
+    p.add_argument("--split-file", type=Path, default=SPLIT_FILE, help="the benchmark split (CSV)")
+    p.add_argument("--split", choices=SPLITS, default="train", help="the split learned from")
+    p.add_argument(
+        "--no-region",
+        action="store_true",
+        help="keep the library's fixed ellipse (no time gap, no standstill axis)",
+    )
+    p.add_argument("--screen", type=positive_int, default=4, help="starting points scored")
+    p.add_argument("--restarts", type=positive_int, default=1, help="Levenberg-Marquardt runs")
+    p.add_argument("--max-iter", type=positive_int, default=12, help="iterations per run")
+    args = p.parse_args(argv)
+    if args.restarts > args.screen:
+        p.error(f"--restarts ({args.restarts}) cannot exceed --screen ({args.screen})")
+    return args
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Learn and write; returns library.json's payload."""
+    args = parse_args(argv)
+    check_output_dir(args.out, inputs=[args.library, args.data_dir])
+    library = load_any_library(args.library)
+    if not isinstance(library, DriverLibrary):
+        raise LibraryError(
+            f"{args.library} is a paper-model library; learn-population starts from a driver "
+            "library (drivestyle build-style-library)"
+        )
+    rows = read_split(args.split_file)
+    demos, skipped = split_demos(args.data_dir, rows, args.split)
+    if not demos:
+        raise ValueError(f"the {args.split} split of {args.split_file} has no usable episode")
+    settings = PopulationSettings(not args.no_region, args.screen, args.restarts, args.max_iter)
+    print(f"learning one style from {len(demos)} {args.split} episodes ({len(skipped)} skipped)")
+    with tqdm(desc="population style (LM iterations)", unit="it") as bar:
+
+        def tick(_: int, cost: float) -> None:
+            bar.update(1)
+            bar.set_postfix(cost=f"{cost:.4g}")
+
+        fit = learn_population([d for _, d in demos], library, settings, tick)
+    people = population_library(fit, library, {
+        "split": {"file": str(args.split_file), "name": args.split,
+                  "episodes": [e for e, _ in demos], "skipped": [list(s) for s in skipped]},
+        "started_from": str(args.library),
+    })  # fmt: skip
+    payload = people.to_json()
+    with atomic_output_dir(args.out) as tmp:
+        write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    st = fit.style
+    print(
+        f"wrote {args.out}/library.json: fit {fit.status}, residual rms {fit.residual_rms:.2f} "
+        f"σ_u over {len(demos)} episodes, risk {st.risk:.2f}, time gap {st.time_gap:.2f} s, "
+        f"standstill axis {st.min_gap if st.min_gap is not None else 'scenario'} m, "
+        f"{fit.seconds:.0f} s"
+    )
+    return payload
+
+
+if __name__ == "__main__":
+    run_cli(main)
