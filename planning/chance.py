@@ -40,7 +40,7 @@ def risk_quantile(p: float) -> float:
     return NormalDist().inv_cdf(float(p))
 
 
-def chance_margin(dx, dy, sxx, sxy, syy, l_a: float, l_b: float, kappa: float | ca.SX):
+def chance_margin(dx, dy, sxx, sxy, syy, l_a: float | ca.SX, l_b: float, kappa: float | ca.SX):
     """Tangent back-off margin g (module docstring); the chance constraint is g ≥ 0.
 
     Args:
@@ -49,7 +49,7 @@ def chance_margin(dx, dy, sxx, sxy, syy, l_a: float, l_b: float, kappa: float | 
         sxx: Σ_xx of the TV position [m²].
         sxy: Σ_xy [m²].
         syy: Σ_yy [m²].
-        l_a: semi-major axis [m].
+        l_a: semi-major axis [m] (a number, or a CasADi parameter: the style's region).
         l_b: semi-minor axis [m].
         kappa: Φ⁻¹(p), see :func:`risk_quantile` (or a CasADi parameter).
 

@@ -439,7 +439,7 @@ def _ellipse_margins(
     parametric NLP's parameter: the style's speed-scaled region, DESIGN §18) or the
     scenario's.
     """
-    l_a = sc.l_a if l_a is None else l_a
+    axis: float | ca.SX = sc.l_a if l_a is None else l_a
     if paths:
         dx, dy = x_k[0] - vehicle[2 * (k - 1)], x_k[1] - vehicle[2 * (k - 1) + 1]
     else:
@@ -447,9 +447,9 @@ def _ellipse_margins(
         dx = x_k[0] - (vehicle[0] + vehicle[3] * ca.cos(vehicle[2]) * t_k)
         dy = x_k[1] - (vehicle[1] + vehicle[3] * ca.sin(vehicle[2]) * t_k)
     chance = chance_margin(
-        dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], l_a, sc.l_b, kappa
+        dx, dy, sigma[k, 0, 0], sigma[k, 0, 1], sigma[k, 1, 1], axis, sc.l_b, kappa
     )
-    nominal = chance_margin(dx, dy, 0.0, 0.0, 0.0, l_a, sc.l_b, 0.0)
+    nominal = chance_margin(dx, dy, 0.0, 0.0, 0.0, axis, sc.l_b, 0.0)
     return chance, nominal
 
 
