@@ -1,8 +1,11 @@
 """Learn the population's style from the recorded benchmark's train split (issue 27).
 
 One style — cost weights, risk and the speed-scaled safety region l_a = s_0 + T·v (DESIGN
-§18) — by teacher forcing over every lane change of the split (docs/benchmark_split.csv),
-starting from a driver library's weights. Writes ``OUT/library.json``: a driver library
+§18) — over every lane change of the split (docs/benchmark_split.csv), starting from a
+driver library's weights. ``--objective closed-loop`` (default): the mean rmse_xy of the
+style driven in closed loop through each episode, by Nelder–Mead (``--max-evals``);
+``--objective teacher``: the library's one-step input residuals by Levenberg–Marquardt
+(``--screen``, ``--restarts``, ``--max-iter``). Writes ``OUT/library.json``: a driver library
 with that style and the starting library's risks and temperature, which
 ``identify-style``, ``mine-styles``, ``predict-trajectory`` and ``evaluate-prediction``
 take like any other (``fit`` records the learning: status, residual RMS — the library's
@@ -23,7 +26,10 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.population_style import (
+    OBJECTIVES,
+    ClosedLoopFit,
     PopulationSettings,
+    learn_closed_loop,
     learn_population,
     population_library,
     split_demos,
@@ -31,6 +37,7 @@ from drivestyle.agents.studies.population_style import (
 from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, SPLIT_FILE, SPLITS, read_split
 from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.irl.driver_learning import DriverFit
 from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
 
 
@@ -48,12 +55,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="keep the library's fixed ellipse (no time gap, no standstill axis)",
     )
+    p.add_argument("--objective", choices=OBJECTIVES, default="closed-loop",
+                   help="what the style is fitted to")  # fmt: skip
+    p.add_argument("--max-evals", type=positive_int, default=160,
+                   help="closed-loop evaluations (≈ 2–4 s each on 51 episodes)")  # fmt: skip
     p.add_argument("--screen", type=positive_int, default=4, help="starting points scored")
     p.add_argument("--restarts", type=positive_int, default=1, help="Levenberg-Marquardt runs")
     p.add_argument("--max-iter", type=positive_int, default=12, help="iterations per run")
     args = p.parse_args(argv)
     if args.restarts > args.screen:
         p.error(f"--restarts ({args.restarts}) cannot exceed --screen ({args.screen})")
+    if args.objective == "closed-loop" and args.no_region:
+        p.error("--no-region is an option of --objective teacher")
     return args
 
 
@@ -71,15 +84,26 @@ def main(argv: list[str] | None = None) -> dict:
     demos, skipped = split_demos(args.data_dir, rows, args.split)
     if not demos:
         raise ValueError(f"the {args.split} split of {args.split_file} has no usable episode")
-    settings = PopulationSettings(not args.no_region, args.screen, args.restarts, args.max_iter)
+    settings = PopulationSettings(
+        not args.no_region, args.screen, args.restarts, args.max_iter,
+        objective=args.objective, max_evals=args.max_evals,
+    )  # fmt: skip
     print(f"learning one style from {len(demos)} {args.split} episodes ({len(skipped)} skipped)")
-    with tqdm(desc="population style (LM iterations)", unit="it") as bar:
+    closed = args.objective == "closed-loop"
+    what = "closed-loop evaluations" if closed else "LM iterations"
+    with tqdm(desc=f"population style ({what})", unit="it",
+              total=args.max_evals if closed else None) as bar:  # fmt: skip
 
         def tick(_: int, cost: float) -> None:
             bar.update(1)
             bar.set_postfix(cost=f"{cost:.4g}")
 
-        fit = learn_population([d for _, d in demos], library, settings, tick)
+        episodes = [d for _, d in demos]
+        fit: DriverFit | ClosedLoopFit
+        if closed:
+            fit = learn_closed_loop(episodes, library, settings, tick)
+        else:
+            fit = learn_population(episodes, library, settings, tick)
     people = population_library(fit, library, {
         "split": {"file": str(args.split_file), "name": args.split,
                   "episodes": [e for e, _ in demos], "skipped": [list(s) for s in skipped]},
@@ -90,7 +114,8 @@ def main(argv: list[str] | None = None) -> dict:
         write_json(tmp / "library.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
     st = fit.style
     print(
-        f"wrote {args.out}/library.json: fit {fit.status}, residual rms {fit.residual_rms:.2f} "
+        f"wrote {args.out}/library.json ({args.objective}): fit {fit.status}, residual rms "
+        f"{fit.residual_rms:.2f} "
         f"σ_u over {len(demos)} episodes, risk {st.risk:.2f}, time gap {st.time_gap:.2f} s, "
         f"standstill axis {st.min_gap if st.min_gap is not None else 'scenario'} m, "
         f"{fit.seconds:.0f} s"

@@ -9,15 +9,28 @@ target lane's centre, no own-line shift). The result is written as a driver libr
 the same risk grid and temperature as the library it started from, so identification,
 prediction and mining use it unchanged: ``drivestyle evaluate-prediction --library
 runs/people`` compares it on the validation split.
+
+Two objectives (:data:`OBJECTIVES`). ``teacher``: the one-step input residuals of
+:func:`~drivestyle.irl.driver_learning.learn_driver`, the library's own objective. On
+recorded traffic it learned the inputs' noise (residual 8.1 σ_u, the speed weight driven to
+0.0002) and predicted worse than constant velocity. ``closed-loop``: the style is driven
+from each episode's first state against the recorded vehicles
+(:func:`~drivestyle.irl.driver_style.reproduce`) and the mean of the episodes' rmse_xy
+(each capped at :data:`CLOSED_LOOP_CAP_M`, so one diverging episode cannot dominate) is
+minimised over the log weights, p, T and s_0 by Nelder–Mead — what a predictor needs, at
+the price of a derivative-free search over 7 coordinates.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from drivestyle.agents.studies.prediction import (
     DATASETS,
@@ -27,10 +40,34 @@ from drivestyle.agents.studies.prediction import (
     prepare_demo,
 )
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.driver_learning import DriverFit, learn_driver
+from drivestyle.irl.driver_learning import DriverFit, learn_driver, step_residuals
+from drivestyle.irl.driver_style import (
+    GAUGE,
+    MIN_GAP_RANGE,
+    RISK_RANGE,
+    TIME_GAP_RANGE,
+    DriverStyle,
+    DriverStyleError,
+    reproduce,
+)
 from drivestyle.irl.library import DriverLibrary
 
-__all__ = ["PopulationSettings", "learn_population", "population_library", "split_demos"]
+__all__ = [
+    "CLOSED_LOOP_CAP_M",
+    "OBJECTIVES",
+    "ClosedLoopFit",
+    "PopulationSettings",
+    "closed_loop_cost",
+    "learn_closed_loop",
+    "learn_population",
+    "population_library",
+    "split_demos",
+]
+
+OBJECTIVES = ("teacher", "closed-loop")
+"""What the population's style is fitted to (module docstring)."""
+CLOSED_LOOP_CAP_M = 20.0
+"""An episode's rmse_xy counts at most this much in the closed-loop objective [m]."""
 
 
 @dataclass(frozen=True)
@@ -47,6 +84,10 @@ class PopulationSettings:
     """Iterations per run."""
     start_risk: float = 0.7
     """The risk the weights start from."""
+    objective: str = "closed-loop"
+    """A name of :data:`OBJECTIVES`."""
+    max_evals: int = 160
+    """Closed-loop objective evaluations of the simplex search."""
 
     def __post_init__(self) -> None:
         for name in ("screen", "restarts", "max_iter"):
@@ -57,6 +98,10 @@ class PopulationSettings:
             raise ValueError(f"restarts ({self.restarts}) cannot exceed screen ({self.screen})")
         if not (math.isfinite(self.start_risk) and 0.5 <= self.start_risk <= 0.99):
             raise ValueError(f"start_risk must lie in [0.5, 0.99], got {self.start_risk!r}")
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
+        if not (isinstance(self.max_evals, int) and self.max_evals >= 1):
+            raise ValueError(f"max_evals must be a positive integer, got {self.max_evals!r}")
 
 
 def split_demos(
@@ -97,16 +142,109 @@ def learn_population(
     )  # fmt: skip
 
 
+@dataclass(frozen=True)
+class ClosedLoopFit:
+    """The population's style fitted to closed-loop paths (:func:`learn_closed_loop`)."""
+
+    style: DriverStyle
+    cost: float
+    """Mean capped rmse_xy over the episodes at the result [m]."""
+    start_cost: float
+    """The same at the starting style [m]."""
+    evaluations: int
+    residual_rms: float
+    """The result's teacher-forced residual RMS over the episodes [σ_u units]: the noise
+    floor the written library carries (DESIGN §15)."""
+    seconds: float
+    status: str
+    """``converged`` (the simplex met its tolerances) or ``max_evals``."""
+
+
+def closed_loop_cost(style: DriverStyle, demos: Sequence[Demonstration]) -> float:
+    """Mean over ``demos`` of the reproduction's rmse_xy, each capped at the cap [m].
+
+    An episode whose reproduction fails counts the cap.
+    """
+    errs = []
+    for d in demos:
+        try:
+            errs.append(min(reproduce(style, d).errors(d)[1], CLOSED_LOOP_CAP_M))
+        except DriverStyleError:
+            errs.append(CLOSED_LOOP_CAP_M)
+    return float(np.mean(errs)) if errs else float("nan")
+
+
+def learn_closed_loop(
+    demos: Sequence[Demonstration],
+    library: DriverLibrary,
+    settings: PopulationSettings | None = None,
+    progress: Callable[[int, float], None] | None = None,
+) -> ClosedLoopFit:
+    """One style minimising :func:`closed_loop_cost` (module docstring).
+
+    Coordinates: the four free log weights (w_a = 1), p, T and s_0, from the library's
+    weights, ``settings.start_risk``, T = 0 and s_0 = the demonstrations' median l_a (the
+    fixed ellipse); clipped to the class's ranges inside the objective. Deterministic.
+
+    Raises:
+        DriverStyleError: no demonstrations.
+    """
+    from scipy.optimize import minimize
+
+    s = settings or PopulationSettings()
+    demos = list(demos)
+    if not demos:
+        raise DriverStyleError("need at least one demonstration")
+    w0 = np.asarray(library.style.weights, float) / library.style.weights[GAUGE]
+    free = [i for i in range(w0.size) if i != GAUGE]
+    s0 = float(np.median([d.scenario.l_a for d in demos]))
+
+    def unpack(z: np.ndarray) -> DriverStyle:
+        w = w0.copy()
+        w[free] = np.exp(z[: len(free)])
+        return DriverStyle(
+            tuple(w), risk=float(np.clip(z[-3], *RISK_RANGE)),
+            time_gap=float(np.clip(z[-2], *TIME_GAP_RANGE)),
+            min_gap=float(np.clip(z[-1], *MIN_GAP_RANGE)), horizon=library.style.horizon,
+        )  # fmt: skip
+
+    calls = [0]
+
+    def f(z: np.ndarray) -> float:
+        cost = closed_loop_cost(unpack(z), demos)
+        calls[0] += 1
+        if progress is not None:
+            progress(calls[0], cost)
+        return cost
+
+    t0 = time.perf_counter()
+    z0 = np.r_[np.log(w0[free]), s.start_risk, 0.0, np.clip(s0, *MIN_GAP_RANGE)]
+    start_cost = f(z0)
+    options = {"maxfev": max(s.max_evals - 1, 1), "xatol": 1e-3, "fatol": 1e-3}
+    res = minimize(f, z0, method="Nelder-Mead", options=options)
+    style = unpack(res.x)
+    r = np.concatenate([step_residuals(style, d)[0].ravel() for d in demos])
+    return ClosedLoopFit(
+        style, float(res.fun), start_cost, calls[0], float(np.sqrt(np.mean(r**2))),
+        time.perf_counter() - t0, "converged" if res.success else "max_evals",
+    )  # fmt: skip
+
+
 def population_library(
-    fit: DriverFit, library: DriverLibrary, meta: dict[str, Any] | None = None
+    fit: DriverFit | ClosedLoopFit, library: DriverLibrary, meta: dict[str, Any] | None = None
 ) -> DriverLibrary:
     """The learned style as a driver library with ``library``'s risks and temperature.
 
     ``meta["fit"]`` records the fit (its ``residual_rms`` sets the noise floor, DESIGN §15).
     """
-    fit_meta = {"status": fit.status, "residual_rms": fit.residual_rms,
-                "n_residuals": fit.n_residuals, "iterations": fit.iterations,
-                "seconds": fit.seconds}  # fmt: skip
+    fit_meta: dict[str, Any] = {"status": fit.status, "residual_rms": fit.residual_rms,
+                                "seconds": fit.seconds}  # fmt: skip
+    if isinstance(fit, ClosedLoopFit):
+        fit_meta |= {"objective": "closed-loop", "closed_loop_rmse_xy_m": fit.cost,
+                     "start_rmse_xy_m": fit.start_cost, "evaluations": fit.evaluations}  # fmt: skip
+    else:
+        fit_meta |= {"objective": "teacher", "n_residuals": fit.n_residuals,
+                     "iterations": fit.iterations}  # fmt: skip
     return DriverLibrary(
         fit.style, library.risks, library.temperature,
         {**(meta or {}), "fit": fit_meta, "source": "recorded train split"},
