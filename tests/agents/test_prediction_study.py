@@ -97,6 +97,7 @@ def _rec(set_name, fde, t=1.0):
     return PredictionRecord(set_name, "v", t, 3.0, None, None, 0.7, dict(fde), dict(fde))
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_goals_are_checked_against_their_thresholds():
     recs = [
         _rec("simulated", {"cv": 10.0, "mode": 6.0, "mixture": 8.0, "oracle": 5.0}),
@@ -173,6 +174,7 @@ needs_data = pytest.mark.skipif(
 )
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 @needs_data
 def test_the_committed_split_is_the_functions_and_no_vehicle_is_in_two_splits():
     rows = benchmark_split(DATA)
@@ -282,6 +284,7 @@ def test_no_method_reads_the_future(paper_demo):
 
 
 @needs_data
+@pytest.mark.slow  # extracts the whole CATS sample (≈ 7 s): CI runs it (-m slow)
 def test_a_split_naming_an_episode_the_sample_lacks_is_a_clear_error():
     from drivestyle.agents.studies.prediction import load_recorded
 

@@ -28,6 +28,7 @@ def test_learning_one_real_episode_beats_constant_velocity():
     assert personal["rmse_y_m"] < 0.5
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_feature_constants_come_from_the_episode():
     episode = next(e for e in load_cats(DATA / "cats-av-lanechange") if e.used)
     cfg = episode_feature_config(episode.demo)
@@ -88,6 +89,7 @@ def test_real_traffic_script_quick(tmp_path):
     assert len(list((tmp_path / "episodes").glob("*.png"))) == 3
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_real_traffic_bad_data_dir(tmp_path):
     import subprocess
     import sys

@@ -20,6 +20,7 @@ def test_the_ceiling_recovers_the_expert_risk():
     assert res.distances[0.8] == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_knn_with_one_neighbour_returns_a_training_demo_label():
     scenarios = draw_interactive_scenarios(2, seed=12)
     demos = generate_demonstrations([0.5, 0.95], scenarios, workers=1)

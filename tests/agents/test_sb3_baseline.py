@@ -234,6 +234,7 @@ def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
     assert set(js["methods"]["smpc"]) == {"collision", "min_d_k", "rmse_y_vs_smpc_m", "n_samples"}
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_traffic_training_env_passes_sb3_check_and_a_policy_trains(style_file, tmp_path):
     import warnings
 

@@ -33,6 +33,7 @@ def test_ngsim_counts_match_readme(ngsim):
     assert all(e.demo is None for e in ramp)
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_cats_counts_match_readme(cats):
     assert len(cats) == 31
     used = [e for e in cats if e.used]
@@ -45,7 +46,7 @@ def test_cats_counts_match_readme(cats):
     assert all("return_leg" in e.reasons for e in cats if e.flags["leg"] == "return")
 
 
-@pytest.mark.parametrize("which", ["ngsim", "cats"])
+@pytest.mark.parametrize("which", ["ngsim", pytest.param("cats", marks=pytest.mark.slow)])
 def test_frame_normalised_to_plus_y(which, request):
     episodes = request.getfixturevalue(which)
     for e in episodes:
@@ -63,6 +64,7 @@ def test_frame_normalised_to_plus_y(which, request):
         assert abs(np.median(np.diff(d.ev[:, 0]) / 0.2 - d.ev[1:, 3])) < 0.5
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_lane_width_and_units(ngsim, cats):
     ngsim, cats = [e for e in ngsim if e.demo], [e for e in cats if e.demo]
     widths = {e.demo.scenario.lane_width for e in ngsim}
@@ -135,6 +137,7 @@ def test_truncated_gzip_is_a_clear_error(tmp_path):
         load_ngsim(folder)
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 @pytest.mark.parametrize(
     ("dataset", "file", "drop"),
     [
@@ -177,6 +180,7 @@ def test_loader_pointed_at_the_other_dataset_says_so():
         load_ngsim(DATA / "cats-av-lanechange")
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_non_numeric_track_value_is_named(tmp_path):
     folder = _copy(tmp_path)
 
@@ -220,6 +224,7 @@ def test_a_file_instead_of_the_folder_is_a_clear_error():
         load_ngsim(DATA / "ngsim" / "episodes.csv")
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_recorded_neighbours_become_others(ngsim, cats):
     with_neighbours = [e for e in ngsim if e.used]
     alone = [e for e in load_ngsim(DATA / "ngsim", neighbours=False) if e.used]
@@ -235,6 +240,7 @@ def test_recorded_neighbours_become_others(ngsim, cats):
 
 
 # ------------------------------------------------------------------- plausibility
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_every_recorded_episode_is_plausible(ngsim, cats):
     from drivestyle.envs.demonstration import plausibility_problems
 
@@ -248,6 +254,7 @@ def test_every_recorded_episode_is_plausible(ngsim, cats):
             assert problems == [f"implausible: {p}" for p in plausibility_problems(e.demo)]
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_ngsim_in_feet_is_refused_with_convert(tmp_path):
     folder = _copy(tmp_path)
     feet = 1 / 0.3048
@@ -269,6 +276,7 @@ def test_cats_lane_width_in_feet_is_refused(tmp_path):
         load_cats(folder)
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_implausible_episode_is_kept_unused_with_the_reason(tmp_path):
     folder = _copy(tmp_path)
     first = "us101_scene_ego320_v323_t16.7"

@@ -4,12 +4,15 @@ import json
 import shutil
 from dataclasses import replace
 
+import pytest
+
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.scripts import identify_style
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_repeated_demonstrations_count_once_and_are_named(tmp_path, paper_demo, capsys):
     lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
     (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))

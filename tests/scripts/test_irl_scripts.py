@@ -70,6 +70,7 @@ def test_learn_style_writes_spec_fields(tmp_path, demo_file):
     assert (out / "reproduction.png").exists() and (out / "lateral.png").exists()
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 @pytest.mark.parametrize(
     ("mutate", "message"),
     [

@@ -29,10 +29,16 @@ def _one_episode_split(tmp_path):
     return eid, split, start, lib_path
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 @needs_data
 @pytest.mark.parametrize(
     "options",
-    [["--objective", "teacher", "--screen", "1", "--max-iter", "1"], ["--max-evals", "4"]],
+    [
+        pytest.param(  # ≈ 20 s: a screened start, one LM iteration and two risk profiles
+            ["--objective", "teacher", "--screen", "1", "--max-iter", "1"], marks=pytest.mark.slow
+        ),
+        ["--max-evals", "4"],
+    ],
     ids=["teacher", "closed-loop"],
 )
 def test_learns_one_style_from_the_train_split_and_writes_a_driver_library(tmp_path, options):

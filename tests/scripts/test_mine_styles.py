@@ -199,6 +199,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_an_unreachable_ray_head_is_one_error_line(lib, tmp_path):
     pytest.importorskip("ray")
     a = _unminable(tmp_path / "a", ["v1"])
@@ -289,7 +290,10 @@ def test_rows_of_the_earlier_stem_ids_are_mapped_or_mined_again(lib, tmp_path, c
     assert json.loads((out / "fingerprint.json").read_text())["id_scheme"] == "path"
 
 
-@pytest.mark.parametrize("dataset", ["ngsim", "cats"])
+@pytest.mark.parametrize(
+    "dataset",
+    ["ngsim", pytest.param("cats", marks=pytest.mark.slow)],  # cats: 88 changes, 10 s
+)
 def test_a_recorded_sample_is_mined_through_the_extraction(dataset):
     data = Path(__file__).resolve().parents[2].parent / "shared" / "data"
     folder = data / ("ngsim" if dataset == "ngsim" else "cats-av-lanechange")

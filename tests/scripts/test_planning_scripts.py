@@ -44,6 +44,7 @@ def test_evaluate_planning_refuses_a_paper_library(tmp_path, style_library):
         main(["--library", str(tmp_path / "paper"), "--out", str(tmp_path / "o")])
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_bench_tracker_reports_the_update_latency(tmp_path, library):
     from drivestyle.scripts.bench_tracker import main
 
