@@ -1,4 +1,5 @@
 import os
+import pickle
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless pygame for every test
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -20,10 +21,7 @@ def paper_demo():
     return generate_demonstration(0.7, "paper")[0]
 
 
-@pytest.fixture(scope="session")
-def style_library():
-    """A small style library: p = 0.5 and 0.95 learned in 5 interactive scenarios (seed 0),
-    the fewest training scenarios identification answers from (built once per session)."""
+def _build_style_library(workers: int):
     from drivestyle.agents.demo_generation import (
         draw_interactive_scenarios,
         generate_demonstrations,
@@ -32,6 +30,27 @@ def style_library():
     from drivestyle.irl.library import learn_library
 
     scenarios = draw_interactive_scenarios(MIN_MEMBERS, seed=0)
-    demos = generate_demonstrations([0.5, 0.95], scenarios, workers=2)
+    demos = generate_demonstrations([0.5, 0.95], scenarios, workers=workers)
     meta = {"seed": 0, "training_scenarios": [sc.to_dict() for sc in scenarios]}
-    return learn_library(demos, "reactive", workers=2, meta=meta)
+    return learn_library(demos, "reactive", workers=workers, meta=meta)
+
+
+@pytest.fixture(scope="session")
+def style_library(tmp_path_factory, worker_id):
+    """A small style library: p = 0.5 and 0.95 learned in 5 interactive scenarios (seed 0),
+    the fewest training scenarios identification answers from.
+
+    Built once per run: under xdist the first worker to ask builds it (one process: the
+    other worker keeps its core) and pickles it beside the workers' temp folders; the
+    others wait on the lock and load it (≈ 14 s each saved)."""
+    if worker_id == "master":
+        return _build_style_library(workers=2)
+    from filelock import FileLock
+
+    shared = tmp_path_factory.getbasetemp().parent / "style_library.pkl"
+    with FileLock(str(shared) + ".lock"):
+        if shared.is_file():
+            return pickle.loads(shared.read_bytes())
+        library = _build_style_library(workers=1)
+        shared.write_bytes(pickle.dumps(library))
+        return library
