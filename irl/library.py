@@ -543,6 +543,26 @@ def load_any_library(path: str | Path) -> StyleLibrary | DriverLibrary:
         raise LibraryError(f"{path}: {exc}") from None
 
 
+def load_driver_library(path: str | Path, purpose: str) -> DriverLibrary:
+    """Read a driver ``library.json``; a paper-model one is refused.
+
+    Args:
+        path: the file or its folder.
+        purpose: what needs the driver library, for the error (e.g. "prediction").
+
+    Raises:
+        FileNotFoundError: no such file.
+        LibraryError: malformed, or a paper-model library (one line naming the file).
+    """
+    library = load_any_library(path)
+    if not isinstance(library, DriverLibrary):
+        raise LibraryError(
+            f"{path} is a paper-model style library; {purpose} needs a driver library "
+            "(build-style-library's default)"
+        )
+    return library
+
+
 def learn_driver_library(
     demos_by_risk: Mapping[float, Sequence[Demonstration]],
     meta: dict[str, Any] | None = None,

@@ -27,7 +27,7 @@ from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.online import StyleTracker
 from drivestyle.planning.smpc_problem import SMPCConfig
 
@@ -53,9 +53,7 @@ def main(argv: list[str] | None = None) -> dict:
     """Benchmark; returns the JSON payload."""
     args = parse_args(argv)
     check_output_file(args.out)
-    library = load_any_library(args.library)
-    if not isinstance(library, DriverLibrary):
-        raise LibraryError(f"{args.library}: online identification needs a driver library")
+    library = load_driver_library(args.library, "online identification")
     rng = np.random.default_rng(args.seed)
     ranges = ScenarioRanges()
     demos = []

@@ -35,7 +35,7 @@ from drivestyle.common.cli import SEED_MAX, HelpFormatter, count, run_cli, seed,
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.video import write_video
-from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.library import load_driver_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -81,12 +81,7 @@ def main(argv: list[str] | None = None) -> dict:
     """Run the study; returns planning.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out)
-    library = load_any_library(args.library)
-    if not isinstance(library, DriverLibrary):
-        raise LibraryError(
-            f"{args.library}: a paper-model library; the style-aware ego needs a driver "
-            "library (build-style-library's default)"
-        )
+    library = load_driver_library(args.library, "the style-aware ego")
     with tqdm(total=args.scenes, desc="cut-in scenes", unit="scene") as bar:
         study = cut_in_study(
             library, args.scenes, args.seed, args.workers,

@@ -67,7 +67,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
-from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import load_params, save_params
 
 # the physics baseline's line in the figures (figures.py predates it)
@@ -170,12 +170,7 @@ def main(argv: list[str] | None = None) -> dict:
             check_observed_times(args.observe)
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
-    library = load_any_library(args.library)
-    if not isinstance(library, DriverLibrary):
-        raise LibraryError(
-            f"{args.library} is a paper-model style library; prediction needs a driver "
-            "library (build-style-library's default)"
-        )
+    library = load_driver_library(args.library, "prediction")
     if not args.no_recorded:
         for folder in DATASETS.values():
             if not (args.data_dir / folder).is_dir():

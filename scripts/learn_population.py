@@ -38,7 +38,7 @@ from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, SPLIT_FILE, S
 from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.irl.driver_learning import DriverFit
-from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.library import load_driver_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -74,12 +74,7 @@ def main(argv: list[str] | None = None) -> dict:
     """Learn and write; returns library.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out, inputs=[args.library, args.data_dir])
-    library = load_any_library(args.library)
-    if not isinstance(library, DriverLibrary):
-        raise LibraryError(
-            f"{args.library} is a paper-model library; learn-population starts from a driver "
-            "library (drivestyle build-style-library)"
-        )
+    library = load_driver_library(args.library, "learn-population")
     rows = read_split(args.split_file)
     demos, skipped = split_demos(args.data_dir, rows, args.split)
     if not demos:

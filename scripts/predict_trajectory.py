@@ -30,7 +30,7 @@ from drivestyle.common.cli import HelpFormatter, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.irl.forecast import predict
-from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.library import load_driver_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -56,12 +56,7 @@ def main(argv: list[str] | None = None) -> dict:
     """Predict; returns prediction.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out, inputs=[args.demo])
-    library = load_any_library(args.library)
-    if not isinstance(library, DriverLibrary):
-        raise LibraryError(
-            f"{args.library} is a paper-model style library; prediction needs a driver "
-            "library (build-style-library's default)"
-        )
+    library = load_driver_library(args.library, "prediction")
     raw = load_demonstration(args.demo)
     check_plausible(raw)  # every step, the future the prediction is scored on included
     demo, recorded = prepare_demo(raw)

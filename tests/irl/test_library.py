@@ -9,7 +9,14 @@ import pytest
 
 from drivestyle.common.io import write_json
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.library import LibraryError, StyleLibrary, load_library
+from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.library import (
+    DriverLibrary,
+    LibraryError,
+    StyleLibrary,
+    load_driver_library,
+    load_library,
+)
 
 
 def _write(tmp_path, raw):
@@ -270,3 +277,14 @@ def test_the_posterior_is_never_nan():
             risk_log_likelihood([profile], tau)
     with pytest.raises(ValueError, match="temperature"):
         posterior_from_scores([[2.0, 1.0]], [True], temperature=np.nan)
+
+
+def test_a_driver_library_is_loaded_and_a_paper_one_refused_naming_the_purpose(
+    tmp_path, style_library
+):
+    driver = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))
+    write_json(tmp_path / "driver" / "library.json", driver.to_json())
+    assert load_driver_library(tmp_path / "driver", "prediction").style == driver.style
+    write_json(tmp_path / "paper" / "library.json", style_library.to_json())
+    with pytest.raises(LibraryError, match=r"paper.*prediction needs a driver library"):
+        load_driver_library(tmp_path / "paper", "prediction")
