@@ -122,6 +122,35 @@ def _check_markings(markings: np.ndarray, path: Path, what: str) -> np.ndarray:
     return markings
 
 
+def _cats_lane_width(summary: Path) -> float:
+    """CATS's lane width [m] from ``summary.json`` (3.95 m without one), or a one-line error."""
+    import json
+
+    if not summary.is_file():
+        return 3.95
+    try:
+        meta = json.loads(summary.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise TrackError(f"{summary} is not valid JSON ({exc})") from None
+    lanes = meta.get("lanes", {}) if isinstance(meta, dict) else None
+    w = lanes.get("width_m", 3.95) if isinstance(lanes, dict) else None
+    if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w <= 0:
+        raise TrackError(f"{summary}: expected 'lanes.width_m', a positive number of metres")
+    lo, hi = LANE_WIDTH_RANGE_M
+    if not lo <= w <= hi:
+        unit = (
+            "positions in feet (NGSIM's native unit: its 12 ft lanes are 3.66 m)? convert to "
+            "metres (× 0.3048)"
+            if w > hi
+            else "positions in another unit than metres? convert to metres"
+        )
+        raise TrackError(
+            f"{summary} (lanes.width_m): lanes {w:.3g} m wide, but a road's lanes are "
+            f"{lo:g}–{hi:g} m wide: {unit}"
+        )
+    return float(w)
+
+
 def read_table(
     path: str | Path,
     lane_width: float | None = None,
@@ -1023,8 +1052,6 @@ def read_sample(folder: str | Path) -> Recording:
         FileNotFoundError: no ``tracks.csv.gz`` in ``folder``.
         TrackError: neither sample's columns, or a malformed track (naming the vehicle).
     """
-    import json
-
     path = Path(folder) / "tracks.csv.gz"
     df = _read_frame(path)
     cats = "run_id" in df.columns
@@ -1034,8 +1061,7 @@ def read_sample(folder: str | Path) -> Recording:
         df, path, [key, "vehicle_id", t_col, "x_m", "y_m", "v_mps", lane_col], "sample"
     )
     if cats:
-        summary = Path(folder) / "summary.json"
-        w = json.loads(summary.read_text())["lanes"]["width_m"] if summary.is_file() else 3.95
+        w = _cats_lane_width(Path(folder) / "summary.json")
     carriageways = []
     for name, g in df.groupby(key, sort=True):
         g = g.reset_index(drop=True)

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M, Demonstration
+from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes
 
 __all__ = ["MATCH_S", "RecordedEpisode", "load_cats", "load_ngsim"]
@@ -170,41 +170,6 @@ def _read_episodes(path: Path, dataset: str):
     return df
 
 
-def _check_lane_width(width: float, source: str) -> float:
-    """Refuse a lane width no road has (CATS's ``summary.json`` in another unit)."""
-    lo, hi = LANE_WIDTH_RANGE_M
-    if lo <= width <= hi:
-        return width
-    unit = (
-        "positions in feet (NGSIM's native unit: its 12 ft lanes are 3.66 m)? convert to "
-        "metres (× 0.3048)"
-        if width > hi
-        else "positions in another unit than metres? convert to metres"
-    )
-    raise ValueError(
-        f"{source}: lanes {width:.3g} m wide, but a road's lanes are {lo:g}–{hi:g} m wide: {unit}"
-    )
-
-
-def _cats_summary(summary: Path) -> None:
-    """Check CATS's ``summary.json`` lane width (the reader uses it) before reading tracks."""
-    import json
-
-    if not summary.is_file():
-        return
-    try:
-        meta = json.loads(summary.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{summary} is not valid JSON ({exc})") from None
-    lanes = meta.get("lanes", {}) if isinstance(meta, dict) else None
-    if not isinstance(lanes, dict) or not isinstance(lanes.get("width_m", 3.95), (int, float)):
-        raise ValueError(f"{summary}: expected 'lanes.width_m', a number of metres")
-    w = lanes.get("width_m", 3.95)
-    if isinstance(w, bool) or not (math.isfinite(w) and w > 0):
-        raise ValueError(f"{summary}: lanes.width_m must be a positive number [m], got {w!r}")
-    _check_lane_width(float(w), f"{summary} (lanes.width_m)")
-
-
 def _extracted(data_dir: Path, dt: float) -> list[Episode]:
     """Every lane change of the sample's ``tracks.csv.gz`` (the loaders' scenario rule)."""
     from drivestyle.envs.readers import read_sample
@@ -328,7 +293,6 @@ def load_cats(
     dt = _check_dt(dt)
     data_dir = _dataset_dir(data_dir)
     rows = _read_episodes(data_dir / "episodes.csv", "cats")
-    _cats_summary(data_dir / "summary.json")
     extracted = _extracted(data_dir, dt)
     out = []
     for row in rows.itertuples():
