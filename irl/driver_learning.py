@@ -235,6 +235,46 @@ class DriverFit:
         }
 
 
+def style_from_coordinates(
+    z: np.ndarray,
+    base: DriverStyle,
+    *,
+    fit_risk: bool,
+    fit_speed: bool,
+    fit_region: bool,
+) -> DriverStyle:
+    """The style at a learner's coordinates (the one map every driver learner uses).
+
+    Args:
+        z: (4 + fit_risk + fit_speed + 2·fit_region,): the free log weights (w_a = 1, the
+            gauge), then where fitted p, v_des [m/s], T [s] and s_0 [m], in that order.
+        base: what is not fitted (risk, desired speed, region, horizon).
+        fit_risk: z carries p.
+        fit_speed: z carries the desired speed.
+        fit_region: z carries T and s_0.
+
+    Returns:
+        The style, each fitted coordinate clipped to the class's range (an optimiser may
+        step outside it: a bounded coordinate, not a failure).
+    """
+    free = [i for i in range(N_WEIGHTS) if i != GAUGE]
+    w = np.ones(N_WEIGHTS)
+    w[free] = np.exp(z[: len(free)])
+    i = len(free)
+    risk, v_ref, gap, s0 = base.risk, base.v_ref, base.time_gap, base.min_gap
+    if fit_risk:
+        risk = float(np.clip(z[i], *RISK_RANGE))
+        i += 1
+    if fit_speed:
+        v_ref = float(np.clip(z[i], 0.1, 69.9))
+        i += 1
+    if fit_region:
+        gap = float(np.clip(z[i], *TIME_GAP_RANGE))
+        s0 = float(np.clip(z[i + 1], *MIN_GAP_RANGE))
+    return DriverStyle(tuple(w), risk=risk, v_ref=v_ref, horizon=base.horizon, time_gap=gap,
+                       min_gap=s0)  # fmt: skip
+
+
 def learn_driver(
     demos: Sequence[Demonstration],
     risks: Sequence[float] | None = None,
@@ -317,22 +357,15 @@ def learn_driver(
     free = [i for i in range(N_WEIGHTS) if i != GAUGE]
     risk_free = risks is None
     i_p = len(free)  # the risk coordinate (when free): p itself, bounded
-    i_v = len(free) + risk_free  # the desired speed's (when fitted)
-    i_t = i_v + fit_speed  # the region's time gap and standstill axis (when fitted)
     t0 = time.perf_counter()
 
+    base = start if risk_free else replace(start, risk=0.7)
+
     def unpack(z: np.ndarray) -> tuple[DriverStyle, list[float]]:
-        w = np.ones(N_WEIGHTS)
-        w[free] = np.exp(z[: len(free)])
-        p = float(np.clip(z[i_p], lo, hi)) if risk_free else 0.7
-        v_ref = float(np.clip(z[i_v], 0.1, 69.9)) if fit_speed else start.v_ref
-        gap, s0 = start.time_gap, start.min_gap
-        if fit_region:
-            gap = float(np.clip(z[i_t], *TIME_GAP_RANGE))
-            s0 = float(np.clip(z[i_t + 1], *MIN_GAP_RANGE))
-        style = DriverStyle(tuple(w), risk=p, v_ref=v_ref, horizon=start.horizon,
-                            time_gap=gap, min_gap=s0)  # fmt: skip
-        return style, (risks if risks is not None else [p] * len(demos))
+        style = style_from_coordinates(
+            z, base, fit_risk=risk_free, fit_speed=fit_speed, fit_region=fit_region
+        )
+        return style, (risks if risks is not None else [style.risk] * len(demos))
 
     def parts(z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per demonstration: residuals (n−1, 2) and where a chance constraint binds."""

@@ -40,12 +40,15 @@ from drivestyle.agents.studies.prediction import (
     prepare_demo,
 )
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.driver_learning import DriverFit, learn_driver, step_residuals
+from drivestyle.irl.driver_learning import (
+    DriverFit,
+    learn_driver,
+    step_residuals,
+    style_from_coordinates,
+)
 from drivestyle.irl.driver_style import (
     GAUGE,
     MIN_GAP_RANGE,
-    RISK_RANGE,
-    TIME_GAP_RANGE,
     DriverStyle,
     DriverStyleError,
     reproduce,
@@ -200,13 +203,9 @@ def learn_closed_loop(
     s0 = float(np.median([d.scenario.l_a for d in demos]))
 
     def unpack(z: np.ndarray) -> DriverStyle:
-        w = w0.copy()
-        w[free] = np.exp(z[: len(free)])
-        return DriverStyle(
-            tuple(w), risk=float(np.clip(z[-3], *RISK_RANGE)),
-            time_gap=float(np.clip(z[-2], *TIME_GAP_RANGE)),
-            min_gap=float(np.clip(z[-1], *MIN_GAP_RANGE)), horizon=library.style.horizon,
-        )  # fmt: skip
+        return style_from_coordinates(
+            z, library.style, fit_risk=True, fit_speed=False, fit_region=True
+        )
 
     calls = [0]
 
