@@ -131,7 +131,7 @@ def test_evaluate_prediction_refuses_observe_times_before_the_work(files, monkey
         raise _StartedError
 
     monkeypatch.setattr(study, "draw_simulated", started)
-    monkeypatch.setattr(evaluate_prediction, "load_any_library", started)
+    monkeypatch.setattr(evaluate_prediction, "load_driver_library", started)
     option = ["--observe" + observe] if observe.startswith("=") else ["--observe", observe]
     with pytest.raises(ValueError, match=rf"^--observe: observed time.*{match}"):
         evaluate_prediction.main(
