@@ -96,6 +96,7 @@ def study() -> PlanningStudy:
     return cut_in_study(LIBRARY, 2, seed=7, workers=1)
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_the_cut_in_study_scores_every_scene_with_every_predictor(study):
     assert len(study.runs) == 6 and study.seeds == (7, 8)
     for r in study.runs:

@@ -75,6 +75,7 @@ def tiny_capacity(paper_demo):
     return capacity_of_risk(0.7, [paper_demo], [test_demo], 3, quick, irl_max_iter=2)
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_a_tiny_capacity_run_returns_every_class_with_finite_errors(tiny_capacity):
     row = tiny_capacity
     assert isinstance(row, RiskCapacity)
@@ -86,6 +87,7 @@ def test_a_tiny_capacity_run_returns_every_class_with_finite_errors(tiny_capacit
     json.dumps(row.to_json())  # JSON-ready
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_a_fitted_class_is_never_worse_in_sample_than_its_learner(tiny_capacity):
     by = tiny_capacity.by_name()
     # the Nelder–Mead runs start from the better of a generic start and the learner's answer
@@ -94,6 +96,7 @@ def test_a_fitted_class_is_never_worse_in_sample_than_its_learner(tiny_capacity)
     assert by["rh_cost_nm"].params["risk"] == 0.5
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_the_capacity_report_has_one_row_per_class(tiny_capacity):
     from drivestyle.agents.studies.capacity import CapacityStudy
 

@@ -141,6 +141,7 @@ def driver_evaluation():
     return library, demos, evaluation
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_a_driver_library_with_the_experts_cost_identifies_its_demonstrations(driver_evaluation):
     _, _, evaluation = driver_evaluation
     records = evaluation.records
@@ -171,6 +172,7 @@ def test_a_driver_library_with_the_experts_cost_identifies_its_demonstrations(dr
     assert sm.transfer_own_risk_best is None and sm.own_style_rmse_y_median_m is None
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_the_path_ceiling_is_the_re_simulating_ceiling(driver_evaluation):
     _, demos, evaluation = driver_evaluation
     rec = evaluation.records[1]  # p = 0.7, both neighbours on the grid
@@ -187,6 +189,7 @@ def test_the_path_ceiling_is_the_re_simulating_ceiling(driver_evaluation):
     assert c.n_identifiable == sum(r.identifiable for r in evaluation.records)
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_driver_records_json_pooling_and_markdown(driver_evaluation):
     library, _, evaluation = driver_evaluation
     js = evaluation.to_json()

@@ -52,6 +52,7 @@ def study():
     return evaluate_prediction(LIBRARY, 2, VALIDATION_SEED, data_dir=None, t_obs=(1.0,))
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_a_tiny_run_has_one_record_per_vehicle_and_t_obs(study):
     assert [v.vehicle_id for v in study.vehicles] == ["random-0", "traffic-0"]
     assert all(RISK_RANGE[0] <= v.risk <= RISK_RANGE[1] for v in study.vehicles)
@@ -66,6 +67,7 @@ def test_a_tiny_run_has_one_record_per_vehicle_and_t_obs(study):
     assert {"summaries", "goal_checks", "tracking_summary", "records", "skipped"} <= set(js)
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_summaries_are_consistent_with_the_records(study):
     recs = study.records
     for method in METHODS:
@@ -83,6 +85,7 @@ def test_summaries_are_consistent_with_the_records(study):
                      for m in ("mode", "mixture")}  # fmt: skip
 
 
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_the_tracking_record_follows_the_interval(study):
     for tr in study.tracks:
         widths = np.asarray(tr.hi) - np.asarray(tr.lo)

@@ -349,8 +349,11 @@ def test_the_incremental_reward_equals_the_reference_on_the_paper_demo(
     assert fired == turned == 1
 
 
-@pytest.mark.parametrize("env_id", ["drivestyle/LaneChangeRandom-v0", "drivestyle/Traffic-v0",
-                                    "drivestyle/TrafficRandom-v0"])  # fmt: skip
+@pytest.mark.parametrize("env_id", [
+    "drivestyle/LaneChangeRandom-v0",
+    pytest.param("drivestyle/Traffic-v0", marks=pytest.mark.slow),  # TrafficRandom covers it
+    "drivestyle/TrafficRandom-v0",
+])  # fmt: skip
 def test_the_incremental_reward_equals_the_reference_on_random_driving(env_id):
     style = _known_style()
     env = LearnedStyleReward(gym.make(env_id), style)

@@ -252,6 +252,7 @@ def test_a_crashed_worker_is_a_row_retried_on_resume(lib, tmp_path, monkeypatch,
     assert rows["boom"]["failure_kind"] == "data" and len(_table(out)) == 3
 
 
+@pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 def test_ids_do_not_change_when_a_same_named_file_comes_and_goes(lib, tmp_path):
     inp = _unminable(tmp_path / "in", [f"v{i}" for i in range(10)])
     out = tmp_path / "mined"

@@ -34,6 +34,7 @@ def test_evaluate_planning_writes_the_study_and_one_video_per_predictor(tmp_path
     assert "| style |" in (out / "planning.md").read_text()
 
 
+@pytest.mark.slow  # the refusal itself: tests/irl/test_library.py (load_driver_library)
 def test_evaluate_planning_refuses_a_paper_library(tmp_path, style_library):
     from drivestyle.irl.library import StyleLibrary
     from drivestyle.scripts.evaluate_planning import main
