@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "predict-trajectory": "predict a vehicle's rest of trajectory after t_obs s (style vs CV)",
     "evaluate-prediction": "style-aware prediction vs CV on held-out and recorded vehicles",
     "learn-population": "one style learned from the recorded benchmark's train split",
+    "compare-av-human": "the automated car against human drivers (CATS): identified and observed",
     "mine-styles": "personal style and risk of many demonstrations (local or Ray)",
     "simulate-population": "SMPC vehicles with known risks (ground truth for mining)",
     "real-traffic": "styles of recorded lane changes (NGSIM, CATS)",

@@ -231,8 +231,14 @@ def _episode_task(i: int, demos: list[Demonstration], figure_dir: str | None) ->
     return res
 
 
-def _lane_change_stats(demo) -> dict:
-    """Peak lateral acceleration and 10–90 % lane-change duration of a recording."""
+def lane_change_stats(demo: Demonstration | None) -> dict[str, float]:
+    """Peak lateral acceleration and 10–90 % lane-change duration of a recording.
+
+    Raises:
+        ValueError: no demonstration (an episode that did not load).
+    """
+    if demo is None:
+        raise ValueError("no demonstration to describe")
     y = demo.ev[:, 1]
     vy = np.gradient(y, demo.t)
     ay = np.gradient(vy, demo.t)
@@ -318,7 +324,7 @@ def run_study(
         if e in used:
             i = used.index(e)
             rec["methods"] = results[i]
-            rec["stats"] = _lane_change_stats(e.demo)
+            rec["stats"] = lane_change_stats(e.demo)
         records.append(rec)
     medians = {}
     for m in REPRODUCTIONS:

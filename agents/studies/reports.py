@@ -15,6 +15,7 @@ from drivestyle.common.io import fmt
 from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS
 
 if TYPE_CHECKING:
+    from drivestyle.agents.studies.av_vs_human import AVHumanComparison
     from drivestyle.agents.studies.capacity import CapacityStudy
     from drivestyle.agents.studies.ceiling import References
     from drivestyle.agents.studies.compare import Comparison
@@ -25,6 +26,7 @@ if TYPE_CHECKING:
     from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
+    "av_human_markdown",
     "capacity_markdown",
     "comparison_markdown",
     "driver_evaluation_markdown",
@@ -655,3 +657,39 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
             reasons[key] = reasons.get(key, 0) + 1
         lines += [f"- {n} × {r}" for r, n in sorted(reasons.items())] + [""]
     return "\n".join(lines)
+
+
+def av_human_markdown(comparison: AVHumanComparison, command: str) -> str:
+    """``av_vs_human.md``: per quantity the groups' medians and the AV's differences."""
+    from drivestyle.agents.studies.av_vs_human import GROUPS, QUANTITIES
+
+    def cell(median: float | None, lo: float | None, hi: float | None, n: int | None = None):
+        if median is None:
+            return "—"
+        text = f"{fmt(median, 3)} [{fmt(lo, 3)}, {fmt(hi, 3)}]"
+        return text if n is None else f"{text} (n {n})"
+
+    lines = [
+        "# The automated car against human drivers (CATS)",
+        "",
+        f"`{command}`",
+        "",
+        "Medians with percentile-bootstrap 95 % intervals over each group's lane changes; "
+        "a difference is the AV's median minus the group's (its interval excludes 0: "
+        "**bold**).",
+        "",
+        "| quantity | " + " | ".join(GROUPS) + " | AV − same car, human | AV − other humans |",
+        "|---|" + "---|" * (len(GROUPS) + 2),
+    ]
+    for q, meaning in QUANTITIES.items():
+        stats = {s.group: s for s in comparison.stats if s.quantity == q}
+        row = [cell(stats[g].median, stats[g].lo, stats[g].hi, stats[g].n) for g in GROUPS]
+        for d in (d for d in comparison.differences if d.quantity == q):
+            text = cell(d.median, d.lo, d.hi)
+            row.append(f"**{text}**" if d.excludes_zero else text)
+        lines.append(f"| {meaning} | " + " | ".join(row) + " |")
+    lines += ["", "Identification verdicts (lane changes):", ""]
+    for g in GROUPS:
+        counts = comparison.verdicts.get(g, {})
+        lines.append(f"- {g}: " + ", ".join(f"{v} {n}" for v, n in sorted(counts.items())))
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,311 @@
+"""The automated car against human drivers in the CATS field test (issue 27, DESIGN §18).
+
+CATS drove the same car (vehicle 3) on some days by computer (``cats:AV:3``) and on others
+by a human (``cats:HV:3``), among human-driven vehicles. Each extracted lane change
+(:func:`~drivestyle.agents.studies.prediction.recorded_episodes`) is described by
+
+* what the style model identifies: the posterior mean and 90 % interval width of the risk p
+  and the verdict, read from a ``drivestyle mine-styles --dataset cats`` run (the same
+  identification, not repeated here);
+* what a cautious driver shows directly, measured on the observed trajectory alone: the
+  least time gap to the vehicle ahead in the EV's lane, the closest approach to any vehicle
+  (centre distance), the median speed, the peak lateral speed and the
+  10–90 % lane-change duration.
+
+Each quantity is compared between groups by its median with a percentile-bootstrap 95 %
+interval over the group's episodes, and by the difference of medians (AV minus the other
+group) with its interval. The AV is one vehicle, so the intervals describe its lane
+changes, not a population of automated cars.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivestyle.agents.studies.real_traffic import lane_change_stats
+from drivestyle.envs.demonstration import Demonstration
+
+AV_VEHICLE = "cats:AV:3"
+"""The computer-driven car (CATS vehicle 3 on its AV days)."""
+SAME_CAR_HUMAN = "cats:HV:3"
+"""The same car driven by a human (its HV days)."""
+GROUPS = ("AV", "same car, human", "other humans")
+"""The compared groups, in report order."""
+QUANTITIES = {
+    "risk_mean": "identified risk p: posterior mean",
+    "risk_interval_width": "identified risk p: 90 % interval width",
+    "min_time_gap_s": "least time gap to the vehicle ahead in the EV's lane [s]",
+    "min_distance_m": "closest approach to any vehicle (centres) [m]",
+    "median_speed_mps": "median speed [m/s]",
+    "peak_lateral_speed_mps": "peak lateral speed [m/s]",
+    "duration_10_90_s": "10–90 % lane-change duration [s]",
+}
+"""Quantity → its meaning (the report's rows)."""
+NEAR_M = 100.0
+"""Closest approaches beyond this are no approach (a vehicle absent or far) [m]."""
+BOOTSTRAP_SAMPLES = 2000
+BOOTSTRAP_SEED = 27
+
+
+def group_of(vehicle: str) -> str:
+    """The comparison group of a CATS vehicle id (``cats:<set>:<id>``).
+
+    Raises:
+        ValueError: not a CATS vehicle id.
+    """
+    if not vehicle.startswith("cats:"):
+        raise ValueError(f"{vehicle!r} is not a CATS vehicle (cats:<AV|HV>:<id>)")
+    if vehicle == AV_VEHICLE:
+        return "AV"
+    return "same car, human" if vehicle == SAME_CAR_HUMAN else "other humans"
+
+
+def time_gaps(demo: Demonstration) -> np.ndarray:
+    """Time gap to the nearest vehicle ahead in the EV's lane at every sample.
+
+    A vehicle is in the EV's lane when its lateral offset is below half the scenario's lane
+    width; the gap is bumper to bumper (centre distance minus one vehicle length).
+
+    Args:
+        demo: a demonstration (TV and ``others``).
+
+    Returns:
+        Shape (n,) [s]; inf where no vehicle is ahead in the lane or the EV stands.
+    """
+    sc = demo.scenario
+    vehicles = demo.vehicles
+    dx = vehicles[..., 0] - demo.ev[:, None, 0]
+    dy = np.abs(vehicles[..., 1] - demo.ev[:, None, 1])
+    ahead = (dx > 0) & (dy < sc.lane_width / 2)
+    gap = np.where(ahead, np.maximum(dx - sc.vehicle_length, 0.0), np.inf).min(axis=1)
+    v = demo.ev[:, 3]
+    return np.where(v > 0.5, gap / np.maximum(v, 0.5), np.inf)
+
+
+def closest_distance(demo: Demonstration, within: float = NEAR_M) -> float | None:
+    """The least centre distance to any vehicle over the episode [m].
+
+    None when no vehicle comes within ``within`` metres (recordings place absent vehicles
+    far away).
+    """
+    v = demo.vehicles
+    d = np.hypot(v[..., 0] - demo.ev[:, None, 0], v[..., 1] - demo.ev[:, None, 1])
+    least = float(d.min()) if d.size else math.inf
+    return least if least <= within else None
+
+
+@dataclass(frozen=True)
+class MinedRow:
+    """One identification of a ``mine-styles`` run (``styles.csv``)."""
+
+    risk_mean: float | None
+    risk_lo: float | None
+    risk_hi: float | None
+    informative: bool
+    out_of_class: bool
+
+
+def _cell(value: str) -> float | None:
+    try:
+        x = float(value)
+    except ValueError:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def read_mined(folder: str | Path) -> dict[str, MinedRow]:
+    """The ``ok`` rows of a mine-styles output folder, by episode id.
+
+    Raises:
+        FileNotFoundError: no ``styles.csv`` in ``folder``.
+        ValueError: the file lacks the identification's columns.
+    """
+    path = Path(folder) / "styles.csv"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found; run drivestyle mine-styles --dataset cats")
+    with path.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    need = {"id", "status", "risk_mean", "risk_lo", "risk_hi", "informative", "out_of_class"}
+    missing = need - set(rows[0] if rows else need)
+    if missing:
+        raise ValueError(f"{path}: no column {', '.join(sorted(missing))} (a mine-styles table?)")
+    return {
+        r["id"]: MinedRow(
+            _cell(r["risk_mean"]),
+            _cell(r["risk_lo"]),
+            _cell(r["risk_hi"]),
+            r["informative"] == "True",
+            r["out_of_class"] == "True",
+        )
+        for r in rows
+        if r["status"] == "ok"
+    }
+
+
+@dataclass(frozen=True)
+class EpisodeCaution:
+    """One lane change's identified and observed caution."""
+
+    episode_id: str
+    vehicle: str
+    group: str
+    values: dict[str, float | None]
+    """:data:`QUANTITIES` key → value (None: not available, e.g. not mined)."""
+    verdict: str
+    """'informative', 'out of class', 'prior' (identified, posterior the prior) or
+    'not mined'."""
+
+
+def episode_caution(
+    episode_id: str, vehicle: str, demo: Demonstration, mined: MinedRow | None
+) -> EpisodeCaution:
+    """Describe one lane change (module docstring)."""
+    gaps = time_gaps(demo)
+    stats = lane_change_stats(demo)
+    values: dict[str, float | None] = {
+        "risk_mean": None,
+        "risk_interval_width": None,
+        "min_time_gap_s": float(gaps.min()) if np.isfinite(gaps).any() else None,
+        "min_distance_m": closest_distance(demo),
+        "median_speed_mps": float(np.median(demo.ev[:, 3])),
+        "peak_lateral_speed_mps": stats["peak_lateral_speed_mps"],
+        "duration_10_90_s": stats["duration_10_90_s"],
+    }
+    verdict = "not mined"
+    if mined is not None:
+        values["risk_mean"] = mined.risk_mean
+        if mined.risk_lo is not None and mined.risk_hi is not None:
+            values["risk_interval_width"] = mined.risk_hi - mined.risk_lo
+        verdict = (
+            "informative"
+            if mined.informative
+            else ("out of class" if mined.out_of_class else "prior")
+        )
+    return EpisodeCaution(episode_id, vehicle, group_of(vehicle), values, verdict)
+
+
+@dataclass(frozen=True)
+class GroupStat:
+    """A quantity's median in one group, with its bootstrap 95 % interval."""
+
+    quantity: str
+    group: str
+    n: int
+    median: float | None
+    lo: float | None
+    hi: float | None
+
+
+@dataclass(frozen=True)
+class Difference:
+    """Median of the AV minus median of another group, with its bootstrap 95 % interval."""
+
+    quantity: str
+    against: str
+    median: float | None
+    lo: float | None
+    hi: float | None
+
+    @property
+    def excludes_zero(self) -> bool:
+        """Whether the interval lies on one side of 0 (a difference the data support)."""
+        return self.lo is not None and self.hi is not None and (self.lo > 0 or self.hi < 0)
+
+
+def _median_draws(values: np.ndarray, rng: np.random.Generator, samples: int) -> np.ndarray:
+    idx = rng.integers(0, values.size, (samples, values.size))
+    return np.median(values[idx], axis=1)
+
+
+@dataclass(frozen=True)
+class AVHumanComparison:
+    """The comparison (``av_vs_human.json``)."""
+
+    episodes: tuple[EpisodeCaution, ...]
+    stats: tuple[GroupStat, ...]
+    differences: tuple[Difference, ...]
+    verdicts: dict[str, dict[str, int]]
+    """Group → verdict → lane changes."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "quantities": QUANTITIES,
+            "bootstrap": {
+                "samples": BOOTSTRAP_SAMPLES,
+                "seed": BOOTSTRAP_SEED,
+                "unit": "episode (lane change)",
+            },
+            "verdicts": self.verdicts,
+            "stats": [vars(s) for s in self.stats],
+            "differences": [vars(d) | {"excludes_zero": d.excludes_zero} for d in self.differences],
+            "episodes": [vars(e) for e in self.episodes],
+        }
+
+
+def compare_av_human(
+    episodes: Sequence[tuple[str, str, Demonstration]],
+    mined: Mapping[str, MinedRow] | None = None,
+    samples: int = BOOTSTRAP_SAMPLES,
+    seed: int = BOOTSTRAP_SEED,
+) -> AVHumanComparison:
+    """Compare the AV's lane changes with the humans' (module docstring).
+
+    Args:
+        episodes: (episode id, vehicle id, demonstration) of CATS lane changes, as
+            :func:`~drivestyle.agents.studies.prediction.recorded_episodes` returns them.
+        mined: a mine-styles run's rows by episode id (None: no identified quantities).
+        samples: bootstrap replicates.
+        seed: their seed (deterministic given it).
+
+    Returns:
+        The comparison.
+
+    Raises:
+        ValueError: no episode of the AV, or none of a human.
+    """
+    rows = tuple(
+        episode_caution(eid, vid, demo, (mined or {}).get(eid)) for eid, vid, demo in episodes
+    )
+    present = {r.group for r in rows}
+    if "AV" not in present or present == {"AV"}:
+        raise ValueError(
+            f"need lane changes of the AV ({AV_VEHICLE}) and of humans; got groups "
+            f"{sorted(present)}"
+        )
+    rng = np.random.default_rng(seed)
+    stats, diffs = [], []
+    for q in QUANTITIES:
+        draws: dict[str, np.ndarray | None] = {}
+        for g in GROUPS:
+            x = np.array([r.values[q] for r in rows if r.group == g and r.values[q] is not None])
+            if x.size == 0:
+                stats.append(GroupStat(q, g, 0, None, None, None))
+                draws[g] = None
+                continue
+            d = _median_draws(x, rng, samples)
+            lo, hi = np.percentile(d, [2.5, 97.5])
+            stats.append(GroupStat(q, g, int(x.size), float(np.median(x)), float(lo), float(hi)))
+            draws[g] = d
+        for g in GROUPS[1:]:
+            a, b = draws["AV"], draws[g]
+            if a is None or b is None:
+                diffs.append(Difference(q, g, None, None, None))
+                continue
+            med = next(s.median for s in stats if s.quantity == q and s.group == "AV")
+            other = next(s.median for s in stats if s.quantity == q and s.group == g)
+            assert med is not None and other is not None
+            lo, hi = np.percentile(a - b, [2.5, 97.5])
+            diffs.append(Difference(q, g, med - other, float(lo), float(hi)))
+    verdicts: dict[str, dict[str, int]] = {}
+    for r in rows:
+        verdicts.setdefault(r.group, {}).setdefault(r.verdict, 0)
+        verdicts[r.group][r.verdict] += 1
+    return AVHumanComparison(rows, tuple(stats), tuple(diffs), verdicts)

@@ -1,0 +1,74 @@
+r"""The automated car against human drivers in the CATS field test (issue 27).
+
+Every lane change the extraction finds in ``--data-dir``'s CATS sample is described by the
+risk the style model identifies for it (read from a ``drivestyle mine-styles --dataset
+cats`` output folder, ``--mined``; omitted: observed quantities only) and by what caution
+shows on the trajectory itself (least time gap to the vehicle ahead, closest approach,
+speed, peak lateral speed, lane-change duration). The computer-driven car
+(``cats:AV:3``) is compared with the same car driven by a human (``cats:HV:3``) and with
+the other, human-driven vehicles: medians with bootstrap 95 % intervals over lane changes
+and the differences of medians (agents/studies/av_vs_human.py). Writes
+``OUT/av_vs_human.json`` (with the command), ``OUT/av_vs_human.md`` and
+``OUT/av_vs_human.png``.
+
+Example:
+    drivestyle mine-styles --dataset cats --data ../shared/data/cats-av-lanechange \
+        --library runs/library --out runs/mined_cats
+    drivestyle compare-av-human --mined runs/mined_cats --out runs/av_vs_human
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from drivestyle.agents.studies.av_vs_human import compare_av_human, read_mined
+from drivestyle.agents.studies.figures import plot_av_human
+from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
+from drivestyle.agents.studies.reports import av_human_markdown
+from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
+from drivestyle.common.io import (
+    atomic_output_dir,
+    check_output_dir,
+    command_line,
+    write_json,
+    write_text,
+)
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
+    p.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR,
+                   help="folder holding cats-av-lanechange/")  # fmt: skip
+    p.add_argument(
+        "--mined", type=Path, default=None,
+        help="a mine-styles --dataset cats output folder (the identified risks)",
+    )  # fmt: skip
+    p.add_argument("--samples", type=positive_int, default=2000, help="bootstrap replicates")
+    p.add_argument("--out", type=Path, default=Path("runs/av_vs_human"), help="output folder")
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Compare; returns av_vs_human.json's payload."""
+    args = parse_args(argv)
+    argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
+    check_output_dir(args.out, inputs=[args.data_dir] + ([args.mined] if args.mined else []))
+    mined = read_mined(args.mined) if args.mined is not None else None
+    episodes = recorded_episodes(str(args.data_dir), "cats")
+    comparison = compare_av_human(episodes, mined, samples=args.samples)
+    payload = comparison.to_json()
+    markdown = av_human_markdown(comparison, command_line(argv_used))
+    with atomic_output_dir(args.out) as tmp:
+        write_json(tmp / "av_vs_human.json", payload, argv_used)
+        write_text(tmp / "av_vs_human.md", markdown)
+        plot_av_human(comparison, tmp / "av_vs_human.png")
+    print(markdown)
+    print(f"wrote {args.out}")
+    return payload
+
+
+if __name__ == "__main__":
+    run_cli(main)
