@@ -90,6 +90,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--physics", type=Path, default=PHYSICS_FILE, help="the physics baseline's parameters"
     )
     p.add_argument(
+        "--regions-from",
+        type=Path,
+        default=None,
+        help="a prediction_eval.json of another split (e.g. validation): calibrates the 90 %% "
+        "prediction regions whose coverage this run reports",
+    )
+    p.add_argument(
         "--write-split",
         action="store_true",
         help="write the split of --data-dir's episodes to --split-file and exit",
@@ -137,6 +144,35 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
+def _calibration(args: argparse.Namespace) -> list[dict]:
+    """The recorded records of ``--regions-from`` (another split's run), checked."""
+    import json
+
+    path = args.regions_from
+    if args.no_recorded:
+        raise ValueError(
+            "--regions-from calibrates regions for recorded episodes; drop --no-recorded"
+        )
+    try:
+        raw = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(f"--regions-from {path}: no such file") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"--regions-from {path}: not JSON ({exc})") from None
+    records = raw.get("records") if isinstance(raw, dict) else None
+    if not isinstance(records, list) or not all(
+        isinstance(r, dict) and {"set", "fde_m", "horizon_s", "t_obs_s"} <= r.keys()
+        for r in records
+    ):
+        raise ValueError(f"--regions-from {path}: not a prediction_eval.json (no records)")
+    if raw.get("split") == args.split:
+        raise ValueError(
+            f"--regions-from {path} is a run of the {args.split} split itself: calibrate on "
+            "another split (its coverage would not be a test)"
+        )
+    return [r for r in records if r["set"] != "simulated"]
+
+
 def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns prediction_eval.json's payload."""
     args = parse_args(argv)
@@ -171,6 +207,7 @@ def main(argv: list[str] | None = None) -> dict:
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
     library = load_driver_library(args.library, "prediction")
+    calibration = None if args.regions_from is None else _calibration(args)
     if not args.no_recorded:
         for folder in DATASETS.values():
             if not (args.data_dir / folder).is_dir():
@@ -197,6 +234,7 @@ def main(argv: list[str] | None = None) -> dict:
             split=None if args.no_recorded else args.split,
             split_rows=None if args.no_recorded else read_split(args.split_file),
             physics=load_params(args.physics),
+            calibration=calibration,
         )
     finally:
         for bar in bars.values():

@@ -71,7 +71,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -1011,6 +1011,99 @@ def goal_checks(summaries: Sequence[MethodSummary]) -> list[GoalCheck]:
 
 
 # ---------------------------------------------------------------------------- the study
+REGION_LEVEL = 0.9
+"""The prediction region's nominal coverage."""
+
+
+@dataclass(frozen=True)
+class RegionCheck:
+    """A method's 90 % prediction region of the final position, and how often it covered.
+
+    The region is a disc around the method's predicted final position with radius
+    ``rate_m_per_s`` × the prediction's horizon: the split-conformal quantile of FDE per
+    second of horizon over another split's records (:func:`region_rates`), so no record it
+    judges informed it.
+    """
+
+    set: str
+    t_obs: float
+    method: str
+    rate_m_per_s: float
+    n_calibration: int
+    n: int
+    coverage: float | None
+    """Fraction of this split's records whose final position lies in the region."""
+    median_radius_m: float | None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return dict(vars(self))
+
+
+def _rows(records: Sequence[PredictionRecord | Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    return [r.to_json() if isinstance(r, PredictionRecord) else r for r in records]
+
+
+def region_rates(
+    records: Sequence[PredictionRecord | Mapping[str, Any]], level: float = REGION_LEVEL
+) -> dict[tuple[str, float], tuple[float, int]]:
+    """Split-conformal radius rates from calibration records.
+
+    Per (method, t_obs): the ⌈(n + 1)·level⌉-th smallest of FDE / horizon over the n
+    records (pooled over sets), so that a new exchangeable record's final position falls
+    within rate × horizon with probability ≥ ``level``.
+
+    Args:
+        records: the calibration split's records (objects or ``prediction_eval.json`` rows).
+        level: the nominal coverage, in (0, 1).
+
+    Returns:
+        (method, t_obs) → (rate [m/s], n); a (method, t_obs) with too few records for the
+        level (⌈(n + 1)·level⌉ > n) is left out.
+
+    Raises:
+        ValueError: ``level`` outside (0, 1).
+    """
+    if not 0 < level < 1:
+        raise ValueError(f"the region's level must lie in (0, 1), got {level}")
+    scores: dict[tuple[str, float], list[float]] = {}
+    for r in _rows(records):
+        for method, fde in r["fde_m"].items():
+            if fde is not None and math.isfinite(fde) and r["horizon_s"] > 0:
+                scores.setdefault((method, float(r["t_obs_s"])), []).append(fde / r["horizon_s"])
+    out = {}
+    for key, vals in scores.items():
+        k = math.ceil((len(vals) + 1) * level)
+        if k <= len(vals):
+            out[key] = (float(np.sort(vals)[k - 1]), len(vals))
+    return out
+
+
+def region_coverage(
+    records: Sequence[PredictionRecord | Mapping[str, Any]],
+    rates: Mapping[tuple[str, float], tuple[float, int]],
+) -> list[RegionCheck]:
+    """How often each method's region (:func:`region_rates`) covers the final position.
+
+    Per recorded set and pooled (``recorded``), t_obs and method with a rate.
+    """
+    rows = _rows(records)
+    sets = sorted({r["set"] for r in rows})
+    out = []
+    for set_name in [*sets, "recorded"] if len(sets) > 1 else sets:
+        sel = [r for r in rows if set_name in (r["set"], "recorded")]
+        for (method, t_obs), (rate, n_cal) in sorted(rates.items()):
+            here = [r for r in sel if float(r["t_obs_s"]) == t_obs and method in r["fde_m"]]
+            inside = [r["fde_m"][method] <= rate * r["horizon_s"] for r in here]
+            radii = [rate * r["horizon_s"] for r in here]
+            out.append(RegionCheck(
+                set_name, t_obs, method, rate, n_cal, len(here),
+                float(np.mean(inside)) if here else None,
+                float(np.median(radii)) if here else None,
+            ))  # fmt: skip
+    return out
+
+
 @dataclass(frozen=True)
 class PredictionStudy:
     """The whole comparison (:func:`evaluate_prediction`)."""
@@ -1036,6 +1129,8 @@ class PredictionStudy:
     """The benchmark split of the recorded episodes (None: the used episodes)."""
     physics: PhysicsParams | None = None
     """The physics baseline's parameters (None: the defaults)."""
+    regions: tuple[RegionCheck, ...] = ()
+    """The 90 % prediction regions' coverage (empty: no calibration split given)."""
 
     def physics_json(self) -> dict[str, float]:
         """The physics baseline's parameters as used."""
@@ -1090,6 +1185,7 @@ class PredictionStudy:
             "skipped": [s.to_json() for s in self.skipped],
             "records": [r.to_json() for r in self.records],
             "tracking": [t.to_json() for t in self.tracks],
+            "regions": [g.to_json() for g in self.regions],
             "seconds": dict(self.seconds),
         }
 
@@ -1255,6 +1351,7 @@ def evaluate_prediction(
     split: str | None = None,
     split_rows: Sequence[SplitRow] | None = None,
     physics: PhysicsParams | None = None,
+    calibration: Sequence[PredictionRecord | Mapping[str, Any]] | None = None,
 ) -> PredictionStudy:
     """Run the comparison (module docstring).
 
@@ -1273,6 +1370,10 @@ def evaluate_prediction(
             learning studies' used episodes, each its own vehicle).
         split_rows: the split (default: :data:`SPLIT_FILE`'s).
         physics: the physics baseline's parameters (None: the defaults).
+        calibration: another split's recorded records (e.g. a validation run's
+            ``prediction_eval.json`` rows): the 90 % prediction regions' radii
+            (:func:`region_rates`), whose coverage on this run's recorded records is
+            reported (None: no regions).
 
     Returns:
         The study.
@@ -1364,6 +1465,14 @@ def evaluate_prediction(
         demos=demos,
         split=split,
         physics=physics,
+        regions=tuple(
+            region_coverage(
+                [r for r in records if r.set != "simulated"],
+                region_rates([r for r in _rows(calibration) if r["set"] != "simulated"]),
+            )
+        )
+        if calibration is not None
+        else (),
     )
 
 

@@ -649,6 +649,21 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
         "(parallel workers on a shared machine).",
         "",
     ]
+    if study.regions:
+        lines += [
+            "## 90 % prediction regions (split-conformal, calibrated on another split)",
+            "",
+            "A disc around the predicted final position, radius = rate × horizon (the "
+            "calibration split's ⌈(n+1)·0.9⌉-th FDE per second); coverage on this split.",
+            "",
+            "| set | t_obs | method | rate [m/s] (n cal.) | median radius [m] | coverage (n) |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| {g.set} | {seconds(g.t_obs, 0)} | {g.method} | {fmt(g.rate_m_per_s, 2)} "
+            f"({g.n_calibration}) | {fmt(g.median_radius_m, 1)} | {_pct(g.coverage)} ({g.n}) |"
+            for g in study.regions
+        ] + [""]
     if study.skipped:
         lines += ["## Skipped", ""]
         reasons: dict[str, int] = {}

@@ -171,3 +171,18 @@ def test_observe_times_reach_the_recorded_episodes():
         check_observed_times([8.0], recorded)
     with pytest.raises(ValueError, match="observe less than 6 s"):
         check_observed_times([7.0], [])
+
+
+def test_regions_calibrated_on_the_split_they_judge_are_refused(files, tmp_path):
+    run = tmp_path / "val.json"
+    run.write_text(json.dumps({"split": "validation", "records": [
+        {"set": "cats", "t_obs_s": 1.0, "horizon_s": 3.0, "fde_m": {"cv": 1.0}}]}))  # fmt: skip
+    argv = ["--library", str(files), "--no-simulated", "--out", str(tmp_path / "o")]
+    with pytest.raises(ValueError, match="validation split itself: calibrate on another split"):
+        evaluate_prediction.main([*argv, "--regions-from", str(run)])
+    (tmp_path / "bad.json").write_text('{"records": 3}')
+    with pytest.raises(ValueError, match=r"not a prediction_eval\.json"):
+        evaluate_prediction.main(
+            [*argv, "--split", "test", "--regions-from", str(tmp_path / "bad.json")]
+        )
+    assert not (tmp_path / "o").exists()
