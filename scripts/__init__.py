@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "evaluate-identification": "identification on held-out scenarios, risks and noise",
     "predict-trajectory": "predict a vehicle's rest of trajectory after t_obs s (style vs CV)",
     "evaluate-prediction": "style-aware prediction vs CV on held-out and recorded vehicles",
+    "evaluate-out-of-class": "identification and prediction of drivers outside the style class",
     "learn-population": "one style learned from the recorded benchmark's train split",
     "compare-av-human": "the automated car against human drivers (CATS): identified and observed",
     "mine-styles": "personal style and risk of many demonstrations (local or Ray)",

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from drivestyle.agents.studies.ceiling import References
     from drivestyle.agents.studies.compare import Comparison
     from drivestyle.agents.studies.identification import Evaluation
+    from drivestyle.agents.studies.out_of_class import OutOfClassStudy
     from drivestyle.agents.studies.paper import PaperStudy
     from drivestyle.agents.studies.planning import PlanningStudy
     from drivestyle.agents.studies.prediction import PredictionStudy
@@ -33,6 +34,7 @@ __all__ = [
     "driver_traffic_markdown",
     "evaluation_markdown",
     "noise_markdown",
+    "out_of_class_markdown",
     "paper_console",
     "paper_markdown",
     "planning_markdown",
@@ -707,4 +709,98 @@ def av_human_markdown(comparison: AVHumanComparison, command: str) -> str:
     for g in GROUPS:
         counts = comparison.verdicts.get(g, {})
         lines.append(f"- {g}: " + ", ".join(f"{v} {n}" for v, n in sorted(counts.items())))
+    return "\n".join(lines) + "\n"
+
+
+def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
+    """``out_of_class.md``: identification and prediction of drivers outside the style class.
+
+    Args:
+        study: the study's result.
+        command: the command that produced it (shown in the report).
+    """
+    from drivestyle.agents.studies.out_of_class import FDE_GOAL, SPEARMAN_GOAL
+
+    cfg = study.config
+    verdicts = ("informative", "uninformative", "out_of_class", "enters_region")
+    lines = [
+        "# Drivers outside the style class (issue 27)",
+        "",
+        f"`{command}`",
+        "",
+        f"highway-env IDM + MOBIL classes (caution rank 0 = least cautious) and SMPC variants "
+        f"(caution = p); seed {cfg.seed}. Verdicts: DESIGN §15. Wall time per stage: "
+        + ", ".join(f"{k} {seconds(v, 0)}" for k, v in study.seconds.items())
+        + ".",
+        "",
+    ]
+    hw = study.highway_facts
+    if hw:
+        lines += [
+            f"Traffic: {hw['runs']} runs, {hw['lane_changes']} lane changes extracted, "
+            f"{hw['usable']} usable; unusable: "
+            + (", ".join(f"{k} {v}" for k, v in hw["unusable_reasons"].items()) or "none")
+            + ".",
+            "",
+        ]
+    lines += [
+        "## Identified risk per group",
+        "",
+        "| family | group | caution | n | median p | IQR | binds | median min s_e | "
+        + " | ".join(verdicts)
+        + " |",
+        "|---|---|---|---|---|---|---|---|" + "---|" * len(verdicts),
+    ]
+    for grp in study.groups:
+        iqr = "—" if grp.risk_q25 is None else f"{grp.risk_q25:.3f}–{grp.risk_q75:.3f}"
+        counts = " | ".join(str(grp.verdicts.get(v, 0)) for v in verdicts)
+        lines.append(f"| {grp.family} | {grp.group} | {grp.caution:g} | {grp.n} | "
+                     f"{fmt(grp.risk_median)} | {iqr} | {grp.n_binds} | "
+                     f"{fmt(grp.min_s_e_median, 2)} | {counts} |")  # fmt: skip
+    lines += [
+        "",
+        f"## Caution order: Spearman ρ (goal ≥ {SPEARMAN_GOAL:g})",
+        "",
+        "binds: a chance constraint binds (only those episodes can move p); min s_e: the "
+        "closest approach of another vehicle in ellipse units, an observed caution without a "
+        "model, given as a reference (its ρ with the known caution).",
+        "",
+        "| scope | episodes | n | ρ (episodes) | p-value | ρ (medians) | goal | ρ of min s_e |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for o in study.orders:
+        pv = "—" if o.p_value is None else f"{o.p_value:.2g}"
+        lines.append(f"| {o.scope} | {o.subset} | {o.n} | {fmt(o.rho_episodes)} | {pv} | "
+                     f"{fmt(o.rho_medians)} | {'met' if o.met else 'missed'} | "
+                     f"{fmt(o.rho_min_s_e)} |")  # fmt: skip
+    if study.summaries:
+        lines += [
+            "",
+            "## Prediction: FDE [m], median [bootstrap 95 % interval] over episodes",
+            "",
+            "| set | t_obs | method | n | FDE median | FDE mean | reduction of the mean vs CV |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for s in study.summaries:
+            st = s.stats.get("fde")
+            med = f"{s.fde_median_m:.2f}" if st is None else _ci(st, "median")
+            lines.append(f"| {s.set} | {seconds(s.t_obs)} | {s.method} | {s.n} | {med} | "
+                         f"{s.fde_mean_m:.2f} | {_pct(s.fde_reduction_vs_cv)} |")  # fmt: skip
+        lines += [
+            "",
+            f"## FDE goal: the style ≥ {FDE_GOAL:.0%} below constant velocity",
+            "",
+            "| set | t_obs | method | n | FDE median | CV median | reduction (median) | "
+            "reduction (mean) | goal |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
+        for g in study.goals:
+            lines.append(
+                f"| {g.set} | {seconds(g.t_obs)} | {g.method} | {g.n} | {g.fde_median_m:.2f} "
+                f"[{g.fde_median_ci[0]:.2f}, {g.fde_median_ci[1]:.2f}] | {g.cv_median_m:.2f} "
+                f"[{g.cv_median_ci[0]:.2f}, {g.cv_median_ci[1]:.2f}] | {_pct(g.reduction_median)} "
+                f"| {_pct(g.reduction_mean)} | {'met' if g.met else 'missed'} |"
+            )
+    if study.skipped:
+        lines += ["", f"Skipped: {len(study.skipped)} (reasons in the JSON)."]
     return "\n".join(lines) + "\n"

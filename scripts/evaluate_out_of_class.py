@@ -1,0 +1,123 @@
+r"""Identify and predict drivers outside the style class whose caution order is known.
+
+Simulates highway-env 1.12 traffic of four IDM + MOBIL driver classes of increasing
+caution (agents/studies/out_of_class.py, ``HIGHWAY_CLASSES``) on a straight three-lane
+road, recorded at 10 Hz and extracted like recorded traffic, until each class has
+``--per-class`` lane changes (at most ``--max-runs`` runs); generates SMPC drivers of
+another horizon, TV uncertainty and weights at the ``--risks`` in ``--scenarios``
+interactive scenarios each; identifies every lane change's risk p with the driver library
+(posterior mean, 90 % interval, verdict) and predicts it after 1, 2 and 3 s (CV, CA,
+physics, population, mode, mixture). Writes ``OUT/out_of_class.json`` (every episode,
+group, Spearman check, prediction record and summary, with the command) and
+``OUT/out_of_class.md``. One process.
+
+Example:
+    drivestyle evaluate-out-of-class --library runs/library --out runs/out_of_class
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from tqdm import tqdm
+
+from drivestyle.agents.studies.out_of_class import StudyConfig, run_study
+from drivestyle.agents.studies.prediction import PHYSICS_FILE
+from drivestyle.agents.studies.reports import out_of_class_markdown
+from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed
+from drivestyle.common.io import (
+    atomic_output_dir,
+    check_output_dir,
+    command_line,
+    write_json,
+    write_text,
+)
+from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.physics import load_params
+
+_D = StudyConfig()
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line arguments."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
+    p.add_argument(
+        "--library", type=Path, required=True, help="driver library folder or its library.json"
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("runs/out_of_class"), help="output folder (replaced whole)"
+    )
+    p.add_argument(
+        "--seed", type=seed, default=_D.seed, help="seed of the traffic runs and the SMPC scenarios"
+    )
+    p.add_argument("--per-class", type=count(1000, 12.0, "lane changes per class"),
+                   default=_D.per_class,
+                   help="highway-env lane changes kept per driver class (≈ 12 s each)")  # fmt: skip
+    p.add_argument("--max-runs", type=count(500, 8.0, "traffic runs"), default=_D.max_runs,
+                   help="most 60 s traffic runs to find them (≈ 8 s each)")  # fmt: skip
+    p.add_argument("--risks", type=float_list, default=list(_D.smpc_risks),
+                   help="comma-separated risks p of the SMPC variants, in [0.5, 1)")  # fmt: skip
+    p.add_argument("--scenarios", type=int, default=_D.smpc_scenarios,
+                   help="interactive scenarios per SMPC variant and risk (0: none)")  # fmt: skip
+    p.add_argument("--no-highway", action="store_true", help="no highway-env drivers")
+    p.add_argument("--no-prediction", action="store_true", help="identification only")
+    p.add_argument("--observe", type=float_list, default=list(_D.t_obs),
+                   help="comma-separated observed times t_obs [s] to predict after")  # fmt: skip
+    p.add_argument(
+        "--physics", type=Path, default=PHYSICS_FILE, help="the physics baseline's parameters"
+    )
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the study; returns out_of_class.json's payload."""
+    args = parse_args(argv)
+    argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
+    if args.scenarios < 0:
+        raise ValueError(f"--scenarios must be >= 0, got {args.scenarios}")
+    if args.no_highway and args.scenarios == 0:
+        raise ValueError("--no-highway and --scenarios 0 leave no driver to study")
+    risks, _ = distinct(args.risks)
+    observe, _ = distinct(args.observe)
+    if any(t <= 0 for t in observe):
+        raise ValueError(f"--observe: observed times must be > 0 s, got {observe}")
+    config = StudyConfig(
+        seed=args.seed,
+        per_class=0 if args.no_highway else args.per_class,
+        max_runs=args.max_runs,
+        smpc_risks=tuple(risks),
+        smpc_scenarios=args.scenarios,
+        t_obs=tuple(observe),
+        predict=not args.no_prediction,
+    )
+    check_output_dir(args.out, inputs=[args.library])
+    library = load_driver_library(args.library, "identification")
+    physics = load_params(args.physics)
+    bars: dict[str, tqdm] = {}
+
+    def on_plan(stage: str, n: int) -> None:
+        bars[stage] = tqdm(total=n, desc=f"out of class: {stage}", unit="")
+
+    t0 = time.perf_counter()
+    try:
+        study = run_study(library, config, physics, progress=lambda s, k: bars[s].update(k),
+                          on_plan=on_plan)  # fmt: skip
+    finally:
+        for bar in bars.values():
+            bar.close()
+    wall = time.perf_counter() - t0
+    payload = study.to_json() | {"library": str(args.library), "wall_s": wall}
+    markdown = out_of_class_markdown(study, command_line(argv_used))
+    with atomic_output_dir(args.out) as tmp:
+        write_json(tmp / "out_of_class.json", payload, argv_used)
+        write_text(tmp / "out_of_class.md", markdown)
+    print(markdown)
+    print(f"wall time {wall:.0f} s; wrote {args.out}")
+    return payload
+
+
+if __name__ == "__main__":
+    run_cli(main)
