@@ -5,7 +5,8 @@ by a human (``cats:HV:3``), among human-driven vehicles. Each extracted lane cha
 (:func:`~drivestyle.agents.studies.prediction.recorded_episodes`) is described by
 
 * what the style model identifies: the posterior mean and 90 % interval width of the risk p
-  and the verdict, read from a ``drivestyle mine-styles --dataset cats`` run (the same
+  (of lane changes within the class: an out-of-class driver has no risk of the class) and
+  the verdict, read from a ``drivestyle mine-styles --dataset cats`` run (the same
   identification, not repeated here);
 * what a cautious driver shows directly, measured on the observed trajectory alone: the
   least time gap to the vehicle ahead in the EV's lane, the closest approach to any vehicle
@@ -50,6 +51,9 @@ QUANTITIES = {
 """Quantity → its meaning (the report's rows)."""
 NEAR_M = 100.0
 """Closest approaches beyond this are no approach (a vehicle absent or far) [m]."""
+MIN_LANE_CHANGES = 3
+"""Fewer lane changes in a group give its median but no interval and no difference (a
+bootstrap of one or two values is no interval)."""
 BOOTSTRAP_SAMPLES = 2000
 BOOTSTRAP_SEED = 27
 
@@ -159,8 +163,8 @@ class EpisodeCaution:
     values: dict[str, float | None]
     """:data:`QUANTITIES` key → value (None: not available, e.g. not mined)."""
     verdict: str
-    """'informative', 'out of class', 'prior' (identified, posterior the prior) or
-    'not mined'."""
+    """'out of class' (the style does not describe the driver, whatever its posterior),
+    'informative', 'prior' (in the class, posterior the prior) or 'not mined'."""
 
 
 def episode_caution(
@@ -180,14 +184,17 @@ def episode_caution(
     }
     verdict = "not mined"
     if mined is not None:
-        values["risk_mean"] = mined.risk_mean
-        if mined.risk_lo is not None and mined.risk_hi is not None:
-            values["risk_interval_width"] = mined.risk_hi - mined.risk_lo
+        # a driver the style does not describe has no risk of the class: its posterior
+        # may have moved, but not towards anything the class means
         verdict = (
-            "informative"
-            if mined.informative
-            else ("out of class" if mined.out_of_class else "prior")
+            "out of class"
+            if mined.out_of_class
+            else ("informative" if mined.informative else "prior")
         )
+        if not mined.out_of_class:
+            values["risk_mean"] = mined.risk_mean
+            if mined.risk_lo is not None and mined.risk_hi is not None:
+                values["risk_interval_width"] = mined.risk_hi - mined.risk_lo
     return EpisodeCaution(episode_id, vehicle, group_of(vehicle), values, verdict)
 
 
@@ -288,6 +295,10 @@ def compare_av_human(
             x = np.array([r.values[q] for r in rows if r.group == g and r.values[q] is not None])
             if x.size == 0:
                 stats.append(GroupStat(q, g, 0, None, None, None))
+                draws[g] = None
+                continue
+            if x.size < MIN_LANE_CHANGES:
+                stats.append(GroupStat(q, g, int(x.size), float(np.median(x)), None, None))
                 draws[g] = None
                 continue
             d = _median_draws(x, rng, samples)

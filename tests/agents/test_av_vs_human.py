@@ -62,7 +62,8 @@ def _episodes():
 
 def test_a_real_difference_excludes_zero_and_equal_groups_do_not():
     mined = {f"a{i}": MinedRow(0.6, 0.55, 0.7, True, False) for i in range(6)}
-    mined |= {f"h{i}": MinedRow(0.9, 0.5, 0.99, False, True) for i in range(6)}
+    mined |= {f"h{i}": MinedRow(0.9, 0.5, 0.99, False, False) for i in range(5)}
+    mined["h5"] = MinedRow(0.2, 0.1, 0.3, True, True)  # moved, but out of class: no risk
     c = compare_av_human(_episodes(), mined, samples=300, seed=1)
     d = {(x.quantity, x.against): x for x in c.differences}
     gap = d["min_time_gap_s", "same car, human"]
@@ -72,12 +73,26 @@ def test_a_real_difference_excludes_zero_and_equal_groups_do_not():
     assert not d["median_speed_mps", "other humans"].excludes_zero
     assert d["risk_mean", "same car, human"].median == pytest.approx(-0.3)
     assert d["risk_mean", "other humans"].median is None  # not mined
-    assert c.verdicts == {"AV": {"informative": 6}, "same car, human": {"out of class": 6},
+    assert c.verdicts == {"AV": {"informative": 6},
+                          "same car, human": {"prior": 5, "out of class": 1},
                           "other humans": {"not mined": 6}}  # fmt: skip
+    hv = next(s for s in c.stats if s.quantity == "risk_mean" and s.group == "same car, human")
+    assert hv.n == 5 and hv.median == 0.9
     again = compare_av_human(_episodes(), mined, samples=300, seed=1)
     assert again.differences == c.differences  # deterministic given the seed
     text = av_human_markdown(c, "drivestyle compare-av-human")
     assert "**" in text and "informative 6" in text
+
+
+def test_a_group_of_fewer_than_three_gets_no_interval_and_no_difference():
+    eps = _episodes()[:8]  # 6 AV, 2 of the same car driven by a human
+    c = compare_av_human(eps, samples=200, seed=1)
+    hv = next(
+        s for s in c.stats if s.quantity == "median_speed_mps" and s.group == "same car, human"
+    )
+    assert hv.n == 2 and hv.median == 10.0 and hv.lo is None and hv.hi is None
+    d = next(d for d in c.differences if d.quantity == "median_speed_mps")
+    assert d.median is None and not d.excludes_zero
 
 
 def test_without_the_av_or_without_humans_it_refuses():
