@@ -1,4 +1,4 @@
-r"""The automated car against human drivers in the CATS field test (issue 27).
+r"""The automated car against human drivers in the CATS field test.
 
 Every lane change the extraction finds in ``--data-dir``'s CATS sample is described by the
 risk the style model identifies for it (read from a ``drivestyle mine-styles --dataset

@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
 NO_SEED = {
     "capacity_study",
+    "compare_av_human",
     "deviating_tv",
     "extract_episodes",
     "identify_style",
@@ -196,9 +197,11 @@ WRITES = {
     "build_style_library": ("--out", "lib", []),
     "calibrate_uncertainty": ("--out", "cal", []),
     "capacity_study": ("--out", "cap", []),
+    "compare_av_human": ("--out", "avh", ["--mined", MISSING]),
     "compare_baseline": ("--out", "cmp", ["--style", MISSING]),
     "deviating_tv": ("--out", "dev", ["--style", MISSING]),
     "evaluate_identification": ("--out", "ev", ["--library", MISSING]),
+    "evaluate_out_of_class": ("--out", "ooc", ["--library", MISSING]),
     "evaluate_planning": ("--out", "plan", ["--library", MISSING]),
     "evaluate_prediction": ("--out", "pe", ["--library", MISSING]),
     "extract_episodes": ("--out", "ep", [MISSING]),
