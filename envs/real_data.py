@@ -26,14 +26,14 @@ refuse the sample with a message saying to convert.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes
+from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes, recover_inputs
 
 __all__ = ["MATCH_S", "RecordedEpisode", "load_cats", "load_ngsim"]
 
@@ -168,6 +168,53 @@ def _read_episodes(path: Path, dataset: str):
                 f"(data row {i + 1})"
             )
     return df
+
+
+RECORDED_PHI_MAX = 0.3
+"""Heading bound of the driver model on recorded traffic [rad]. The scenario's 0.05 rad is
+a highway lane change's; the recorded EVs reach 0.07–0.22 rad (CATS at 4–7 m/s, NGSIM in
+stop-and-go), and a plan from a state outside the bound is infeasible."""
+RECORDED_DELTA_MAX = 0.25
+"""Steering bound of the driver model on recorded traffic [rad] (the recorded lane changes
+need up to 0.16 rad, :func:`~drivestyle.envs.episodes.recover_inputs`; the scenario's 0.05 rad
+is a highway's)."""
+
+
+def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
+    """A recorded episode as the driver model's demonstration.
+
+    Three changes: the inputs are recovered within the bounds below
+    (:func:`~drivestyle.envs.episodes.recover_inputs`); the heading and steering bounds
+    are :data:`RECORDED_PHI_MAX` and :data:`RECORDED_DELTA_MAX`; with ``own_line`` every
+    vehicle is shifted laterally so that the target lane's centre (the model's y_ref) lies
+    on the EV's own line over the last second — the paper-model study's l_des rule
+    (``agents.studies.real_traffic.episode_feature_config``): drivers keep their own line,
+    and the ±4 s windows often end before the lane change settles. Errors are
+    shift-invariant.
+
+    Args:
+        demo: a recorded episode (from :mod:`drivestyle.envs.real_data`).
+        own_line: shift to the EV's own final line.
+
+    Returns:
+        The demonstration the driver model learns from and is scored against; applying
+        it again with ``own_line=False`` changes nothing (identification applies it to
+        every recorded episode, prepared or not).
+    """
+    sc = replace(demo.scenario, phi_max=RECORDED_PHI_MAX, delta_max=RECORDED_DELTA_MAX)
+    k = max(1, round(1.0 / float(demo.t[1] - demo.t[0])))
+    shift = np.zeros(4)
+    if own_line:
+        shift[1] = sc.y_ref - float(demo.ev[-k:, 1].mean())
+    others = demo.other_vehicles + shift
+    return Demonstration(
+        t=demo.t,
+        ev=demo.ev + shift,
+        tv=demo.tv + shift,
+        u=recover_inputs(demo.ev, sc, demo.t),
+        meta={**demo.meta, "scenario": sc.to_dict(), "lateral_shift_m": float(shift[1])},
+        others=others if others.shape[1] else None,
+    )
 
 
 def _extracted(data_dir: Path, dt: float) -> list[Episode]:

@@ -46,6 +46,7 @@ import numpy as np
 
 from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_stops_the_job
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.envs.real_data import driver_demo
 from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.identification import Identification, identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
@@ -394,6 +395,8 @@ class Miner:
         ``learn_s`` times that reproduction.
         """
         assert isinstance(self.library, DriverLibrary)
+        if "episode_id" in demo.meta:  # recorded: the driver model's bounds (as identify's)
+            demo = driver_demo(demo, own_line=False)
         t0 = time.perf_counter()
         ident = identify(demo, self.library)
         identify_s = time.perf_counter() - t0

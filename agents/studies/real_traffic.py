@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +29,12 @@ import numpy as np
 from drivestyle.agents.studies.figures import plot_episode
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.episodes import recover_inputs
-from drivestyle.envs.real_data import RecordedEpisode
+from drivestyle.envs.real_data import (  # re-exported: the driver study's view
+    RECORDED_DELTA_MAX,
+    RECORDED_PHI_MAX,
+    RecordedEpisode,
+    driver_demo,
+)
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
 from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.features import FeatureConfig
@@ -344,51 +348,9 @@ def run_study(
 
 
 # ------------------------------------------------------------ the receding-horizon driver model
-RECORDED_PHI_MAX = 0.3
-"""Heading bound of the driver model on recorded traffic [rad]. The scenario's 0.05 rad is
-a highway lane change's; the recorded EVs reach 0.07–0.22 rad (CATS at 4–7 m/s, NGSIM in
-stop-and-go), and a plan from a state outside the bound is infeasible."""
-RECORDED_DELTA_MAX = 0.25
-"""Steering bound of the driver model on recorded traffic [rad] (the recorded lane changes
-need up to 0.16 rad, :func:`~drivestyle.envs.episodes.recover_inputs`; the scenario's 0.05 rad
-is a highway's)."""
 DRIVER_REPRODUCTIONS = ("personal", "own_loo", "general_loo")
 """Driver-model reproductions: the episode's own style; a vehicle's style from its other
 episodes (leave-one-out); the style of the other vehicles' episodes (leave-one-out)."""
-
-
-def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
-    """A recorded episode as the driver model's demonstration.
-
-    Three changes: the inputs are recovered within the bounds below
-    (:func:`~drivestyle.envs.episodes.recover_inputs`); the heading and steering bounds
-    are :data:`RECORDED_PHI_MAX` and :data:`RECORDED_DELTA_MAX`; with ``own_line`` every
-    vehicle is shifted laterally so that the target lane's centre (the model's y_ref) lies
-    on the EV's own line over the last second — the paper-model study's l_des rule
-    (:func:`episode_feature_config`): drivers keep their own line, and the ±4 s windows
-    often end before the lane change settles. Errors are shift-invariant.
-
-    Args:
-        demo: a recorded episode (from :mod:`drivestyle.envs.real_data`).
-        own_line: shift to the EV's own final line.
-
-    Returns:
-        The demonstration the driver model learns from and is scored against.
-    """
-    sc = replace(demo.scenario, phi_max=RECORDED_PHI_MAX, delta_max=RECORDED_DELTA_MAX)
-    k = max(1, round(1.0 / float(demo.t[1] - demo.t[0])))
-    shift = np.zeros(4)
-    if own_line:
-        shift[1] = sc.y_ref - float(demo.ev[-k:, 1].mean())
-    others = demo.other_vehicles + shift
-    return Demonstration(
-        t=demo.t,
-        ev=demo.ev + shift,
-        tv=demo.tv + shift,
-        u=recover_inputs(demo.ev, sc, demo.t),
-        meta={**demo.meta, "scenario": sc.to_dict(), "lateral_shift_m": float(shift[1])},
-        others=others if others.shape[1] else None,
-    )
 
 
 @dataclass(frozen=True)
