@@ -17,6 +17,9 @@ steadier than absolute times, and the load average is recorded with them):
     the same style on random-family demonstrations (risks alternating 0.6 and 0.9):
     solves per identification and the same split.
 
+(b3) ``--recorded N``: the same as (b2) for the first N recorded CATS lane changes of the
+    benchmark's extraction, seen under the driver model's recorded bounds.
+
 (b1) and (b2) run with the uncompiled planner and with the gcc-compiled (jit) one.
 The timers are wrappers installed around the solvers' functions for the profiled calls
 only (the solvers' code is not changed); ``instrumentation_overhead`` compares with
@@ -45,7 +48,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
@@ -56,7 +59,7 @@ from drivestyle.irl.driver_learning import step_residuals
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.identification import identify_driver
 from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.risk_profile import risk_profile
+from drivestyle.irl.risk_profile import refined_profile
 from drivestyle.planning import smpc_problem as sp
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
@@ -86,6 +89,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="random-family demonstrations identified (risks alternate 0.6, 0.9)",
     )
     p.add_argument("--seed", type=seed, default=0, help="seed of the random-family scenarios")
+    p.add_argument(
+        "--recorded",
+        type=nonnegative_int,
+        default=0,
+        help="also profile the identification of this many recorded CATS lane changes (the "
+        "benchmark's extraction, the driver model's recorded bounds), jit planner",
+    )
     p.add_argument(
         "--no-jit",
         action="store_true",
@@ -486,16 +496,17 @@ def profile_step_residuals(
 def profile_identification(
     demos: list[Demonstration], library: DriverLibrary, jit: bool
 ) -> dict[str, Any]:
-    """(b2): ``identify_driver`` of each demonstration, its risk profile with ``jit``'s planner."""
+    """(b2): ``identify_driver`` of each demonstration (refined profile, ``jit``'s planner)."""
     planners = [
-        ds.StylePlanner(d.scenario, library.style.horizon, 1, jit=jit, compiled=False)
+        ds.StylePlanner(d.scenario, library.style.horizon, ds.n_vehicles(d), jit=jit,
+                        compiled=False)
         for d in demos
-    ]
+    ]  # fmt: skip
 
     identify = [identify_driver]  # timed as "posterior" while profiled
 
     def identification(demo: Demonstration, planner: ds.StylePlanner) -> None:
-        profile = risk_profile(library.style, demo, planner=planner)
+        profile = refined_profile(library.style, demo, planner=planner)
         identify[0](demo, library, profiles=[profile])
 
     identification(demos[0], planners[0])  # warm-up
@@ -574,8 +585,13 @@ def _print(result: dict[str, Any]) -> None:
         print(f"  {label:46s} {a['breakdown'][key]['share']:6.1%}")
     driver = result["driver"]
     cols = list(driver)
-    for part, title in (("step_residuals", "(b1) step_residuals"), ("identification", "(b2)")):
-        runs = [driver[c][part] for c in cols]
+    parts = [("step_residuals", "(b1) step_residuals"), ("identification", "(b2)")]
+    if "recorded" in result:
+        parts.append(("recorded", "(b3) recorded CATS"))
+    for part, title in parts:
+        runs = [driver[c][part] for c in cols] if part != "recorded" else [result["recorded"]]
+        if part == "recorded":
+            cols = ["jit" if result["recorded"]["jit"] else "no_jit"]
         if part == "step_residuals":
             calls = [
                 f"{r['solves_per_call']} solves in {r['wall_s_median'] * 1e3:.1f} ms" for r in runs
@@ -638,6 +654,14 @@ def main(argv: list[str] | None = None) -> dict:
         entry["identification"] = profile_identification(demos, library, jit)
         bar.update(1)
         result["driver"][key] = entry
+    if args.recorded > 0:
+        from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
+        from drivestyle.envs.real_data import driver_demo
+
+        episodes = recorded_episodes(str(DEFAULT_DATA_DIR), "cats")[: args.recorded]
+        rec = [driver_demo(d, own_line=False) for _, _, d in episodes]
+        result["recorded"] = profile_identification(rec, library, jit=not args.no_jit)
+        result["recorded"]["episodes"] = [e for e, _, _ in episodes]
     bar.close()
     result["load_average_after"] = [round(x, 2) for x in os.getloadavg()]
     write_json(args.out, result, [sys.argv[0], *(argv or sys.argv[1:])])

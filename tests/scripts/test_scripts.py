@@ -128,7 +128,7 @@ def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
     }
     out = tmp_path / "profile.json"
     res = _main("profile_inner")(
-        ["--out", str(out), "--repeats", "1", "--identify", "1", "--no-jit"]
+        ["--out", str(out), "--repeats", "1", "--identify", "1", "--no-jit", "--recorded", "1"]
     )
     js = json.loads(out.read_text())
     assert "command" in js and len(js["load_average_before"]) == 3
@@ -141,6 +141,9 @@ def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
     assert b2["solves_per_identification"][0] >= 30 and b2["demo_risks"] == [0.6]
     for part in (b1, b2):  # every second of the region is in a category
         assert sum(v["share"] for v in part["breakdown"].values()) == pytest.approx(1.0, abs=1e-3)
+    b3 = js["recorded"]  # one CATS lane change, under the recorded bounds
+    assert len(b3["episodes"]) == 1 and b3["solves_per_identification"][0] >= 30
+    assert sum(v["share"] for v in b3["breakdown"].values()) == pytest.approx(1.0, abs=1e-3)
     assert res["paper"]["features"] == paper["features"]
     # the timers are gone: later calls in the process run the solvers' own code
     for (obj, name), fn in originals.items():
