@@ -180,6 +180,25 @@ need up to 0.16 rad, :func:`~drivestyle.envs.episodes.recover_inputs`; the scena
 is a highway's)."""
 
 
+HEADING_MARGIN = 1.2
+"""A recording needs :func:`driver_demo`'s bounds when its heading exceeds the scenario's
+bound by more than this factor (an SMPC recorded as a table stays at its own 0.05 rad, up
+to the heading estimate's error; recorded drivers reach 1.3–5× it)."""
+
+
+def needs_recorded_bounds(demo: Demonstration) -> bool:
+    """Whether a recorded episode leaves its scenario's heading bound (:data:`HEADING_MARGIN`).
+
+    Such an episode is identified under the driver model's recorded bounds
+    (:func:`driver_demo`): under the scenario's its own states are infeasible and every
+    solve fails. One that stays inside keeps its scenario (a simulated driver written to a
+    file is identified like its ``.npz``).
+    """
+    return "episode_id" in demo.meta and bool(
+        np.abs(demo.ev[:, 2]).max() > HEADING_MARGIN * demo.scenario.phi_max
+    )
+
+
 def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
     """A recorded episode as the driver model's demonstration.
 

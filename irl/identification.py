@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import driver_demo
+from drivestyle.envs.real_data import driver_demo, needs_recorded_bounds
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyleError
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
@@ -830,10 +830,11 @@ def identify_driver(
         LibraryError: a demonstration is of another kind, degenerate or off its
             scenario's time grid.
     """
-    # a recorded episode is seen as the driver model sees recorded traffic (its bounds,
-    # its recovered inputs): under the scenario's highway bounds its own states are
-    # infeasible and every solve fights them (10–23 s per CATS episode instead of 0.05–3 s)
-    demos = [driver_demo(d, own_line=False) if "episode_id" in d.meta else d
+    # a recorded episode beyond its scenario's heading bound is seen as the driver model
+    # sees recorded traffic (its bounds, its recovered inputs): under the scenario's highway
+    # bounds its own states are infeasible and every solve fights them (10–23 s per CATS
+    # episode instead of 0.05–3 s)
+    demos = [driver_demo(d, own_line=False) if needs_recorded_bounds(d) else d
              for d in _as_list(demos)]  # fmt: skip
     for d in demos:
         _check_kind(d)

@@ -157,33 +157,36 @@ def test_scrambled_inputs_are_out_of_class(paper_demo):
     assert "out of class" in verdicts["scrambled"].reason
 
 
-def test_a_recorded_episode_is_identified_under_the_recorded_bounds_prepared_or_not(
+def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_recorded_bounds(
     monkeypatch, paper_demo
 ):
     from dataclasses import replace as dc_replace
 
+    import drivestyle.irl.identification as ident
     from drivestyle.envs.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX, driver_demo
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.identification import identify_driver
     from drivestyle.irl.library import DriverLibrary
 
-    demo = paper_demo
-    recorded = dc_replace(demo, meta={**demo.meta, "episode_id": "e1"})
+    # a recording that turns 3× the scenario's heading bound (as recorded drivers do)
+    ev = paper_demo.ev * [1.0, 1.0, 3.0, 1.0]
+    recorded = dc_replace(paper_demo, ev=ev, meta={**paper_demo.meta, "episode_id": "e1"})
     prepared = driver_demo(recorded, own_line=False)
     sc = prepared.scenario
     assert (sc.phi_max, sc.delta_max) == (RECORDED_PHI_MAX, RECORDED_DELTA_MAX)
     assert driver_demo(prepared, own_line=False).u.tolist() == prepared.u.tolist()  # idempotent
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
-    a, b = identify_driver(recorded, library), identify_driver(prepared, library)
-    assert a.posterior == b.posterior and a.risk_interpolated == b.risk_interpolated
-    import drivestyle.irl.identification as ident
-
     seen = []
     real = ident.refined_profile
     monkeypatch.setattr(ident, "refined_profile", lambda st, d: seen.append(d) or real(st, d))
-    identify_driver(recorded, library)
+    a, b = identify_driver(recorded, library), identify_driver(prepared, library)
+    assert a.posterior == b.posterior and a.risk_interpolated == b.risk_interpolated
     assert (seen[0].scenario.phi_max, seen[0].scenario.delta_max) == (
         RECORDED_PHI_MAX, RECORDED_DELTA_MAX,
     )  # fmt: skip
-    identify_driver(demo, library)  # a simulated demonstration keeps its own bounds
-    assert seen[1].scenario.phi_max == demo.scenario.phi_max < RECORDED_PHI_MAX
+    # within its bounds a recording keeps its scenario: an SMPC written to a file is
+    # identified like its .npz
+    within = dc_replace(paper_demo, meta={**paper_demo.meta, "episode_id": "e2"})
+    identify_driver(within, library)
+    assert seen[2].scenario.phi_max == paper_demo.scenario.phi_max < RECORDED_PHI_MAX
+    assert seen[2].u.tolist() == paper_demo.u.tolist()
