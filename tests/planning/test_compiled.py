@@ -49,6 +49,33 @@ def test_the_compiled_fatrop_is_the_interpreted_one(paper_demo, planners):
     assert np.allclose(pa.ssr, pb.ssr, rtol=1e-6, atol=1e-9)
 
 
+def test_the_buffered_stationarity_check_is_the_plain_calls(paper_demo, planners):
+    """The generated solver's KKT check reads bound numpy buffers: the same gradient as a
+    plain CasADi call, to the bit, at every step of a teacher-forced pass."""
+    fast, _ = planners
+    problem = fast.problem
+    style = DriverStyle(WEIGHTS, risk=0.8)
+    grads = []
+    real = problem._stationary
+
+    def spy(w, lam_g, lam_x):
+        verdict = real(w, lam_g, lam_x)
+        plain = np.asarray(problem._kkt(w, problem._inputs["p"], lam_g, lam_x)).ravel()
+        grads.append((problem._kkt_out.copy(), plain))
+        return verdict
+
+    rows = [PlanRow(paper_demo.ev[k], paper_demo.vehicles[k], style,
+                    Link(shift=k - 1 if k else None)) for k in range(paper_demo.n - 1)]  # fmt: skip
+    problem._stationary = spy
+    try:
+        fast.solve_rows(rows, paper_demo.scenario)
+    finally:
+        del problem._stationary
+    assert len(grads) >= paper_demo.n - 1
+    for buffered, plain in grads:
+        assert np.array_equal(buffered, plain)
+
+
 def _probe(cache: str, path: str) -> str:
     code = (
         "from drivestyle.planning.smpc_problem import SMPCConfig, SMPCProblem;"
