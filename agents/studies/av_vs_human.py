@@ -291,30 +291,24 @@ def compare_av_human(
     stats, diffs = [], []
     for q in QUANTITIES:
         draws: dict[str, np.ndarray | None] = {}
+        medians: dict[str, float | None] = {}
         for g in GROUPS:
             x = np.array([r.values[q] for r in rows if r.group == g and r.values[q] is not None])
-            if x.size == 0:
-                stats.append(GroupStat(q, g, 0, None, None, None))
-                draws[g] = None
-                continue
-            if x.size < MIN_LANE_CHANGES:
-                stats.append(GroupStat(q, g, int(x.size), float(np.median(x)), None, None))
-                draws[g] = None
-                continue
-            d = _median_draws(x, rng, samples)
-            lo, hi = np.percentile(d, [2.5, 97.5])
-            stats.append(GroupStat(q, g, int(x.size), float(np.median(x)), float(lo), float(hi)))
+            medians[g] = float(np.median(x)) if x.size else None
+            d = _median_draws(x, rng, samples) if x.size >= MIN_LANE_CHANGES else None
+            lo: float | None = None
+            hi: float | None = None
+            if d is not None:
+                lo, hi = (float(v) for v in np.percentile(d, [2.5, 97.5]))
+            stats.append(GroupStat(q, g, int(x.size), medians[g], lo, hi))
             draws[g] = d
         for g in GROUPS[1:]:
-            a, b = draws["AV"], draws[g]
-            if a is None or b is None:
+            a, b, med, other = draws["AV"], draws[g], medians["AV"], medians[g]
+            if a is None or b is None or med is None or other is None:
                 diffs.append(Difference(q, g, None, None, None))
                 continue
-            med = next(s.median for s in stats if s.quantity == q and s.group == "AV")
-            other = next(s.median for s in stats if s.quantity == q and s.group == g)
-            assert med is not None and other is not None
-            lo, hi = np.percentile(a - b, [2.5, 97.5])
-            diffs.append(Difference(q, g, med - other, float(lo), float(hi)))
+            lo_d, hi_d = np.percentile(a - b, [2.5, 97.5])
+            diffs.append(Difference(q, g, med - other, float(lo_d), float(hi_d)))
     verdicts: dict[str, dict[str, int]] = {}
     for r in rows:
         verdicts.setdefault(r.group, {}).setdefault(r.verdict, 0)
