@@ -178,8 +178,6 @@ RECORDED_DELTA_MAX = 0.25
 """Steering bound of the driver model on recorded traffic [rad] (the recorded lane changes
 need up to 0.16 rad, :func:`~drivestyle.envs.episodes.recover_inputs`; the scenario's 0.05 rad
 is a highway's)."""
-
-
 HEADING_MARGIN = 1.2
 """A recording needs :func:`driver_demo`'s bounds when its heading exceeds the scenario's
 bound by more than this factor (an SMPC recorded as a table stays at its own 0.05 rad, up
@@ -189,14 +187,22 @@ to the heading estimate's error; recorded drivers reach 1.3–5× it)."""
 def needs_recorded_bounds(demo: Demonstration) -> bool:
     """Whether a recorded episode leaves its scenario's heading bound (:data:`HEADING_MARGIN`).
 
-    Such an episode is identified under the driver model's recorded bounds
-    (:func:`driver_demo`): under the scenario's its own states are infeasible and every
-    solve fails. One that stays inside keeps its scenario (a simulated driver written to a
-    file is identified like its ``.npz``).
+    Under the scenario's bounds such an episode's own states are infeasible and every solve
+    fails; one that stays inside keeps its scenario (a simulated driver written to a file
+    is identified like its ``.npz``).
     """
     return "episode_id" in demo.meta and bool(
         np.abs(demo.ev[:, 2]).max() > HEADING_MARGIN * demo.scenario.phi_max
     )
+
+
+def identification_view(demo: Demonstration) -> Demonstration:
+    """The demonstration identification and mining solve on.
+
+    :func:`driver_demo` without a shift where :func:`needs_recorded_bounds`, else ``demo``
+    itself.
+    """
+    return driver_demo(demo, own_line=False) if needs_recorded_bounds(demo) else demo
 
 
 def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
@@ -217,8 +223,8 @@ def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
 
     Returns:
         The demonstration the driver model learns from and is scored against; applying
-        it again with ``own_line=False`` changes nothing (identification applies it to
-        every recorded episode, prepared or not).
+        it again with ``own_line=False`` changes nothing (so :func:`identification_view`
+        of a prepared episode is the episode).
     """
     sc = replace(demo.scenario, phi_max=RECORDED_PHI_MAX, delta_max=RECORDED_DELTA_MAX)
     k = max(1, round(1.0 / float(demo.t[1] - demo.t[0])))

@@ -18,7 +18,8 @@ steadier than absolute times, and the load average is recorded with them):
     solves per identification and the same split.
 
 (b3) ``--recorded N``: the same as (b2) for the first N recorded CATS lane changes of the
-    benchmark's extraction, seen under the driver model's recorded bounds.
+    benchmark's extraction, seen as identification sees them (the driver model's recorded
+    bounds beyond the scenario's heading bound).
 
 (b1) and (b2) run with the uncompiled planner and with the gcc-compiled (jit) one.
 The timers are wrappers installed around the solvers' functions for the profiled calls
@@ -94,7 +95,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=nonnegative_int,
         default=0,
         help="also profile the identification of this many recorded CATS lane changes (the "
-        "benchmark's extraction, the driver model's recorded bounds), jit planner",
+        "benchmark's extraction, seen as identification sees them), jit planner",
     )
     p.add_argument(
         "--no-jit",
@@ -589,9 +590,10 @@ def _print(result: dict[str, Any]) -> None:
     if "recorded" in result:
         parts.append(("recorded", "(b3) recorded CATS"))
     for part, title in parts:
-        runs = [driver[c][part] for c in cols] if part != "recorded" else [result["recorded"]]
         if part == "recorded":
-            cols = ["jit" if result["recorded"]["jit"] else "no_jit"]
+            names, runs = ["jit" if result["recorded"]["jit"] else "no_jit"], [result["recorded"]]
+        else:
+            names, runs = cols, [driver[c][part] for c in cols]
         if part == "step_residuals":
             calls = [
                 f"{r['solves_per_call']} solves in {r['wall_s_median'] * 1e3:.1f} ms" for r in runs
@@ -612,7 +614,7 @@ def _print(result: dict[str, Any]) -> None:
                 for r, c in zip(runs, calls, strict=True)
             )
         )
-        print(f"  {'':46s} " + " ".join(f"{c:>10s}" for c in cols))
+        print(f"  {'':46s} " + " ".join(f"{c:>10s}" for c in names))
         for key, label in _DRIVER_ROWS.items():
             shares = [r["breakdown"][key]["share"] for r in runs]
             print(f"  {label:46s} " + " ".join(f"{x:10.1%}" for x in shares))
@@ -656,10 +658,10 @@ def main(argv: list[str] | None = None) -> dict:
         result["driver"][key] = entry
     if args.recorded > 0:
         from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
-        from drivestyle.envs.real_data import driver_demo
+        from drivestyle.envs.real_data import identification_view
 
         episodes = recorded_episodes(str(DEFAULT_DATA_DIR), "cats")[: args.recorded]
-        rec = [driver_demo(d, own_line=False) for _, _, d in episodes]
+        rec = [identification_view(d) for _, _, d in episodes]
         result["recorded"] = profile_identification(rec, library, jit=not args.no_jit)
         result["recorded"]["episodes"] = [e for e, _, _ in episodes]
     bar.close()
