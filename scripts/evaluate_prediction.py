@@ -145,7 +145,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 
 def _calibration(args: argparse.Namespace) -> list[dict]:
-    """The recorded records of ``--regions-from`` (another split's run), checked."""
+    """The records of ``--regions-from`` (another split's run), checked."""
     import json
 
     path = args.regions_from
@@ -170,7 +170,7 @@ def _calibration(args: argparse.Namespace) -> list[dict]:
             f"--regions-from {path} is a run of the {args.split} split itself: calibrate on "
             "another split (its coverage would not be a test)"
         )
-    return [r for r in records if r["set"] != "simulated"]
+    return records
 
 
 def main(argv: list[str] | None = None) -> dict:
