@@ -93,8 +93,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--regions-from",
         type=Path,
         default=None,
-        help="a prediction_eval.json of another split (e.g. validation): calibrates the 90 %% "
-        "prediction regions whose coverage this run reports",
+        help="a prediction_eval.json (or its run folder) of another split (e.g. validation): "
+        "calibrates the 90 %% prediction regions whose coverage this run reports",
     )
     p.add_argument(
         "--write-split",
@@ -149,6 +149,8 @@ def _calibration(args: argparse.Namespace) -> list[dict]:
     import json
 
     path = args.regions_from
+    if Path(path).is_dir():
+        path = Path(path) / "prediction_eval.json"
     if args.no_recorded:
         raise ValueError(
             "--regions-from calibrates regions for recorded episodes; drop --no-recorded"

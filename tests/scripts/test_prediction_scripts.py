@@ -180,6 +180,10 @@ def test_regions_calibrated_on_the_split_they_judge_are_refused(files, tmp_path)
     argv = ["--library", str(files), "--no-simulated", "--out", str(tmp_path / "o")]
     with pytest.raises(ValueError, match="validation split itself: calibrate on another split"):
         evaluate_prediction.main([*argv, "--regions-from", str(run)])
+    (tmp_path / "val").mkdir()
+    run.rename(tmp_path / "val" / "prediction_eval.json")  # a run folder names its JSON
+    with pytest.raises(ValueError, match="validation split itself"):
+        evaluate_prediction.main([*argv, "--regions-from", str(tmp_path / "val")])
     (tmp_path / "bad.json").write_text('{"records": 3}')
     with pytest.raises(ValueError, match=r"not a prediction_eval\.json"):
         evaluate_prediction.main(
