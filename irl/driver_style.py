@@ -41,8 +41,10 @@ from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.chance import risk_quantile
 from drivestyle.planning.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
+from drivestyle.planning.reachability import stage_one_blocked, stage_one_box
 from drivestyle.planning.smpc_problem import (
     N_WEIGHTS,
+    NX,
     NLPBounds,
     PrimalDual,
     SMPCConfig,
@@ -378,6 +380,8 @@ class StylePlanner:
         self.fast: PlanSolver | None = compiled_solver(self.config, scenario) if ipm else None
         self.fallbacks = 0
         """Solves the compiled solver handed to the generic solvers (diagnostics)."""
+        self.blocked = 0
+        """Plans answered without a solve: no plan exists (:meth:`_blocked`; diagnostics)."""
 
     def serves(self, scenario: ScenarioConfig, horizon: int, n_vehicles: int) -> bool:
         """Whether this planner's NLP fits ``scenario`` with N and M."""
@@ -445,6 +449,9 @@ class StylePlanner:
     ) -> PlanResult:
         """One plan with the generic solvers: fatrop, then IPOPT from the same guess."""
         bounds = self.bounds(scenario)
+        if self._blocked(p, bounds):
+            self.blocked += 1
+            return PlanResult(_braking(scenario), False, True, None)
         sol = self.problem.solve("fatrop", p, guess, bounds)
         if not sol.success:
             sol = self.problem.solve("ipopt", p, guess, bounds)
@@ -459,6 +466,20 @@ class StylePlanner:
             or np.any(sol.point.w[self.layout.i_s] > 1e-8)
         )
         return PlanResult(u0, True, active, sol.point)
+
+    def _blocked(self, p: np.ndarray, bounds: NLPBounds) -> bool:
+        """Whether no plan exists: stage 1 cannot leave a nominal ellipse (DESIGN §16).
+
+        :mod:`drivestyle.planning.reachability`'s certificate on the parameter vector ``p``
+        (ξ0, the M vehicles, the region l_a) and the input bounds; sound, so a row it
+        certifies is one the solvers fail on and the planner rejects — its answer, the
+        failed plan, is the same without them.
+        """
+        M, sc = self.config.max_vehicles, self.scenario
+        u = self.layout.iu[0]
+        corners = stage_one_box(p[:NX], bounds.lbw[u], bounds.ubw[u], sc.dt, sc.l_f, sc.l_r)
+        vehicles = p[NX : NX + 4 * M]
+        return stage_one_blocked(corners, vehicles, sc.dt, float(p[-1]), sc.l_b)
 
     # ------------------------------------------------------------------ batches
     def solve_rows(self, rows: Sequence[PlanRow], scenario: ScenarioConfig) -> RowsResult:

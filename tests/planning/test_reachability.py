@@ -1,0 +1,109 @@
+"""The stage-1 reachable rectangle and the certificate that no plan exists (DESIGN §16)."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drivestyle.envs.dynamics import rk4_step
+from drivestyle.envs.real_data import RECORDED_DELTA_MAX
+from drivestyle.envs.scenario import PAPER
+from drivestyle.irl.driver_style import DriverStyle, StylePlanner
+from drivestyle.irl.risk_profile import risk_profile
+from drivestyle.planning.reachability import (
+    MARGIN_SLACK,
+    POSITION_SLACK,
+    stage_one_blocked,
+    stage_one_box,
+)
+
+SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
+
+
+def _local(point: np.ndarray, corners: np.ndarray) -> tuple[float, float]:
+    """The point's coordinates in the rectangle's frame, in [0, 1]² when inside."""
+    rel = point - corners[0]
+    e_along, e_cross = corners[2] - corners[0], corners[1] - corners[0]
+    return float(rel @ e_along / (e_along @ e_along)), float(rel @ e_cross / (e_cross @ e_cross))
+
+
+@pytest.mark.parametrize("delta_max", [PAPER.delta_max, RECORDED_DELTA_MAX])
+@pytest.mark.parametrize("T_s", [0.1, 0.2])
+def test_every_rk4_step_inside_the_bounds_lands_in_the_rectangle(rng, delta_max, T_s):
+    u_lo, u_hi = np.array([PAPER.a_min, -delta_max]), np.array([PAPER.a_max, delta_max])
+    # input corners (the extremes) and random inputs, from random states incl. standstill
+    corners_u = np.array([[a, d] for a in (u_lo[0], u_hi[0]) for d in (u_lo[1], 0.0, u_hi[1])])
+    for _ in range(200):
+        xi0 = np.array([rng.uniform(-50, 50), rng.uniform(-5, 5), rng.uniform(-0.4, 0.4),
+                        rng.choice([0.0, 0.3, rng.uniform(0, 40)])])  # fmt: skip
+        box = stage_one_box(xi0, u_lo, u_hi, T_s, PAPER.l_f, PAPER.l_r)
+        inputs = np.vstack([corners_u, rng.uniform(u_lo, u_hi, size=(20, 2))])
+        reached = np.array([rk4_step(xi0, u, T_s, PAPER.l_f, PAPER.l_r)[:2] for u in inputs])
+        for point in reached:
+            s, t = _local(point, box)
+            assert -1e-12 <= s <= 1 + 1e-12 and -1e-12 <= t <= 1 + 1e-12, (xi0, point, box)
+        # and not much larger than what is reached (else it would certify nothing)
+        along = np.ptp([_local(p, box)[0] for p in reached])
+        assert along > 0.4 or xi0[3] * T_s < 0.5
+
+
+def test_the_rectangle_is_small_at_speed():
+    xi0 = np.array([0.0, 0.0, 0.0, 25.0])
+    lo = np.array([PAPER.a_min, -RECORDED_DELTA_MAX])
+    hi = np.array([PAPER.a_max, RECORDED_DELTA_MAX])
+    box = stage_one_box(xi0, lo, hi, 0.1, PAPER.l_f, PAPER.l_r)
+    along, cross = np.ptp(box[:, 0]), np.ptp(box[:, 1])
+    # speed range × T_s² scale along, β_max·v·T_s across (a loose rectangle would certify
+    # nothing: the region's semi-minor axis is 2 m)
+    assert along < 0.5 * (PAPER.a_max - PAPER.a_min) * 0.1**2 + 0.1 + 2 * POSITION_SLACK
+    assert cross < 2 * 25.0 * 0.1 * 0.25
+
+
+def test_a_vehicle_over_the_next_position_blocks_and_a_far_one_does_not():
+    xi0 = np.array([0.0, 0.0, 0.0, 25.0])
+    lo, hi = np.array([PAPER.a_min, -PAPER.delta_max]), np.array([PAPER.a_max, PAPER.delta_max])
+    box = stage_one_box(xi0, lo, hi, 0.2, PAPER.l_f, PAPER.l_r)
+    ahead = np.array([[8.0, 0.5, 0.0, 25.0]])  # 3 m ahead of the EV's next position
+    far = np.array([[60.0, 0.0, 0.0, 25.0]])
+    placeholder = np.array([[-1e4, 0.0, 0.0, 0.0]])
+    assert stage_one_blocked(box, ahead, 0.2, PAPER.l_a, PAPER.l_b)
+    assert stage_one_blocked(box, np.vstack([far, ahead, placeholder]), 0.2, PAPER.l_a, PAPER.l_b)
+    assert not stage_one_blocked(box, np.vstack([far, placeholder]), 0.2, PAPER.l_a, PAPER.l_b)
+    # at the rim: a corner reaches the boundary, so some plan may exist
+    # (a vehicle standing still ahead: its stage-1 centre is its position)
+    rim = np.array([[box[:, 0].min() + PAPER.l_a * (1 - MARGIN_SLACK / 2), 0.0, 0.0, 0.0]])
+    assert not stage_one_blocked(box, rim, 0.2, PAPER.l_a, PAPER.l_b)
+
+
+def test_a_blocked_plan_is_the_failed_plan_the_solvers_give():
+    planner = StylePlanner(PAPER, 10, 1)
+    xi0 = np.array([0.0, PAPER.y_ref, 0.0, 25.0])
+    inside = np.array([[6.0, PAPER.y_ref, 0.0, 24.0]])
+    style = DriverStyle(SMPC_WEIGHTS, risk=0.8)
+    fast = planner.plan(xi0, inside, style, PAPER)
+    assert planner.blocked == 1
+    planner._blocked = lambda p, bounds: False  # the solvers' own answer
+    slow = planner.plan(xi0, inside, style, PAPER)
+    assert not fast.ok and not slow.ok
+    assert fast.chance_active == slow.chance_active and fast.point is slow.point is None
+    np.testing.assert_array_equal(fast.u0, slow.u0)
+
+
+def test_profiles_are_the_same_with_and_without_the_certificate(paper_demo):
+    # the TV drives into the EV's path for steps 8–13: the hard ellipse holds no plan there
+    tv = paper_demo.tv.copy()
+    ev = paper_demo.ev
+    tv[8:14, 0] = ev[8:14, 0] + 4.0
+    tv[8:14, 1] = ev[8:14, 1]
+    tv[8:14, 2] = 0.0
+    tv[8:14, 3] = ev[8:14, 3]
+    demo = replace(paper_demo, tv=tv)
+    style = DriverStyle(SMPC_WEIGHTS)
+    risks = (0.5, 0.8, 0.99)
+    certified = StylePlanner(PAPER, 10, 1)
+    plain = StylePlanner(PAPER, 10, 1)
+    plain._blocked = lambda p, bounds: False
+    a = risk_profile(style, demo, risks, planner=certified)
+    b = risk_profile(style, demo, risks, planner=plain)
+    assert certified.blocked >= 6 * len(risks)  # every entered step, at every risk
+    assert a == b
