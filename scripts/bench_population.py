@@ -20,6 +20,7 @@ import os
 import platform
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -51,17 +52,155 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--seed", type=seed, default=0, help="population seed")
     p.add_argument("--no-ray", action="store_true", help="skip the Ray run")
     p.add_argument(
+        "--runs",
+        type=_runs,
+        default=None,
+        help="the timed runs as engine:workers, comma-separated, e.g. ray:1,ray:2 (the scale-out "
+        "check); default local:1,local:2,ray:2 (without --no-ray's ray:2)",
+    )
+    p.add_argument(
+        "--demos",
+        type=Path,
+        default=None,
+        help="mine this folder's demonstrations (*.npz) instead of simulating --vehicles",
+    )
+    p.add_argument(
         "--out", type=Path, default=Path("runs/bench_population.json"), help="output JSON"
     )
     return p.parse_args(argv)
 
 
+class WorkerMemory:
+    """Samples the resident memory of a mining run's worker processes from ``/proc``.
+
+    Workers are the pool's processes (local: children of this process) or Ray's actor
+    processes (descendants whose title names the ``Miner`` actor). Each sample records the
+    run's progress (share of rows done) beside the resident set, so the report can say
+    whether memory stays flat over the run; the peak is the kernel's high-water mark
+    (VmHWM), which also sees peaks between samples. Without ``/proc`` it reports nothing.
+    """
+
+    def __init__(self, engine: str, interval_s: float = 1.0) -> None:
+        self.engine = engine
+        self.interval_s = interval_s
+        self.progress = 0.0
+        self._series: dict[int, list[tuple[float, float]]] = {}
+        self._peak: dict[int, float] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def start(self) -> None:
+        """Begin sampling (a daemon thread)."""
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Take a last sample and stop."""
+        self._stop.set()
+        self._thread.join()
+
+    def _run(self) -> None:
+        while True:
+            self._sample()
+            if self._stop.wait(self.interval_s):
+                return
+
+    def _workers(self) -> list[int]:
+        parents: dict[int, int] = {}
+        for entry in Path("/proc").glob("[0-9]*"):
+            try:
+                stat = (entry / "stat").read_text()
+                parents[int(entry.name)] = int(stat[stat.rindex(")") + 2 :].split()[1])
+            except (OSError, ValueError):
+                continue
+        me = os.getpid()
+        if self.engine == "local":
+            return [pid for pid, ppid in parents.items() if ppid == me and "resource_tracker"
+                    not in _cmdline(pid)]  # fmt: skip
+        below, frontier = set(), {me}
+        while frontier:
+            frontier = {pid for pid, ppid in parents.items() if ppid in frontier} - below
+            below |= frontier
+        return [pid for pid in below if "Miner" in _cmdline(pid)]
+
+    def _sample(self) -> None:
+        for pid in self._workers():
+            status = _status(pid)
+            if "VmRSS" in status:
+                self._series.setdefault(pid, []).append((self.progress, status["VmRSS"]))
+                self._peak[pid] = max(self._peak.get(pid, 0.0), status.get("VmHWM", 0.0))
+
+    def report(self) -> dict:
+        """Per worker: peak, resident at 10 % of the rows and at the end [MB]; growth."""
+        workers = []
+        for pid, series in self._series.items():
+            later = [rss for done, rss in series if done >= 0.1] or [series[-1][1]]
+            workers.append({
+                "peak_mb": self._peak[pid],
+                "rss_at_10pct_mb": later[0],
+                "rss_last_mb": series[-1][1],
+                "growth": series[-1][1] / later[0] - 1.0,
+                "samples": len(series),
+            })  # fmt: skip
+        return {
+            "workers": workers,
+            "peak_mb_max": max((w["peak_mb"] for w in workers), default=None),
+            "growth_max": max((w["growth"] for w in workers), default=None),
+        }
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return (
+            Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        )
+    except OSError:
+        return ""
+
+
+def _status(pid: int) -> dict[str, float]:
+    """VmRSS and VmHWM of a process [MB] (empty when it is gone)."""
+    out = {}
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "VmHWM"):
+                out[key] = float(value.split()[0]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return out
+
+
+def _runs(text: str) -> list[tuple[str, int]]:
+    """``engine:workers,...`` → [(engine, workers)]; a one-line error otherwise."""
+    runs = []
+    for part in text.split(","):
+        engine, _, n = part.strip().partition(":")
+        if engine not in ("local", "ray") or not n.isdigit() or int(n) < 1:
+            raise argparse.ArgumentTypeError(
+                f"a run is engine:workers with engine local or ray and workers >= 1, got {part!r}"
+            )
+        runs.append((engine, int(n)))
+    return runs
+
+
 def _timed_mining(tasks: list, library, engine: str, workers: int) -> dict:
     bar = tqdm(total=len(tasks), desc=f"{engine} x{workers}", leave=False)
+    sampler = WorkerMemory(engine)
+    done = [0]
+
+    def on_row(_row: object) -> None:
+        done[0] += 1
+        sampler.progress = done[0] / len(tasks)
+        bar.update(1)
+
+    sampler.start()
     t0 = time.perf_counter()
-    rows = mine(tasks, library, engine, workers, lambda _: bar.update(1))
-    wall = time.perf_counter() - t0
-    bar.close()
+    try:
+        rows = mine(tasks, library, engine, workers, on_row)
+    finally:
+        wall = time.perf_counter() - t0
+        sampler.stop()
+        bar.close()
     ok = [r for r in rows if r.status == "ok"]
     return {
         "engine": engine,
@@ -73,6 +212,7 @@ def _timed_mining(tasks: list, library, engine: str, workers: int) -> dict:
         "n_failed": len(rows) - len(ok),
         "learn_s_median": float(np.median([r.learn_s for r in ok])) if ok else None,
         "identify_s_median": float(np.median([r.identify_s for r in ok])) if ok else None,
+        "worker_memory": sampler.report(),
     }
 
 
@@ -81,57 +221,78 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_file(args.out)
     library = load_any_library(args.library)
+    plan = args.runs or [("local", 1), ("local", 2)] + ([] if args.no_ray else [("ray", 2)])
     with tempfile.TemporaryDirectory() as tmp:
-        with tqdm(total=args.vehicles, desc="simulate") as bar:
-            pop = simulate_population(args.vehicles, args.seed, tmp, 2, progress=bar.update)
-        files = sorted((Path(tmp) / "demos").glob("*.npz"))
-        demos = [load_demonstration(f) for f in files]
-        tasks = [(f.stem, "population", d) for f, d in zip(files, demos, strict=True)]
-        runs = [
-            _timed_mining(tasks, library, "local", 1),
-            _timed_mining(tasks, library, "local", 2),
-        ]
-        if not args.no_ray:
-            import ray  # started before the clock: cluster start-up is not per-job work
+        simulate_s = None
+        if args.demos is None:
+            with tqdm(total=args.vehicles, desc="simulate") as bar:
+                pop = simulate_population(args.vehicles, args.seed, tmp, 2, progress=bar.update)
+            simulate_s = pop.wall_s
+            folder = Path(tmp) / "demos"
+        else:
+            folder = args.demos
+        files = sorted(folder.glob("*.npz"))
+        if not files:
+            raise SystemExit(f"error: no demonstrations (*.npz) in {folder}")
+        # the workers load each file, as mine-styles on a folder does: the driver holds paths
+        tasks = [(f.stem, "population", str(f)) for f in files]
+        runs = []
+        for engine, workers in plan:
+            if engine == "ray":
+                import ray  # started before the clock: cluster start-up is not per-job work
 
-            ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-            try:
-                runs.append(_timed_mining(tasks, library, "ray", 2))
-            finally:
-                ray.shutdown()
+                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+                try:
+                    runs.append(_timed_mining(tasks, library, "ray", workers))
+                finally:
+                    ray.shutdown()
+            else:
+                runs.append(_timed_mining(tasks, library, engine, workers))
         inner: list[float] = []
         # the paper model's inner spline solve (a driver library has none: its solves are
         # the planner's NLPs, timed by bench_irl)
         if isinstance(library, StyleLibrary):
-            for d in demos[:20]:
+            for f in files[:20]:
                 try:
+                    d = load_demonstration(f)
                     inner += MaxEntIRL(d, library.features, IRLConfig()).learn().inner_solve_ms
                 except ValueError:
                     continue
-    one, two = runs[0], runs[1]
-    rate_per_core = one["demos_per_s"]
+    by_key = {(r["engine"], r["workers"]): r for r in runs}
+    scaling = {
+        e: by_key[(e, 2)]["demos_per_s"] / by_key[(e, 1)]["demos_per_s"]
+        for e in ("local", "ray")
+        if (e, 1) in by_key and (e, 2) in by_key
+    }
+    engine = next(iter(scaling), runs[0]["engine"])
+    one = by_key.get((engine, 1), runs[0])
+    rate_per_core = one["demos_per_s_per_core"]
+    # parallel efficiency measured from 1 to 2 workers, assumed to hold further
+    efficiency = scaling[engine] / 2 if engine in scaling else 1.0
     result = {
-        "vehicles": args.vehicles,
-        "simulate_wall_s_2_workers": pop.wall_s,
+        "vehicles": len(files),
+        "demos_folder": None if args.demos is None else str(args.demos),
+        "simulate_wall_s_2_workers": simulate_s,
         "runs": runs,
-        "scaling_1_to_2": two["demos_per_s"] / one["demos_per_s"],
-        "ray_overhead": (two["demos_per_s"] / runs[2]["demos_per_s"] - 1)
-        if len(runs) > 2
+        "scaling_1_to_2": scaling.get(engine),
+        "scaling_1_to_2_by_engine": scaling,
+        "ray_overhead": (
+            by_key[("local", 2)]["demos_per_s"] / by_key[("ray", 2)]["demos_per_s"] - 1
+        )
+        if ("local", 2) in by_key and ("ray", 2) in by_key
         else None,
         "learn_s_median": one["learn_s_median"],
         "identify_s_median": one["identify_s_median"],
         "inner_solve_ms_median": float(np.median(inner)) if inner else None,
-        # parallel efficiency measured from 1 to 2 workers, assumed to hold further
-        "parallel_efficiency": two["demos_per_s"] / (2 * rate_per_core),
+        "parallel_efficiency": efficiency if engine in scaling else None,
+        "parallel_efficiency_by_engine": {e: v / 2 for e, v in scaling.items()},
         "hours_for_110k": {
-            str(c): TARGET_VEHICLES
-            / (rate_per_core * c * (1.0 if c == 1 else two["demos_per_s"] / (2 * rate_per_core)))
-            / 3600
+            str(c): TARGET_VEHICLES / (rate_per_core * c * (1.0 if c == 1 else efficiency)) / 3600
             for c in (1, 8, 64)
         },
         "goal": {
-            "demos_per_s_per_core": 15.0,
-            "scaling_1_to_2": 1.8,
+            "demos_per_s_per_core": 20.0,
+            "parallel_efficiency": 0.9,
             "ray_overhead": 0.10,
             "learn_s_median": 0.05,
             "identify_s_median": 0.1,
@@ -149,8 +310,16 @@ def main(argv: list[str] | None = None) -> dict:
             f"{r['engine']:5s} x{r['workers']}: {r['demos_per_s']:.2f} demos/s "
             f"({r['demos_per_s_per_core']:.2f} per core), {r['n_failed']} failed"
         )
+    for r in runs:
+        mem = r["worker_memory"]
+        if mem["workers"]:
+            print(
+                f"{r['engine']:5s} x{r['workers']}: peak RSS per worker "
+                + ", ".join(f"{w['peak_mb']:.0f} MB" for w in mem["workers"])
+                + f" (growth from 10 % of the run to its end: {fmt(mem['growth_max'])})"
+            )
     print(
-        f"scaling 1->2: {result['scaling_1_to_2']:.2f}x (goal 1.8); Ray overhead "
+        f"scaling 1->2: {fmt(result['scaling_1_to_2'])}x (goal 1.8); Ray overhead "
         f"{fmt(result['ray_overhead'])} (goal 0.10); learn {result['learn_s_median']:.3f} s, "
         f"identify {result['identify_s_median']:.3f} s, inner solve "
         f"{fmt(result['inner_solve_ms_median'])} ms (medians); 110k vehicles: "

@@ -177,4 +177,30 @@ def test_bench_population_mines_with_a_driver_library(tmp_path):
     js = json.loads(out.read_text())
     assert js["vehicles"] == 2 and js["inner_solve_ms_median"] is None
     assert all(r["n_ok"] + r["n_failed"] == 2 for r in res["runs"])
-    assert res["runs"][0]["demos_per_s_per_core"] > 0 and js["goal"]["demos_per_s_per_core"] == 15
+    assert res["runs"][0]["demos_per_s_per_core"] > 0 and js["goal"]["demos_per_s_per_core"] == 20
+    assert [(r["engine"], r["workers"]) for r in res["runs"]] == [("local", 1), ("local", 2)]
+    assert res["scaling_1_to_2_by_engine"].keys() == {"local"}
+
+
+@pytest.mark.slow  # starts Ray: CI runs it (pytest -m slow)
+def test_bench_population_scales_out_on_ray_and_reports_each_workers_memory(tmp_path):
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    lib = DriverLibrary(style=DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7),
+                        risks=(0.5, 0.9))  # fmt: skip
+    (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
+    res = _main("bench_population")(
+        ["--vehicles", "3", "--library", str(tmp_path), "--runs", "ray:1,ray:2",
+         "--out", str(tmp_path / "bench.json")]
+    )  # fmt: skip
+    one, two = res["runs"]
+    assert (one["workers"], two["workers"]) == (1, 2) and one["n_ok"] == two["n_ok"] == 3
+    # one sampled Ray actor per worker, each a Python process holding the planner
+    assert [len(r["worker_memory"]["workers"]) for r in res["runs"]] == [1, 2]
+    assert all(w["peak_mb"] > 50 for r in res["runs"] for w in r["worker_memory"]["workers"])
+    assert res["parallel_efficiency_by_engine"]["ray"] == pytest.approx(
+        two["demos_per_s"] / (2 * one["demos_per_s"])
+    )
+    with pytest.raises(SystemExit):
+        _main("bench_population")(["--library", str(tmp_path), "--runs", "ray:0"])
