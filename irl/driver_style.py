@@ -41,7 +41,7 @@ from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.chance import risk_quantile
 from drivestyle.planning.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
-from drivestyle.planning.reachability import stage_one_blocked, stage_one_box
+from drivestyle.planning.reachability import coasting_inside, stage_one_blocked, stage_one_box
 from drivestyle.planning.smpc_problem import (
     N_WEIGHTS,
     NX,
@@ -476,10 +476,12 @@ class StylePlanner:
         failed plan, is the same without them.
         """
         M, sc = self.config.max_vehicles, self.scenario
+        vehicles, l_a = p[NX : NX + 4 * M], float(p[-1])
+        if not coasting_inside(p[:NX], vehicles, sc.dt, l_a, sc.l_b):  # the cheap necessary test
+            return False
         u = self.layout.iu[0]
         corners = stage_one_box(p[:NX], bounds.lbw[u], bounds.ubw[u], sc.dt, sc.l_f, sc.l_r)
-        vehicles = p[NX : NX + 4 * M]
-        return stage_one_blocked(corners, vehicles, sc.dt, float(p[-1]), sc.l_b)
+        return stage_one_blocked(corners, vehicles, sc.dt, l_a, sc.l_b)
 
     # ------------------------------------------------------------------ batches
     def solve_rows(self, rows: Sequence[PlanRow], scenario: ScenarioConfig) -> RowsResult:

@@ -29,6 +29,7 @@ from drivestyle.irl.features import (
     feature_values,
 )
 from drivestyle.irl.spline import demo_control_points
+from drivestyle.planning.buffered import BufferedFunction
 
 __all__ = ["InnerProblem", "InnerSolution", "InnerSolveError", "newton_minimize"]
 
@@ -37,35 +38,8 @@ class InnerSolveError(RuntimeError):
     """The inner optimisation did not converge."""
 
 
-class _Buffered:
-    """Zero-copy evaluation of a CasADi function with dense inputs and outputs.
-
-    numpy arrays are bound once through ``Function.buffer`` (DM conversion costs ≈0.5 ms).
-    """
-
-    def __init__(self, fn: ca.Function) -> None:
-        self.fn = fn
-        self.inputs = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-        self.outputs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-        self.shapes = [fn.size_out(i) for i in range(fn.n_out())]
-        self._buf, self._eval = fn.buffer()
-        # a.data: the array's memoryview (numpy's stubs give ndarray no __buffer__ before
-        # Python 3.12). casadi's stub also lists the byte size, which its SWIG wrapper reads
-        # from the buffer itself and refuses as a third argument.
-        for i, a in enumerate(self.inputs):
-            self._buf.set_arg(i, a.data)  # type: ignore[call-arg]
-        for i, a in enumerate(self.outputs):
-            self._buf.set_res(i, a.data)  # type: ignore[call-arg]
-
-    def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
-        for dst, src in zip(self.inputs, args, strict=True):
-            dst[:] = src
-        self._eval()
-        # CasADi stores column-major; outputs here are vectors or symmetric/Jacobians
-        return [
-            out.reshape(shape[::-1]).T.copy() if shape[1] > 1 else out.copy()
-            for out, shape in zip(self.outputs, self.shapes, strict=True)
-        ]
+_Buffered = BufferedFunction
+"""The inner problem's zero-copy CasADi calls (:mod:`drivestyle.planning.buffered`)."""
 
 
 def newton_minimize(

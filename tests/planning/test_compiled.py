@@ -49,6 +49,14 @@ def test_the_compiled_fatrop_is_the_interpreted_one(paper_demo, planners):
     assert np.allclose(pa.ssr, pb.ssr, rtol=1e-6, atol=1e-9)
 
 
+def test_the_buffered_shift_is_the_plain_dynamics_call(rng, planners):
+    fast, _ = planners
+    problem = fast.problem
+    for _ in range(20):
+        xi, u = rng.normal(size=4) * [10, 2, 0.1, 10], rng.normal(size=2) * [2, 0.05]
+        assert np.array_equal(problem.step(xi, u), np.asarray(problem.dynamics(xi, u)).ravel())
+
+
 def test_the_buffered_stationarity_check_is_the_plain_calls(paper_demo, planners):
     """The generated solver's KKT check reads bound numpy buffers: the same gradient as a
     plain CasADi call, to the bit, at every step of a teacher-forced pass."""
@@ -60,8 +68,9 @@ def test_the_buffered_stationarity_check_is_the_plain_calls(paper_demo, planners
 
     def spy(w, lam_g, lam_x):
         verdict = real(w, lam_g, lam_x)
-        plain = np.asarray(problem._kkt(w, problem._inputs["p"], lam_g, lam_x)).ravel()
-        grads.append((problem._kkt_out.copy(), plain))
+        kkt = problem._kkt
+        plain = np.asarray(kkt.fn(w, problem._inputs["p"], lam_g, lam_x)).ravel()
+        grads.append((kkt.outputs[0].copy(), plain))
         return verdict
 
     rows = [PlanRow(paper_demo.ev[k], paper_demo.vehicles[k], style,

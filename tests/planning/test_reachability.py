@@ -13,6 +13,7 @@ from drivestyle.irl.risk_profile import risk_profile
 from drivestyle.planning.reachability import (
     MARGIN_SLACK,
     POSITION_SLACK,
+    coasting_inside,
     stage_one_blocked,
     stage_one_box,
 )
@@ -73,6 +74,23 @@ def test_a_vehicle_over_the_next_position_blocks_and_a_far_one_does_not():
     # (a vehicle standing still ahead: its stage-1 centre is its position)
     rim = np.array([[box[:, 0].min() + PAPER.l_a * (1 - MARGIN_SLACK / 2), 0.0, 0.0, 0.0]])
     assert not stage_one_blocked(box, rim, 0.2, PAPER.l_a, PAPER.l_b)
+
+
+def test_coasting_inside_is_necessary_for_a_blocked_row(rng):
+    lo, hi = np.array([PAPER.a_min, -PAPER.delta_max]), np.array([PAPER.a_max, PAPER.delta_max])
+    blocked = 0
+    for _ in range(2000):
+        xi0 = np.array([0.0, rng.uniform(-3, 3), rng.uniform(-0.1, 0.1), rng.uniform(0, 35)])
+        others = np.column_stack([rng.uniform(-10, 25, 3), rng.uniform(-4, 4, 3),
+                                  rng.uniform(-0.1, 0.1, 3), rng.uniform(0, 35, 3)])  # fmt: skip
+        box = stage_one_box(xi0, lo, hi, 0.2, PAPER.l_f, PAPER.l_r)
+        if stage_one_blocked(box, others, 0.2, 12.0, PAPER.l_b):
+            blocked += 1
+            assert coasting_inside(xi0, others, 0.2, 12.0, PAPER.l_b)
+        assert coasting_inside(xi0, others, 0.2, 12.0, PAPER.l_b) == coasting_inside(
+            xi0, others.ravel(), 0.2, 12.0, PAPER.l_b
+        )
+    assert blocked > 50  # the draw exercises the implication
 
 
 def test_a_blocked_plan_is_the_failed_plan_the_solvers_give():
