@@ -41,7 +41,13 @@ from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.chance import risk_quantile
 from drivestyle.planning.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
-from drivestyle.planning.reachability import coasting_inside, stage_one_blocked, stage_one_box
+from drivestyle.planning.reachability import (
+    box_blocked,
+    coasting_stages,
+    reachable_boxes,
+    stage_one_blocked,
+    stage_one_box,
+)
 from drivestyle.planning.smpc_problem import (
     N_WEIGHTS,
     NX,
@@ -468,20 +474,35 @@ class StylePlanner:
         return PlanResult(u0, True, active, sol.point)
 
     def _blocked(self, p: np.ndarray, bounds: NLPBounds) -> bool:
-        """Whether no plan exists: stage 1 cannot leave a nominal ellipse (DESIGN §16).
+        """Whether no plan exists: some stage cannot leave a nominal ellipse (DESIGN §16).
 
-        :mod:`drivestyle.planning.reachability`'s certificate on the parameter vector ``p``
-        (ξ0, the M vehicles, the region l_a) and the input bounds; sound, so a row it
-        certifies is one the solvers fail on and the planner rejects — its answer, the
-        failed plan, is the same without them.
+        :mod:`drivestyle.planning.reachability`'s certificates on the parameter vector
+        ``p`` (ξ0, the M vehicles, the region l_a) and the bounds, at the stages where the
+        EV coasting would be inside an ellipse (stage 1: the heading-frame rectangle, then
+        interval boxes), and, when ξ0 is outside the later stages' state bounds, whether
+        every stage's bounds can be reached; sound, so a row certified is one the solvers
+        fail on and the planner rejects — its answer, the failed plan, is the same
+        without them.
         """
-        M, sc = self.config.max_vehicles, self.scenario
-        vehicles, l_a = p[NX : NX + 4 * M], float(p[-1])
-        if not coasting_inside(p[:NX], vehicles, sc.dt, l_a, sc.l_b):  # the cheap necessary test
+        M, N, sc = self.config.max_vehicles, self.config.horizon, self.scenario
+        vehicles, l_a, xi0 = p[NX : NX + 4 * M], float(p[-1]), p[:NX]
+        u, x1 = self.layout.iu[0], self.layout.ix[1]
+        lo, hi = bounds.lbw[x1], bounds.ubw[x1]
+        # a few float operations each: ξ0 outside the later stages' state bounds (a recorded
+        # heading beyond the model's), and the stages coasting would end inside an ellipse
+        outside = bool(np.any(xi0[1:] < lo[1:]) or np.any(xi0[1:] > hi[1:]))
+        stages = coasting_stages(xi0, vehicles, sc.dt, l_a, sc.l_b, N)
+        if not stages and not outside:
             return False
-        u = self.layout.iu[0]
-        corners = stage_one_box(p[:NX], bounds.lbw[u], bounds.ubw[u], sc.dt, sc.l_f, sc.l_r)
-        return stage_one_blocked(corners, vehicles, sc.dt, l_a, sc.l_b)
+        if stages and stages[0] == 1:
+            corners = stage_one_box(xi0, bounds.lbw[u], bounds.ubw[u], sc.dt, sc.l_f, sc.l_r)
+            if stage_one_blocked(corners, vehicles, sc.dt, l_a, sc.l_b):
+                return True
+        K = N if outside else stages[-1]
+        boxes = reachable_boxes(xi0, bounds.lbw[u], bounds.ubw[u], lo, hi, sc.dt, sc.l_f, sc.l_r, K)
+        if boxes[-1, 0, 0] > boxes[-1, 0, 1]:  # some stage's bounds cannot be reached
+            return True
+        return any(box_blocked(boxes[k - 1], vehicles, k * sc.dt, l_a, sc.l_b) for k in stages)
 
     # ------------------------------------------------------------------ batches
     def solve_rows(self, rows: Sequence[PlanRow], scenario: ScenarioConfig) -> RowsResult:

@@ -37,10 +37,15 @@ import math
 import numpy as np
 
 __all__ = [
+    "COVER_DEPTH",
     "INPUT_SLACK",
     "MARGIN_SLACK",
     "POSITION_SLACK",
+    "box_blocked",
     "coasting_inside",
+    "coasting_stages",
+    "covered",
+    "reachable_boxes",
     "stage_one_blocked",
     "stage_one_box",
 ]
@@ -107,7 +112,7 @@ def stage_one_box(
 def stage_one_blocked(
     corners: np.ndarray, vehicles: np.ndarray, T_s: float, l_a: float, l_b: float
 ) -> bool:
-    """Whether every stage-1 position lies inside some vehicle's nominal ellipse.
+    """Whether every stage-1 position lies inside the nominal ellipses (:func:`covered`).
 
     The vehicles are predicted at constant velocity, as the NLP predicts them
     (:func:`~drivestyle.planning.smpc_problem._ellipse_margins`): the centre at stage 1 is
@@ -115,23 +120,79 @@ def stage_one_blocked(
 
     Args:
         corners: :func:`stage_one_box`, shape (4, 2) [m].
-        vehicles: the constrained vehicles' states, shape (M, 4) [m, m, rad, m/s].
+        vehicles: the constrained vehicles' states, flat (4M,) or (M, 4) [m, m, rad, m/s].
         T_s: step length [s].
         l_a: semi-major axis [m].
         l_b: semi-minor axis [m].
 
     Returns:
-        True when, for one vehicle, ‖z̄_1‖ − 1 < −:data:`MARGIN_SLACK` at all four corners
-        (then at every point of the rectangle: ‖z̄‖ is convex). A plan needs the margin
-        ≥ 0 against every vehicle, so one such vehicle rules every plan out.
+        True when the rectangle is covered: a plan needs the margin ≥ 0 against every
+        vehicle, so a stage-1 position inside any one ellipse rules it out.
     """
+    c = np.asarray(corners, dtype=float)
+    return covered(c[0], c[2] - c[0], c[1] - c[0], _centres(vehicles, T_s), l_a, l_b)
+
+
+def _centres(vehicles: np.ndarray, t: float) -> np.ndarray:
+    """The vehicles' predicted centres at time t (constant velocity), shape (M, 2)."""
     veh = np.asarray(vehicles, dtype=float).reshape(-1, 4)
-    cx = veh[:, 0] + veh[:, 3] * np.cos(veh[:, 2]) * T_s
-    cy = veh[:, 1] + veh[:, 3] * np.sin(veh[:, 2]) * T_s
-    z1 = (corners[None, :, 0] - cx[:, None]) / l_a
-    z2 = (corners[None, :, 1] - cy[:, None]) / l_b
-    largest = np.sqrt(z1 * z1 + z2 * z2).max(axis=1)
-    return bool(np.any(largest - 1.0 < -MARGIN_SLACK))
+    return np.column_stack((veh[:, 0] + veh[:, 3] * np.cos(veh[:, 2]) * t,
+                            veh[:, 1] + veh[:, 3] * np.sin(veh[:, 2]) * t))  # fmt: skip
+
+
+COVER_DEPTH = 3
+"""Halvings of a parallelogram per side :func:`covered` tries (at most 8 × 8 cells)."""
+
+
+def covered(
+    origin: np.ndarray,
+    e1: np.ndarray,
+    e2: np.ndarray,
+    centres: np.ndarray,
+    l_a: float,
+    l_b: float,
+    depth: int = COVER_DEPTH,
+) -> bool:
+    """Whether the union of the ellipses covers the parallelogram origin + [0,1]e1 + [0,1]e2.
+
+    A cell is covered when its four corners are inside one ellipse by
+    :data:`MARGIN_SLACK` (‖z̄‖ is convex, so then all of it is); a cell no single ellipse
+    covers is halved along both edges, up to ``depth`` times. Two vehicles whose
+    ellipses overlap can rule out a set neither covers alone (the EV between a leader
+    and a vehicle beside it). Sound: True only when every cell of a partition is covered.
+
+    Args:
+        origin: a corner, shape (2,) [m].
+        e1: first edge, shape (2,) [m].
+        e2: second edge, shape (2,) [m].
+        centres: the ellipses' centres, shape (M, 2) [m].
+        l_a: semi-major axis (along x) [m].
+        l_b: semi-minor axis (along y) [m].
+        depth: halvings allowed.
+
+    Returns:
+        True when covered.
+    """
+    scale = np.array([1.0 / l_a, 1.0 / l_b])
+    limit = (1.0 - MARGIN_SLACK) ** 2
+    unit = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    cells = np.asarray(origin, dtype=float)[None]  # each cell's origin
+    size = 1.0
+    edges = np.vstack((e1, e2)).astype(float)  # (2, 2)
+    for level in range(depth + 1):
+        # corners of every cell: (cells, 4, 2); their ‖z̄‖² from every centre: (cells, M, 4)
+        corners = cells[:, None, :] + size * unit @ edges
+        z = (corners[:, None, :, :] - centres[None, :, None, :]) * scale
+        inside = (np.sum(z * z, axis=-1) < limit).all(axis=2).any(axis=1)
+        open_cells = cells[~inside]
+        if open_cells.size == 0:
+            return True
+        if level == depth:
+            return False
+        size /= 2
+        halves = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]) * size @ edges
+        cells = (open_cells[:, None, :] + halves[None]).reshape(-1, 2)
+    return False
 
 
 def coasting_inside(
@@ -166,3 +227,153 @@ def coasting_inside(
         if dx * dx + dy * dy < limit:
             return True
     return False
+
+
+def coasting_stages(
+    xi0: np.ndarray, vehicles: np.ndarray, T_s: float, l_a: float, l_b: float, stages: int
+) -> list[int]:
+    """The stages k = 1 … ``stages`` at which the EV coasting (u = 0) is inside an ellipse.
+
+    :func:`coasting_inside` at every stage: with u = 0 the EV moves straight at constant
+    speed, exactly, and each vehicle is predicted at constant velocity as the NLP predicts
+    it. Where the coasting trajectory respects the state bounds it is a member of every
+    stage's reachable set, so a stage can only be :func:`box_blocked` when it is listed
+    here; the list screens the stages worth a box.
+
+    Returns:
+        The stages, increasing (empty for nearly every row a driver of the class plans).
+    """
+    x0, y0, phi0, v0 = np.asarray(xi0, dtype=float)[:4].tolist()
+    flat = np.asarray(vehicles, dtype=float).ravel().tolist()
+    limit = (1.0 - MARGIN_SLACK) ** 2
+    ex, ey = v0 * math.cos(phi0) * T_s, v0 * math.sin(phi0) * T_s
+    inside = []
+    for k in range(1, stages + 1):
+        px, py = x0 + k * ex, y0 + k * ey
+        for j in range(0, len(flat) - 3, 4):
+            x, y, phi, v = flat[j : j + 4]
+            dx = (px - x - v * math.cos(phi) * k * T_s) / l_a
+            dy = (py - y - v * math.sin(phi) * k * T_s) / l_b
+            if dx * dx + dy * dy < limit:
+                inside.append(k)
+                break
+    return inside
+
+
+def _product(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
+    """The interval product [a]·[b] (its extremes are at corners)."""
+    c = (a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1])
+    return min(c), max(c)
+
+
+def _cos_range(lo: float, hi: float) -> tuple[float, float]:
+    """Cos over [lo, hi] (|lo|, |hi| < π)."""
+    top = 1.0 if lo <= 0.0 <= hi else max(math.cos(lo), math.cos(hi))
+    return min(math.cos(lo), math.cos(hi)), top
+
+
+def _sin_range(lo: float, hi: float) -> tuple[float, float]:
+    """Sin over [lo, hi] (|lo|, |hi| < π)."""
+    bottom = -1.0 if lo <= -math.pi / 2 else math.sin(lo)
+    top = 1.0 if hi >= math.pi / 2 else math.sin(hi)
+    return bottom, top
+
+
+def reachable_boxes(
+    xi0: np.ndarray,
+    u_lo: np.ndarray,
+    u_hi: np.ndarray,
+    state_lo: np.ndarray,
+    state_hi: np.ndarray,
+    T_s: float,
+    l_f: float,
+    l_r: float,
+    stages: int,
+) -> np.ndarray:
+    """Road-frame boxes holding the EV's position at stages 1 … ``stages`` (interval RK4).
+
+    Interval arithmetic on the RK4 map, stage by stage: from state intervals (x, y, φ, v),
+    slope i is evaluated at a heading within c_i·T_s·ω of φ's interval (ω = max|v|/l_r ·
+    sin β_max bounds the yaw rate) and a speed within c_i·T_s·a of v's, points in a
+    direction within β_max of that heading, and adds speed × cos (resp. sin) of the
+    direction, as interval products, with RK4's weights. After each step the heading,
+    speed and lateral intervals are cut to the state bounds, which every plan keeps at
+    stages 1 … N. Every interval is widened per stage by the slacks of the module
+    docstring. Looser than :func:`stage_one_box` (it forgets how heading and displacement
+    go together) but good for any stage.
+
+    Args:
+        xi0: ξ0 = [x, y, φ, v], shape (4,) [m, m, rad, m/s].
+        u_lo: lower input bounds [a_min, −δ_max], shape (2,).
+        u_hi: upper input bounds [a_max, δ_max], shape (2,).
+        state_lo: lower state bounds of stages ≥ 1 [x, y, φ, v], shape (4,) (−inf: none).
+        state_hi: upper state bounds, shape (4,).
+        T_s: step length [s].
+        l_f: centre of mass to front axle [m].
+        l_r: centre of mass to rear axle [m].
+        stages: K ≥ 1.
+
+    Returns:
+        Shape (K, 2, 2): per stage [[x_lo, x_hi], [y_lo, y_hi]] [m]; [[inf, −inf], [inf,
+        −inf]] (empty) from the first stage no state within the bounds can reach.
+    """
+    a_lo, d_lo = float(u_lo[0]) - INPUT_SLACK, float(u_lo[1]) - INPUT_SLACK
+    a_hi, d_hi = float(u_hi[0]) + INPUT_SLACK, float(u_hi[1]) + INPUT_SLACK
+    beta = math.atan(l_r / (l_f + l_r) * math.tan(min(max(abs(d_lo), abs(d_hi)), 1.5)))
+    lo = [float(c) for c in xi0[:4]]
+    hi = list(lo)
+    lo = [c - s for c, s in zip(lo, (POSITION_SLACK, POSITION_SLACK, INPUT_SLACK, INPUT_SLACK),
+                                strict=True)]  # fmt: skip
+    hi = [c + s for c, s in zip(hi, (POSITION_SLACK, POSITION_SLACK, INPUT_SLACK, INPUT_SLACK),
+                                strict=True)]  # fmt: skip
+    bound_lo = [float(c) - INPUT_SLACK for c in state_lo]
+    bound_hi = [float(c) + INPUT_SLACK for c in state_hi]
+    out = np.empty((stages, 2, 2))
+    for k in range(stages):
+        v_top = max(abs(lo[3] + a_lo * T_s), abs(hi[3] + a_hi * T_s), abs(lo[3]), abs(hi[3]))
+        omega = v_top / l_r * math.sin(beta)
+        dx = [0.0, 0.0]
+        dy = [0.0, 0.0]
+        for c, weight in zip(_RK4_NODES, _RK4_WEIGHTS, strict=True):
+            speed = (lo[3] + c * T_s * min(a_lo, 0.0), hi[3] + c * T_s * max(a_hi, 0.0))
+            turn = c * T_s * omega + beta
+            th_lo, th_hi = lo[2] - turn, hi[2] + turn
+            if th_hi - th_lo >= math.pi or max(abs(th_lo), abs(th_hi)) >= math.pi:
+                cos_r = sin_r = (-1.0, 1.0)
+            else:
+                cos_r, sin_r = _cos_range(th_lo, th_hi), _sin_range(th_lo, th_hi)
+            px, py = _product(speed, cos_r), _product(speed, sin_r)
+            dx = [dx[0] + weight * px[0], dx[1] + weight * px[1]]
+            dy = [dy[0] + weight * py[0], dy[1] + weight * py[1]]
+        lo = [lo[0] + T_s * dx[0] - POSITION_SLACK, lo[1] + T_s * dy[0] - POSITION_SLACK,
+              lo[2] - T_s * omega - INPUT_SLACK, lo[3] + T_s * a_lo - INPUT_SLACK]  # fmt: skip
+        hi = [hi[0] + T_s * dx[1] + POSITION_SLACK, hi[1] + T_s * dy[1] + POSITION_SLACK,
+              hi[2] + T_s * omega + INPUT_SLACK, hi[3] + T_s * a_hi + INPUT_SLACK]  # fmt: skip
+        lo = [max(c, b) for c, b in zip(lo, bound_lo, strict=True)]
+        hi = [min(c, b) for c, b in zip(hi, bound_hi, strict=True)]
+        if any(h < low for low, h in zip(lo, hi, strict=True)):
+            # no state within the bounds is reachable: this stage and every later one empty
+            out[k:] = [[math.inf, -math.inf], [math.inf, -math.inf]]
+            break
+        out[k] = [[lo[0], hi[0]], [lo[1], hi[1]]]
+    return out
+
+
+def box_blocked(box: np.ndarray, vehicles: np.ndarray, t: float, l_a: float, l_b: float) -> bool:
+    """Whether a road-frame box lies inside the vehicles' nominal ellipses at time t.
+
+    Args:
+        box: [[x_lo, x_hi], [y_lo, y_hi]] [m] (:func:`reachable_boxes`).
+        vehicles: the constrained vehicles' states, flat (4M,) or (M, 4).
+        t: the stage's time k·T_s [s] (the vehicles move at constant velocity).
+        l_a: semi-major axis [m].
+        l_b: semi-minor axis [m].
+
+    Returns:
+        True when :func:`covered`, or the box is empty (no state reaches the stage).
+    """
+    (x_lo, x_hi), (y_lo, y_hi) = np.asarray(box, dtype=float).tolist()
+    if x_lo > x_hi or y_lo > y_hi:
+        return True
+    return covered(np.array([x_lo, y_lo]), np.array([x_hi - x_lo, 0.0]),
+                   np.array([0.0, y_hi - y_lo]), _centres(vehicles, t), l_a, l_b)  # fmt: skip

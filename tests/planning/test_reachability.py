@@ -13,7 +13,11 @@ from drivestyle.irl.risk_profile import risk_profile
 from drivestyle.planning.reachability import (
     MARGIN_SLACK,
     POSITION_SLACK,
+    box_blocked,
     coasting_inside,
+    coasting_stages,
+    covered,
+    reachable_boxes,
     stage_one_blocked,
     stage_one_box,
 )
@@ -91,6 +95,61 @@ def test_coasting_inside_is_necessary_for_a_blocked_row(rng):
             xi0, others.ravel(), 0.2, 12.0, PAPER.l_b
         )
     assert blocked > 50  # the draw exercises the implication
+
+
+@pytest.mark.parametrize("phi_max", [PAPER.phi_max, 0.3])
+def test_every_rollout_inside_the_bounds_stays_in_the_stage_boxes(rng, phi_max):
+    # random input sequences from random states; the rollouts that keep the state bounds
+    # (every plan does) lie in each stage's box
+    u_lo, u_hi = np.array([PAPER.a_min, -0.25]), np.array([PAPER.a_max, 0.25])
+    s_lo = np.array([-np.inf, PAPER.y_bounds[0], -phi_max, 0.0])
+    s_hi = np.array([np.inf, PAPER.y_bounds[1], phi_max, PAPER.v_max])
+    kept = 0
+    for _ in range(60):
+        xi0 = np.array([0.0, rng.uniform(*PAPER.y_bounds), rng.uniform(-phi_max, phi_max),
+                        rng.uniform(0, 35)])  # fmt: skip
+        boxes = reachable_boxes(xi0, u_lo, u_hi, s_lo, s_hi, 0.2, PAPER.l_f, PAPER.l_r, 10)
+        for _ in range(20):
+            xi, path = xi0, []
+            for u in rng.uniform(u_lo, u_hi, size=(10, 2)) * rng.choice([0.2, 1.0]):
+                xi = rk4_step(xi, u, 0.2, PAPER.l_f, PAPER.l_r)
+                path.append(xi)
+            path = np.array(path)
+            if np.any(path < s_lo) or np.any(path > s_hi):
+                continue
+            kept += 1
+            assert np.all(path[:, 0] >= boxes[:, 0, 0]) and np.all(path[:, 0] <= boxes[:, 0, 1])
+            assert np.all(path[:, 1] >= boxes[:, 1, 0]) and np.all(path[:, 1] <= boxes[:, 1, 1])
+    assert kept > 100
+
+
+def test_a_heading_beyond_reach_of_the_bounds_empties_the_boxes():
+    u_lo, u_hi = np.array([PAPER.a_min, -0.25]), np.array([PAPER.a_max, 0.25])
+    s_lo, s_hi = np.array([-np.inf, -10, -0.3, 0.0]), np.array([np.inf, 10, 0.3, 70.0])
+    slow = reachable_boxes(np.array([0, 0, 0.45, 4.0]), u_lo, u_hi, s_lo, s_hi, 0.2, 1.0, 1.5, 10)
+    assert slow[-1, 0, 0] > slow[-1, 0, 1] and box_blocked(slow[-1], np.zeros(4), 2.0, 15, 2)
+    fast = reachable_boxes(np.array([0, 0, 0.45, 25.0]), u_lo, u_hi, s_lo, s_hi, 0.2, 1.0, 1.5, 10)
+    assert np.all(fast[:, 0, 0] <= fast[:, 0, 1])  # at speed it can turn back within bounds
+
+
+def test_two_overlapping_ellipses_cover_what_neither_covers_alone():
+    # a 2 m × 1 m cell between two ellipses centred 1.5 m either side of its middle
+    origin, e1, e2 = np.array([-1.0, -0.5]), np.array([2.0, 0.0]), np.array([0.0, 1.0])
+    pair = np.array([[0.0, -1.5], [0.0, 1.5]])
+    assert covered(origin, e1, e2, pair, l_a=10.0, l_b=1.8)
+    assert not covered(origin, e1, e2, pair[:1], l_a=10.0, l_b=1.8)
+    assert not covered(origin, e1, e2, pair[1:], l_a=10.0, l_b=1.8)
+    assert not covered(origin, e1, e2, pair, l_a=10.0, l_b=1.8, depth=0)
+    # a gap between them: never covered, however fine the cells
+    assert not covered(origin, e1, e2, np.array([[0.0, -3.0], [0.0, 3.0]]), 10.0, 1.8, depth=5)
+
+
+def test_coasting_stages_lists_the_stages_inside():
+    xi0 = np.array([0.0, 0.0, 0.0, 20.0])
+    leader = np.array([30.0, 0.0, 0.0, 10.0])  # closing at 10 m/s, region 15 m
+    # gap 30 − 2k m at stage k (T_s 0.2): inside once below 15 m, from k = 8
+    assert coasting_stages(xi0, leader, 0.2, 15.0, 2.0, 10) == [8, 9, 10]
+    assert coasting_stages(xi0, leader + np.array([0, 50, 0, 0]), 0.2, 15.0, 2.0, 10) == []
 
 
 def test_a_blocked_plan_is_the_failed_plan_the_solvers_give():
