@@ -147,6 +147,19 @@ def test_two_overlapping_ellipses_cover_what_neither_covers_alone():
     assert not covered(origin, e1, e2, np.array([[0.0, -3.0], [0.0, 3.0]]), 10.0, 1.8, depth=5)
 
 
+def test_coasting_stages_agree_with_coasting_inside_at_every_stage(rng):
+    for _ in range(500):
+        xi0 = np.array([0.0, rng.uniform(-3, 3), rng.uniform(-0.1, 0.1), rng.uniform(0, 35)])
+        others = np.column_stack([rng.uniform(-30, 60, 2), rng.uniform(-4, 4, 2),
+                                  rng.uniform(-0.1, 0.1, 2), rng.uniform(0, 35, 2)])  # fmt: skip
+        expected = []
+        for k in range(1, 11):
+            # coasting k steps = one step of k·T_s (straight, constant speed)
+            if coasting_inside(xi0, others, k * 0.2, 15.0, 2.0):
+                expected.append(k)
+        assert coasting_stages(xi0, others, 0.2, 15.0, 2.0, 10) == expected
+
+
 def test_coasting_stages_lists_the_stages_inside():
     xi0 = np.array([0.0, 0.0, 0.0, 20.0])
     leader = np.array([30.0, 0.0, 0.0, 10.0])  # closing at 10 m/s, region 15 m
