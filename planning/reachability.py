@@ -42,7 +42,6 @@ __all__ = [
     "MARGIN_SLACK",
     "POSITION_SLACK",
     "box_blocked",
-    "coasting_inside",
     "coasting_stages",
     "covered",
     "reachable_boxes",
@@ -195,50 +194,19 @@ def covered(
     return False
 
 
-def coasting_inside(
-    xi0: np.ndarray, vehicles: np.ndarray, T_s: float, l_a: float, l_b: float
-) -> bool:
-    """Whether the EV coasting one step (u = 0) ends inside some vehicle's nominal ellipse.
-
-    With u = 0 the RK4 step is exact, ξ0's position plus v·T_s along φ, and u = 0 lies
-    inside every scenario's input bounds, so that point is in :func:`stage_one_box`'s
-    rectangle: a row can only be :func:`stage_one_blocked` when this holds. It costs a
-    few float operations, where the rectangle costs tens of microseconds, and it is false
-    on nearly every row a driver of the class plans (RESULTS §15), so it screens them.
-
-    Args:
-        xi0: ξ0 = [x, y, φ, v], shape (4,) [m, m, rad, m/s].
-        vehicles: the constrained vehicles' states, flat (4M,) or (M, 4).
-        T_s: step length [s].
-        l_a: semi-major axis [m].
-        l_b: semi-minor axis [m].
-
-    Returns:
-        True when ‖z̄_1‖ < 1 − :data:`MARGIN_SLACK` at the coasting position for a vehicle.
-    """
-    x0, y0, phi0, v0 = np.asarray(xi0, dtype=float)[:4].tolist()
-    px, py = x0 + v0 * math.cos(phi0) * T_s, y0 + v0 * math.sin(phi0) * T_s
-    flat = np.asarray(vehicles, dtype=float).ravel().tolist()
-    limit = (1.0 - MARGIN_SLACK) ** 2
-    for j in range(0, len(flat) - 3, 4):
-        x, y, phi, v = flat[j : j + 4]
-        dx = (px - x - v * math.cos(phi) * T_s) / l_a
-        dy = (py - y - v * math.sin(phi) * T_s) / l_b
-        if dx * dx + dy * dy < limit:
-            return True
-    return False
-
-
 def coasting_stages(
     xi0: np.ndarray, vehicles: np.ndarray, T_s: float, l_a: float, l_b: float, stages: int
 ) -> list[int]:
     """The stages k = 1 … ``stages`` at which the EV coasting (u = 0) is inside an ellipse.
 
-    :func:`coasting_inside` at every stage: with u = 0 the EV moves straight at constant
-    speed, exactly, and each vehicle is predicted at constant velocity as the NLP predicts
-    it. Where the coasting trajectory respects the state bounds it is a member of every
-    stage's reachable set, so a stage can only be :func:`box_blocked` when it is listed
-    here; the list screens the stages worth a box.
+    With u = 0 the RK4 step is exact — the EV moves straight at constant speed — and u = 0
+    lies inside every scenario's input bounds, so the coasting position is in
+    :func:`stage_one_box`'s rectangle and, where it respects the state bounds, in every
+    stage's reachable set: a stage can only be :func:`stage_one_blocked` or
+    :func:`box_blocked` when it is listed here. Each vehicle is predicted at constant
+    velocity, as the NLP predicts it. The list costs a few float operations per vehicle,
+    where a rectangle costs tens of microseconds, and it is empty on nearly every row a
+    driver of the class plans, so it screens the rows worth a certificate.
 
     Returns:
         The stages, increasing (empty for nearly every row a driver of the class plans).

@@ -17,7 +17,6 @@ from drivestyle.planning.reachability import (
     MARGIN_SLACK,
     POSITION_SLACK,
     box_blocked,
-    coasting_inside,
     coasting_stages,
     covered,
     reachable_boxes,
@@ -83,7 +82,8 @@ def test_a_vehicle_over_the_next_position_blocks_and_a_far_one_does_not():
     assert not stage_one_blocked(box, rim, 0.2, PAPER.l_a, PAPER.l_b)
 
 
-def test_coasting_inside_is_necessary_for_a_blocked_row(rng):
+def test_coasting_inside_at_stage_one_is_necessary_for_a_blocked_row(rng):
+    # u = 0 is an admissible input: its (exact) stage-1 position is in the rectangle
     lo, hi = np.array([PAPER.a_min, -PAPER.delta_max]), np.array([PAPER.a_max, PAPER.delta_max])
     blocked = 0
     for _ in range(2000):
@@ -93,9 +93,9 @@ def test_coasting_inside_is_necessary_for_a_blocked_row(rng):
         box = stage_one_box(xi0, lo, hi, 0.2, PAPER.l_f, PAPER.l_r)
         if stage_one_blocked(box, others, 0.2, 12.0, PAPER.l_b):
             blocked += 1
-            assert coasting_inside(xi0, others, 0.2, 12.0, PAPER.l_b)
-        assert coasting_inside(xi0, others, 0.2, 12.0, PAPER.l_b) == coasting_inside(
-            xi0, others.ravel(), 0.2, 12.0, PAPER.l_b
+            assert coasting_stages(xi0, others, 0.2, 12.0, PAPER.l_b, 1) == [1]
+        assert coasting_stages(xi0, others, 0.2, 12.0, PAPER.l_b, 3) == coasting_stages(
+            xi0, others.ravel(), 0.2, 12.0, PAPER.l_b, 3
         )
     assert blocked > 50  # the draw exercises the implication
 
@@ -147,16 +147,21 @@ def test_two_overlapping_ellipses_cover_what_neither_covers_alone():
     assert not covered(origin, e1, e2, np.array([[0.0, -3.0], [0.0, 3.0]]), 10.0, 1.8, depth=5)
 
 
-def test_coasting_stages_agree_with_coasting_inside_at_every_stage(rng):
+def test_coasting_stages_are_the_stages_whose_coasting_position_is_inside(rng):
     for _ in range(500):
         xi0 = np.array([0.0, rng.uniform(-3, 3), rng.uniform(-0.1, 0.1), rng.uniform(0, 35)])
         others = np.column_stack([rng.uniform(-30, 60, 2), rng.uniform(-4, 4, 2),
                                   rng.uniform(-0.1, 0.1, 2), rng.uniform(0, 35, 2)])  # fmt: skip
+        t = 0.2 * np.arange(1, 11)[:, None]
+        ev = xi0[:2] + xi0[3] * t * [np.cos(xi0[2]), np.sin(xi0[2])]  # (10, 2)
         expected = []
-        for k in range(1, 11):
-            # coasting k steps = one step of k·T_s (straight, constant speed)
-            if coasting_inside(xi0, others, k * 0.2, 15.0, 2.0):
-                expected.append(k)
+        for k in range(10):
+            centres = others[:, :2] + others[:, 3:4] * t[k] * np.column_stack(
+                (np.cos(others[:, 2]), np.sin(others[:, 2]))
+            )
+            z = (ev[k] - centres) / [15.0, 2.0]
+            if np.any(np.hypot(z[:, 0], z[:, 1]) < 1 - MARGIN_SLACK):
+                expected.append(k + 1)
         assert coasting_stages(xi0, others, 0.2, 15.0, 2.0, 10) == expected
 
 
