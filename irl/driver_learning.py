@@ -242,25 +242,31 @@ def style_from_coordinates(
     fit_risk: bool,
     fit_speed: bool,
     fit_region: bool,
+    fit_weights: bool = True,
 ) -> DriverStyle:
     """The style at a learner's coordinates (the one map every driver learner uses).
 
     Args:
-        z: (4 + fit_risk + fit_speed + 2·fit_region,): the free log weights (w_a = 1, the
-            gauge), then where fitted p, v_des [m/s], T [s] and s_0 [m], in that order.
-        base: what is not fitted (risk, desired speed, region, horizon).
+        z: (4·fit_weights + fit_risk + fit_speed + 2·fit_region,): the free log weights
+            (w_a = 1, the gauge), then where fitted p, v_des [m/s], T [s] and s_0 [m], in
+            that order.
+        base: what is not fitted (weights, risk, desired speed, region, horizon).
         fit_risk: z carries p.
         fit_speed: z carries the desired speed.
         fit_region: z carries T and s_0.
+        fit_weights: z carries the log weights (False: ``base``'s, a population's cost).
 
     Returns:
         The style, each fitted coordinate clipped to the class's range (an optimiser may
         step outside it: a bounded coordinate, not a failure).
     """
     free = [i for i in range(N_WEIGHTS) if i != GAUGE]
-    w = np.ones(N_WEIGHTS)
-    w[free] = np.exp(z[: len(free)])
-    i = len(free)
+    if fit_weights:
+        w = np.ones(N_WEIGHTS)
+        w[free] = np.exp(z[: len(free)])
+        i = len(free)
+    else:
+        w, i = np.asarray(base.weights, dtype=float), 0
     risk, v_ref, gap, s0 = base.risk, base.v_ref, base.time_gap, base.min_gap
     if fit_risk:
         risk = float(np.clip(z[i], *RISK_RANGE))
@@ -287,6 +293,7 @@ def learn_driver(
     restarts: int = RESTARTS,
     residual_floor: float = RESIDUAL_FLOOR,
     fit_region: bool = False,
+    fit_weights: bool = True,
 ) -> DriverFit:
     """Learn one driver's style from its demonstrations in several scenarios.
 
@@ -328,6 +335,10 @@ def learn_driver(
             standstill axis s_0 (:meth:`DriverStyle.region`, DESIGN §18), as bounded
             coordinates starting from ``initial``'s (T = 0 and s_0 = the demonstrations'
             median l_a when it has none: the fixed ellipse the fit improves on).
+        fit_weights: learn the cost weights; False keeps ``initial``'s (a population's
+            cost, :class:`~drivestyle.irl.library.DriverLibrary`'s style) and learns only
+            the driver's own coordinates (p, and v_des, T, s_0 as asked): one LM run from
+            ``initial``, no screening (its starting points differ in the weights only).
 
     Returns:
         The :class:`DriverFit`.
@@ -354,8 +365,12 @@ def learn_driver(
     ]
     start = initial or DriverStyle(tuple(initial_weights()), risk=0.7)
     v0 = start.v_ref or float(np.median([d.scenario.v_ref for d in demos]))
-    free = [i for i in range(N_WEIGHTS) if i != GAUGE]
+    if not fit_weights and initial is None:
+        raise DriverStyleError("fit_weights=False keeps initial's weights: give initial")
+    free = [i for i in range(N_WEIGHTS) if i != GAUGE] if fit_weights else []
     risk_free = risks is None
+    if not (fit_weights or risk_free or fit_speed or fit_region):
+        raise DriverStyleError("nothing to learn: the weights and the risks are given")
     i_p = len(free)  # the risk coordinate (when free): p itself, bounded
     t0 = time.perf_counter()
 
@@ -363,8 +378,9 @@ def learn_driver(
 
     def unpack(z: np.ndarray) -> tuple[DriverStyle, list[float]]:
         style = style_from_coordinates(
-            z, base, fit_risk=risk_free, fit_speed=fit_speed, fit_region=fit_region
-        )
+            z, base, fit_risk=risk_free, fit_speed=fit_speed, fit_region=fit_region,
+            fit_weights=fit_weights,
+        )  # fmt: skip
         return style, (risks if risks is not None else [style.risk] * len(demos))
 
     def parts(z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -413,7 +429,7 @@ def learn_driver(
     box = _Box(np.array(fd), np.array(big), np.array(lower), np.array(upper))
     rng = np.random.default_rng(SCREEN_SEED)
     candidates = [z0]
-    for _ in range(max(screen, 1) - 1):
+    for _ in range(max(screen, 1) - 1 if fit_weights else 0):
         c = z0.copy()
         c[: len(free)] += rng.uniform(-2.5, 2.5, len(free))
         candidates.append(c)

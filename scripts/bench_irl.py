@@ -16,7 +16,8 @@ both Mehrotra solves: :mod:`drivestyle.planning.plan_solver`); identification of
 ``--identify`` random-family demonstrations with an in-memory driver library; a fresh
 process's time to its first identification (``second_process_s``, the compiled library
 already on disk) and its peak resident memory; ``--learn`` also times ``learn_driver`` on
-the paper demonstration.
+the paper demonstration (all weights and the risk) and, with the population's cost given
+(``fit_weights=False``), the risk of three SMPC drivers of continuous risk.
 
 Example:
     python scripts/bench_irl.py --library runs/library_reactive --out runs/bench_irl.json
@@ -117,7 +118,7 @@ def bench_driver(demo, n_identify: int, seed: int, learn: bool) -> dict:
         "ipopt_solve_ms_median": 1e3 * float(np.median(ipopt)),
         "ipopt_over_product": float(np.median(ipopt) / np.median(product)),
         "max_input_difference_to_ipopt": max(diffs),
-        "goal": {"inner_solve_ms": 0.3, "identify_s": 0.05, "learn_one_demo_s": 0.03,
+        "goal": {"inner_solve_ms": 0.1, "identify_s": 0.05, "learn_risk_cost_given_s": 0.03,
                  "second_process_s": 2.0, "rss_mb": 500},
     }  # fmt: skip
     fast = compiled_solver(planner.config, sc, IPMOptions(max_iter=1))
@@ -158,6 +159,18 @@ def bench_driver(demo, n_identify: int, seed: int, learn: bool) -> dict:
         fit = learn_driver([demo])
         out["learn_one_demo_s"] = time.perf_counter() - t0
         out["learned_risk"] = fit.style.risk
+        # issue 28's unit: one driver's own parameter (its risk) with the population's cost
+        # given, on SMPC drivers of continuous risk (off the profile grid)
+        personal, errors = [], []
+        for _ in tqdm(range(3), desc="learn risk (cost given)", leave=False):
+            true = float(rng.uniform(0.55, 0.95))
+            d = generate_demonstration(true, ScenarioRanges().sample(rng))[0]
+            t0 = time.perf_counter()
+            fit = learn_driver([d], initial=style, fit_weights=False)
+            personal.append(time.perf_counter() - t0)
+            errors.append(abs(fit.style.risk - true))
+        out["learn_risk_cost_given_s_median"] = float(np.median(personal))
+        out["learn_risk_cost_given_abs_error_max"] = float(max(errors))
     return out
 
 
@@ -249,12 +262,18 @@ def main(argv: list[str] | None = None) -> dict:
     )
     drv = result["driver"]
     print(
-        f"driver model: inner solve {drv['inner_solve_ms_median']:.3f} ms (goal 0.3), IPOPT "
+        f"driver model: inner solve {drv['inner_solve_ms_median']:.3f} ms (goal 0.1), IPOPT "
         f"{drv['ipopt_solve_ms_median']:.3f} ms (x{drv['ipopt_over_product']:.1f}), Newton-step "
         f"floor {drv.get('newton_step_floor_ms', float('nan')):.4f} ms; identification "
         f"{drv['identify_s_median']:.3f} s (goal 0.05); second process first identification "
         f"{drv['second_process']['first_identification_s']:.2f} s (goal 2), peak RSS "
         f"{drv['second_process']['peak_rss_mb']:.0f} MB (goal 500)"
+        + (
+            f"; learning a driver's risk with the cost given "
+            f"{drv['learn_risk_cost_given_s_median']:.2f} s (goal 0.03)"
+            if "learn_risk_cost_given_s_median" in drv
+            else ""
+        )
     )
     return result
 

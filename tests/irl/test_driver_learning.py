@@ -135,3 +135,18 @@ def test_two_drivers_learned_together_are_a_poor_fit_naming_the_odd_one(smpc_dem
     assert fit.poor_demos == (2,)
     assert fit.per_demo[2].best_risk >= 0.85
     assert fit.per_demo[2].residual_rms > fit.poor_fit_threshold
+
+
+def test_with_the_cost_given_only_the_drivers_risk_is_learned(paper_demo):
+    # an SMPC(0.77) driver with the expert's weights given: the risk off the profile grid
+    from drivestyle.agents import generate_demonstration
+
+    demo = generate_demonstration(0.77)[0]
+    start = DriverStyle(SMPC_WEIGHTS, risk=0.7)
+    fit = learn_driver([demo], initial=start, fit_weights=False)
+    assert fit.style.weights == start.weights
+    assert fit.style.risk == pytest.approx(0.77, abs=0.005) and fit.cost < 1e-10
+    with pytest.raises(DriverStyleError, match="give initial"):
+        learn_driver([paper_demo], fit_weights=False)
+    with pytest.raises(DriverStyleError, match="nothing to learn"):
+        learn_driver([paper_demo], risks=[0.7], initial=start, fit_weights=False)

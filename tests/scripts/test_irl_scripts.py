@@ -126,7 +126,8 @@ def test_reproduce_paper(tmp_path):
 @pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_bench_irl(tmp_path, demo_file):
     out = tmp_path / "bench.json"
-    argv = ["--out", str(out), "--demo", str(demo_file), "--repeats", "1", "--identify", "1"]
+    argv = ["--out", str(out), "--demo", str(demo_file), "--repeats", "1", "--identify", "1",
+            "--learn"]  # fmt: skip
     _main("bench_irl")(argv)
     js = json.loads(out.read_text())
     for fs in ("base", "reactive"):
@@ -139,6 +140,9 @@ def test_bench_irl(tmp_path, demo_file):
     assert drv["identify_s_median"] > 0
     second = drv["second_process"]
     assert 0 < second["ready_s"] <= second["first_identification_s"] and second["peak_rss_mb"] > 0
+    # the risk of SMPC drivers with the expert's cost given: recovered (the class holds them)
+    assert drv["learn_risk_cost_given_s_median"] > 0
+    assert drv["learn_risk_cost_given_abs_error_max"] < 0.01
 
 
 @pytest.mark.parametrize(
