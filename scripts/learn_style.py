@@ -3,9 +3,11 @@
 ``--model driver`` (default, DESIGN §15): the receding-horizon style model — cost weights,
 risk p and (``--fit-speed``) desired speed of one driver, learned from every step of every
 demonstration (teacher forcing), then driven in closed loop in each demonstration's
-scenario. Writes ``OUT/style.json`` (``kind: driver-style``: style, fit status, residuals,
-per-demonstration residual RMS and best risk alone, per-demonstration rmse_y_m / rmse_xy_m
-of the closed-loop reproduction). When some demonstrations' residuals lie far above the
+scenario. With ``--cost-from LIBRARY`` the weights are a driver library's (a population's
+cost) and only the driver's own risk (and desired speed) is learned. Writes
+``OUT/style.json`` (``kind: driver-style``: style, fit status, residuals, per-demonstration
+residual RMS and best risk alone, per-demonstration rmse_y_m / rmse_xy_m of the
+closed-loop reproduction). When some demonstrations' residuals lie far above the
 noise floor (``--residual-floor``: what one driver of the class leaves) no single driver
 explains them all — e.g. two drivers of different risks learned together: ``style.json``
 is still written, with ``"status": "poor_fit"`` and the disagreeing demonstrations named,
@@ -53,6 +55,7 @@ from drivestyle.irl.driver_learning import (
 from drivestyle.irl.driver_style import WEIGHT_NAMES, reproduce
 from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
+from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.style import fit_style
 
@@ -67,7 +70,11 @@ PAPER_OPTIONS: dict[str, object] = {
     "plot": False,
 }
 """Options of ``--model paper`` only, with their defaults (None in the parser: given?)."""
-DRIVER_OPTIONS: dict[str, object] = {"fit_speed": False, "residual_floor": RESIDUAL_FLOOR}
+DRIVER_OPTIONS: dict[str, object] = {
+    "fit_speed": False,
+    "residual_floor": RESIDUAL_FLOOR,
+    "cost_from": None,
+}
 """Options of ``--model driver`` only, with their defaults."""
 
 
@@ -114,6 +121,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="driver model only: the residual RMS one driver of the class leaves, in units "
         f"of the input scale σ_u (default {RESIDUAL_FLOOR}: a simulated driver); a "
         f"demonstration above {POOR_FIT_RATIO:g}× it makes the fit poor_fit",
+    )
+    p.add_argument(
+        "--cost-from",
+        type=Path,
+        default=None,
+        help="driver model only: keep this driver library's cost weights (folder or "
+        "library.json, e.g. runs/library) and learn only the driver's own risk (and "
+        "--fit-speed's desired speed): a recorded vehicle's parameters under the "
+        "population's cost",
     )
     p.add_argument(
         "--features",
@@ -266,6 +282,10 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from None
     max_iter = args.max_iter if args.max_iter is not None else 30
+    given = {}
+    if args.cost_from:
+        library = load_driver_library(args.cost_from, "--cost-from")
+        given = {"initial": library.style, "fit_weights": False}
     with tqdm(desc="driver style (LM iterations)", leave=False) as bar:
         fit = learn_driver(
             demos,
@@ -273,6 +293,7 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
             max_iter=max_iter,
             progress=lambda it, cost: _tick(bar, cost),
             residual_floor=args.residual_floor,
+            **given,
         )
     reproductions = []
     for demo in demos:

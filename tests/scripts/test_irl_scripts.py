@@ -189,6 +189,7 @@ def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch
         (["--plot", "--t-rct", "1.5"], "--t-rct, --plot apply to --model paper only"),
         (["--model", "paper", "--fit-speed"], "--fit-speed applies to --model driver only"),
         (["--model", "paper", "--residual-floor", "0.5"], "--residual-floor applies to"),
+        (["--model", "paper", "--cost-from", "lib"], "--cost-from applies to --model driver"),
     ],
 )
 def test_learn_style_refuses_options_of_the_other_model(
@@ -275,3 +276,28 @@ def test_reproduce_paper_with_baseline(tmp_path):
         assert (out / f).is_file(), f
     assert set(res["baseline"]["compare"]) == {"smpc", "spline", "sb3"}
     assert "baseline" in json.loads((out / "results.json").read_text())
+
+
+def test_learn_style_with_a_populations_cost_learns_only_the_risk(tmp_path, demo_file, capsys):
+    # the paper demonstration is an SMPC(0.7) driver; the library holds the expert's cost
+    from drivestyle.common.cli import run_cli
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    weights = (0.2, 50.0, 0.2, 1.0, 10.0)
+    lib = DriverLibrary(style=DriverStyle(weights, risk=0.9), risks=(0.5, 0.9))
+    (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
+    out = tmp_path / "style"
+    payload = _main("learn_style")([str(demo_file), "--cost-from", str(tmp_path), "--out",
+                                    str(out)])  # fmt: skip
+    learned = DriverStyle.from_json(payload["style"])
+    assert learned.weights == weights and learned.risk == pytest.approx(0.7, abs=1e-3)
+    # a file that is no driver library: one line naming it, exit 2
+    paper = tmp_path / "paper"
+    paper.mkdir()
+    (paper / "library.json").write_text(json.dumps({"risks": [0.5], "members": []}))
+    with pytest.raises(SystemExit) as info:
+        run_cli(_main("learn_style"), [str(demo_file), "--cost-from", str(paper), "--out",
+                                       str(tmp_path / "o2")])  # fmt: skip
+    err = capsys.readouterr().err.strip().split("\r")[-1]
+    assert info.value.code == 2 and err.startswith("error: ") and "paper/library.json" in err
