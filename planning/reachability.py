@@ -303,14 +303,12 @@ def reachable_boxes(
     a_lo, d_lo = float(u_lo[0]) - INPUT_SLACK, float(u_lo[1]) - INPUT_SLACK
     a_hi, d_hi = float(u_hi[0]) + INPUT_SLACK, float(u_hi[1]) + INPUT_SLACK
     beta = math.atan(l_r / (l_f + l_r) * math.tan(min(max(abs(d_lo), abs(d_hi)), 1.5)))
-    lo = [float(c) for c in xi0[:4]]
-    hi = list(lo)
-    lo = [c - s for c, s in zip(lo, (POSITION_SLACK, POSITION_SLACK, INPUT_SLACK, INPUT_SLACK),
-                                strict=True)]  # fmt: skip
-    hi = [c + s for c, s in zip(hi, (POSITION_SLACK, POSITION_SLACK, INPUT_SLACK, INPUT_SLACK),
-                                strict=True)]  # fmt: skip
-    bound_lo = [float(c) - INPUT_SLACK for c in state_lo]
-    bound_hi = [float(c) + INPUT_SLACK for c in state_hi]
+    # ξ0 holds to the accepted equality violation, the bounds to the accepted excess
+    slack = np.array([POSITION_SLACK, POSITION_SLACK, INPUT_SLACK, INPUT_SLACK])
+    start = np.asarray(xi0, dtype=float)[:4]
+    lo, hi = (start - slack).tolist(), (start + slack).tolist()
+    bound_lo = (np.asarray(state_lo, dtype=float) - slack).tolist()
+    bound_hi = (np.asarray(state_hi, dtype=float) + slack).tolist()
     out = np.empty((stages, 2, 2))
     for k in range(stages):
         v_top = max(abs(lo[3] + a_lo * T_s), abs(hi[3] + a_hi * T_s), abs(lo[3]), abs(hi[3]))
