@@ -39,6 +39,7 @@ COMMANDS: dict[str, str] = {
     "bench-irl": "benchmark ME-IRL and identification",
     "bench-population": "benchmark mining a population",
     "bench-tracker": "benchmark online identification: latency of one StyleTracker update",
+    "bench-solver-paths": "faster solver paths against the product: their time, how far S(p) moves",
     "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
     "profile-inner": "profile the inner solvers: where a solve's time goes",
 }

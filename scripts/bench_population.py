@@ -130,15 +130,24 @@ class WorkerMemory:
                 self._peak[pid] = max(self._peak.get(pid, 0.0), status.get("VmHWM", 0.0))
 
     def report(self) -> dict:
-        """Per worker: peak, resident at 10 % of the rows and at the end [MB]; growth."""
+        """Per worker: peak; resident at 10 %, 50 % of the rows and at the end [MB]; growth.
+
+        Growth is from 10 % of the rows to the end (start-up allocations excluded); the
+        50 % sample tells a plateau from a steady climb.
+        """
         workers = []
         for pid, series in self._series.items():
-            later = [rss for done, rss in series if done >= 0.1] or [series[-1][1]]
+
+            def at(share: float, series: list = series) -> float:
+                later = [rss for done, rss in series if done >= share]
+                return later[0] if later else series[-1][1]
+
             workers.append({
                 "peak_mb": self._peak[pid],
-                "rss_at_10pct_mb": later[0],
+                "rss_at_10pct_mb": at(0.1),
+                "rss_at_50pct_mb": at(0.5),
                 "rss_last_mb": series[-1][1],
-                "growth": series[-1][1] / later[0] - 1.0,
+                "growth": series[-1][1] / at(0.1) - 1.0,
                 "samples": len(series),
             })  # fmt: skip
         return {

@@ -301,3 +301,16 @@ def test_learn_style_with_a_populations_cost_learns_only_the_risk(tmp_path, demo
                                        str(tmp_path / "o2")])  # fmt: skip
     err = capsys.readouterr().err.strip().split("\r")[-1]
     assert info.value.code == 2 and err.startswith("error: ") and "paper/library.json" in err
+
+
+@pytest.mark.slow  # six paths on one demonstration (≈ 1 min)
+def test_bench_solver_paths_measures_each_path_against_the_product(tmp_path):
+    res = _main("bench_solver_paths")(["--demos", "1", "--out", str(tmp_path / "paths.json")])
+    summary = res["summary"]
+    assert {"fatrop", "warm_duals", "warm_duals_mu", "continuation"} <= summary.keys()
+    # the interpreted product is the compiled one: S(p) equal to 1e-6 (the tolerance)
+    assert summary["fatrop"]["demos_equal"] == 1 and summary["fatrop"]["reference"] == "product"
+    assert summary["warm_duals"]["reference"] == "fatrop"
+    for s in summary.values():
+        assert s["wall_over_reference_median"] > 0 and s["max_rel_change"] >= 0
+    assert json.loads((tmp_path / "paths.json").read_text())["demos"] == 1
