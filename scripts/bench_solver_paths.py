@@ -44,7 +44,7 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
@@ -84,7 +84,12 @@ EQUAL = 1e-6
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
-    p.add_argument("--demos", type=positive_int, default=4, help="random-family demonstrations")
+    p.add_argument(
+        "--demos",
+        type=count(10_000, 10.0, "demonstrations"),
+        default=4,
+        help="random-family demonstrations",
+    )
     p.add_argument("--seed", type=seed, default=0, help="seed of the random-family scenarios")
     p.add_argument(
         "--out", type=Path, default=Path("runs/bench_solver_paths.json"), help="output JSON"

@@ -193,6 +193,7 @@ WRITES = {
     "bench_irl": ("--out", "b.json", ["--demo", MISSING]),
     "bench_population": ("--out", "b.json", ["--library", MISSING]),
     "bench_smpc": ("--out", "b.json", []),
+    "bench_solver_paths": ("--out", "b.json", []),
     "bench_tracker": ("--out", "b.json", ["--library", MISSING]),
     "build_style_library": ("--out", "lib", []),
     "calibrate_uncertainty": ("--out", "cal", []),

@@ -71,6 +71,7 @@ def test_a_negative_or_huge_seed_ends_in_one_error_line(script, value, capsys):
         ("evaluate_prediction", "--vehicles", "at most 30,000 vehicles"),
         ("simulate_population", "--vehicles", "at most 1,000,000 vehicles"),
         ("bench_population", "--vehicles", "at most 1,000,000 demonstrations"),
+        ("bench_solver_paths", "--demos", "at most 10,000 demonstrations"),
         ("build_style_library", "--scenarios", "at most 10,000 scenarios"),
         ("evaluate_identification", "--scenarios", "at most 10,000 scenarios"),
         ("bench_env", "--steps", "at most 1,000,000,000 env steps"),
