@@ -116,7 +116,8 @@ class WorkerMemory:
         if self.engine == "local":
             return [pid for pid, ppid in parents.items() if ppid == me and "resource_tracker"
                     not in _cmdline(pid)]  # fmt: skip
-        below, frontier = set(), {me}
+        below: set[int] = set()
+        frontier = {me}
         while frontier:
             frontier = {pid for pid, ppid in parents.items() if ppid in frontier} - below
             below |= frontier

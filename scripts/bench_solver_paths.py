@@ -37,6 +37,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -182,7 +183,7 @@ def measure(demo: Demonstration, style: DriverStyle) -> dict[str, dict[str, Any]
     fatrop_ref: tuple[float, ...] = ()
     for name, planner in planners.items():
         profile(planner)
-        ssr, wall = _timed(lambda planner=planner: profile(planner))
+        ssr, wall = _timed(partial(profile, planner))
         if name == "fatrop":  # the interpreted product: equal to the compiled one
             fatrop_ref = ssr
             out[name] = {"wall_s": wall, **_compare(ssr, ref)}

@@ -282,10 +282,9 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from None
     max_iter = args.max_iter if args.max_iter is not None else 30
-    given = {}
+    initial = None
     if args.cost_from:
-        library = load_driver_library(args.cost_from, "--cost-from")
-        given = {"initial": library.style, "fit_weights": False}
+        initial = load_driver_library(args.cost_from, "--cost-from").style
     with tqdm(desc="driver style (LM iterations)", leave=False) as bar:
         fit = learn_driver(
             demos,
@@ -293,7 +292,8 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
             max_iter=max_iter,
             progress=lambda it, cost: _tick(bar, cost),
             residual_floor=args.residual_floor,
-            **given,
+            initial=initial,
+            fit_weights=initial is None,
         )
     reproductions = []
     for demo in demos:
