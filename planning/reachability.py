@@ -205,18 +205,19 @@ def coasting_stages(
     stage's reachable set: a stage can only be :func:`stage_one_blocked` or
     :func:`box_blocked` when it is listed here. Each vehicle is predicted at constant
     velocity, as the NLP predicts it. The list costs a few float operations per vehicle,
-    where a rectangle costs tens of microseconds, and it is empty on nearly every row a
-    driver of the class plans, so it screens the rows worth a certificate.
+    where a rectangle costs tens of microseconds, and it is empty on most rows a driver of
+    the class plans (1,836 of 2,040 in four simulated identifications), so it screens the
+    rows worth a certificate.
 
     Returns:
-        The stages, increasing (empty for nearly every row a driver of the class plans).
+        The stages, increasing (empty on most rows a driver of the class plans).
     """
     x0, y0, phi0, v0 = np.asarray(xi0, dtype=float)[:4].tolist()
     flat = np.asarray(vehicles, dtype=float).ravel().tolist()
     limit = (1.0 - MARGIN_SLACK) ** 2
     ex, ey = v0 * math.cos(phi0) * T_s, v0 * math.sin(phi0) * T_s
     # the offset to each vehicle is r0 + k·w (both move straight): its smallest norm over
-    # k in [1, stages] in closed form first, as nearly every row is never inside
+    # k in [1, stages] in closed form first, as most rows are never inside
     near = False
     for j in range(0, len(flat) - 3, 4):
         x, y, phi, v = flat[j : j + 4]
