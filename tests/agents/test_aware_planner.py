@@ -33,6 +33,7 @@ def test_the_expert_is_its_own_style():
     assert expert_style(SMPCConfig(risk=0.8)) == DriverStyle(SMPC_WEIGHTS, risk=0.8)
 
 
+@pytest.mark.slow  # ≈ 15–20 s (the default run's longest test): CI runs it
 def test_a_constant_velocity_path_plans_exactly_as_todays_smpc():
     # the NLP with the CV mean path as parameters is the expert's NLP with the state:
     # the same plan at every step of a cut-in episode
