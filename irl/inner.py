@@ -38,10 +38,6 @@ class InnerSolveError(RuntimeError):
     """The inner optimisation did not converge."""
 
 
-_Buffered = BufferedFunction
-"""The inner problem's zero-copy CasADi calls (:mod:`drivestyle.planning.buffered`)."""
-
-
 def newton_minimize(
     fgh, z0: np.ndarray, tol: float = 1e-9, max_iter: int = 100, f=None
 ) -> tuple[np.ndarray, int, bool]:
@@ -179,7 +175,7 @@ class InnerProblem:
             fgh = ca.Function(f"fgh_{axis}", [z, th], [obj, grad, ca.densify(H)])
             fj = ca.Function(f"fJ_{axis}", [z], [f, ca.densify(ca.jacobian(f, z))])
             fo = ca.Function(f"f_{axis}", [z, th], [obj])
-            self._fns[axis] = (_Buffered(fgh), _Buffered(fj), _Buffered(fo))
+            self._fns[axis] = (BufferedFunction(fgh), BufferedFunction(fj), BufferedFunction(fo))
 
     def reset(self) -> None:
         """Warm start from the demonstration's own control points."""

@@ -62,6 +62,7 @@ from drivestyle.irl.identification import identify_driver
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.risk_profile import refined_profile
 from drivestyle.planning import smpc_problem as sp
+from drivestyle.planning.buffered import BufferedFunction
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The driver style profiled: the SMPC expert's own cost weights [w_y, w_φ, w_v, w_a, w_δ]."""
@@ -200,7 +201,7 @@ def profile_paper(demo: Demonstration, repeats: int) -> dict[str, Any]:
         """Inside the Newton iterations, or after them (the sensitivity ∂f/∂θ)."""
         return "newton" if in_newton[0] else "sens"
 
-    kind_of: dict[int, str] = {}  # id(_Buffered) -> "fgh" | "fJ" | "f"
+    kind_of: dict[int, str] = {}  # id(BufferedFunction) -> "fgh" | "fJ" | "f"
     patches: list[tuple[Any, str, Callable]] = []
     for problem in learner.problems:
         for fns in problem._fns.values():
@@ -233,7 +234,7 @@ def profile_paper(demo: Demonstration, repeats: int) -> dict[str, Any]:
         (inner_mod, "newton_minimize", clock.timed(newton, "python_newton")),
         (inner_mod, "cho_factor", clock.timed(inner_mod.cho_factor, lambda a: f"chol_{where()}")),
         (inner_mod, "cho_solve", clock.timed(inner_mod.cho_solve, lambda a: f"chol_{where()}")),
-        (inner_mod._Buffered, "__call__", clock.timed(inner_mod._Buffered.__call__, copy_category)),
+        (BufferedFunction, "__call__", clock.timed(BufferedFunction.__call__, copy_category)),
         (
             inner_mod.InnerProblem,
             "features_of",

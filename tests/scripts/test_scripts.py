@@ -112,12 +112,13 @@ def test_bench_smpc_json(tmp_path):
 def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
     from drivestyle.irl import driver_style, inner
     from drivestyle.planning import smpc_problem
+    from drivestyle.planning.buffered import BufferedFunction
 
     originals = {
         (obj, name): getattr(obj, name)
         for obj, name in (
             (inner.InnerProblem, "solve"),
-            (inner._Buffered, "__call__"),
+            (BufferedFunction, "__call__"),
             (inner, "cho_factor"),
             (inner, "newton_minimize"),
             (driver_style.StylePlanner, "plan"),
