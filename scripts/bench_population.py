@@ -1,16 +1,21 @@
 r"""Benchmark mining a simulated population: throughput, scaling, Ray's overhead, per-demo cost.
 
-Simulates N vehicles (``drivestyle.agents.studies.population``), then mines them (with a driver
-library — the default model — or a paper-model one) three times in one
-run — the local engine with 1 worker and with 2, and Ray with 2 actors — and reports demonstrations
-per second (and per core), the 1 → 2 scaling, Ray's overhead against local (Ray is started before
-the clock; actor creation and task traffic are timed), the median learning and identification time
-per demonstration, the median inner spline solve, and from the 1-worker rate an estimate of the
-hours for 110,000 vehicles on 1, 8 and 64 cores.
+Simulates N vehicles (``drivestyle.agents.studies.population``), or takes a folder of
+demonstrations (``--demos``), then mines them (with a driver library — the default model — or
+a paper-model one) once per ``--runs`` entry — by default the local engine with 1 worker and
+with 2, and Ray with 2 actors; ``--runs ray:1,ray:2`` is the scale-out check — the workers
+loading each file as ``mine-styles`` does. It reports demonstrations per second (and per core),
+the 1 → 2 scaling of each engine run with 1 and 2 workers, Ray's overhead against local where
+both ran with 2 (Ray is started before the clock; actor creation and task traffic are timed),
+each worker's resident memory over the run (peak; at 10 %, 50 % of the rows and at the end),
+the median learning and identification time per demonstration, the median inner spline solve,
+and from the 1-worker rate an estimate of the hours for 110,000 vehicles on 1, 8 and 64 cores.
 
 Example:
     python scripts/bench_population.py --vehicles 500 --library runs/library_reactive \\
         --out runs/bench_population.json
+    python scripts/bench_population.py --vehicles 1000 --library runs/library \\
+        --runs ray:1,ray:2 --out runs/bench_population_ray.json
 """
 
 from __future__ import annotations
@@ -243,7 +248,7 @@ def main(argv: list[str] | None = None) -> dict:
             folder = args.demos
         files = sorted(folder.glob("*.npz"))
         if not files:
-            raise SystemExit(f"error: no demonstrations (*.npz) in {folder}")
+            raise ValueError(f"no demonstrations (*.npz) in {folder}")
         # the workers load each file, as mine-styles on a folder does: the driver holds paths
         tasks = [(f.stem, "population", str(f)) for f in files]
         runs = []

@@ -181,6 +181,14 @@ def test_bench_population_mines_with_a_driver_library(tmp_path):
     assert res["runs"][0]["demos_per_s_per_core"] > 0 and js["goal"]["demos_per_s_per_core"] == 20
     assert [(r["engine"], r["workers"]) for r in res["runs"]] == [("local", 1), ("local", 2)]
     assert res["scaling_1_to_2_by_engine"].keys() == {"local"}
+    # a --demos folder without demonstrations: one line, the user-error status
+    from drivestyle.common.cli import run_cli
+
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SystemExit) as info:
+        run_cli(_main("bench_population"), ["--library", str(tmp_path), "--demos",
+                str(tmp_path / "empty"), "--out", str(tmp_path / "b2.json")])  # fmt: skip
+    assert info.value.code == 2
 
 
 @pytest.mark.slow  # starts Ray: CI runs it (pytest -m slow)
