@@ -35,7 +35,16 @@ import numpy as np
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes, recover_inputs
 
-__all__ = ["MATCH_S", "RecordedEpisode", "load_cats", "load_ngsim"]
+__all__ = [
+    "MATCH_S",
+    "RecordedEpisode",
+    "is_recorded",
+    "load_cats",
+    "load_ngsim",
+    "needs_recorded_bounds",
+    "recorded_view",
+    "with_recorded_bounds",
+]
 
 MATCH_S = 0.5
 """A curated row and an extracted change are the same lane change when their crossing
@@ -184,61 +193,68 @@ bound by more than this factor (an SMPC recorded as a table stays at its own 0.0
 to the heading estimate's error; recorded drivers reach 1.3–5× it)."""
 
 
-def needs_recorded_bounds(demo: Demonstration) -> bool:
+def is_recorded(demo: Demonstration) -> bool:
+    """Whether a demonstration is a recorded episode (extracted: ``meta["episode_id"]``)."""
+    return "episode_id" in demo.meta
+
+
+def needs_recorded_bounds(demo: Demonstration, until: int | None = None) -> bool:
     """Whether a recorded episode leaves its scenario's heading bound (:data:`HEADING_MARGIN`).
 
     Under the scenario's bounds such an episode's own states are infeasible and every solve
     fails; one that stays inside keeps its scenario (a simulated driver written to a file
-    is identified like its ``.npz``).
-    """
-    return "episode_id" in demo.meta and bool(
-        np.abs(demo.ev[:, 2]).max() > HEADING_MARGIN * demo.scenario.phi_max
-    )
-
-
-def identification_view(demo: Demonstration) -> Demonstration:
-    """The demonstration identification and mining solve on.
-
-    :func:`driver_demo` without a shift where :func:`needs_recorded_bounds`, else ``demo``
-    itself.
-    """
-    return driver_demo(demo, own_line=False) if needs_recorded_bounds(demo) else demo
-
-
-def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
-    """A recorded episode as the driver model's demonstration.
-
-    Three changes: the inputs are recovered within the bounds below
-    (:func:`~drivestyle.envs.episodes.recover_inputs`); the heading and steering bounds
-    are :data:`RECORDED_PHI_MAX` and :data:`RECORDED_DELTA_MAX`; with ``own_line`` every
-    vehicle is shifted laterally so that the target lane's centre (the model's y_ref) lies
-    on the EV's own line over the last second — the paper-model study's l_des rule
-    (``agents.studies.real_traffic.episode_feature_config``): drivers keep their own line,
-    and the ±4 s windows often end before the lane change settles. Errors are
-    shift-invariant.
+    is identified like its ``.npz``: the SMPC's heading bound binds, and wider bounds move
+    an SMPC(0.9)'s identified risk to 0.83).
 
     Args:
-        demo: a recorded episode (from :mod:`drivestyle.envs.real_data`).
-        own_line: shift to the EV's own final line.
+        demo: a demonstration.
+        until: the last sample the decision may read (an observer at t_obs has seen
+            samples 0 … k_obs only); None: every sample.
+    """
+    sc = demo.scenario
+    if not is_recorded(demo) or sc.phi_max >= RECORDED_PHI_MAX:  # already under them
+        return False
+    heading = demo.ev[: None if until is None else until + 1, 2]
+    return bool(np.abs(heading).max() > HEADING_MARGIN * sc.phi_max)
+
+
+def recorded_view(demo: Demonstration, until: int | None = None) -> Demonstration:
+    """The one view of a demonstration that identification, mining, learning and prediction use.
+
+    A recorded episode whose heading over the samples read (0 … ``until``) leaves its
+    scenario's bound (:func:`needs_recorded_bounds`) is seen under the recorded bounds with
+    its inputs recovered under them (:func:`with_recorded_bounds`); any other demonstration
+    (simulated, or recorded inside the bounds) is returned as it is. The view is
+    idempotent, and it reads nothing after ``until``: an observer's view at t_obs is the
+    offline view of the samples up to t_obs.
+
+    Args:
+        demo: a demonstration (recorded or simulated).
+        until: the last sample observed (None: the whole demonstration).
 
     Returns:
-        The demonstration the driver model learns from and is scored against; applying
-        it again with ``own_line=False`` changes nothing (so :func:`identification_view`
-        of a prepared episode is the episode).
+        The demonstration the driver model solves on.
+    """
+    return with_recorded_bounds(demo) if needs_recorded_bounds(demo, until) else demo
+
+
+def with_recorded_bounds(demo: Demonstration) -> Demonstration:
+    """A recorded episode under the driver model's recorded bounds.
+
+    The heading and steering bounds become :data:`RECORDED_PHI_MAX` and
+    :data:`RECORDED_DELTA_MAX`, and the inputs are recovered within them
+    (:func:`~drivestyle.envs.episodes.recover_inputs`); states and vehicles are unchanged.
+
+    Args:
+        demo: a recorded episode.
+
+    Returns:
+        The demonstration; applying it again changes nothing (so :func:`recorded_view` of
+        a viewed episode is the episode).
     """
     sc = replace(demo.scenario, phi_max=RECORDED_PHI_MAX, delta_max=RECORDED_DELTA_MAX)
-    k = max(1, round(1.0 / float(demo.t[1] - demo.t[0])))
-    shift = np.zeros(4)
-    if own_line:
-        shift[1] = sc.y_ref - float(demo.ev[-k:, 1].mean())
-    others = demo.other_vehicles + shift
-    return Demonstration(
-        t=demo.t,
-        ev=demo.ev + shift,
-        tv=demo.tv + shift,
-        u=recover_inputs(demo.ev, sc, demo.t),
-        meta={**demo.meta, "scenario": sc.to_dict(), "lateral_shift_m": float(shift[1])},
-        others=others if others.shape[1] else None,
+    return replace(
+        demo, u=recover_inputs(demo.ev, sc, demo.t), meta={**demo.meta, "scenario": sc.to_dict()}
     )
 
 

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import identification_view
+from drivestyle.envs.real_data import recorded_view
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyleError
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
@@ -834,7 +834,7 @@ def identify_driver(
     # sees recorded traffic (its bounds, its recovered inputs): under the scenario's highway
     # bounds its own states are infeasible and every solve fights them (10–23 s per CATS
     # episode instead of 0.05–3 s)
-    demos = [identification_view(d) for d in _as_list(demos)]
+    demos = [recorded_view(d) for d in _as_list(demos)]
     for d in demos:
         _check_kind(d)
     if profiles is None:

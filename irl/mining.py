@@ -46,7 +46,7 @@ import numpy as np
 
 from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_stops_the_job
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.envs.real_data import identification_view
+from drivestyle.envs.real_data import recorded_view
 from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.identification import Identification, identify
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
@@ -395,7 +395,7 @@ class Miner:
         ``learn_s`` times that reproduction.
         """
         assert isinstance(self.library, DriverLibrary)
-        demo = identification_view(demo)  # reproduced on what identify solves on
+        demo = recorded_view(demo)  # reproduced on what identify solves on
         t0 = time.perf_counter()
         ident = identify(demo, self.library)
         identify_s = time.perf_counter() - t0

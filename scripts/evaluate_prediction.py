@@ -13,10 +13,11 @@ met or missed, the online identification; with the command), ``OUT/report.md``,
 The study is agents/studies/prediction.py; its validation seed is 19000 (tests, choices),
 the reported test seed 19001 (the default).
 
-The recorded episodes are the benchmark's ``--split`` (docs/benchmark_split.csv, by vehicle;
-validation by default — the test split is run once, by the issue it judges); every method,
-the physics baseline (IDM + a quintic lane change, parameters from
-docs/benchmark_physics.json, calibrated on the train split) among them, is summarised by
+The recorded episodes are the benchmark's ``--split`` (drivestyle/data/benchmark_split.csv,
+by vehicle; validation by default — the test split is run once, by the issue it judges);
+every method, the physics baseline (IDM + a quintic lane change, parameters from
+drivestyle/data/benchmark_physics.json, calibrated on the train split) among them, is
+summarised by
 ADE and FDE and their lateral and longitudinal parts, means and medians with bootstrap 95 %
 intervals over vehicles. ``--write-split`` rewrites the split file and
 ``--calibrate-physics`` the parameters, and exit.
@@ -36,7 +37,6 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import (
-    METHOD_STYLES,
     plot_posterior_over_time,
     plot_prediction,
     plot_prediction_errors,
@@ -69,9 +69,6 @@ from drivestyle.common.io import (
 )
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import load_params, save_params
-
-# the physics baseline's line in the figures (figures.py predates it)
-METHOD_STYLES.setdefault("physics", {"color": "#7c3aed", "ls": "-", "lw": 1.4})
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -1,7 +1,7 @@
 """Learn the population's style from the recorded benchmark's train split (issue 27).
 
 One style — cost weights, risk and the speed-scaled safety region l_a = s_0 + T·v (DESIGN
-§18) — over every lane change of the split (docs/benchmark_split.csv), starting from a
+§18) — over every lane change of the split (drivestyle/data/benchmark_split.csv), starting from a
 driver library's weights. ``--objective closed-loop`` (default): the mean rmse_xy of the
 style driven in closed loop through each episode, by Nelder–Mead (``--max-evals``);
 ``--objective teacher``: the library's one-step input residuals by Levenberg–Marquardt

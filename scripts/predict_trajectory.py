@@ -3,15 +3,21 @@ r"""Predict the rest of a vehicle's trajectory after observing its first seconds
 Observes the demonstration for ``--observe`` seconds (a whole number of samples, less than
 the demonstration), identifies the vehicle online (its inputs unseen) and predicts the rest
 with every method of irl/forecast.py: constant velocity (``cv``) and acceleration (``ca``),
-the library's style at its middle risk (``population``), the identified style at the
+the physics baseline (``physics``: IDM behind the observed leader and a quintic lane
+change, with ``--physics``'s parameters, by default the benchmark's calibration), the
+library's style at its middle risk (``population``), the identified style at the
 posterior's mode (``mode``) and its mixture over the library's risks (``mixture``), and —
 for an SMPC demonstration (``risk`` and ``smpc`` in its metadata) — the SMPC itself
-(``oracle``). Writes ``OUT/prediction.json`` (per method ``ade_m``, ``fde_m``, ``risk``
-and the predicted ``path``; the observed and true paths; the posterior at t_obs) and
-``OUT/prediction.png`` (the road to scale). A recorded episode (``episode_id`` in its
-metadata, e.g. from ``real-traffic``) is used as the driver model sees it (recovered inputs,
-widened bounds, no own-line shift) and its style methods take v_ref from the observed
-speeds only (agents/studies/prediction.py). Deterministic, so there is no ``--seed``.
+(``oracle``). The prediction is the recorded benchmark's (``evaluate-prediction``) of the
+same episode at the same t_obs, method by method: a recorded episode (``episode_id`` in
+its metadata, e.g. from ``extract-episodes``) is seen as an observer knows it then (the one
+recorded view of its observed samples, its frame shifted by whole lanes so that the current
+lane is the middle one, the scenario from the observed samples only;
+agents/studies/prediction.py). Writes ``OUT/prediction.json`` (per method ``ade_m``,
+``fde_m``, their lateral and longitudinal parts, ``risk`` and the predicted ``path``; the
+observed and true paths; the posterior at t_obs; ``lateral_shift_m``: the frame's lateral
+shift from the file's, to add back to compare with the file) and ``OUT/prediction.png``
+(the road to scale). Deterministic, so there is no ``--seed``.
 
 Example:
     python scripts/predict_trajectory.py runs/demo/demo.npz --library runs/library \\
@@ -25,12 +31,18 @@ import sys
 from pathlib import Path
 
 from drivestyle.agents.studies.figures import plot_prediction
-from drivestyle.agents.studies.prediction import observed_scenario, oracle_style, prepare_demo
+from drivestyle.agents.studies.prediction import (
+    PHYSICS_FILE,
+    observer_view,
+    oracle_style,
+    predict_demo,
+)
 from drivestyle.common.cli import HelpFormatter, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
-from drivestyle.irl.forecast import predict
+from drivestyle.envs.real_data import is_recorded
 from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.physics import load_params
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -47,6 +59,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="seconds observed before predicting (a whole number of samples)",
     )
     p.add_argument(
+        "--physics",
+        type=Path,
+        default=PHYSICS_FILE,
+        help="the physics baseline's parameters (default: the benchmark's calibration)",
+    )
+    p.add_argument(
         "--out", type=Path, default=Path("runs/predict"), help="output folder (replaced whole)"
     )
     return p.parse_args(argv)
@@ -57,34 +75,35 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out, inputs=[args.demo])
     library = load_driver_library(args.library, "prediction")
+    physics = load_params(args.physics)
     raw = load_demonstration(args.demo)
     check_plausible(raw)  # every step, the future the prediction is scored on included
-    demo, recorded = prepare_demo(raw)
-    scenario = observed_scenario(demo, args.observe) if recorded else None
-    pred = predict(demo, library, args.observe, oracle=oracle_style(demo.meta), scenario=scenario)
+    pred = predict_demo(raw, library, args.observe, oracle_style(raw.meta), physics)
+    seen, scenario = observer_view(raw, args.observe)
     payload = pred.to_json() | {
         "demo": str(args.demo),
         "library": str(args.library),
-        "recorded": recorded,
-        "v_ref_mps": (scenario or demo.scenario).v_ref,
+        "physics": str(args.physics),
+        "recorded": is_recorded(raw),
+        "v_ref_mps": (scenario or raw.scenario).v_ref,
+        "lateral_shift_m": float(seen.meta.get("observed_shift_m", 0.0)),
     }
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "prediction.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         name = raw.meta.get("episode_id", args.demo.stem)
         plot_prediction(
-            pred, demo, tmp / "prediction.png", f"{name}: prediction after {args.observe:g} s"
+            pred, seen, tmp / "prediction.png", f"{name}: prediction after {args.observe:g} s"
         )
     ident = pred.identification
-    if ident is None:  # no style method was run: nothing identified to report
-        return payload
-    lo, hi = ident.risk_interval
-    print(
-        f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; identified risk "
-        f"{ident.risk_interpolated:.3f} (90 % [{lo:g}, {hi:g}])"
-        + ("" if pred.true_risk is None else f", true {pred.true_risk:g}")
-    )
-    for name, m in pred.methods.items():
-        print(f"  {name:<10} ADE {m.ade_m:7.3f} m  FDE {m.fde_m:7.3f} m")
+    if ident is not None:
+        lo, hi = ident.risk_interval
+        print(
+            f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; identified "
+            f"risk {ident.risk_interpolated:.3f} (90 % [{lo:g}, {hi:g}])"
+            + ("" if pred.true_risk is None else f", true {pred.true_risk:g}")
+        )
+    for method, m in pred.methods.items():
+        print(f"  {method:<10} ADE {m.ade_m:7.3f} m  FDE {m.fde_m:7.3f} m")
     print(f"wrote {args.out}/prediction.json and prediction.png")
     return payload
 

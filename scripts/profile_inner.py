@@ -659,10 +659,10 @@ def main(argv: list[str] | None = None) -> dict:
         result["driver"][key] = entry
     if args.recorded > 0:
         from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
-        from drivestyle.envs.real_data import identification_view
+        from drivestyle.envs.real_data import recorded_view
 
         episodes = recorded_episodes(str(DEFAULT_DATA_DIR), "cats")[: args.recorded]
-        rec = [identification_view(d) for _, _, d in episodes]
+        rec = [recorded_view(d) for _, _, d in episodes]
         result["recorded"] = profile_identification(rec, library, jit=not args.no_jit)
         result["recorded"]["episodes"] = [e for e, _, _ in episodes]
     bar.close()

@@ -758,12 +758,14 @@ def plot_planning(study: PlanningStudy, path: str | Path) -> Path:
 METHOD_STYLES: dict[str, dict[str, Any]] = {
     "cv": {"color": "#6b7280", "ls": "--", "lw": 1.4},
     "ca": {"color": "#a3a3a3", "ls": ":", "lw": 1.4},
+    "physics": {"color": "#7c3aed", "ls": "-", "lw": 1.4},
     "population": {"color": "#16a34a", "ls": "-.", "lw": 1.4},
     "mode": {"color": EV_RED, "ls": "-", "lw": 1.8},
     "mixture": {"color": SCALED_ORANGE, "ls": "--", "lw": 1.6},
     "oracle": {"color": TV_BLUE, "ls": ":", "lw": 2.0},
 }
-"""Line style per prediction method (:data:`drivestyle.irl.forecast.METHODS`)."""
+"""Line style per prediction method: one entry for every name of
+:data:`drivestyle.irl.forecast.METHODS` (a test checks it)."""
 
 
 def plot_prediction(

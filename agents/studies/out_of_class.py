@@ -50,7 +50,6 @@ from drivestyle.agents.studies.prediction import (
     PredictionRecord,
     SkippedPrediction,
     predict_vehicle,
-    prepare_demo,
     summarise_records,
 )
 from drivestyle.envs.demonstration import Demonstration
@@ -555,14 +554,9 @@ class EpisodeResult:
         return {k: getattr(self, k) for k in self.__dataclass_fields__} | {"verdict": self.verdict}
 
 
-def _as_seen(ep: OutOfClassEpisode) -> Demonstration:
-    """The demonstration the style sees: a recorded episode through ``prepare_demo``."""
-    return prepare_demo(ep.demo)[0]
-
-
 def identify_episode(ep: OutOfClassEpisode, library: DriverLibrary) -> EpisodeResult:
     """Identify one lane change's p with the library (whole episode, offline)."""
-    ident: Identification = identify_driver(_as_seen(ep), library)
+    ident: Identification = identify_driver(ep.demo, library)
     v = ident.verdict
     assert v is not None
     lo, hi = ident.risk_interval
@@ -713,11 +707,12 @@ def predict_episode(
 
     :func:`~drivestyle.agents.studies.prediction.predict_vehicle`: a highway-env lane
     change is a recorded episode (``meta["episode_id"]``) and is seen through
-    ``observed_view``; an SMPC demonstration is predicted in its own scenario. The record's
-    set is the family (:func:`run_study` sets its bootstrap unit to ``<group>:<episode>``:
-    every episode is its own unit).
+    ``observed_view`` (the one recorded view of its observed samples); an SMPC
+    demonstration is predicted in its own scenario. The record's set is the family
+    (:func:`run_study` sets its bootstrap unit to ``<group>:<episode>``: every episode is
+    its own unit).
     """
-    return predict_vehicle(ep.family, ep.episode_id, _as_seen(ep), library, t_obs,
+    return predict_vehicle(ep.family, ep.episode_id, ep.demo, library, t_obs,
                            physics=physics, methods=PREDICT_METHODS)  # fmt: skip
 
 

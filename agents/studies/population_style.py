@@ -4,8 +4,9 @@ The driver library of :mod:`drivestyle.irl.library` carries the SMPC expert's co
 from simulated SMPC(p) lane changes, it was never fitted to people. Here one style — the
 cost weights, the risk and the speed-scaled safety region (T, s_0) — is learned by teacher
 forcing over every lane change of the recorded benchmark's *train* split (docs/
-benchmark_split.csv), each episode as the predictor sees it (:func:`prepare_demo`: the
-target lane's centre, no own-line shift). The result is written as a driver library with
+benchmark_split.csv), each episode in the one recorded view
+(:func:`~drivestyle.envs.real_data.recorded_view`: the target lane's centre, no own-line
+shift). The result is written as a driver library with
 the same risk grid and temperature as the library it started from, so identification,
 prediction and mining use it unchanged: ``drivestyle evaluate-prediction --library
 runs/people`` compares it on the validation split.
@@ -34,12 +35,11 @@ import numpy as np
 
 from drivestyle.agents.studies.prediction import (
     DATASETS,
-    PREDICTION_ERRORS,
     SplitRow,
     load_recorded,
-    prepare_demo,
 )
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.real_data import recorded_view
 from drivestyle.irl.driver_learning import (
     DriverFit,
     learn_driver,
@@ -120,8 +120,8 @@ def split_demos(
         ids = [r.episode_id for r in rows if r.dataset == ds and r.split == split]
         for eid, raw in load_recorded(data_dir, ds, ids):
             try:
-                demos.append((eid, prepare_demo(raw)[0]))
-            except PREDICTION_ERRORS as exc:
+                demos.append((eid, recorded_view(raw)))
+            except ValueError as exc:  # the view re-validates the demonstration
                 skipped.append((eid, str(exc)))
     return demos, skipped
 

@@ -17,18 +17,19 @@ The vehicles:
   (:func:`oracle_style`). :data:`VALIDATION_SEED` is the seed anything was chosen on (the
   study's settings, the tests); :data:`TEST_SEED` is the held-out seed whose run is
   reported, once.
-- **recorded**: the NGSIM and CATS episodes as the driver model sees them
-  (:func:`~drivestyle.agents.studies.real_traffic.driver_demo` with ``own_line=False``:
-  the own-line shift would use the episode's last second, i.e. the future), seen through
-  :func:`observed_view` after t_obs: every method gets only what an observer knows then
-  (module section "No leak"). No oracle. Episodes too short for a t_obs, or whose prediction
-  fails, are skipped and counted with the reason (:class:`SkippedPrediction`).
+- **recorded**: the NGSIM and CATS episodes seen through :func:`observed_view` after
+  t_obs — the one recorded view of the observed samples
+  (:func:`~drivestyle.envs.real_data.recorded_view`; no own-line shift, which would read
+  the episode's last second) in the no-leak frame: every method gets only what an
+  observer knows then (module section "No leak"). No oracle. Episodes too short for a
+  t_obs, or whose prediction fails, are skipped and counted with the reason
+  (:class:`SkippedPrediction`).
 
 **The recorded benchmark** (issue 26). Every lane change the extraction finds in the shipped
 NGSIM and CATS samples (:func:`recorded_episodes`: every vehicle's, not only the converters'
 curated ones) is assigned once, by *vehicle* (all of a vehicle's episodes in one split), to
 train / validation / test (:func:`benchmark_split`, seed :data:`SPLIT_SEED`, stratified by
-dataset; committed as ``docs/benchmark_split.csv``, :data:`SPLIT_FILE`). A vehicle is an
+dataset; committed as ``drivestyle/data/benchmark_split.csv``, :data:`SPLIT_FILE`). A vehicle is an
 NGSIM vehicle (``ngsim:<site>:<id>``) or a CATS vehicle on one day (``cats:AV:<id>``, the
 automated-driving day, ``cats:HV:<id>``, the human-driven one: vehicle 3 is the automated
 car, resp. the human-driven one, and 1, 2, 4 the others). The learning studies' "used"
@@ -73,6 +74,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -83,10 +85,10 @@ from drivestyle.agents.demo_generation import (
     generate_demonstration,
     generate_traffic_demonstration,
 )
-from drivestyle.agents.studies.real_traffic import driver_demo
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import speed_constants
+from drivestyle.envs.real_data import is_recorded, recorded_view
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
 from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_style
@@ -137,10 +139,10 @@ __all__ = [
     "example_record",
     "goal_checks",
     "load_recorded",
-    "observed_scenario",
     "observed_view",
+    "observer_view",
     "oracle_style",
-    "prepare_demo",
+    "predict_demo",
     "read_split",
     "recorded_episodes",
     "spanning_tracks",
@@ -181,10 +183,10 @@ SPLIT_FRACTIONS = {"test": 0.2, "validation": 0.2}
 """Share of each dataset's vehicles held out per split (train: the rest)."""
 SPLIT_SEED = 26
 """The seed of the benchmark's split (issue 26)."""
-_REPO = Path(__file__).resolve().parents[2]
-SPLIT_FILE = _REPO / "docs" / "benchmark_split.csv"
+_PACKAGE_DATA = Path(str(resources.files("drivestyle") / "data"))  # shipped with the wheel
+SPLIT_FILE = _PACKAGE_DATA / "benchmark_split.csv"
 """The committed split (:func:`write_split` of :func:`benchmark_split`)."""
-PHYSICS_FILE = _REPO / "docs" / "benchmark_physics.json"
+PHYSICS_FILE = _PACKAGE_DATA / "benchmark_physics.json"
 """The physics baseline's parameters calibrated on the train split (:func:`calibrate_on_split`)."""
 BOOTSTRAP_SEED = 26
 """The seed of the bootstrap intervals."""
@@ -376,14 +378,6 @@ def oracle_style(meta: dict[str, Any]) -> DriverStyle | None:
     return expert_style(cfg)
 
 
-def observed_scenario(demo: Demonstration, t_obs: float) -> ScenarioConfig:
-    """The scenario a recorded episode's style methods plan in after ``t_obs`` seconds.
-
-    :func:`observed_view`'s scenario: nothing of the future enters it.
-    """
-    return observed_view(demo, t_obs)[1]
-
-
 def _observed_index(demo: Demonstration, t_obs: float) -> int:
     dt = float(demo.t[1] - demo.t[0])
     return min(max(round(t_obs / dt), 0), demo.n - 2)
@@ -403,22 +397,26 @@ def _not_yet_observed(states: np.ndarray, k: int) -> bool:
 def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, ScenarioConfig]:
     """A recorded episode as an observer knows it after ``t_obs`` s (module docstring, No leak).
 
-    The returned demonstration has the same samples (the truth after t_obs is still there, to
-    score against; no method reads it), its vehicles reordered (the observed TV first),
-    unobserved ones replaced by phantoms, and every position shifted by whole lanes
-    laterally; the scenario is built from samples 0 … k_obs only.
+    The episode is first seen as the driver model sees the samples 0 … k_obs
+    (:func:`~drivestyle.envs.real_data.recorded_view`: the recorded bounds where the
+    observed heading needs them). The returned demonstration has the same samples (the
+    truth after t_obs is still there, to score against; no method reads it), its vehicles
+    reordered (the observed TV first), unobserved ones replaced by phantoms, and every
+    position shifted by whole lanes laterally; the scenario is built from samples 0 …
+    k_obs only.
 
     Args:
-        demo: a recorded episode as :func:`prepare_demo` returns it.
+        demo: a recorded episode (as extracted).
         t_obs: observed time [s].
 
     Returns:
         (the demonstration, its scenario; ``meta["scenario"]`` is that scenario and
         ``meta["observed_shift_m"]`` the lateral shift).
     """
+    k = _observed_index(demo, t_obs)
+    demo = recorded_view(demo, k)
     sc = demo.scenario
     w, dt = sc.lane_width, float(demo.t[1] - demo.t[0])
-    k = _observed_index(demo, t_obs)
     ev = demo.ev.copy()
     vehicles = demo.vehicles.copy()  # (n, 1 + m, 4), the episode's TV first
     for j in range(vehicles.shape[1]):
@@ -465,17 +463,6 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
         others=vehicles[:, 1:] if vehicles.shape[1] > 1 else None,
     )
     return out, observed
-
-
-def prepare_demo(demo: Demonstration) -> tuple[Demonstration, bool]:
-    """A demonstration as the predictor sees it: recorded episodes via ``driver_demo``.
-
-    Returns:
-        (the demonstration, whether it is a recorded episode: ``meta["episode_id"]``).
-    """
-    if "episode_id" in demo.meta:
-        return driver_demo(demo, own_line=False), True
-    return demo, False
 
 
 def load_recorded(
@@ -617,6 +604,51 @@ PREDICTION_ERRORS = (ForecastError, TrackerError, DriverStyleError, RuntimeError
 """Failures that skip a (vehicle, t_obs) with their message instead of ending the study."""
 
 
+def predict_demo(
+    demo: Demonstration,
+    library: DriverLibrary,
+    t_obs: float,
+    oracle: DriverStyle | None = None,
+    physics: PhysicsParams | None = None,
+    methods: Sequence[str] = METHODS,
+) -> Prediction:
+    """One vehicle predicted after ``t_obs`` by every method, as the benchmark predicts it.
+
+    A recorded episode is seen through :func:`observed_view` (the recorded view of the
+    observed samples, the no-leak frame and scenario); a simulated demonstration in its own
+    scenario. ``drivestyle predict-trajectory`` and :func:`predict_vehicle` both call this.
+
+    Args:
+        demo: the demonstration (a recorded episode as extracted, or a simulated one).
+        library: the driver library.
+        t_obs: observed time [s].
+        oracle: its true style (None: no oracle).
+        physics: the physics baseline's parameters (None: the defaults).
+        methods: the methods to run.
+
+    Returns:
+        The :class:`~drivestyle.irl.forecast.Prediction` (paths in the frame of the view:
+        a recorded episode's is shifted laterally by ``observed_shift_m`` of
+        :func:`observed_view`).
+
+    Raises:
+        ForecastError: an observation window the demonstration cannot serve.
+    """
+    seen, sc = observer_view(demo, t_obs)
+    return predict(seen, library, t_obs, oracle=oracle, scenario=sc, methods=methods,
+                   physics=physics)  # fmt: skip
+
+
+def observer_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, ScenarioConfig | None]:
+    """The demonstration and scenario :func:`predict_demo` predicts in after ``t_obs``.
+
+    Returns:
+        :func:`observed_view` of a recorded episode; a simulated demonstration and None
+        (its own scenario).
+    """
+    return observed_view(demo, t_obs) if is_recorded(demo) else (demo, None)
+
+
 def predict_vehicle(
     set_name: str,
     vehicle_id: str,
@@ -628,12 +660,12 @@ def predict_vehicle(
     methods: Sequence[str] = METHODS,
     unit: str = "",
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
-    """Predict one vehicle at every observed time (recorded episodes: :func:`observed_view`).
+    """Predict one vehicle at every observed time (:func:`predict_demo`).
 
     Args:
         set_name: the set the vehicle belongs to.
         vehicle_id: its name.
-        demo: its demonstration as :func:`prepare_demo` returns it.
+        demo: its demonstration (a recorded episode as extracted).
         library: the driver library.
         t_obs: observed times [s].
         oracle: its true style (None: no oracle).
@@ -644,13 +676,10 @@ def predict_vehicle(
     Returns:
         (records, skipped).
     """
-    recorded = "episode_id" in demo.meta
     records, skipped = [], []
     for t in t_obs:
         try:
-            seen, sc = observed_view(demo, t) if recorded else (demo, None)
-            pred = predict(seen, library, t, oracle=oracle, scenario=sc, methods=methods,
-                           physics=physics)  # fmt: skip
+            pred = predict_demo(demo, library, t, oracle, physics, methods)
         except PREDICTION_ERRORS as exc:
             skipped.append(SkippedPrediction(set_name, vehicle_id, float(t), str(exc)))
             continue
@@ -1216,11 +1245,7 @@ def _recorded_task(
     t_obs: tuple[float, ...], physics: PhysicsParams | None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:  # fmt: skip
     """Worker: predict one recorded episode at every t_obs."""
-    try:
-        demo, _ = prepare_demo(raw)
-    except PREDICTION_ERRORS as exc:
-        return [], [SkippedPrediction(set_name, episode_id, None, f"driver_demo: {exc}")]
-    return predict_vehicle(set_name, episode_id, demo, library, t_obs, physics=physics, unit=unit)
+    return predict_vehicle(set_name, episode_id, raw, library, t_obs, physics=physics, unit=unit)
 
 
 def physics_cases(
@@ -1228,14 +1253,10 @@ def physics_cases(
 ) -> list[PhysicsCase]:
     """The physics calibration's cases: each episode at each t_obs, as :func:`observed_view`.
 
-    Episodes too short for a t_obs, or that :func:`prepare_demo` refuses, are left out.
+    Episodes too short for a t_obs are left out.
     """
     cases = []
-    for _, raw in recorded:
-        try:
-            demo, _ = prepare_demo(raw)
-        except PREDICTION_ERRORS:
-            continue
+    for _, demo in recorded:
         dt = float(demo.t[1] - demo.t[0])
         for t in t_obs:
             k = round(t / dt)

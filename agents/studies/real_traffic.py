@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,11 +29,11 @@ import numpy as np
 from drivestyle.agents.studies.figures import plot_episode
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import (  # re-exported: the driver study's view
+from drivestyle.envs.real_data import (
     RECORDED_DELTA_MAX,
     RECORDED_PHI_MAX,
     RecordedEpisode,
-    driver_demo,
+    recorded_view,
 )
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
 from drivestyle.irl.driver_style import reproduce
@@ -59,6 +59,7 @@ __all__ = [
     "episode_feature_config",
     "learn_general",
     "learn_personal",
+    "own_line_shift",
     "reproduce_with",
     "run_driver_study",
     "run_study",
@@ -126,6 +127,51 @@ def episode_feature_config(
         l_des=float(demo.ev[-k:, 1].mean()),
         v_des=v_end,
         v_lane=v_end,
+    )
+
+
+def own_line_shift(demo: Demonstration, settle_s: float = 1.0) -> Demonstration:
+    """Every vehicle shifted laterally so that the model's y_ref lies on the EV's final line.
+
+    The learning study's l_des rule (:func:`episode_feature_config`): drivers keep their own
+    line, and the ±4 s windows often end before the lane change settles, so the target
+    lane's centre is moved onto the EV's mean y over the last ``settle_s``. It reads the
+    episode's end: a learning and reproduction rule, never a prediction's. Errors are
+    shift-invariant.
+
+    Args:
+        demo: a recorded episode.
+        settle_s: the final stretch that defines the EV's line [s].
+
+    Returns:
+        The shifted demonstration (``meta["lateral_shift_m"]``: the shift [m]).
+    """
+    k = max(1, round(settle_s / float(demo.t[1] - demo.t[0])))
+    shift = np.array([0.0, demo.scenario.y_ref - float(demo.ev[-k:, 1].mean()), 0.0, 0.0])
+    others = demo.other_vehicles + shift
+    return replace(
+        demo,
+        ev=demo.ev + shift,
+        tv=demo.tv + shift,
+        others=others if others.shape[1] else None,
+        meta={**demo.meta, "lateral_shift_m": float(shift[1])},
+    )
+
+
+def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
+    """A recorded episode as the driver-model study learns from it.
+
+    The one recorded view (:func:`~drivestyle.envs.real_data.recorded_view`), shifted to
+    the EV's own final line with ``own_line`` (:func:`own_line_shift`).
+
+    Returns:
+        The demonstration (``meta["lateral_shift_m"]``: the shift, 0 without one).
+    """
+    view = recorded_view(demo)
+    return (
+        own_line_shift(view)
+        if own_line
+        else replace(view, meta={**view.meta, "lateral_shift_m": 0.0})
     )
 
 
@@ -362,7 +408,7 @@ class DriverSettings:
     restarts: int = RESTARTS
     """Levenberg–Marquardt runs from the best-scored starting points."""
     own_line: bool = True
-    """Shift each episode to the EV's own final line (:func:`driver_demo`)."""
+    """Shift each episode to the EV's own final line (:func:`own_line_shift`)."""
     max_iter: int = 30
     """Levenberg–Marquardt iteration cap per run (:func:`learn_driver`'s default: 30)."""
     fit_region: bool = False

@@ -104,3 +104,10 @@ def test_only_the_figures_module_imports_matplotlib():
                     importers.append(str(path.relative_to(root)))
                     break
     assert importers == ["agents/studies/figures.py"], importers
+
+
+def test_every_prediction_method_has_a_line_style():
+    from drivestyle.agents.studies.figures import METHOD_STYLES
+    from drivestyle.irl.forecast import METHODS
+
+    assert set(METHOD_STYLES) == set(METHODS)

@@ -24,7 +24,6 @@ from drivestyle.agents.studies.prediction import (
     evaluate_prediction,
     example_record,
     goal_checks,
-    observed_scenario,
     observed_view,
     oracle_style,
     predict_vehicle,
@@ -127,13 +126,30 @@ def test_goals_are_checked_against_their_thresholds():
     assert not met[("recorded_vs_cv", "recorded", "mixture")]  # 1 − 3.7 / 4 < 15 %
 
 
-def test_observed_scenario_uses_the_observed_speeds_only(paper_demo):
-    sc = observed_scenario(paper_demo, 1.0)
-    k = round(1.0 / paper_demo.scenario.dt)
-    assert sc.v_ref == pytest.approx(max(np.percentile(paper_demo.ev[: k + 1, 3], 90), 1.0))
-    changed = paper_demo.ev.copy()
+def test_the_observed_scenario_uses_the_observed_speeds_only(paper_demo):
+    demo = _as_recorded(paper_demo)
+    sc = observed_view(demo, 1.0)[1]
+    k = round(1.0 / demo.scenario.dt)
+    assert sc.v_ref == pytest.approx(max(np.percentile(demo.ev[: k + 1, 3], 90), 1.0))
+    changed = demo.ev.copy()
     changed[k + 1 :, 3] += 10.0  # the future is not looked at
-    assert observed_scenario(replace(paper_demo, ev=changed), 1.0).v_ref == sc.v_ref
+    assert observed_view(replace(demo, ev=changed), 1.0)[1].v_ref == sc.v_ref
+
+
+def test_the_recorded_bounds_are_chosen_from_the_observed_heading_only(paper_demo):
+    from drivestyle.envs.real_data import RECORDED_PHI_MAX
+
+    demo = _as_recorded(paper_demo)
+    k = round(2.0 / demo.scenario.dt)
+    ev = demo.ev.copy()
+    ev[k + 1 :, 2] *= 4.0  # the future turns beyond the heading bound
+    turning = replace(demo, ev=ev)
+    assert observed_view(turning, 2.0)[1].phi_max == demo.scenario.phi_max
+    assert observed_view(turning, 2.0)[1] == observed_view(demo, 2.0)[1]
+    late = round(5.0 / demo.scenario.dt)  # once observed, the turn does count
+    assert observed_view(turning, 5.0)[1].phi_max == RECORDED_PHI_MAX
+    assert observed_view(demo, 5.0)[1].phi_max == demo.scenario.phi_max
+    assert late > k
 
 
 def test_oracle_style_is_the_experts(paper_demo):
@@ -219,16 +235,13 @@ def test_bootstrap_resamples_vehicles_with_a_fixed_seed():
 
 def _as_recorded(demo):
     """A simulated demonstration presented as a recorded episode (observed_view applies)."""
-    from drivestyle.agents.studies.real_traffic import driver_demo
-
     rng = np.random.default_rng(0)
     others = np.repeat(demo.tv[:, None, :], 2, axis=1).copy()
     others[:, 0, 0] += 30.0  # a leader in the target lane, speed varying (as recorded)
     others[:, 1, 0] += 60.0
     others[:, 1, 1] -= demo.scenario.lane_width
     others[:, :, 3] += 0.01 * rng.standard_normal(others.shape[:2])
-    raw = replace(demo, meta={**demo.meta, "episode_id": "sim-as-recorded"}, others=others)
-    return driver_demo(raw, own_line=False)
+    return replace(demo, meta={**demo.meta, "episode_id": "sim-as-recorded"}, others=others)
 
 
 def _change_the_future(demo, k):

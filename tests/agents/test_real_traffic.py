@@ -114,8 +114,10 @@ def test_real_traffic_bad_data_dir(tmp_path):
 
 
 # ------------------------------------------------------------ the receding-horizon driver model
-def _recorded_like(n: int = 16, brake: float = 0.0, speed: float = 6.0):
-    """A slow lane change at T_s, stored as the loaders store recordings (inputs zero)."""
+def _recorded_like(
+    n: int = 16, brake: float = 0.0, speed: float = 6.0, steer: float = 0.02, bounds=(0.3, 0.25)
+):
+    """A slow lane change at T_s, its inputs not stored (zero), under ``bounds`` (φ, δ)."""
     from dataclasses import replace
 
     from drivestyle.envs.demonstration import Demonstration
@@ -124,11 +126,11 @@ def _recorded_like(n: int = 16, brake: float = 0.0, speed: float = 6.0):
 
     horizon = round((n - 1) * 0.2, 9)
     sc = replace(PAPER, ev_speed=speed, v_ref=speed, tv_gap=-60.0, tv_speed=6.0, horizon_s=horizon)
-    sc = replace(sc, phi_max=0.3, delta_max=0.25)
+    sc = replace(sc, phi_max=bounds[0], delta_max=bounds[1])
     u = np.zeros((n - 1, 2))
     u[:, 0] = brake
-    u[: (n - 1) // 2, 1] = 0.02
-    u[(n - 1) // 2 :, 1] = -0.02
+    u[: (n - 1) // 2, 1] = steer
+    u[(n - 1) // 2 :, 1] = -steer
     ev = np.zeros((n, 4))
     ev[0] = [0.0, sc.lane_centres[0], 0.0, sc.ev_speed]
     for k in range(n - 1):
@@ -155,7 +157,9 @@ def test_driver_demo_shifts_every_vehicle_to_the_evs_own_line():
         driver_demo,
     )
 
-    demo, u = _recorded_like()
+    # beyond the scenario's heading bound: the recorded view's bounds and recovered inputs
+    demo, u = _recorded_like(steer=0.06, bounds=(0.05, 0.05))
+    assert np.abs(demo.ev[:, 2]).max() > 0.06
     d = driver_demo(demo)
     sc = d.scenario
     assert (sc.phi_max, sc.delta_max) == (RECORDED_PHI_MAX, RECORDED_DELTA_MAX)

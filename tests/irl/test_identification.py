@@ -163,7 +163,7 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
     from dataclasses import replace as dc_replace
 
     import drivestyle.irl.identification as ident
-    from drivestyle.envs.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX, driver_demo
+    from drivestyle.envs.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX, recorded_view
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.identification import identify_driver
     from drivestyle.irl.library import DriverLibrary
@@ -171,10 +171,11 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
     # a recording that turns 3× the scenario's heading bound (as recorded drivers do)
     ev = paper_demo.ev * [1.0, 1.0, 3.0, 1.0]
     recorded = dc_replace(paper_demo, ev=ev, meta={**paper_demo.meta, "episode_id": "e1"})
-    prepared = driver_demo(recorded, own_line=False)
+    prepared = recorded_view(recorded)
     sc = prepared.scenario
     assert (sc.phi_max, sc.delta_max) == (RECORDED_PHI_MAX, RECORDED_DELTA_MAX)
-    assert driver_demo(prepared, own_line=False).u.tolist() == prepared.u.tolist()  # idempotent
+    assert recorded_view(prepared) is prepared  # idempotent
+    assert recorded_view(paper_demo) is paper_demo  # a simulated demonstration as it is
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
     seen = []
     real = ident.refined_profile

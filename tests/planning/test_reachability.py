@@ -7,7 +7,7 @@ import pytest
 
 from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.envs.dynamics import rk4_step
-from drivestyle.envs.real_data import RECORDED_DELTA_MAX, identification_view
+from drivestyle.envs.real_data import RECORDED_DELTA_MAX, recorded_view
 from drivestyle.envs.scenario import PAPER
 from drivestyle.irl.driver_style import _PLANNERS, DriverStyle, StylePlanner
 from drivestyle.irl.identification import identify_driver
@@ -215,7 +215,7 @@ def test_recorded_identifications_are_the_same_with_and_without_the_certificate(
     episodes = {e: d for e, _, d in recorded_episodes(str(DEFAULT_DATA_DIR), "cats")}
     library = DriverLibrary(style=DriverStyle(SMPC_WEIGHTS, time_gap=1.0, min_gap=5.0),
                             risks=(0.5, 0.7, 0.9, 0.99))  # fmt: skip
-    demos = [identification_view(episodes[e]) for e in ("AV-21-W_3_37277028", "AV-10-W_4_36189394")]
+    demos = [recorded_view(episodes[e]) for e in ("AV-21-W_3_37277028", "AV-10-W_4_36189394")]
     before = sum(p.blocked for p in _PLANNERS.values())
     certified = [identify_driver([d], library) for d in demos]
     assert sum(p.blocked for p in _PLANNERS.values()) - before > 50

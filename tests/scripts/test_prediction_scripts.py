@@ -1,6 +1,7 @@
 """predict_trajectory.py and evaluate_prediction.py: the files they write and their keys."""
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -40,8 +41,6 @@ def test_predict_trajectory_writes_every_method(files):
 
 
 def test_predict_trajectory_refuses_a_jump_after_the_observed_part(files, paper_demo):
-    from dataclasses import replace
-
     from drivestyle.envs.demonstration import DemonstrationError
 
     ev = paper_demo.ev.copy()
@@ -190,3 +189,48 @@ def test_regions_calibrated_on_the_split_they_judge_are_refused(files, tmp_path)
             [*argv, "--split", "test", "--regions-from", str(tmp_path / "bad.json")]
         )
     assert not (tmp_path / "o").exists()
+
+
+def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(files, paper_demo):
+    """The command, run as a user runs it, predicts a recorded episode exactly as the
+    benchmark does at the same t_obs, method by method (the same view, frame and physics)."""
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from drivestyle.agents.studies.prediction import PHYSICS_FILE, predict_vehicle
+    from drivestyle.irl.library import load_driver_library
+    from drivestyle.irl.physics import load_params
+
+    others = np.repeat(paper_demo.tv[:, None, :], 2, axis=1).copy()
+    others[:, 0, 0] += 30.0  # a leader in the target lane
+    others[:, 1, 0] += 60.0
+    others[:, 1, 1] -= paper_demo.scenario.lane_width  # one ahead in the own lane
+    meta = {k: v for k, v in paper_demo.meta.items() if k not in ("risk", "smpc")}
+    recorded = replace(paper_demo, others=others, meta={**meta, "episode_id": "as-recorded"})
+    save_demonstration(recorded, files / "recorded.npz")
+    out = files / "recorded_out"
+    run = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "predict-trajectory", str(files / "recorded.npz"),
+         "--library", str(files), "--observe", "1.4", "--out", str(out)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    js = json.loads((out / "prediction.json").read_text())
+    (record,), skipped = predict_vehicle(
+        "x", "as-recorded", recorded, load_driver_library(files, "prediction"), (1.4,),
+        physics=load_params(PHYSICS_FILE),
+    )  # fmt: skip
+    assert not skipped and js["recorded"] is True
+    assert list(js["methods"]) == [m for m in METHODS if m != "oracle"]
+    for method, m in js["methods"].items():
+        assert m["fde_m"] == pytest.approx(record.fde_m[method], abs=1e-9), method
+        assert m["ade_m"] == pytest.approx(record.ade_m[method], abs=1e-9), method
+        path = np.asarray(m["path"])  # in the observer's frame, shifted by whole lanes
+        assert np.allclose(path, record.prediction.methods[method].xy, atol=1e-4), method
+    # the frame's shift is a whole number of lanes and the paths are in it
+    w = recorded.scenario.lane_width
+    assert js["lateral_shift_m"] / w == pytest.approx(round(js["lateral_shift_m"] / w))
+    k = round(1.4 / recorded.scenario.dt)
+    assert js["actual"][0][1] == pytest.approx(recorded.ev[k, 1] + js["lateral_shift_m"], abs=1e-4)
