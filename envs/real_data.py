@@ -36,6 +36,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes, recover_inputs
 
 __all__ = [
+    "DATASETS",
     "MATCH_S",
     "RecordedEpisode",
     "is_recorded",
@@ -71,9 +72,13 @@ class RecordedEpisode:
     extraction's id and interacting vehicles, …)."""
 
 
+DATASETS = {"ngsim": "ngsim", "cats": "cats-av-lanechange"}
+"""The shipped samples: dataset key → its folder's name under the data folder
+(``../shared/data`` beside a checkout)."""
+
 _DATASETS = {
-    "ngsim": ("NGSIM", "load_ngsim", "../shared/data/ngsim", "recording"),
-    "cats": ("CATS", "load_cats", "../shared/data/cats-av-lanechange", "run_id"),
+    "ngsim": ("NGSIM", "load_ngsim", f"../shared/data/{DATASETS['ngsim']}", "recording"),
+    "cats": ("CATS", "load_cats", f"../shared/data/{DATASETS['cats']}", "run_id"),
 }
 """Dataset key → (name, loader, example folder, the recording column), for messages."""
 

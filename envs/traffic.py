@@ -31,6 +31,7 @@ import numpy as np
 from gymnasium import spaces
 
 from drivestyle.envs.lane_change import LaneChangeEnv, _vehicles_overlap, checked_options
+from drivestyle.envs.lanes import leaders
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
 
@@ -66,6 +67,9 @@ class IDMParams:
     """Desired time headway [s]."""
     delta: float = 4.0
     """Velocity exponent."""
+    max_decel: float = 10.0
+    """The hardest braking the IDM commands [m/s²]: its (s*/s)² term grows without bound as
+    the gap closes, a car brakes at about 1 g at most."""
 
 
 IDM = IDMParams()
@@ -74,7 +78,10 @@ IDM = IDMParams()
 def idm_acceleration(
     v: float, v0: float, gap: float | None, v_leader: float, p: IDMParams = IDM
 ) -> float:
-    """IDM acceleration a = a_max [1 − (v/v0)^δ − (s*/s)²], s* = s0 + vT + vΔv/(2√(a b)).
+    """IDM acceleration a = a_max [1 − (v/v0)^δ − (s*/s)²], s* = s0 + max(0, vT + vΔv/(2√(a b))).
+
+    The project's one IDM (Treiber, Hennecke, Helbing 2000): the traffic env's vehicles and
+    the physics baseline of prediction (:mod:`drivestyle.irl.physics`) both call it.
 
     Args:
         v: own speed [m/s].
@@ -84,14 +91,14 @@ def idm_acceleration(
         p: parameters.
 
     Returns:
-        Acceleration [m/s²], bounded below by −2b (an emergency brake).
+        Acceleration [m/s²], bounded below by −``p.max_decel`` (an emergency brake).
     """
     free = 1.0 - (max(v, 0.0) / v0) ** p.delta
     if gap is None:
         return p.a_max * free
     s_star = p.s0 + max(v * p.time_gap + v * (v - v_leader) / (2 * math.sqrt(p.a_max * p.b)), 0)
     acc = p.a_max * (free - (s_star / max(gap, 0.1)) ** 2)
-    return max(acc, -2 * p.b)
+    return max(acc, -p.max_decel)
 
 
 @dataclass(frozen=True)
@@ -380,27 +387,23 @@ class TrafficEnv(LaneChangeEnv):
         """Move every other vehicle one step (constant velocity or IDM)."""
         sc = self.scenario
         dt, length = sc.dt, sc.vehicle_length
-        w, top = sc.lane_width, sc.n_lanes - 1
+        w = sc.lane_width
         old = self.vehicles.tolist()
-        ev = self.ev.tolist()
-        lane_of = [min(max(r[1] // w, 0), top) for r in old]
-        ev_lane = min(max(int(ev[1] // w), 0), top)
+        # every vehicle's leader among the others and the EV (the one rule, envs.lanes)
+        everyone = np.vstack([self.vehicles, self.ev[None, :]])
+        n = len(old)
+        ox = np.where(np.eye(n, n + 1, dtype=bool), -np.inf, everyone[:, 0][None, :])
+        oy = np.broadcast_to(everyone[:, 1], (n, n + 1))
+        lead = leaders(everyone[:n, 0], everyone[:n, 1], ox, oy, w).tolist()
+        rows = everyone.tolist()
         desired = self._desired_speeds.tolist()
         new = []
         for j, behaviour in enumerate(self.scene.behaviours):
             x, y, phi, v = old[j]
             if behaviour == "idm":
-                lane = lane_of[j]
-                ahead = [
-                    (r[0], r[3])
-                    for i, r in enumerate(old)
-                    if i != j and lane_of[i] == lane and r[0] > x
-                ]
-                if ev_lane == lane and ev[0] > x:
-                    ahead.append((ev[0], ev[3]))
-                leader = min(ahead, default=None)
+                leader = None if lead[j] < 0 else rows[lead[j]]
                 gap = None if leader is None else leader[0] - x - length
-                a = idm_acceleration(v, desired[j], gap, 0.0 if leader is None else leader[1])
+                a = idm_acceleration(v, desired[j], gap, 0.0 if leader is None else leader[3])
                 v_new = max(v + a * dt, 0.0)
                 x += 0.5 * (v + v_new) * dt
                 new.append([x, y, 0.0, v_new])

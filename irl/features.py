@@ -40,6 +40,7 @@ import casadi as ca
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.lanes import leaders
 from drivestyle.envs.safety import elliptical_index, trigger_time
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.spline import basis_matrix, state_control_points
@@ -390,16 +391,8 @@ def tiv_reference(
         return np.zeros(n - 1, dtype=int)
     sc = scenario
     s_e = _index_field(ev, vehicles, sc)
-    lane = np.floor(vehicles[:, :, 1] / sc.lane_width)
-    ev_lane = np.floor(ev[:, 1] / sc.lane_width)
-    ref = np.empty(n - 1, dtype=int)
-    for j in range(n - 1):
-        ahead = (lane[j] == ev_lane[j]) & (vehicles[j, :, 0] > ev[j, 0])
-        if ahead.any():
-            cand = np.flatnonzero(ahead)
-            ref[j] = cand[np.argmin(vehicles[j, cand, 0])]
-        else:
-            ref[j] = int(np.argmin(s_e[j]))
+    lead = leaders(ev[:-1, 0], ev[:-1, 1], vehicles[:-1, :, 0], vehicles[:-1, :, 1], sc.lane_width)
+    ref = np.where(lead >= 0, lead, np.argmin(s_e[:-1], axis=1)).astype(int)
     return ref
 
 

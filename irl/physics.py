@@ -7,9 +7,9 @@ y lateral, lanes ``lane_width`` wide with lane i covering [i·w, (i+1)·w)):
 
 - **Longitudinal: the Intelligent Driver Model** (Treiber, Hennecke, Helbing 2000) behind
   the leader. The surrounding vehicles are predicted at constant velocity from their last
-  observed states; the leader at step j is the nearest vehicle ahead whose predicted lateral
-  position is within half a lane of the vehicle's own predicted one (so the leader changes
-  when the predicted lane change crosses into the target lane):
+  observed states; the leader at step j is the nearest vehicle ahead in the lane of the
+  vehicle's own predicted lateral position (:func:`drivestyle.envs.lanes.leaders`: the
+  leader changes when the predicted lane change crosses into the target lane):
 
       a = a_max [1 − (v / v0)^4 − (s* / s)²],   s* = s0 + max(0, v T + v Δv / (2 √(a_max b))),
 
@@ -47,8 +47,11 @@ from typing import Any
 
 import numpy as np
 
+from drivestyle.envs.lanes import LATERAL_WINDOW_S, lane_change_target, leaders
+from drivestyle.envs.traffic import IDMParams
+from drivestyle.envs.traffic import idm_acceleration as _idm
+
 __all__ = [
-    "LATERAL_WINDOW_S",
     "PhysicsCalibration",
     "PhysicsCase",
     "PhysicsParams",
@@ -61,13 +64,6 @@ __all__ = [
     "quintic_progress",
     "save_params",
 ]
-
-LATERAL_WINDOW_S = 0.6
-"""The observed lateral velocity is the mean over the last this many seconds [s]."""
-IDM_DELTA = 4.0
-"""IDM's free-road exponent δ (the model's standard value, not calibrated)."""
-MIN_GAP_M = 0.1
-"""Bumper gaps are floored here so that s*/s stays finite [m]."""
 
 
 @dataclass(frozen=True)
@@ -117,7 +113,10 @@ BOUNDS = {
 def idm_acceleration(
     v: float, gap: float | None, dv: float, v0: float, params: PhysicsParams
 ) -> float:
-    """IDM acceleration [m/s²] (module docstring).
+    """IDM acceleration [m/s²] with the baseline's parameters (module docstring).
+
+    The one IDM of the project (:func:`drivestyle.envs.traffic.idm_acceleration`, its
+    braking bounded as there) with T, s0, a_max, b from ``params``.
 
     Args:
         v: own longitudinal speed [m/s].
@@ -126,12 +125,13 @@ def idm_acceleration(
         v0: desired speed [m/s].
         params: T, s0, a_max, b.
     """
-    a, b = params.accel_mps2, params.decel_mps2
-    free = 1.0 - (max(v, 0.0) / max(v0, 1e-3)) ** IDM_DELTA
-    if gap is None:
-        return a * free
-    s_star = params.min_gap_m + max(0.0, v * params.time_gap_s + v * dv / (2.0 * np.sqrt(a * b)))
-    return a * (free - (s_star / max(gap, MIN_GAP_M)) ** 2)
+    idm = IDMParams(
+        a_max=params.accel_mps2,
+        b=params.decel_mps2,
+        s0=params.min_gap_m,
+        time_gap=params.time_gap_s,
+    )
+    return _idm(v, max(v0, 1e-3), gap, v - dv, idm)
 
 
 def quintic_progress(u: np.ndarray | float) -> np.ndarray:
@@ -171,11 +171,8 @@ def lateral_forecast(
     yk = float(y[-1])
     if abs(vy) < params.trigger_mps:
         return np.full(steps + 1, yk)
-    d = 1.0 if vy > 0 else -1.0
-    # the neighbouring lane's centre in the direction d, or the current lane's if the vehicle
-    # crossed into it in that direction during the observation (lane i: [i w, (i + 1) w))
-    lane, first = np.floor(yk / lane_width), np.floor(y[0] / lane_width)
-    target = float((lane + (0.0 if lane == first + d else d) + 0.5) * lane_width)
+    lane, d = lane_change_target(y, dt, lane_width)  # the target line's rule (envs.lanes)
+    target = (lane + 0.5) * lane_width
     origin = target - d * lane_width
     u_k = _inverse_progress((yk - origin) / (target - origin))
     s_k = float(quintic_progress(u_k))
@@ -201,7 +198,7 @@ def longitudinal_forecast(
             constant velocity from here).
         y_path: the vehicle's predicted lateral positions, shape (H + 1,).
         dt: T_s [s].
-        lane_width: w [m] (a vehicle within w/2 laterally is in the same lane).
+        lane_width: w [m] (lane i covers [i·w, (i + 1)·w)).
         length: the leader's length, subtracted from the front-to-front distance [m].
         params: the IDM parameters.
 
@@ -219,9 +216,8 @@ def longitudinal_forecast(
     for j in range(steps):
         t = j * dt
         ox, oy = ox0 + ovx * t, oy0 + ovy * t
-        ahead = (ox > x[j]) & (np.abs(oy - y_path[j]) < 0.5 * lane_width)
-        if ahead.any():
-            i = int(np.flatnonzero(ahead)[np.argmin(ox[ahead])])
+        i = int(leaders(x[j : j + 1], y_path[j : j + 1], ox, oy, lane_width)[0])
+        if i >= 0:
             acc = idm_acceleration(v, float(ox[i] - x[j] - length), v - float(ovx[i]), v0, params)
         else:
             acc = idm_acceleration(v, None, 0.0, v0, params)

@@ -49,6 +49,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import RecordConstructorArgs
 
+from drivestyle.envs.lanes import leaders
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.driver_style import DriverStyle, load_driver_style
 from drivestyle.irl.features import (
@@ -294,14 +295,10 @@ class StyleReward:
         if len(rows) == 1:
             self._ref.append(0)
             return
-        w = self._lane_width
-        ev_lane = math.floor(ev[1] / w)
-        ahead = [i for i, r in enumerate(rows) if math.floor(r[1] / w) == ev_lane and r[0] > ev[0]]
-        if ahead:
-            xs = [rows[i][0] for i in ahead]
-            self._ref.append(ahead[xs.index(min(xs))])
-        else:
-            self._ref.append(s_e.index(s_min))
+        xy = np.asarray(rows, float)
+        here = np.asarray(ev[:2], float)
+        lead = int(leaders(here[:1], here[1:], xy[None, :, 0], xy[None, :, 1], self._lane_width)[0])
+        self._ref.append(lead if lead >= 0 else s_e.index(s_min))
 
     # ------------------------------------------------------------------ segments
     def _segments(self, js: range) -> list[dict[str, float]]:

@@ -31,7 +31,9 @@ from typing import Any
 import numpy as np
 
 from drivestyle.agents.studies.real_traffic import lane_change_stats
+from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.lanes import leaders
 
 AV_VEHICLE = "cats:AV:3"
 """The computer-driven car (CATS vehicle 3 on its AV days)."""
@@ -72,10 +74,11 @@ def group_of(vehicle: str) -> str:
 
 
 def time_gaps(demo: Demonstration) -> np.ndarray:
-    """Time gap to the nearest vehicle ahead in the EV's lane at every sample.
+    """Time gap to the EV's leader at every sample.
 
-    A vehicle is in the EV's lane when its lateral offset is below half the scenario's lane
-    width; the gap is bumper to bumper (centre distance minus one vehicle length).
+    The leader is the nearest vehicle ahead in the EV's lane (the one rule,
+    :func:`drivestyle.envs.lanes.leaders`); the gap is bumper to bumper (centre distance
+    minus one vehicle length).
 
     Args:
         demo: a demonstration (TV and ``others``).
@@ -84,12 +87,11 @@ def time_gaps(demo: Demonstration) -> np.ndarray:
         Shape (n,) [s]; inf where no vehicle is ahead in the lane or the EV stands.
     """
     sc = demo.scenario
-    vehicles = demo.vehicles
-    dx = vehicles[..., 0] - demo.ev[:, None, 0]
-    dy = np.abs(vehicles[..., 1] - demo.ev[:, None, 1])
-    ahead = (dx > 0) & (dy < sc.lane_width / 2)
-    gap = np.where(ahead, np.maximum(dx - sc.vehicle_length, 0.0), np.inf).min(axis=1)
-    v = demo.ev[:, 3]
+    vehicles, ev = demo.vehicles, demo.ev
+    lead = leaders(ev[:, 0], ev[:, 1], vehicles[..., 0], vehicles[..., 1], sc.lane_width)
+    ahead_x = np.take_along_axis(vehicles[..., 0], np.maximum(lead, 0)[:, None], axis=1)[:, 0]
+    gap = np.where(lead >= 0, np.maximum(ahead_x - ev[:, 0] - sc.vehicle_length, 0.0), np.inf)
+    v = ev[:, 3]
     return np.where(v > 0.5, gap / np.maximum(v, 0.5), np.inf)
 
 
@@ -227,8 +229,9 @@ class Difference:
 
 
 def _median_draws(values: np.ndarray, rng: np.random.Generator, samples: int) -> np.ndarray:
-    idx = rng.integers(0, values.size, (samples, values.size))
-    return np.median(values[idx], axis=1)
+    """The median over bootstrap replicates of lane changes (each its own unit)."""
+    rows = bootstrap_rows(range(values.size), samples, rng)
+    return np.median(values[np.array(rows)], axis=1)
 
 
 @dataclass(frozen=True)
@@ -299,7 +302,7 @@ def compare_av_human(
             lo: float | None = None
             hi: float | None = None
             if d is not None:
-                lo, hi = (float(v) for v in np.percentile(d, [2.5, 97.5]))
+                lo, hi = percentile_interval(d)
             stats.append(GroupStat(q, g, int(x.size), medians[g], lo, hi))
             draws[g] = d
         for g in GROUPS[1:]:
@@ -307,8 +310,8 @@ def compare_av_human(
             if a is None or b is None or med is None or other is None:
                 diffs.append(Difference(q, g, None, None, None))
                 continue
-            lo_d, hi_d = np.percentile(a - b, [2.5, 97.5])
-            diffs.append(Difference(q, g, med - other, float(lo_d), float(hi_d)))
+            lo_d, hi_d = percentile_interval(a - b)
+            diffs.append(Difference(q, g, med - other, lo_d, hi_d))
     verdicts: dict[str, dict[str, int]] = {}
     for r in rows:
         verdicts.setdefault(r.group, {}).setdefault(r.verdict, 0)

@@ -47,14 +47,15 @@ solvers are compiled); the frame shifted laterally by whole lanes so that the ve
 current lane is the middle one of three (the episode's frame puts its origin lane at the
 road's edge, on the side away from the recorded change: the road edge would tell the
 direction); the target lane the neighbouring one in the direction of the observed lateral
-velocity (:data:`LATERAL_WINDOW_S`), not the recorded destination; the vehicle it reacts to
-first (the TV slot) the nearest observed vehicle in that lane, not the episode's target
-(chosen at the recorded crossing); a vehicle not yet recorded at t_obs (the loader continues
-it backwards at constant velocity from its first recorded state, i.e. from the future) is
-replaced by a phantom 1 km behind. Residual leaks, in the loader (``envs/real_data.py``):
-the resampling splines are global (a state at t ≤ t_obs moves by a decaying amount with the
-later recorded positions); NGSIM's lane grid is placed at the recorded crossing; the
-episode's window is centred on the recorded crossing (the lane change is known to happen).
+velocity (:func:`~drivestyle.envs.lanes.lane_change_target`), not the recorded destination;
+the vehicle it reacts to first (the TV slot) the nearest observed vehicle in that lane, not
+the episode's target (chosen at the recorded crossing); a vehicle not yet recorded at t_obs
+(the loader continues it backwards at constant velocity from its first recorded state, i.e.
+from the future) is replaced by a phantom 1 km behind. Residual leaks, in the loader
+(``envs/real_data.py``): the resampling splines are global (a state at t ≤ t_obs moves by a
+decaying amount with the later recorded positions); NGSIM's lane grid is placed at the
+recorded crossing; the episode's window is centred on the recorded crossing (the lane change
+is known to happen).
 
 Online identification (:func:`track_vehicle`): each simulated demonstration is fed whole to
 the :class:`~drivestyle.irl.online.StyleTracker` without its inputs (an observer does not
@@ -86,9 +87,11 @@ from drivestyle.agents.demo_generation import (
     generate_traffic_demonstration,
 )
 from drivestyle.common.parallel import parallel_map
+from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import speed_constants
-from drivestyle.envs.real_data import is_recorded, recorded_view
+from drivestyle.envs.lanes import lane_change_target, lane_index
+from drivestyle.envs.real_data import DATASETS, is_recorded, recorded_view
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
 from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_style
@@ -96,7 +99,6 @@ from drivestyle.irl.forecast import METHODS, ForecastError, Prediction, predict
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker, TrackerError
 from drivestyle.irl.physics import (
-    LATERAL_WINDOW_S,
     PhysicsCalibration,
     PhysicsCase,
     PhysicsParams,
@@ -164,8 +166,6 @@ NARROW_WIDTH = 0.2
 """Online identification is *narrow* once its 90 % interval is narrower than this."""
 STYLE_METHODS = ("mode", "mixture")
 """The identified-style methods the goals are checked for."""
-DATASETS = {"ngsim": "ngsim", "cats": "cats-av-lanechange"}
-"""Recorded set → its folder under the data directory."""
 DEFAULT_DATA_DIR = Path("../shared/data")
 """Where the recorded datasets sit beside a checkout (they are not part of the repository)."""
 GOALS = {
@@ -428,12 +428,10 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
     shift = w * (1.0 - math.floor(ev[k, 1] / w))
     ev[:, 1] += shift
     vehicles[..., 1] += shift
-    m = min(k, max(1, round(LATERAL_WINDOW_S / dt)))
-    d = 1 if ev[k, 1] >= ev[k - m, 1] else -1
+    target, _ = lane_change_target(ev[: k + 1, 1], dt, w)  # the one rule (envs.lanes)
     lane0 = min(max(math.floor(ev[0, 1] / w), 0), 2)
-    target = 1 if lane0 == 1 - d else 1 + d  # crossed into the middle lane while observed
     ev_lane = lane0 if lane0 != target else 1
-    lanes_k = np.floor(vehicles[k, :, 1] / w)
+    lanes_k = lane_index(vehicles[k, :, 1], w)
     in_target = np.flatnonzero(lanes_k == target)
     pool = in_target if in_target.size else np.arange(vehicles.shape[1])
     first = int(pool[np.argmin(np.abs(vehicles[k, pool, 0] - ev[k, 0]))])
@@ -896,9 +894,10 @@ def bootstrap_stats(
 ) -> list[ErrorStat]:
     """Mean and median of each column with percentile bootstrap 95 % intervals over units.
 
-    A replicate draws the distinct units (vehicles) with replacement, as many as there are,
-    and takes every record of each drawn unit; the interval is the 2.5–97.5 % percentile of
-    the replicates' statistic. The same replicates serve every column (paired comparisons).
+    :func:`drivestyle.common.stats.bootstrap_rows`: a replicate draws the distinct units
+    (vehicles) with replacement and takes every record of each drawn unit; the interval is
+    the 2.5–97.5 % percentile of the replicates' statistic. The same replicates serve every
+    column (paired comparisons).
 
     Args:
         values: errors, shape (records, columns) [m]; a column with NaN gets NaN statistics.
@@ -910,19 +909,16 @@ def bootstrap_stats(
         One :class:`ErrorStat` per column.
     """
     values = np.asarray(values, dtype=float).reshape(len(units), -1)
-    names = sorted(set(units))
-    rows = [np.flatnonzero(np.asarray(units) == u) for u in names]
-    draws = np.random.default_rng(seed).integers(0, len(names), (samples, len(names)))
     means = np.empty((samples, values.shape[1]))
     medians = np.empty_like(means)
-    for b, pick in enumerate(draws):
-        sub = values[np.concatenate([rows[i] for i in pick])]
+    for b, rows in enumerate(bootstrap_rows(units, samples, np.random.default_rng(seed))):
+        sub = values[rows]
         means[b] = sub.mean(axis=0)
         medians[b] = np.median(sub, axis=0)
     out = []
     for c in range(values.shape[1]):
-        mlo, mhi = np.percentile(means[:, c], [2.5, 97.5])
-        dlo, dhi = np.percentile(medians[:, c], [2.5, 97.5])
+        mlo, mhi = percentile_interval(means[:, c])
+        dlo, dhi = percentile_interval(medians[:, c])
         col = values[:, c]
         out.append(ErrorStat(float(col.mean()), float(mlo), float(mhi),
                              float(np.median(col)), float(dlo), float(dhi)))  # fmt: skip
