@@ -67,6 +67,7 @@ __all__ = [
     "find_lane_changes",
     "interacting_vehicles",
     "observed_scenario",
+    "read_episodes",
     "recover_inputs",
     "resample_states",
     "speed_constants",
@@ -713,3 +714,58 @@ def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
                 ]
             )
     return path
+
+
+def read_episodes(folder: str | Path) -> list[tuple[str, str, Demonstration]]:
+    """The usable episodes of a folder :func:`write_episodes` wrote, in ``episodes.csv`` order.
+
+    Args:
+        folder: the folder (``drivestyle extract-episodes --out``).
+
+    Returns:
+        (episode id, vehicle, demonstration) per usable episode; the vehicle is
+        ``<carriageway>:<vehicle id>`` (a vehicle id is unique within its carriageway).
+
+    Raises:
+        FileNotFoundError: no such folder, or no ``episodes.csv`` in it.
+        ValueError: a malformed ``episodes.csv`` (missing columns, an id twice), a usable
+            row whose file is missing or not a demonstration; the message names the file
+            and the row.
+    """
+    from drivestyle.envs.demonstration import DemonstrationError, load_demonstration
+
+    folder = Path(folder)
+    index = folder / "episodes.csv"
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{folder}: no such folder (an extract-episodes output folder)")
+    if not index.is_file():
+        raise FileNotFoundError(
+            f"{folder} has no episodes.csv: pass a folder written by drivestyle extract-episodes"
+        )
+    with index.open(newline="", encoding="utf-8", errors="replace") as f:
+        reader = csv.DictReader(f)
+        need = {"episode_id", "file", "carriageway", "vehicle_id", "usable"}
+        missing = sorted(need - set(reader.fieldnames or ()))
+        if missing:
+            raise ValueError(f"{index}: missing column(s) {', '.join(missing)}")
+        rows = list(reader)
+    out, seen = [], set()
+    for n, row in enumerate(rows, start=2):
+        eid = row["episode_id"] or ""
+        if eid in seen:
+            raise ValueError(f"{index}:{n}: episode {eid!r} appears twice")
+        seen.add(eid)
+        if row["usable"] != "True":
+            continue
+        path = folder / (row["file"] or "")
+        if not row["file"] or Path(row["file"]).name != row["file"] or not path.is_file():
+            raise ValueError(
+                f"{index}:{n}: usable episode {eid!r} names the file {row['file']!r}, which is "
+                f"not in {folder}"
+            )
+        try:
+            demo = load_demonstration(path)
+        except DemonstrationError as exc:
+            raise ValueError(f"{index}:{n}: {exc}") from None
+        out.append((eid, f"{row['carriageway']}:{row['vehicle_id']}", demo))
+    return out

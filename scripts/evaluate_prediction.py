@@ -22,6 +22,15 @@ ADE and FDE and their lateral and longitudinal parts, means and medians with boo
 intervals over vehicles. ``--write-split`` rewrites the split file and
 ``--calibrate-physics`` the parameters, and exit.
 
+``--episodes DIR`` benchmarks a folder written by ``drivestyle extract-episodes`` (your own
+recordings) instead of the shipped samples, with the same methods, tables and intervals and
+no simulated vehicles: its episodes are split by vehicle (``<carriageway>:<vehicle id>``)
+with the benchmark's rule, the split written to ``OUT/split.csv`` (``--split-file`` uses
+another, e.g. one written by ``--episodes DIR --write-split --split-file FILE``; ``--split
+all`` predicts every episode); the physics baseline keeps the shipped calibration unless
+``--physics`` names one calibrated on your train split (``--episodes DIR
+--calibrate-physics --physics FILE``).
+
 Example:
     python scripts/evaluate_prediction.py --library runs/library --out runs/prediction
     drivestyle evaluate-prediction --library runs/library --no-simulated --out runs/benchmark_val
@@ -49,9 +58,11 @@ from drivestyle.agents.studies.prediction import (
     SPLITS,
     T_OBS,
     TEST_SEED,
+    SplitRow,
     benchmark_split,
     calibrate_on_split,
     check_observed_times,
+    episodes_split,
     evaluate_prediction,
     example_record,
     read_split,
@@ -68,7 +79,7 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.irl.library import load_driver_library
-from drivestyle.irl.physics import load_params, save_params
+from drivestyle.irl.physics import PhysicsParams, load_params, save_params
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -77,14 +88,31 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--library", type=Path, help="driver library folder or its library.json")
     p.add_argument(
         "--split",
-        choices=SPLITS,
+        choices=(*SPLITS, "all"),
         default="validation",
         help="the benchmark split of the recorded episodes (test: run once, by the issue it "
-        "judges)",
+        "judges; all: every episode of --episodes)",
     )
-    p.add_argument("--split-file", type=Path, default=SPLIT_FILE, help="the benchmark split (CSV)")
     p.add_argument(
-        "--physics", type=Path, default=PHYSICS_FILE, help="the physics baseline's parameters"
+        "--split-file",
+        type=Path,
+        default=None,
+        help=f"the benchmark split (CSV; default: {SPLIT_FILE.name} shipped with the package, or "
+        "with --episodes the folder's own split by vehicle)",
+    )
+    p.add_argument(
+        "--episodes",
+        type=Path,
+        default=None,
+        help="a folder written by drivestyle extract-episodes: benchmark its episodes instead "
+        "of the shipped samples (no simulated vehicles)",
+    )
+    p.add_argument(
+        "--physics",
+        type=Path,
+        default=None,
+        help=f"the physics baseline's parameters (default: {PHYSICS_FILE.name} shipped with the "
+        "package, calibrated on the shipped train split)",
     )
     p.add_argument(
         "--regions-from",
@@ -141,6 +169,28 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
+def _split_rows(args: argparse.Namespace) -> list[SplitRow]:
+    """``--split-file`` (default: the shipped split), read; a missing file named by its option."""
+    path = SPLIT_FILE if args.split_file is None else args.split_file
+    try:
+        return read_split(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"--split-file {path}: no such file") from None
+    except ValueError as exc:
+        raise ValueError(f"--split-file {exc}") from None
+
+
+def _physics(args: argparse.Namespace) -> PhysicsParams:
+    """``--physics`` (default: the shipped calibration), read; errors named by the option."""
+    path = PHYSICS_FILE if args.physics is None else args.physics
+    try:
+        return load_params(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"--physics {path}: no such file") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"--physics {path}: not a physics parameters file ({exc})") from None
+
+
 def _calibration(args: argparse.Namespace) -> list[dict]:
     """The records of ``--regions-from`` (another split's run), checked."""
     import json
@@ -176,22 +226,40 @@ def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns prediction_eval.json's payload."""
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
+    own = args.episodes is not None
+    if args.split == "all" and not own:
+        raise ValueError(
+            "--split all: every episode of an --episodes folder; the shipped benchmark is "
+            "judged one split at a time"
+        )
+    if own and args.no_recorded:
+        raise ValueError("--episodes benchmarks recorded episodes; drop --no-recorded")
+    if own and not args.episodes.is_dir():
+        raise FileNotFoundError(f"--episodes {args.episodes}: no such folder")
     if args.write_split:
-        rows = benchmark_split(args.data_dir)
-        write_split(rows, args.split_file)
-        print(f"wrote {args.split_file} ({len(rows)} episodes)")
-        return {"split_file": str(args.split_file), "episodes": len(rows)}
+        if own and args.split_file is None:  # never over the shipped benchmark's split
+            raise ValueError("--episodes --write-split needs --split-file (the file to write)")
+        target = SPLIT_FILE if args.split_file is None else args.split_file
+        written = episodes_split(args.episodes) if own else benchmark_split(args.data_dir)
+        write_split(written, target)
+        print(f"wrote {target} ({len(written)} episodes)")
+        return {"split_file": str(target), "episodes": len(written)}
     if args.calibrate_physics:
-        cal = calibrate_on_split(args.data_dir, read_split(args.split_file), args.observe)
-        save_params(cal, args.physics)
-        print(f"wrote {args.physics}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
+        if own and args.physics is None:  # never over the shipped benchmark's calibration
+            raise ValueError("--episodes --calibrate-physics needs --physics (the file to write)")
+        chosen = None if args.split_file is None and own else _split_rows(args)
+        cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
+        physics_file = PHYSICS_FILE if args.physics is None else args.physics
+        save_params(cal, physics_file)
+        print(f"wrote {physics_file}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
               f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip
         return cal.to_json()
     if args.library is None:
         raise ValueError("--library is required (except with --write-split or --calibrate-physics)")
     if args.no_recorded and args.no_simulated:
         raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
-    inputs = [args.library] + ([] if args.no_recorded else [args.data_dir])
+    recorded_input = args.episodes if own else args.data_dir
+    inputs = [args.library] + ([] if args.no_recorded else [recorded_input])
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
     if repeated:
@@ -207,13 +275,19 @@ def main(argv: list[str] | None = None) -> dict:
             raise ValueError(f"--observe: {exc}") from None
     library = load_driver_library(args.library, "prediction")
     calibration = None if args.regions_from is None else _calibration(args)
-    if not args.no_recorded:
+    if not args.no_recorded and not own:
         for folder in DATASETS.values():
             if not (args.data_dir / folder).is_dir():
                 raise FileNotFoundError(
                     f"--data-dir {args.data_dir}: no {folder}/ folder (pass the folder holding "
                     "the datasets, or --no-recorded)"
                 )
+    rows: list[SplitRow] | None = None
+    if not args.no_recorded:
+        if own and args.split_file is None:
+            rows = None if args.split == "all" else episodes_split(args.episodes)
+        else:
+            rows = _split_rows(args)
     bars: dict[str, tqdm] = {}
 
     def on_plan(stage: str, n: int) -> None:
@@ -223,17 +297,18 @@ def main(argv: list[str] | None = None) -> dict:
     try:
         study = evaluate_prediction(
             library,
-            0 if args.no_simulated else args.vehicles,
+            0 if args.no_simulated or own else args.vehicles,
             args.seed,
-            None if args.no_recorded else args.data_dir,
+            None if args.no_recorded or own else args.data_dir,
             args.observe,
             args.workers,
             progress=lambda stage, k: bars[stage].update(k),
             on_plan=on_plan,
             split=None if args.no_recorded else args.split,
-            split_rows=None if args.no_recorded else read_split(args.split_file),
-            physics=load_params(args.physics),
+            split_rows=rows,
+            physics=_physics(args),
             calibration=calibration,
+            episodes_dir=args.episodes,
         )
     finally:
         for bar in bars.values():
@@ -243,6 +318,8 @@ def main(argv: list[str] | None = None) -> dict:
     markdown = prediction_markdown(study, command_line(argv_used))
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "prediction_eval.json", payload, argv_used)
+        if own and rows is not None:  # the split the numbers were judged on
+            write_split(rows, tmp / "split.csv")
         write_text(tmp / "report.md", markdown)
         plot_prediction_errors(study, tmp / "fde_by_method.png")
         if study.tracks:

@@ -110,6 +110,7 @@ __all__ = [
     "BOOTSTRAP_SEED",
     "DATASETS",
     "DEFAULT_DATA_DIR",
+    "EPISODES_SET",
     "ERROR_METRICS",
     "GOALS",
     "NARROW_WIDTH",
@@ -137,9 +138,11 @@ __all__ = [
     "calibrate_on_split",
     "check_observed_times",
     "draw_simulated",
+    "episodes_split",
     "evaluate_prediction",
     "example_record",
     "goal_checks",
+    "load_episodes_folder",
     "load_recorded",
     "observed_view",
     "observer_view",
@@ -148,6 +151,7 @@ __all__ = [
     "read_split",
     "recorded_episodes",
     "spanning_tracks",
+    "split_by_vehicle",
     "summarise_records",
     "summarise_tracking",
     "track_vehicle",
@@ -175,10 +179,14 @@ GOALS = {
 }
 """The issue's goals: FDE ≥ 30 % below CV on simulated vehicles, ≥ 15 % below on recorded
 ones (each dataset and both pooled), and FDE ≤ 1.25 × the oracle's on simulated ones."""
+SIMULATED = "simulated"
+"""The set of the simulated held-out vehicles."""
 RECORDED = "recorded"
 """The pooled set of every recorded episode (NGSIM and CATS)."""
 SPLITS = ("train", "validation", "test")
-"""The benchmark's splits."""
+"""The benchmark's splits (``--split all`` of an episodes folder takes every row)."""
+EPISODES_SET = "episodes"
+"""The set of a folder of extracted episodes (``evaluate-prediction --episodes``)."""
 SPLIT_FRACTIONS = {"test": 0.2, "validation": 0.2}
 """Share of each dataset's vehicles held out per split (train: the rest)."""
 SPLIT_SEED = 26
@@ -256,31 +264,50 @@ def _episode_vehicles(data_dir: Path, dataset: str) -> list[tuple[str, str]]:
     return [(eid, vid) for eid, vid, _ in recorded_episodes(str(data_dir), dataset)]
 
 
+def split_by_vehicle(
+    pairs: Sequence[tuple[str, str]], dataset: str, seed: int = SPLIT_SEED, stream: int = 0
+) -> list[SplitRow]:
+    """Assign episodes to train / validation / test by their vehicle (module docstring).
+
+    The distinct vehicles, sorted, are shuffled by ``default_rng([seed, stream])``; the
+    first ⌊0.2 n + ½⌋ (at least 1 where n ≥ 2) go to test, the next ⌊0.2 n + ½⌋ (at least 1
+    where n ≥ 3) to validation, the rest to train. With two vehicles one is train and one
+    test.
+
+    Args:
+        pairs: (episode id, vehicle id) per episode.
+        dataset: the rows' dataset (the set their records are summarised under).
+        seed: the split's seed.
+        stream: the generator's second key (the shipped samples: the dataset's index).
+
+    Returns:
+        One row per episode, in the order of ``pairs``.
+    """
+    vehicles = sorted({v for _, v in pairs})
+    order = [vehicles[j] for j in np.random.default_rng([seed, stream]).permutation(len(vehicles))]
+    n = len(order)
+    n_test = max(1 if n >= 2 else 0, math.floor(SPLIT_FRACTIONS["test"] * n + 0.5))
+    n_val = max(1 if n >= 3 else 0, math.floor(SPLIT_FRACTIONS["validation"] * n + 0.5))
+    split = {v: "test" for v in order[:n_test]}
+    split |= {v: "validation" for v in order[n_test : n_test + n_val]}
+    split |= {v: "train" for v in order[n_test + n_val :]}
+    return [SplitRow(dataset, e, v, split[v]) for e, v in pairs]
+
+
 def benchmark_split(
     data_dir: str | Path = DEFAULT_DATA_DIR, seed: int = SPLIT_SEED
 ) -> list[SplitRow]:
-    """Assign every episode to a split by its vehicle (module docstring).
+    """Assign every shipped episode to a split by its vehicle (:func:`split_by_vehicle`).
 
-    Per dataset the distinct vehicles, sorted, are shuffled by ``default_rng([seed, i])``
-    (i the dataset's index in :data:`DATASETS`); the first ⌊0.2 n + ½⌋ (at least 1 where
-    n ≥ 2) go to test, the next ⌊0.2 n + ½⌋ (at least 1 where n ≥ 3) to validation, the rest
-    to train. With two vehicles (CATS's drivers) one is train and one test.
+    Each dataset of :data:`DATASETS` is split on its own (stream: its index), so both have
+    vehicles in every split.
 
     Returns:
         One row per episode, sorted by dataset and episode id.
     """
     rows = []
     for i, ds in enumerate(DATASETS):
-        pairs = _episode_vehicles(Path(data_dir), ds)
-        vehicles = sorted({v for _, v in pairs})
-        order = [vehicles[j] for j in np.random.default_rng([seed, i]).permutation(len(vehicles))]
-        n = len(order)
-        n_test = max(1 if n >= 2 else 0, math.floor(SPLIT_FRACTIONS["test"] * n + 0.5))
-        n_val = max(1 if n >= 3 else 0, math.floor(SPLIT_FRACTIONS["validation"] * n + 0.5))
-        split = {v: "test" for v in order[:n_test]}
-        split |= {v: "validation" for v in order[n_test : n_test + n_val]}
-        split |= {v: "train" for v in order[n_test + n_val :]}
-        rows += [SplitRow(ds, e, v, split[v]) for e, v in pairs]
+        rows += split_by_vehicle(_episode_vehicles(Path(data_dir), ds), ds, seed, i)
     return sorted(rows, key=lambda r: (r.dataset, r.episode_id))
 
 
@@ -294,17 +321,24 @@ def write_split(rows: Sequence[SplitRow], path: str | Path = SPLIT_FILE) -> None
 def read_split(path: str | Path = SPLIT_FILE) -> list[SplitRow]:
     """The split :func:`write_split` wrote.
 
+    The dataset column names the set a row's records are summarised under: ``ngsim`` and
+    ``cats`` for the shipped samples, :data:`EPISODES_SET` (or any label) for a folder of
+    extracted episodes.
+
     Raises:
         FileNotFoundError: no such file.
         ValueError: a malformed row or an unknown split.
     """
-    lines = Path(path).read_text().splitlines()
+    try:
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (a split CSV)") from None
     if not lines or lines[0] != "dataset,episode_id,vehicle_id,split":
         raise ValueError(f"{path}: expected the header dataset,episode_id,vehicle_id,split")
     rows = []
     for n, line in enumerate(lines[1:], start=2):
         parts = line.split(",")
-        if len(parts) != 4 or parts[3] not in SPLITS or parts[0] not in DATASETS:
+        if len(parts) != 4 or parts[3] not in SPLITS or not all(parts[:3]):
             raise ValueError(f"{path}:{n}: malformed row {line!r}")
         rows.append(SplitRow(*parts))
     return rows
@@ -490,6 +524,58 @@ def load_recorded(
             "or extraction? (drivestyle evaluate-prediction --write-split)"
         )
     return [(e, by_id[e]) for e in dict.fromkeys(episodes)]
+
+
+def episodes_split(folder: str | Path, seed: int = SPLIT_SEED) -> list[SplitRow]:
+    """The split by vehicle of a folder of extracted episodes (:func:`split_by_vehicle`).
+
+    Its rows' dataset is :data:`EPISODES_SET`; a vehicle is ``<carriageway>:<vehicle id>``
+    (:func:`~drivestyle.envs.episodes.read_episodes`).
+    """
+    from drivestyle.envs.episodes import read_episodes
+
+    pairs = [(eid, vehicle) for eid, vehicle, _ in read_episodes(folder)]
+    if not pairs:
+        raise ValueError(f"{folder}: no usable episode (episodes.csv lists none)")
+    return split_by_vehicle(pairs, EPISODES_SET, seed)
+
+
+def load_episodes_folder(
+    folder: str | Path, rows: Sequence[SplitRow] | None, split: str
+) -> list[tuple[str, str, Demonstration, str]]:
+    """The episodes of an extraction folder that a split selects, as the benchmark takes them.
+
+    Args:
+        folder: a folder written by ``drivestyle extract-episodes``.
+        rows: the split (None: every episode is in the split ``all``, its own vehicle's); it
+            must have a row for every usable episode of the folder and may have rows of
+            others (e.g. the shipped benchmark's split for a folder of one sample).
+        split: a name of :data:`SPLITS`, or ``all`` (every usable episode).
+
+    Returns:
+        (set, episode id, demonstration, bootstrap unit) per selected episode: the set is
+        the row's dataset (:data:`EPISODES_SET` without rows), the unit its vehicle.
+
+    Raises:
+        ValueError: a usable episode without a row (the message names it), or a split that
+            selects none.
+    """
+    from drivestyle.envs.episodes import read_episodes
+
+    found = {eid: (vehicle, demo) for eid, vehicle, demo in read_episodes(folder)}
+    if rows is None:
+        rows = [SplitRow(EPISODES_SET, e, v, "all") for e, (v, _) in found.items()]
+    named = {r.episode_id for r in rows}
+    missing = [e for e in found if e not in named]
+    if missing:
+        raise ValueError(
+            f"the split has no row for {len(missing)} of the {len(found)} usable episode(s) of "
+            f"{folder} (e.g. {missing[:3]}); was it written for another folder or extraction?"
+        )
+    chosen = [r for r in rows if r.episode_id in found and split in ("all", r.split)]
+    if not chosen:
+        raise ValueError(f"the split has no {split} episode of {folder}")
+    return [(r.dataset, r.episode_id, found[r.episode_id][1], r.vehicle_id) for r in chosen]
 
 
 # ---------------------------------------------------------------------------- records
@@ -986,14 +1072,14 @@ def summarise_records(
 ) -> list[MethodSummary]:
     """Per (set, t_obs, method) the errors over the records that have the method.
 
-    Sets: every record's own, and :data:`RECORDED` pooling NGSIM and CATS when both are
-    present. Each summary's :attr:`MethodSummary.stats` are :func:`bootstrap_stats` over the
-    records' units (``samples`` replicates).
+    Sets: every record's own, and :data:`RECORDED` pooling the recorded sets (NGSIM and
+    CATS) when more than one is present. Each summary's :attr:`MethodSummary.stats` are
+    :func:`bootstrap_stats` over the records' units (``samples`` replicates).
     """
     by_set: dict[str, list[PredictionRecord]] = {}
     for r in records:
         by_set.setdefault(r.set, []).append(r)
-    recorded = [r for r in records if r.set in DATASETS]
+    recorded = [r for r in records if r.set != SIMULATED]
     if len({r.set for r in recorded}) > 1:
         by_set[RECORDED] = recorded
     out = []
@@ -1268,14 +1354,22 @@ def calibrate_on_split(
     data_dir: str | Path = DEFAULT_DATA_DIR,
     rows: Sequence[SplitRow] | None = None,
     t_obs: Sequence[float] = T_OBS,
+    episodes_dir: str | Path | None = None,
 ) -> PhysicsCalibration:
     """The physics baseline calibrated on the train split's episodes at every t_obs.
 
     Args:
         data_dir: the folder holding the datasets.
-        rows: the split (default: :func:`read_split` of :data:`SPLIT_FILE`).
+        rows: the split (default: :func:`read_split` of :data:`SPLIT_FILE`; with
+            ``episodes_dir``: the folder's own, :func:`episodes_split`).
         t_obs: observed times [s].
+        episodes_dir: a folder of extracted episodes to calibrate on instead of the shipped
+            samples.
     """
+    if episodes_dir is not None:
+        rows = episodes_split(episodes_dir) if rows is None else rows
+        chosen = load_episodes_folder(episodes_dir, rows, "train")
+        return calibrate_physics(physics_cases([(e, d) for _, e, d, _ in chosen], t_obs))
     rows = read_split() if rows is None else rows
     recorded = []
     for ds in DATASETS:
@@ -1369,6 +1463,7 @@ def evaluate_prediction(
     split_rows: Sequence[SplitRow] | None = None,
     physics: PhysicsParams | None = None,
     calibration: Sequence[PredictionRecord | Mapping[str, Any]] | None = None,
+    episodes_dir: str | Path | None = None,
 ) -> PredictionStudy:
     """Run the comparison (module docstring).
 
@@ -1391,6 +1486,11 @@ def evaluate_prediction(
             ``prediction_eval.json`` rows): the 90 % prediction regions' radii
             (:func:`region_rates`), whose coverage on this run's recorded records is
             reported (None: no regions).
+        episodes_dir: a folder of extracted episodes (``drivestyle extract-episodes``) to
+            benchmark instead of the shipped samples (``data_dir`` is then not read):
+            ``split`` selects its episodes from ``split_rows`` (None: the folder's own
+            split, :func:`episodes_split`); ``split="all"`` takes every episode
+            (:func:`load_episodes_folder`).
 
     Returns:
         The study.
@@ -1411,11 +1511,18 @@ def evaluate_prediction(
             on_plan(name, n)
         return None if progress is None else lambda *_: progress(name, 1)
 
-    if split is not None and split not in SPLITS:
-        raise ValueError(f"unknown split {split!r}; known: {list(SPLITS)}")
+    known = (*SPLITS, "all") if episodes_dir is not None else SPLITS
+    if split is not None and split not in known:
+        raise ValueError(f"unknown split {split!r}; known: {list(known)}")
     recorded: list[tuple[str, str, Demonstration, str]] = []
     recorded_sets: tuple[str, ...] = ()
-    if data_dir is not None:
+    if episodes_dir is not None:
+        rows_here = split_rows
+        if rows_here is None and split != "all":
+            rows_here = episodes_split(episodes_dir)
+        recorded = load_episodes_folder(episodes_dir, rows_here, split or "all")
+        recorded_sets = tuple(dict.fromkeys(r[0] for r in recorded))
+    elif data_dir is not None:
         rows = (split_rows if split_rows is not None else read_split()) if split else []
         unit_of = {r.episode_id: r.vehicle_id for r in rows}
         for ds in DATASETS:

@@ -234,3 +234,84 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
     assert js["lateral_shift_m"] / w == pytest.approx(round(js["lateral_shift_m"] / w))
     k = round(1.4 / recorded.scenario.dt)
     assert js["actual"][0][1] == pytest.approx(recorded.ev[k, 1] + js["lateral_shift_m"], abs=1e-4)
+
+
+def _episodes_folder(folder: Path, paper_demo, n: int = 2) -> Path:
+    """A folder as extract-episodes writes it: n recorded-like episodes of n vehicles."""
+    import csv
+
+    import numpy as np
+
+    folder.mkdir()
+    rows = []
+    for i in range(n):
+        others = paper_demo.tv[:, None, :].copy()
+        others[:, 0, 0] += 30.0 + 5 * i  # a leader in the target lane
+        meta = {k: v for k, v in paper_demo.meta.items() if k not in ("risk", "smpc")}
+        demo = replace(paper_demo, others=others, meta={**meta, "episode_id": f"r_{i}_1000"})
+        save_demonstration(demo, folder / f"r_{i}_1000.npz")
+        rows.append([f"r_{i}_1000", f"r_{i}_1000.npz", "r", str(i), "True"])
+    rows.append(["r_9_2000", "", "r", "9", "False"])  # unusable rows have no file
+    with (folder / "episodes.csv").open("w", newline="") as f:
+        csv.writer(f).writerows([["episode_id", "file", "carriageway", "vehicle_id", "usable"],
+                                 *rows])  # fmt: skip
+    assert np.isfinite(paper_demo.ev).all()
+    return folder
+
+
+@pytest.mark.slow  # two episodes' style rollouts at one t_obs in a fresh process (≈ 15 s)
+def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tmp_path):
+    import subprocess
+    import sys
+
+    from drivestyle.agents.studies.prediction import PHYSICS_FILE, predict_demo
+    from drivestyle.envs.demonstration import load_demonstration
+    from drivestyle.irl.library import load_driver_library
+    from drivestyle.irl.physics import load_params
+
+    folder = _episodes_folder(tmp_path / "eps", paper_demo)
+    out = tmp_path / "bench"
+    run = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "evaluate-prediction", "--library", str(files),
+         "--episodes", str(folder), "--split", "all", "--observe", "2", "--out", str(out)],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    js = json.loads((out / "prediction_eval.json").read_text())
+    assert js["recorded_sets"] == ["episodes"] and js["n_records"] == 2
+    assert {s["method"] for s in js["summaries"]} == set(METHODS) - {"oracle"}
+    library = load_driver_library(files, "prediction")
+    for rec in js["records"]:  # each record is the prediction of its episode
+        demo = load_demonstration(folder / f"{rec['vehicle_id']}.npz")
+        pred = predict_demo(demo, library, 2.0, physics=load_params(PHYSICS_FILE))
+        for m, fde in rec["fde_m"].items():
+            assert fde == pytest.approx(pred.methods[m].fde_m, abs=1e-9), m
+    assert not (out / "split.csv").exists()  # --split all: no split was made
+
+
+def test_evaluate_prediction_splits_an_episodes_folder_by_vehicle(files, paper_demo, tmp_path):
+    from drivestyle.agents.studies.prediction import episodes_split, read_split
+
+    folder = _episodes_folder(tmp_path / "eps", paper_demo, n=5)
+    rows = episodes_split(folder)
+    assert [r.vehicle_id for r in rows] == [f"r:{i}" for i in range(5)]
+    assert {r.split for r in rows} == {"train", "validation", "test"}
+    assert all(r.dataset == "episodes" for r in rows)
+    evaluate_prediction.main(["--episodes", str(folder), "--write-split", "--split-file",
+                              str(tmp_path / "s.csv")])  # fmt: skip
+    assert read_split(tmp_path / "s.csv") == rows
+    # a split without a row for one of the folder's episodes is refused, naming it
+    (tmp_path / "short.csv").write_text(
+        "dataset,episode_id,vehicle_id,split\n"
+        + "".join(f"episodes,r_{i}_1000,r:{i},test\n" for i in range(4))
+    )
+    with pytest.raises(ValueError, match=r"no row for 1 of the 5.*r_4_1000"):
+        evaluate_prediction.main(
+            ["--library", str(files), "--episodes", str(folder), "--split-file",
+             str(tmp_path / "short.csv"), "--split", "test", "--out", str(tmp_path / "o")]
+        )  # fmt: skip
+    with pytest.raises(ValueError, match="--split all: every episode of an --episodes folder"):
+        evaluate_prediction.main(["--library", str(files), "--split", "all", "--no-simulated",
+                                  "--out", str(tmp_path / "o2")])  # fmt: skip
+    with pytest.raises(ValueError, match="--write-split needs --split-file"):
+        evaluate_prediction.main(["--episodes", str(folder), "--write-split"])
