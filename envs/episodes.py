@@ -650,6 +650,8 @@ def _episode(
             "no_interaction": not chosen,
             "mirrored": b < a,
             "heading": "recorded" if track.heading is not None else "course",
+            # what set lane_width, ev_lane and tv_lane (the plausibility messages say it)
+            "lanes_from": f"the lane lines of carriageway {road.name!r}",
         }
         demo = Demonstration(
             t=t_rel, ev=ev, tv=tv, u=recover_inputs(ev, sc, t_rel), meta=meta,

@@ -390,3 +390,29 @@ def test_an_smpc_lane_change_in_levelx_image_coordinates_is_identified_like_its_
     from_npz = identify(demo, library).risk_interpolated
     from_levelx = identify(ep.demo, library).risk_interpolated
     assert from_levelx == pytest.approx(from_npz, abs=0.05)
+
+
+def test_an_implausible_episode_names_the_lane_lines_not_metadata(tmp_path):
+    # the target-lane follower, in lane 2 at the window's start (2 s), moves on to lane 3 at
+    # 3 s: its median y lies in another lane than the one it was chosen in
+    t = np.round(np.arange(0, 12.0 + 1e-9, RATE), 9)
+    extra = [("g", 70 + 26 * t, _lane_change(t, 3.0, 2.5 * W, 3.5 * W, duration=1.0))]
+    df = _table(extra=extra)
+    df = df[df.id != "f"]
+    (ep,) = _extract(tmp_path, df, lane_markings=[0, W, 2 * W, 3 * W, 4 * W])
+    assert dict(ep.interacting)["target_follower"] == "g" and not ep.usable
+    (reason,) = ep.reasons
+    assert "the TV, which keeps lane 1" in reason and "metadata" not in reason
+    assert reason.endswith(
+        "lane_width, ev_lane and tv_lane come from the lane lines of carriageway '+x' and the "
+        "TV's lane at the window's start: the TV changes lane or drives on a line in the "
+        "window, or the lines are not the road's"
+    )
+    # a demonstration without the extraction's note (a user's .npz) keeps the metadata hint
+    from drivestyle.envs.demonstration import plausibility_problems
+
+    meta = {k: v for k, v in ep.demo.meta.items() if k != "lanes_from"}
+    (problem,) = plausibility_problems(replace(ep.demo, meta=meta))
+    assert problem.endswith(
+        "wrong lane_width or tv_lane in the metadata, or y in another frame or unit?"
+    )
