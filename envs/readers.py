@@ -307,8 +307,8 @@ def outside_road_warning(carriageways: Sequence[Carriageway], lines_from: str) -
     more = f"; and {rest} more vehicle(s)" if rest > 0 else ""
     return (
         f"warning: {lines_from}: {len(found)} vehicle(s) drive outside the outermost lane lines "
-        f"(the road edges): {named}{more}; lanes outside the lines are no lanes and their lane "
-        "changes are not found: give the road edges as the outermost lines"
+        f"(the road edges): {named}{more}; outside the lines is no lane, and changes into or "
+        "out of it are not found (are the road edges the outermost lines?)"
     )
 
 
