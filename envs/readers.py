@@ -549,7 +549,10 @@ def write_table(
     and ``read_table(csv_path, lanes=lanes_path)`` gives each carriageway back under its
     name with its lines (the episodes of both recordings are the same). The lanes file
     (:func:`load_lanes`) maps each carriageway to its lane lines. Numbers are written in
-    full precision.
+    full precision. One thing does not come back: lane ids beyond the road's edges (CATS
+    numbers lanes off its grid −2, −3, …) read back as −1 right of the road and the lane
+    count left of it (:func:`read_table` places a lane id by its median y); the
+    extraction treats both alike, as off the road.
 
     Args:
         recording: any reader's recording.
@@ -669,7 +672,7 @@ def _table_carriageways(
                 where,
                 "from the lane column",
             )
-        rank: dict[float, int] = {}
+        ids_here = index = None
         if "lane" in data:
             # the file's lane ids in this frame's numbering: by median y, rightmost first
             lane = data["lane"][rows]
@@ -680,7 +683,6 @@ def _table_carriageways(
                 index = np.searchsorted(lines, centres) - 1
             else:
                 index = np.argsort(np.argsort(centres))
-            rank = {float(k): int(i) for k, i in zip(ids_here, index, strict=True)}
         tracks = []
         for a, b in mine:
             heading = None
@@ -688,8 +690,8 @@ def _table_carriageways(
                 h = data["heading"][a:b] + (0.0 if s > 0 else math.pi)
                 heading = np.angle(np.exp(1j * h))
             lane_index = None
-            if rank:
-                lane_index = np.array([rank[float(k)] for k in data["lane"][a:b]], dtype=float)
+            if ids_here is not None and index is not None:
+                lane_index = index[np.searchsorted(ids_here, data["lane"][a:b])].astype(float)
             tracks.append(
                 Track(
                     vehicle_id=str(ids[a]),
