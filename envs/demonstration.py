@@ -484,25 +484,41 @@ def _overlap(t: np.ndarray, states: np.ndarray, sc: ScenarioConfig, first: int) 
 
 
 def _lane_problems(demo: Demonstration) -> list[str]:
-    """Lanes that do not fit the data, rightward and two-lane changes (checks 7–8)."""
+    """Lanes that do not fit the data, rightward and two-lane changes (checks 7–8).
+
+    The hints name what set the scenario's lanes: ``meta["lanes_from"]`` where the
+    extraction set them from a road's lane lines (the user wrote lines, not metadata),
+    else the demonstration's metadata.
+    """
     sc = demo.scenario
     w, tol = sc.lane_width, LANE_TOLERANCE * sc.lane_width
+    lanes_from = demo.meta.get("lanes_from")
+    if lanes_from:
+        set_by = f"lane_width, ev_lane and tv_lane come from {lanes_from}"
+        ev_hint = f"{set_by}: are they the road's, road edges included, in metres?"
+        tv_hint = (
+            f"{set_by} and the TV's lane at the window's start: the TV changes lane or "
+            "drives on a line in the window, or the lines are not the road's"
+        )
+        narrow = f"or {lanes_from} are too narrow"
+    else:
+        ev_hint = "wrong lane_width or ev_lane in the metadata, or y in another frame or unit?"
+        tv_hint = "wrong lane_width or tv_lane in the metadata, or y in another frame or unit?"
+        narrow = "or the lane_width in the metadata is too small"
     y = demo.ev[:, 1]
     fit = f"the lateral positions do not fit lanes {_fmt(w)} m wide (scenario lane_width)"
     start_lo, start_hi = sc.ev_lane * w, (sc.ev_lane + 1) * w
     if not start_lo - tol <= y[0] <= start_hi + tol:
         return [
             f"{fit}: the EV starts at y = {_fmt(y[0])} m, in lane {_lane_of(y[0], w)}, not in "
-            f"its lane {sc.ev_lane} [{_fmt(start_lo)}, {_fmt(start_hi)}) m; wrong lane_width "
-            "or ev_lane in the metadata, or y in another frame or unit?"
+            f"its lane {sc.ev_lane} [{_fmt(start_lo)}, {_fmt(start_hi)}) m; {ev_hint}"
         ]
     tv_y = float(np.median(demo.tv[:, 1]))
     tv_lo, tv_hi = sc.tv_lane * w, (sc.tv_lane + 1) * w
     if not tv_lo <= tv_y <= tv_hi:
         return [
             f"{fit}: the TV, which keeps lane {sc.tv_lane} [{_fmt(tv_lo)}, {_fmt(tv_hi)}) m, "
-            f"drives at y ≈ {_fmt(tv_y)} m (median), in lane {_lane_of(tv_y, w)}; wrong "
-            "lane_width or tv_lane in the metadata, or y in another frame or unit?"
+            f"drives at y ≈ {_fmt(tv_y)} m (median), in lane {_lane_of(tv_y, w)}; {tv_hint}"
         ]
     if y[-1] - y[0] < -0.5 * w:
         return [
@@ -517,7 +533,7 @@ def _lane_problems(demo: Demonstration) -> list[str]:
             f"the EV reaches y = {_fmt(y[k])} m at t = {_fmt(demo.t[k])} s, lane "
             f"{_lane_of(y[k], w)}, past its target lane {sc.target_lane} "
             f"[{_fmt(far - w)}, {_fmt(far)}) m: a two-lane change? the model is one lane "
-            "change to +y (or the lane_width in the metadata is too small)"
+            f"change to +y ({narrow})"
         ]
     if y.min() < start_lo - tol:
         k = int(np.argmin(y))

@@ -14,6 +14,10 @@ rules (the numbers are :class:`ExtractionConfig` fields):
 - **Window.** [t_c − ``before_s``, t_c + ``after_s``], cut to the track and to the
   vehicle's previous and next crossing; it must keep ``min_before_s`` before and
   ``min_after_s`` after t_c, else the episode is kept unusable with the reason.
+- **Lateral move.** Across the window the vehicle must move towards the new lane by at
+  least ``min_lateral_move`` lane widths (default half the mean width w of the two lanes;
+  :func:`lateral_move`), else the episode is kept unusable with the reason: a vehicle
+  drifting along a line crosses it and stays on the other side without changing lane.
 - **Frame.** x as recorded; y moved so that the crossed line lies at y = w (w the mean
   width of the two lanes) and, for a change to the right, mirrored about it (y → −y, φ →
   −φ): the change goes to +y, lane 0 = [0, w) is the origin lane, lane 1 the target
@@ -59,6 +63,7 @@ from drivestyle.envs.tracks import Carriageway, Recording, Track
 
 __all__ = [
     "EPISODE_COLUMNS",
+    "LATERAL_MOVE_SPAN_S",
     "PHANTOM_GAP_M",
     "Episode",
     "ExtractionConfig",
@@ -66,6 +71,7 @@ __all__ = [
     "extract_episodes",
     "find_lane_changes",
     "interacting_vehicles",
+    "lateral_move",
     "observed_scenario",
     "read_episodes",
     "recover_inputs",
@@ -79,6 +85,10 @@ PHANTOM_GAP_M = -1000.0
 """Gap x_TV − x_EV of the phantom TV of an episode without a target vehicle [m]."""
 ROLES = ("target_follower", "target_leader", "own_leader")
 """Interacting vehicles' roles, in the order the TV is chosen from."""
+LATERAL_MOVE_SPAN_S = 0.5
+"""The window's first and last this many seconds give its lateral positions (their median,
+:func:`lateral_move`) [s]: 5 samples at 10 Hz, so one noisy fix does not decide; short
+against a lane change's 3–6 s, so the median stays near the window's ends."""
 
 
 # --------------------------------------------------------------------------- shared helpers
@@ -174,6 +184,13 @@ class ExtractionConfig:
     min_stay_s: float = 1.0
     """Time in the old lane before and in the new lane after a crossing [s] (shorter is a
     wobble on the line, not a lane change)."""
+    min_lateral_move: float = 0.5
+    """The least lateral move towards the new lane across the window, in lane widths (w,
+    the mean width of the two lanes; :func:`lateral_move`): less is a drift along the line,
+    kept unusable. 0 turns the rule off. Half a lane: a change from lane centre to lane
+    centre moves about w, and a window cut short (3 s before, 2 s after) still holds most
+    of it (the shipped samples' usable changes move 0.55–1.6 w; CATS's converter keeps
+    changes that move 0.5 w over its window)."""
     observe_s: float = 2.0
     """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``)."""
     interaction_range_m: float = 100.0
@@ -211,6 +228,12 @@ class ExtractionConfig:
             raise ValueError(
                 f"observe_s = {self.observe_s:g} s exceeds min_before_s = {self.min_before_s:g} "
                 "s: the observed part must end before the lane crossing"
+            )
+        f = self.min_lateral_move
+        if not (isinstance(f, (int, float)) and math.isfinite(f) and 0 <= f <= 1):
+            raise ValueError(
+                f"min_lateral_move must be a fraction of the lane width in [0, 1] (0: no "
+                f"minimum), got {f!r}"
             )
         if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= 70):
             raise ValueError(f"v_ref must be in (0, 70] m/s, got {self.v_ref!r}")
@@ -267,6 +290,9 @@ class Episode:
     """The demonstration (None when it could not be built)."""
     observed_until_s: float = 0.0
     """End of the observed part in the demonstration's time [s]."""
+    lateral_move: float = math.nan
+    """How far the vehicle moved towards the new lane across the window [m]
+    (:func:`lateral_move`)."""
     flags: dict[str, Any] = field(default_factory=dict)
     """Further facts (observed samples, …)."""
 
@@ -327,6 +353,40 @@ def _crossings(track: Track, road: Carriageway) -> np.ndarray:
     """Sample index k of every lane-index change of a track (between k and k + 1)."""
     lane = _lanes(track, road)
     return np.flatnonzero(lane[1:] != lane[:-1])
+
+
+def lateral_move(
+    t: np.ndarray, y: np.ndarray, start: float, stop: float, span_s: float = LATERAL_MOVE_SPAN_S
+) -> float:
+    """How far a track moves laterally across a window: its y at the end minus at the start.
+
+    Each end's y is the median over the window's first (last) ``span_s`` seconds: the
+    recorded samples inside and y interpolated at the span's bounds (so a sparse track
+    still has a value). Why the window's ends, not the lanes held around the crossing
+    (``min_stay_s``): a lane change takes 3–6 s, and the second before and after the
+    crossing hold only its middle (0.2–0.3 w on the shipped samples' real changes, as
+    little as a drift's), while the window (≥ ``min_before_s`` before, ≥ ``min_after_s``
+    after) holds most of it. Why a median over a span, not the end samples: one noisy fix
+    (GNSS, video transcription) would decide alone.
+
+    Args:
+        t: sample times, shape (n,) [s], increasing.
+        y: lateral positions, shape (n,) [m].
+        start: the window's start, within [t[0], t[-1]] [s].
+        stop: the window's end, within [start, t[-1]] [s].
+        span_s: the span at each end [s] (at most half the window).
+
+    Returns:
+        y(end) − y(start) [m]: positive to +y.
+    """
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    span = min(span_s, (stop - start) / 2)
+
+    def level(a: float, b: float) -> float:
+        inside = t[(t > a) & (t < b)]
+        return float(np.median(np.interp(np.concatenate([[a], inside, [b]]), t, y)))
+
+    return level(stop - span, stop) - level(start, start + span)
 
 
 # -------------------------------------------------------------------------------- the frame
@@ -521,6 +581,7 @@ def _episode(
     t_next = (track.t[later[0]] + track.t[later[0] + 1]) / 2 if later.size else np.inf
     start = max(track.t[0], t_c - config.before_s, t_prev)
     stop = min(track.t[-1], t_c + config.after_s, t_next)
+    move = (1.0 if b > a else -1.0) * lateral_move(track.t, track.y, start, stop)
     common: dict[str, Any] = {
         "episode_id": eid,
         "source": track.source,
@@ -531,6 +592,7 @@ def _episode(
         "mirrored": b < a,
         "t_cross": t_c,
         "lane_width": w,
+        "lateral_move": move,
     }
     reasons = []
     if t_c - start < config.min_before_s - 1e-9:
@@ -542,6 +604,14 @@ def _episode(
         reasons.append(
             f"only {stop - t_c:.2f} s of track after the crossing (min_after_s "
             f"{config.min_after_s:g} s)"
+        )
+    need = config.min_lateral_move * w
+    if config.min_lateral_move > 0 and move < need:
+        share = "half" if config.min_lateral_move == 0.5 else f"{config.min_lateral_move:g} ×"
+        reasons.append(
+            f"moved {move:.2f} m laterally towards the new lane across the window, below the "
+            f"minimum lateral move {need:.2f} m ({share} the {w:.2f} m lane width; "
+            "min_lateral_move): a drift along the line or an aborted change, not a lane change"
         )
     if reasons:
         return Episode(
@@ -581,6 +651,8 @@ def _episode(
             "no_interaction": not chosen,
             "mirrored": b < a,
             "heading": "recorded" if track.heading is not None else "course",
+            # what set lane_width, ev_lane and tv_lane (the plausibility messages say it)
+            "lanes_from": f"the lane lines of carriageway {road.name!r}",
         }
         demo = Demonstration(
             t=t_rel, ev=ev, tv=tv, u=recover_inputs(ev, sc, t_rel), meta=meta,
@@ -650,6 +722,7 @@ EPISODE_COLUMNS = (
     "first_frame",
     "last_frame",
     "lane_width_m",
+    "lateral_move_m",
     "tv_id",
     "tv_role",
     "interacting",
@@ -704,6 +777,7 @@ def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
                     _cell(ep.first_frame),
                     _cell(ep.last_frame),
                     f"{ep.lane_width:.3f}",
+                    f"{ep.lateral_move:.3f}",
                     tv_id,
                     tv_role,
                     ";".join(f"{role}:{vid}" for role, vid in ep.interacting),

@@ -8,6 +8,7 @@ rightmost, vehicle centres, SI units). :data:`READERS` maps a format name to its
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -24,11 +25,15 @@ __all__ = [
     "READERS",
     "TABLE_COLUMNS",
     "TABLE_OPTIONAL",
+    "load_lanes",
+    "outside_road",
+    "outside_road_warning",
     "read_interaction",
     "read_levelx",
     "read_ngsim",
     "read_sample",
     "read_table",
+    "write_table",
 ]
 
 READERS: dict[str, Callable[..., Recording]] = {}
@@ -38,15 +43,31 @@ READERS: dict[str, Callable[..., Recording]] = {}
 # ------------------------------------------------------------------------ generic long format
 TABLE_COLUMNS = ("id", "t", "x", "y")
 """Columns every generic table has: vehicle id, time [s], position [m] (centre)."""
-TABLE_OPTIONAL = ("v", "heading", "length", "width", "lane", "frame")
-"""Columns a generic table may have: speed [m/s], heading against +x [rad], vehicle size
+TABLE_OPTIONAL = ("recording", "v", "heading", "length", "width", "lane", "frame")
+"""Columns a generic table may have: the recording's name (vehicle ids are unique within a
+recording and may restart in the next), speed [m/s], heading against +x [rad], vehicle size
 [m], lane id (any numbering), source frame number."""
+TABLE_TEXT = ("recording", "id")
+"""Columns read as text: names, not numbers (``007`` stays ``007``)."""
 PARQUET_SUFFIXES = (".parquet", ".pq")
 """File endings read as Parquet (every other ending is read as CSV, gzip included)."""
+OUTSIDE_WARN_VEHICLES = 5
+"""Vehicles the outside-the-road warning names (the most affected first; the rest counted)."""
+
+DIRECTIONS = ("+x", "-x")
+"""The driving directions of a table's carriageways (keys of per-direction lane lines)."""
+RoadLines = Sequence[float] | Mapping[str, Sequence[float]]
+"""One recording's lane lines' y in the table's frame [m], road edges included: one list
+for both directions, or ``{"+x": [...], "-x": [...]}`` (a road with a median)."""
+LaneLines = Sequence[float] | Mapping[str, RoadLines]
+"""Lane lines of a table: one list for every recording, or per recording."""
 
 
-def _read_frame(path: Path) -> Any:
-    """The file as a pandas DataFrame (CSV or Parquet), or a one-line error naming it."""
+def _read_frame(path: Path, text: Sequence[str] = ()) -> Any:
+    """The file as a pandas DataFrame (CSV or Parquet), or a one-line error naming it.
+
+    ``text``: columns of a CSV read as text, not parsed as numbers.
+    """
     import pandas as pd
 
     if not path.is_file():
@@ -62,7 +83,7 @@ def _read_frame(path: Path) -> Any:
         except (OSError, ValueError) as exc:
             raise ValueError(f"{path} is not a readable Parquet file ({exc})") from None
     try:
-        df = pd.read_csv(path)
+        df = pd.read_csv(path, dtype=dict.fromkeys(text, str))
     except pd.errors.EmptyDataError:
         raise ValueError(f"{path} is empty (no header, no rows)") from None
     except (pd.errors.ParserError, UnicodeDecodeError, EOFError, OSError) as exc:
@@ -81,13 +102,19 @@ def _numeric(df: Any, column: str, path: Path) -> np.ndarray:
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise TrackError(
-            f"{path}: vehicle {df['id'].iloc[i]}, data row {i + 1}: column {column!r} has the "
+            f"{path}: {_row_vehicle(df, i)}, data row {i + 1}: column {column!r} has the "
             f"non-numeric value {df[column].iloc[i]!r}"
         )
     return values
 
 
-def _markings_from_lanes(y: np.ndarray, lane: np.ndarray, path: Path) -> np.ndarray:
+def _row_vehicle(df: Any, i: int) -> str:
+    """'recording r, vehicle v' (or 'vehicle v' without a recording column) of row ``i``."""
+    where = f"vehicle {df['id'].iloc[i]}"
+    return f"recording {df['recording'].iloc[i]}, {where}" if "recording" in df else where
+
+
+def _markings_from_lanes(y: np.ndarray, lane: np.ndarray, path: Path | str) -> np.ndarray:
     """Lane lines from a lane column: midway between lanes' median y, half a spacing outside."""
     ids = np.unique(lane)
     centres = np.array([np.median(y[lane == k]) for k in ids])
@@ -103,12 +130,12 @@ def _markings_from_lanes(y: np.ndarray, lane: np.ndarray, path: Path) -> np.ndar
     return np.concatenate([[first], inner, [last]])
 
 
-def _check_markings(markings: np.ndarray, path: Path, what: str) -> np.ndarray:
+def _check_markings(markings: np.ndarray, path: Path | str, what: str) -> np.ndarray:
     """Lane lines that increase and lanes a road has (metres), or a one-line error."""
     if markings.size < 3 or not np.all(np.isfinite(markings)) or np.any(np.diff(markings) <= 0):
         raise TrackError(
-            f"{path}: lane lines ({what}) must be 3 or more increasing numbers [m], got "
-            f"{[round(float(m), 3) for m in markings]}"
+            f"{path}: lane lines ({what}) must be 3 or more increasing numbers [m], road "
+            f"edges included, got {[round(float(m), 3) for m in markings]}"
         )
     lo, hi = LANE_WIDTH_RANGE_M
     widths = np.diff(markings)
@@ -120,6 +147,188 @@ def _check_markings(markings: np.ndarray, path: Path, what: str) -> np.ndarray:
             f"wide: {unit}"
         )
     return markings
+
+
+def load_lanes(path: str | Path) -> list[float] | dict[str, list[float] | dict[str, list[float]]]:
+    """A lanes file: every recording's lane lines, road edges included.
+
+    JSON: an object mapping each recording (the table's ``recording`` column) to its lane
+    lines' y [m] in the table's frame, e.g. ``{"r1": [0, 3.6, 7.2, 10.8], "r2": [...]}``,
+    or one list for every recording. A recording with traffic both ways takes one list for
+    both directions, or ``{"+x": [...], "-x": [...]}``: each direction's lines, still in the
+    table's frame (a median between the roads is no lane). The outermost lines are the
+    road edges: a table's lanes are the spaces between consecutive lines, so lines without
+    the edges lose the outer lanes and their lane changes (:func:`read_table` warns of
+    samples outside).
+
+    Args:
+        path: the ``.json`` file.
+
+    Returns:
+        The lines per recording (a dict) or the lines of every recording (a list) [m], as
+        written (:func:`read_table` checks that they increase and match the recordings).
+
+    Raises:
+        FileNotFoundError: no such file.
+        TrackError: not JSON, neither an object nor a list, or a value that is neither a
+            list of numbers nor an object of directions; one line naming the file (and the
+            recording).
+    """
+    import json
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{path}: no such file (a JSON lanes file: each recording's lane lines' y [m])"
+        )
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise TrackError(f"{path} is not valid JSON ({exc})") from None
+
+    def lines(value: object, where: str) -> list[float]:
+        if not isinstance(value, list):
+            raise TrackError(
+                f"{path}: {where}: expected a list of the lane lines' y [m], got "
+                f"{json.dumps(value)[:60]}"
+            )
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise TrackError(f"{path}: {where}: {json.dumps(v)[:60]} is not a number [m]")
+        return [float(v) for v in value]
+
+    def road(value: object, where: str) -> list[float] | dict[str, list[float]]:
+        if not isinstance(value, dict):
+            return lines(value, where)
+        odd = [k for k in value if k not in DIRECTIONS]
+        if odd or not value:
+            raise TrackError(
+                f"{path}: {where}: an object of lane lines has the keys '+x' and/or '-x' (each "
+                f"direction's lines), got {json.dumps(list(value))[:60]}"
+            )
+        return {k: lines(v, f"{where}, {k}") for k, v in value.items()}
+
+    if isinstance(data, list):
+        return lines(data, "the lane lines of every recording")
+    if isinstance(data, dict) and data:
+        return {str(k): road(v, f"recording {k!r}") for k, v in data.items()}
+    raise TrackError(
+        f"{path}: expected an object mapping each recording to its lane lines' y [m] (road "
+        f"edges included) or one list for every recording, got {json.dumps(data)[:60]}"
+    )
+
+
+def _recording_lines(
+    lane_markings: LaneLines, recordings: Sequence[str], has_recordings: bool, source: Path,
+    label: str,
+) -> dict[str, dict[str, np.ndarray]]:  # fmt: skip
+    """Each recording's checked lane lines per direction, or a one-line error.
+
+    ``source`` is the file at fault (the lanes file, or the table for ``lane_markings``),
+    ``label`` what the lines are called in messages. One list serves both directions.
+    """
+
+    def checked(value: RoadLines, what: str) -> dict[str, np.ndarray]:
+        if not isinstance(value, Mapping):
+            lines = _check_markings(np.asarray(value, float), source, what)
+            return dict.fromkeys(DIRECTIONS, lines)
+        odd = [k for k in value if k not in DIRECTIONS]
+        if odd:
+            raise TrackError(
+                f"{source}: {what}: lane lines per direction have the keys '+x' and/or '-x', "
+                f"got {odd[0]!r}"
+            )
+        return {
+            k: _check_markings(np.asarray(v, float), source, f"{what}, {k}")
+            for k, v in value.items()
+        }
+
+    if not isinstance(lane_markings, Mapping):
+        return dict.fromkeys(recordings, checked(lane_markings, label))
+    if not has_recordings:
+        raise TrackError(
+            f"{source}: lane lines per recording ({label}), but the table has no 'recording' "
+            "column: give one list of lines"
+        )
+    missing = [r for r in recordings if r not in lane_markings]
+    unknown = [k for k in lane_markings if k not in set(recordings)]
+    if missing:
+        raise TrackError(
+            f"{source}: no lane lines for recording {missing[0]!r} ({len(missing)} of the "
+            f"table's {len(recordings)} recordings have none)"
+        )
+    if unknown:
+        known = ", ".join(map(repr, recordings[:5])) + (", …" if len(recordings) > 5 else "")
+        raise TrackError(
+            f"{source}: recording {unknown[0]!r} is not in the table (its recordings: {known})"
+        )
+    return {r: checked(lane_markings[r], f"{label}, recording {r!r}") for r in recordings}
+
+
+def outside_road(y: np.ndarray, markings: Sequence[float]) -> np.ndarray:
+    """How far each lateral position lies outside the outermost lane lines (the road edges).
+
+    Args:
+        y: lateral positions, shape (n,) [m].
+        markings: the lane lines, increasing, road edges first and last [m].
+
+    Returns:
+        Distance beyond the nearer edge, 0 on the road, shape (n,) [m].
+    """
+    y = np.asarray(y, float)
+    return np.maximum(np.maximum(markings[0] - y, y - markings[-1]), 0.0)
+
+
+def outside_road_warning(carriageways: Sequence[Carriageway], lines_from: str) -> str | None:
+    """A one-line warning naming the vehicles with samples outside the road, or None.
+
+    Args:
+        carriageways: the recording's carriageways (their lines given by the user).
+        lines_from: where the lines came from (a file or an option), said first.
+
+    Returns:
+        ``warning: …`` naming up to :data:`OUTSIDE_WARN_VEHICLES` vehicles (most samples
+        outside first) with how many samples and how far, or None when none is outside.
+    """
+    found = []
+    for road in carriageways:
+        for track in road.tracks:
+            d = outside_road(track.y, road.markings)
+            if d.max() > 0:
+                found.append((int((d > 0).sum()), float(d.max()), road.name, track.vehicle_id))
+    if not found:
+        return None
+    found.sort(key=lambda f: (-f[0], -f[1]))
+    named = "; ".join(
+        f"vehicle {vid} ({name}): {k} sample(s), up to {far:.2f} m out"
+        for k, far, name, vid in found[:OUTSIDE_WARN_VEHICLES]
+    )
+    rest = len(found) - OUTSIDE_WARN_VEHICLES
+    more = f"; and {rest} more vehicle(s)" if rest > 0 else ""
+    return (
+        f"warning: {lines_from}: {len(found)} vehicle(s) drive outside the outermost lane lines "
+        f"(the road edges): {named}{more}; outside the lines is no lane, and changes into or "
+        "out of it are not found (are the road edges the outermost lines?)"
+    )
+
+
+def _warn_outside_road(
+    carriageways: Sequence[Carriageway], lines_from: str
+) -> list[dict[str, object]]:
+    """Print :func:`outside_road_warning` on stderr (if any); the vehicles outside, for meta.
+
+    Returns:
+        Per vehicle with samples outside: carriageway, vehicle_id, samples, max_m [m].
+    """
+    warning = outside_road_warning(carriageways, lines_from)
+    if warning:
+        print(warning, file=sys.stderr, flush=True)
+    return [
+        {"carriageway": road.name, "vehicle_id": track.vehicle_id,
+         "samples": int(np.count_nonzero(d)), "max_m": float(d.max())}
+        for road in carriageways for track in road.tracks
+        for d in [outside_road(track.y, road.markings)] if d.max() > 0
+    ]  # fmt: skip
 
 
 def _cats_lane_width(summary: Path) -> float:
@@ -154,44 +363,72 @@ def _cats_lane_width(summary: Path) -> float:
 def read_table(
     path: str | Path,
     lane_width: float | None = None,
-    lane_markings: Sequence[float] | None = None,
+    lane_markings: LaneLines | None = None,
     columns: Mapping[str, str] | None = None,
     default_length: float = 5.0,
     default_width: float = 2.0,
     progress: bool = False,
+    lanes: str | Path | None = None,
 ) -> Recording:
     """A generic long-format table of tracks (CSV, or Parquet with pyarrow) as a recording.
 
     One row per vehicle and sample: columns ``id``, ``t`` [s], ``x``, ``y`` [m] (the
-    vehicle's centre; x along the road, y to its left), optionally ``v`` [m/s],
-    ``heading`` [rad against +x], ``length``, ``width`` [m], ``lane`` (any ids) and
-    ``frame`` (else the frame is t over the file's median time step). Vehicles that move
-    towards −x drive on the other carriageway: their x, y and heading are turned by 180°
-    (x → −x, y → −y, which keeps y to the left of travel) and the lane lines with them.
-    Lane lines, in the file's y: ``lane_markings``; else lines every ``lane_width`` with
-    y = 0 a line; else midway between the ``lane`` column's lanes (median y per lane).
+    vehicle's centre; x along the road, y to its left), optionally ``recording``, ``v``
+    [m/s], ``heading`` [rad against +x], ``length``, ``width`` [m], ``lane`` (any ids) and
+    ``frame`` (else the frame is t over the recording's median time step). A table may hold
+    several recordings (``recording``: vehicle ids and times may restart in each); each gets
+    its own carriageways and lane lines. Vehicles that move towards −x drive on the other
+    carriageway: their x, y and heading are turned by 180° (x → −x, y → −y, which keeps y
+    to the left of travel) and the lane lines with them.
+
+    Carriageways are named so that episode ids (``<carriageway>_<vehicle>_<t_c ms>``) say
+    where a lane change was: without a ``recording`` column ``"+x"`` and ``"-x"``; a
+    recording all of whose vehicles drive to +x is one carriageway named by the recording
+    (as :func:`read_sample` names them); a recording with vehicles driving to −x becomes
+    ``"<recording>+x"`` and ``"<recording>-x"`` (those present), so a name never hides
+    that its coordinates were turned.
+
+    Lane lines, in the file's y, road edges included (the outermost lines are the edges:
+    a vehicle outside them is in no lane): ``lanes`` (a JSON file, :func:`load_lanes`) or
+    ``lane_markings`` (one list for every recording, or a mapping recording → list, or →
+    ``{"+x": list, "-x": list}`` for a road with a median); else lines every
+    ``lane_width`` with y = 0 a line, over each recording's y; else midway between the
+    ``lane`` column's lanes (median y per lane). Given lines that leave samples
+    outside the road print a warning on stderr naming the vehicles
+    (:func:`outside_road_warning`; also in ``meta["outside_road"]``).
 
     Args:
         path: the ``.csv`` (``.csv.gz``) or ``.parquet`` file.
         lane_width: lane width [m] (lines at multiples of it).
-        lane_markings: the lane lines' y in the file's frame [m], increasing.
+        lane_markings: the lane lines' y in the file's frame [m], increasing: one list, or
+            a mapping from each recording to its list (or to ``{"+x": …, "-x": …}``).
         columns: the file's names for the columns above (``{"id": "track_id", …}``).
         default_length: vehicle length without a ``length`` column [m].
         default_width: vehicle width without a ``width`` column [m].
         progress: show a progress bar over the vehicles.
+        lanes: a JSON lanes file (:func:`load_lanes`) instead of ``lane_markings``.
 
     Returns:
-        The recording: one carriageway (``"+x"``) or two (``"+x"``, ``"-x"``).
+        The recording: per recording one carriageway or two, named as above.
 
     Raises:
         FileNotFoundError: no such file.
         ValueError: an unreadable file, Parquet without pyarrow, missing columns, no rows,
-            a non-numeric, missing or repeated value, lanes no road has (feet) or no lane
-            geometry; one line naming the file, and the vehicle and frame where one is at
-            fault.
+            a non-numeric, missing or repeated value, a row without a recording, lanes no
+            road has (feet), lines that do not increase, a recording without lines or lines
+            of a recording the table lacks, ``lanes`` with ``lane_width`` or
+            ``lane_markings``, or no lane geometry; one line naming the file, and the
+            recording, vehicle and frame where one is at fault.
     """
+    import pandas as pd
+
     path = Path(path)
-    df = _read_frame(path)
+    if lanes is not None and (lane_width is not None or lane_markings is not None):
+        raise TrackError(
+            f"{lanes}: lanes and lane_width / lane_markings contradict: give the lane lines once"
+        )
+    renamed = dict(columns or {})
+    df = _read_frame(path, [renamed.get(c, c) for c in TABLE_TEXT])
     if columns:
         df = df.rename(columns={theirs: ours for ours, theirs in columns.items()})
     missing = [c for c in TABLE_COLUMNS if c not in df.columns]
@@ -203,119 +440,275 @@ def read_table(
         )
     if df.empty:
         raise TrackError(f"{path} has a header but no rows")
+    has_recordings = "recording" in df.columns
+    if has_recordings and df["recording"].isna().any():
+        i = int(np.flatnonzero(df["recording"].isna().to_numpy())[0])
+        raise TrackError(
+            f"{path}: vehicle {df['id'].iloc[i]}, data row {i + 1}: no recording (a table with "
+            "a 'recording' column names the recording of every row)"
+        )
     df = df.assign(id=df["id"].astype(str))
+    if has_recordings:
+        df = df.assign(recording=df["recording"].astype(str))
     present = [c for c in TABLE_COLUMNS[1:] + TABLE_OPTIONAL if c in df.columns]
-    data = {c: _numeric(df, c, path) for c in present}
+    data = {c: _numeric(df, c, path) for c in present if c != "recording"}
     ids = df["id"].to_numpy()
+    rec_codes, rec_names = pd.factorize(
+        df["recording"] if has_recordings else pd.Series("", index=df.index), sort=True
+    )
+    recordings = [str(r) for r in rec_names]
     t = data["t"]
-    steps = np.diff(np.sort(np.unique(t[np.isfinite(t)])))
-    frame_dt = float(np.median(steps)) if steps.size else 1.0
-    frames = data["frame"] if "frame" in data else np.round(t / frame_dt)
-    for c in ("t", "x", "y", "v", "heading"):
+    # each recording's own sample rate numbers its frames (recordings may differ)
+    frame_dt = np.array([_median_step(t[rec_codes == k]) for k in range(len(recordings))])
+    frames = data["frame"] if "frame" in data else np.round(t / frame_dt[rec_codes])
+    for c in ("t", "x", "y", "v", "heading", "lane"):
         if c in data and not np.all(np.isfinite(data[c])):
             i = int(np.flatnonzero(~np.isfinite(data[c]))[0])
             raise TrackError(
-                f"{path}: vehicle {ids[i]}, frame {_frame(frames[i])}: {c} is missing or not finite"
+                f"{path}: {_row_vehicle(df, i)}, frame {_frame(frames[i])}: {c} is missing or "
+                "not finite"
             )
-    order = np.lexsort((t, ids))
-    ids, frames = ids[order], frames[order]
-    data = {c: a[order] for c, a in data.items()}
-    cut = np.flatnonzero(ids[1:] != ids[:-1]) + 1
-    starts, stops = np.r_[0, cut], np.r_[cut, ids.size]
-    same = np.flatnonzero((ids[1:] == ids[:-1]) & (np.diff(data["t"]) == 0))
-    if same.size:
-        i = int(same[0]) + 1
-        raise TrackError(
-            f"{path}: vehicle {ids[i]}, frame {_frame(frames[i])}: two rows at t = "
-            f"{data['t'][i]:g} s"
-        )
-    # the driving direction of each vehicle: its net advance along x
-    sign = np.array(
-        [
-            np.sign(data["x"][b - 1] - data["x"][a]) or 1.0
-            for a, b in zip(starts, stops, strict=True)
-        ]
-    )
-    row_sign = np.repeat(sign, stops - starts)
-    if lane_markings is not None:
-        markings = _check_markings(np.asarray(lane_markings, float), path, "lane_markings")
+    lines_from = None
+    if lanes is not None:
+        lane_markings, lines_from = load_lanes(lanes), str(lanes)
+        given = _recording_lines(lane_markings, recordings, has_recordings, Path(lanes), "lanes")
+    elif lane_markings is not None:
+        lines_from = "lane_markings (--lane-markings)"
+        given = _recording_lines(lane_markings, recordings, has_recordings, path, "lane_markings")
     elif lane_width is not None:
         if not (math.isfinite(lane_width) and lane_width > 0):
             raise TrackError(f"{path}: lane_width must be a positive number [m], got {lane_width}")
-        y = data["y"]
-        lo, hi = math.floor(y.min() / lane_width), math.ceil(y.max() / lane_width)
-        markings = np.arange(lo, max(hi, lo + 2) + 1) * lane_width
-        markings = _check_markings(markings, path, f"lane_width {lane_width:g}")
+        given = {}
+        for k, name in enumerate(recordings):
+            y = data["y"][rec_codes == k]
+            lo, hi = math.floor(y.min() / lane_width), math.ceil(y.max() / lane_width)
+            lines = np.arange(lo, max(hi, lo + 2) + 1) * lane_width
+            lines = _check_markings(lines, path, f"lane_width {lane_width:g}")
+            given[name] = dict.fromkeys(DIRECTIONS, lines)
     elif "lane" in data:
-        markings = None  # per carriageway, from its own lanes
+        given = {}  # per carriageway, from its own lanes
     else:
         raise TrackError(
-            f"{path}: no lane geometry: pass lane_width (--lane-width) or lane_markings "
-            "(--lane-markings), or give the table a 'lane' column"
+            f"{path}: no lane geometry: pass lane_width (--lane-width), lane_markings "
+            "(--lane-markings) or lanes (--lanes), or give the table a 'lane' column"
         )
+    order = np.lexsort((t, ids, rec_codes))
+    ids, frames, rec_codes = ids[order], frames[order], rec_codes[order]
+    data = {c: a[order] for c, a in data.items()}
+    same_vehicle = (ids[1:] == ids[:-1]) & (rec_codes[1:] == rec_codes[:-1])
+    same = np.flatnonzero(same_vehicle & (np.diff(data["t"]) == 0))
+    if same.size:
+        i = int(same[0]) + 1
+        where = f"recording {recordings[rec_codes[i]]}, " if has_recordings else ""
+        raise TrackError(
+            f"{path}: {where}vehicle {ids[i]}, frame {_frame(frames[i])}: two rows at t = "
+            f"{data['t'][i]:g} s"
+        )
+    cut = np.flatnonzero(~same_vehicle) + 1
+    starts, stops = np.r_[0, cut], np.r_[cut, ids.size]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(starts), desc="reading", unit="vehicle")
     carriageways = []
-    for direction, s in (("+x", 1.0), ("-x", -1.0)):
-        rows = row_sign == s
-        if not rows.any():
-            continue
-        y = s * data["y"][rows]
-        if markings is not None:
-            lines = np.sort(s * markings) + 0.0
-        else:
-            lines = _check_markings(
-                _markings_from_lanes(y, data["lane"][rows], path), path, "from the lane column"
+    for k, name in enumerate(recordings):
+        mine = rec_codes[starts] == k
+        vehicles = list(zip(starts[mine], stops[mine], strict=True))
+        carriageways += _table_carriageways(
+            name if has_recordings else None, vehicles, ids, frames, data, given.get(name),
+            path, default_length, default_width, lines_from or str(path),
+        )  # fmt: skip
+        if bar is not None:
+            bar.update(len(vehicles))
+    if bar is not None:
+        bar.close()
+    meta: dict[str, object] = {
+        "format": "csv",
+        "frame_dt_s": _median_step(t),
+        "vehicles": len(starts),
+    }
+    if has_recordings:
+        meta["recordings"] = recordings
+    if lines_from is not None:
+        meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
+    return Recording(source=str(path), carriageways=tuple(carriageways), meta=meta)
+
+
+READERS["csv"] = read_table
+
+
+def write_table(
+    recording: Recording, csv_path: str | Path, lanes_path: str | Path
+) -> tuple[Path, Path]:
+    """A recording as a generic table and its lanes file, which :func:`read_table` reads back.
+
+    One row per sample: ``recording`` (the carriageway's name), ``id``, ``t``, ``x``, ``y``,
+    ``v`` and ``heading`` (when every track has them), ``length``, ``width``, ``lane`` (when
+    every track has one), ``frame``; all in the road frame, so every vehicle drives to +x
+    and ``read_table(csv_path, lanes=lanes_path)`` gives each carriageway back under its
+    name with its lines (the episodes of both recordings are the same). The lanes file
+    (:func:`load_lanes`) maps each carriageway to its lane lines. Numbers are written in
+    full precision. One thing does not come back: lane ids beyond the road's edges (CATS
+    numbers lanes off its grid −2, −3, …) read back as −1 right of the road and the lane
+    count left of it (:func:`read_table` places a lane id by its median y); the
+    extraction treats both alike, as off the road.
+
+    Args:
+        recording: any reader's recording.
+        csv_path: the table to write (``.csv``; ``.csv.gz`` compressed).
+        lanes_path: the JSON lanes file to write.
+
+    Returns:
+        (csv_path, lanes_path).
+
+    Raises:
+        ValueError: two carriageways of one name, a track that some tracks' columns lack
+            (e.g. a speed), or one that ends behind its start (read back, it would drive to
+            −x: another carriageway); one line naming the carriageway and vehicle.
+    """
+    import json
+
+    import pandas as pd
+
+    names = [road.name for road in recording.carriageways]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ValueError(f"{recording.source}: two carriageways named {twice[0]!r}")
+    tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
+    optional = {}
+    for column in ("v", "heading", "lane"):
+        has = [getattr(tr, column) is not None for _, tr in tracks]
+        if any(has) and not all(has):
+            road, tr = tracks[has.index(False)]
+            raise ValueError(
+                f"{recording.source}: carriageway {road.name!r}, vehicle {tr.vehicle_id} has no "
+                f"{column} while others have one: a table's column is every vehicle's"
             )
-        lane_index = None
+        optional[column] = all(has) and bool(tracks)
+    frames = []
+    for road, tr in tracks:
+        if tr.x[-1] < tr.x[0]:
+            raise ValueError(
+                f"{recording.source}: carriageway {road.name!r}, vehicle {tr.vehicle_id} ends "
+                f"behind its start (x from {tr.x[0]:g} to {tr.x[-1]:g} m): read back it would "
+                "drive to −x, on another carriageway"
+            )
+        columns: dict[str, object] = {
+            "recording": road.name, "id": tr.vehicle_id, "t": tr.t, "x": tr.x, "y": tr.y,
+        }  # fmt: skip
+        columns |= {c: getattr(tr, c) for c in ("v", "heading") if optional[c]}
+        columns |= {"length": tr.length, "width": tr.width}
+        if optional["lane"]:
+            columns["lane"] = tr.lane
+        columns["frame"] = tr.frames
+        frames.append(pd.DataFrame(columns))
+    csv_path, lanes_path = Path(csv_path), Path(lanes_path)
+    pd.concat(frames, ignore_index=True).to_csv(csv_path, index=False, float_format="%.17g")
+    lanes = {road.name: list(road.markings) for road in recording.carriageways}
+    lanes_path.write_text(json.dumps(lanes, indent=1) + "\n")
+    return csv_path, lanes_path
+
+
+def _median_step(t: np.ndarray) -> float:
+    """The median step between a table's distinct finite times [s] (1 s with one time)."""
+    steps = np.diff(np.unique(t[np.isfinite(t)]))
+    return float(np.median(steps)) if steps.size else 1.0
+
+
+def _table_carriageways(
+    recording: str | None,
+    vehicles: Sequence[tuple[int, int]],
+    ids: np.ndarray,
+    frames: np.ndarray,
+    data: dict[str, np.ndarray],
+    markings: Mapping[str, np.ndarray] | None,
+    path: Path,
+    default_length: float,
+    default_width: float,
+    lines_from: str,
+) -> list[Carriageway]:
+    """One recording's carriageways (:func:`read_table`: directions, names, lane lines).
+
+    Args:
+        recording: its name, None for a table without a ``recording`` column.
+        vehicles: each vehicle's rows [a, b) in the sorted columns.
+        ids: vehicle id per row.
+        frames: frame per row.
+        data: the numeric columns, sorted like ``ids``.
+        markings: the lane lines in the file's y per direction [m], None: from the ``lane``
+            column.
+        path: the table (for messages and the tracks' source).
+        default_length: vehicle length without a ``length`` column [m].
+        default_width: vehicle width without a ``width`` column [m].
+        lines_from: where given lines came from (a direction without lines is its error).
+    """
+    # the driving direction of each vehicle: its net advance along x
+    sign = np.array([np.sign(data["x"][b - 1] - data["x"][a]) or 1.0 for a, b in vehicles])
+    both = bool(np.any(sign > 0) and np.any(sign < 0))
+    out = []
+    for direction, s in (("+x", 1.0), ("-x", -1.0)):
+        mine = [v for v, g in zip(vehicles, sign, strict=True) if g == s]
+        if not mine:
+            continue
+        if recording is None:
+            name = direction
+        else:
+            name = recording if s > 0 and not both else f"{recording}{direction}"
+        rows = np.concatenate([np.arange(a, b) for a, b in mine])
+        y_rows = s * data["y"][rows]
+        if markings is not None:
+            if direction not in markings:
+                raise TrackError(
+                    f"{lines_from}: recording {recording!r} has vehicles driving to {direction} "
+                    f"(vehicle {ids[mine[0][0]]}, …) but lane lines only for "
+                    f"{', '.join(markings)}"
+                )
+            lines = np.sort(s * markings[direction]) + 0.0
+        else:
+            where = str(path) if recording is None else f"{path}, recording {recording!r}"
+            lines = _check_markings(
+                _markings_from_lanes(y_rows, data["lane"][rows], where),
+                where,
+                "from the lane column",
+            )
+        ids_here = index = None
         if "lane" in data:
             # the file's lane ids in this frame's numbering: by median y, rightmost first
             lane = data["lane"][rows]
             ids_here = np.unique(lane)
-            centres = np.array([np.median(y[lane == k]) for k in ids_here])
-            rank = dict(zip(ids_here, np.argsort(np.argsort(centres)), strict=True))
+            centres = np.array([np.median(y_rows[lane == k]) for k in ids_here])
             if markings is not None:
                 # with given lines, a lane id is the lane its median y lies in
-                rank = dict(zip(ids_here, np.searchsorted(lines, centres) - 1, strict=True))
-            lane_index = np.array([rank[k] for k in lane], dtype=float)
+                index = np.searchsorted(lines, centres) - 1
+            else:
+                index = np.argsort(np.argsort(centres))
         tracks = []
-        where = np.flatnonzero(rows)
-        vehicles = [(a, b) for a, b, g in zip(starts, stops, sign, strict=True) if g == s]
-        if progress:
-            from tqdm import tqdm
-
-            vehicles = tqdm(vehicles, desc=f"reading {direction}", unit="vehicle")
-        offset = {int(r): k for k, r in enumerate(where)}
-        for a, b in vehicles:
-            k0 = offset[int(a)]
-            sl = slice(k0, k0 + (b - a))
-            vid = str(ids[a])
+        for a, b in mine:
             heading = None
             if "heading" in data:
                 h = data["heading"][a:b] + (0.0 if s > 0 else math.pi)
                 heading = np.angle(np.exp(1j * h))
+            lane_index = None
+            if ids_here is not None and index is not None:
+                lane_index = index[np.searchsorted(ids_here, data["lane"][a:b])].astype(float)
             tracks.append(
                 Track(
-                    vehicle_id=vid,
+                    vehicle_id=str(ids[a]),
                     t=data["t"][a:b],
                     x=s * data["x"][a:b],
-                    y=y[sl],
+                    y=s * data["y"][a:b],
                     frames=frames[a:b],
                     v=data["v"][a:b] if "v" in data else None,
                     heading=heading,
-                    lane=None if lane_index is None else lane_index[sl],
+                    lane=lane_index,
                     length=_size(data, "length", a, b, default_length),
                     width=_size(data, "width", a, b, default_width),
                     source=str(path),
                 )
             )
-        carriageways.append(Carriageway(direction, tuple(float(m) for m in lines), tuple(tracks)))
-    return Recording(
-        source=str(path),
-        carriageways=tuple(carriageways),
-        meta={"format": "csv", "frame_dt_s": frame_dt, "vehicles": len(starts)},
-    )
-
-
-READERS["csv"] = read_table
+        out.append(Carriageway(name, tuple(float(m) for m in lines), tuple(tracks)))
+    return out
 
 
 def _frame(value: float) -> str:
@@ -944,14 +1337,16 @@ def read_interaction(
 
     Args:
         path: the ``vehicle_tracks_NNN.csv``.
-        lane_markings: the lane lines in the map frame: for ``direction`` 'x+'/'x-' each
-            line's map y [m], for 'y+'/'y-' its map x [m]; or, for any direction, a map
-            point (x, y) [m] on each line.
+        lane_markings: the lane lines in the map frame, road edges included (the
+            outermost lines are the edges; vehicles outside them are warned of on stderr):
+            for ``direction`` 'x+'/'x-' each line's map y [m], for 'y+'/'y-' its map x
+            [m]; or, for any direction, a map point (x, y) [m] on each line.
         direction: the direction of travel in the map: 'x+', 'x-', 'y+', 'y-' or an angle
             from the map's +x axis, counter-clockwise [rad].
 
     Returns:
-        The recording (meta: format, rate, direction angle, dropped agents and tracks).
+        The recording (meta: format, rate, direction angle, dropped agents and tracks,
+        vehicles outside the road).
 
     Raises:
         FileNotFoundError: no such file.
@@ -1020,6 +1415,7 @@ def read_interaction(
         "agents_dropped": not_vehicles,
         "tracks_against_direction_dropped": against,
         "single_sample_tracks_dropped": dropped,
+        "outside_road": _warn_outside_road(carriageways, "lane_markings (--lane-markings)"),
     }
     return Recording(str(path), carriageways, meta)
 

@@ -1,18 +1,24 @@
 r"""Extract the lane changes of your own trajectories as demonstrations (``.npz``).
 
 Reads DATA with a reader of ``--format`` (``csv``: the generic long table with columns
-``id, t, x, y`` and optionally ``v, heading, length, width, lane, frame``; ``ngsim``,
-``highd``, ``interaction``: those datasets' published files), finds every lane change
-(envs/episodes.py: a lane line crossed and the new lane held, enough track before and
-after), mirrors rightward changes to +y, keeps the interacting vehicles (target-lane
+``id, t, x, y`` and optionally ``recording, v, heading, length, width, lane, frame``;
+``ngsim``, ``highd``, ``interaction``: those datasets' published files), finds every lane
+change (envs/episodes.py: a lane line crossed and the new lane held, enough track before
+and after, a lateral move of at least ``--min-lateral-move`` lanes), mirrors rightward
+changes to +y, keeps the interacting vehicles (target-lane
 follower and leader, own-lane leader), resamples to ``--dt``, recovers the inputs and sets
 each scenario from the episode's observed part only. Writes ``OUT/<episode>.npz`` for every
 usable episode, ``OUT/episodes.csv`` (every episode found, usable or not and why) and
 ``OUT/extract.json`` (counts and settings).
 
+Lane lines are given with the road edges: the outermost lines are the edges, a vehicle
+outside them is in no lane (a warning names such vehicles). A table of several recordings
+(a ``recording`` column) takes ``--lanes lanes.json``, each recording's lines.
+
 Example:
     python scripts/extract_episodes.py tracks.csv --format csv --lane-width 3.75 \\
         --out runs/episodes
+    python scripts/extract_episodes.py freeway.csv --lanes lanes.json --out runs/freeway
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from drivestyle.common.cli import HelpFormatter, float_list, positive_float, run_cli
+from drivestyle.common.cli import HelpFormatter, float_list, fraction, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.episodes import ExtractionConfig, extract_episodes, write_episodes
 from drivestyle.envs.readers import READERS
@@ -46,13 +52,22 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--lane-width",
         type=positive_float,
-        help="csv: lane width [m], lane lines at its multiples (y = 0 a line); "
-        "default: --lane-markings, else the table's lane column",
+        help="csv: lane width [m], lane lines at its multiples (y = 0 a line) over each "
+        "recording's y; default: --lanes or --lane-markings, else the table's lane column",
     )
     p.add_argument(
         "--lane-markings",
         type=float_list,
-        help="csv: the lane lines' y in the file's frame [m], e.g. 0,3.75,7.5,11.25",
+        help="csv, interaction: every lane line's y in the file's frame [m], road edges "
+        "included (the outermost lines are the road edges), e.g. 0,3.75,7.5,11.25 for three "
+        "lanes; csv: the same lines for every recording",
+    )
+    p.add_argument(
+        "--lanes",
+        type=Path,
+        help="csv: a JSON file of each recording's lane lines' y [m] in the file's frame, "
+        'road edges included: {"<recording>": [0, 3.75, 7.5, 11.25], ...} (every recording '
+        "of the table's recording column), or one list for every recording",
     )
     p.add_argument(
         "--direction",
@@ -84,6 +99,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="time in the old lane before and the new lane after a crossing [s]",
     )
     p.add_argument(
+        "--min-lateral-move",
+        type=fraction,
+        default=d.min_lateral_move,
+        help="the least lateral move towards the new lane across the window, as a fraction "
+        "of the lane width (the mean of the two lanes'); less is a drift along a line, kept "
+        "unusable in episodes.csv; 0: no minimum",
+    )
+    p.add_argument(
         "--observe",
         type=positive_float,
         default=d.observe_s,
@@ -102,7 +125,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Extract; returns extract.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out, inputs=[args.data])
+    check_output_dir(args.out, inputs=[args.data, args.lanes])
     config = ExtractionConfig(
         dt=args.dt,
         before_s=args.before,
@@ -110,16 +133,27 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         min_before_s=args.min_before,
         min_after_s=args.min_after,
         min_stay_s=args.min_stay,
+        min_lateral_move=args.min_lateral_move,
         observe_s=args.observe,
         v_ref=args.v_ref,
     )
     if args.format in ("ngsim", "highd", "sample") and (
-        args.lane_width is not None or args.lane_markings is not None
+        args.lane_width is not None or args.lane_markings is not None or args.lanes is not None
     ):
         raise ValueError(
-            f"--lane-width and --lane-markings are for --format csv and interaction; "
-            f"{args.format} files carry their own lane geometry"
+            f"--lane-width, --lane-markings and --lanes are for --format csv (--lane-markings "
+            f"also interaction); {args.format} files carry their own lane geometry"
         )
+    if args.lanes is not None:
+        if args.format != "csv":
+            raise ValueError("--lanes is for --format csv (interaction: --lane-markings)")
+        pairs = (("--lane-width", args.lane_width), ("--lane-markings", args.lane_markings))
+        given = [option for option, value in pairs if value is not None]
+        if given:
+            raise ValueError(
+                f"--lanes {args.lanes} and {' and '.join(given)} contradict: give the lane "
+                "lines once (--lanes holds every recording's lines)"
+            )
     if args.format == "interaction" and (args.lane_markings is None or args.direction is None):
         raise ValueError("--format interaction needs --lane-markings and --direction")
     t0 = time.perf_counter()
@@ -128,6 +162,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             args.data,
             lane_width=args.lane_width,
             lane_markings=args.lane_markings,
+            lanes=args.lanes,
             progress=True,
         )
     elif args.format == "interaction":

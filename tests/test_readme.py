@@ -77,6 +77,16 @@ def _written(path: str, written: dict[str, str]) -> bool:
 
 PYTHON_WRITES = re.compile(r"to_csv\(\s*\"(runs/[^\"]+)\"")
 """A path a Python example writes (its other ``runs/…`` strings are read)."""
+PYTHON_WRITE_TABLE = re.compile(r"write_table\((?:[^()]|\([^()]*\))*\)")
+"""A ``write_table(recording, csv, lanes)`` call: both ``runs/…`` paths in it are written."""
+
+
+def _python_writes(block: str) -> set[str]:
+    """The ``runs/…`` paths a Python example writes (:data:`PYTHON_WRITES`, write_table)."""
+    calls = PYTHON_WRITE_TABLE.findall(block)
+    return {*PYTHON_WRITES.findall(block)} | {
+        path for call in calls for path in re.findall(r"\"(runs/[^\"]+)\"", call)
+    }
 
 
 def _missing_inputs() -> list[str]:
@@ -84,7 +94,7 @@ def _missing_inputs() -> list[str]:
     missing = []
     for language, step in _steps():
         if language == "python":
-            outs = set(PYTHON_WRITES.findall(step))
+            outs = _python_writes(step)
             for path in re.findall(r"\"(runs/[^\"]+)\"", step):
                 if path not in outs and not _written(path, written):
                     missing.append(f"a Python example reads {path}")
@@ -114,6 +124,11 @@ def test_the_checker_finds_a_path_no_command_writes(monkeypatch):
     assert _missing_inputs() == [
         "`drivestyle identify-style runs/demo/demo.npz --out runs/x` reads runs/demo/demo.npz"
     ]
+
+
+def test_the_checker_reads_what_write_table_writes():
+    block = 'write_table(read_sample("x"), "runs/a.csv", "runs/a.json")\nload("runs/b.npz")'
+    assert _python_writes(block) == {"runs/a.csv", "runs/a.json"}
 
 
 @pytest.mark.parametrize("command", sorted(WRITTEN_BY))

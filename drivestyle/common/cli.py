@@ -36,6 +36,7 @@ __all__ = [
     "distinct",
     "finite_float",
     "float_list",
+    "fraction",
     "nonnegative_int",
     "positive_float",
     "positive_int",
@@ -151,6 +152,14 @@ def finite_float(text: str) -> float:
     value = _number(text, float, "a number")
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+def fraction(text: str) -> float:
+    """A number in [0, 1] (a share of something: 0 none, 1 all of it)."""
+    value = _number(text, float, "a number")
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"must lie in [0, 1], got {text}")
     return value
 
 

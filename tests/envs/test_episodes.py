@@ -15,6 +15,7 @@ from drivestyle.envs.episodes import (
     PHANTOM_GAP_M,
     ExtractionConfig,
     extract_episodes,
+    lateral_move,
     recover_inputs,
     resample_states,
     write_episodes,
@@ -78,6 +79,7 @@ def test_a_lane_change_either_way_goes_to_plus_y_with_its_interacting_vehicles(t
     assert d.tv[0, 1] == pytest.approx(1.5 * W) and d.tv[0, 0] < d.ev[0, 0]  # the follower
     np.testing.assert_allclose(d.other_vehicles[:, :, 1], [[1.5 * W, 0.5 * W]] * d.n, atol=1e-9)
     assert d.ev[d.n // 2, 2] > 0  # heading towards +y
+    assert ep.lateral_move == pytest.approx(W, abs=1e-9)  # lane centre to lane centre
     sc = d.scenario
     assert (sc.lane_width, sc.ev_lane, sc.target_lane, sc.tv_lane) == (W, 0, 1, 1)
 
@@ -112,6 +114,52 @@ def test_a_wobble_on_the_line_is_no_lane_change(tmp_path):
     t = df.loc[ev, "t"].to_numpy()
     df.loc[ev, "y"] = 1.5 * W + np.where((t > 5) & (t < 5.5), 0.2 * W + W / 2, 0.0)
     assert _extract(tmp_path, df) == []
+
+
+def _drift(df, line, move, t0=4.0, t1=8.0):
+    """The EV drifts linearly by ``move`` across ``line`` between t0 and t1 (crossing at 6 s)."""
+    ev = df.id == "ev"
+    s = np.clip((df.loc[ev, "t"] - t0) / (t1 - t0), 0.0, 1.0)
+    return df.assign(y=df.y.where(~ev, line + move * (s - 0.5)))
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_a_drift_across_a_line_is_kept_unusable_with_its_lateral_move(tmp_path, side):
+    # 0.3 m across a line in 4 s, each lane held for 2 s: found as a change, no lane change
+    line = 2 * W if side > 0 else W
+    (ep,) = _extract(tmp_path, _drift(_table(), line, side * 0.3))
+    assert ep.direction == ("left" if side > 0 else "right")
+    assert not ep.usable and ep.demo is None
+    assert ep.lateral_move == pytest.approx(0.3, abs=1e-9)
+    assert ep.reasons == (
+        "moved 0.30 m laterally towards the new lane across the window, below the minimum "
+        "lateral move 1.75 m (half the 3.50 m lane width; min_lateral_move): a drift along the "
+        "line or an aborted change, not a lane change",
+    )
+    # the rule's own number decides: off, the same drift is an episode
+    (off,) = _extract(tmp_path, _drift(_table(), line, side * 0.3), ExtractionConfig(
+        min_lateral_move=0.0))  # fmt: skip
+    assert off.usable, off.reasons
+    # a move of 0.4 w passes a minimum of 0.3 w, not one of 0.5 w
+    drift = _drift(_table(), line, side * 0.4 * W)
+    assert _extract(tmp_path, drift, ExtractionConfig(min_lateral_move=0.3))[0].usable
+    (half,) = _extract(tmp_path, drift)
+    assert not half.usable and "below the minimum lateral move 1.75 m" in half.reasons[0]
+
+
+def test_lateral_move_in_closed_form_robust_to_one_bad_sample():
+    t = np.round(np.arange(0, 8.0 + 1e-9, 0.1), 9)
+    y = 0.5 * t
+    # the medians over the first and last 0.5 s: y(0.25) and y(7.75) on a straight line
+    assert lateral_move(t, y, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
+    spike = y.copy()
+    spike[-1] += 5.0  # one bad fix at the window's end does not decide
+    assert lateral_move(t, spike, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
+    assert abs(spike[-1] - spike[0] - 3.75) > 1  # the end samples alone would
+    sparse = np.arange(0, 8.0 + 1e-9, 0.5)  # 2 Hz: no sample inside a span, interpolated
+    assert lateral_move(sparse, 0.5 * sparse, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
+    assert lateral_move(t, y, 2.0, 2.6) == pytest.approx(0.15, abs=1e-12)  # spans ≤ half
+    assert lateral_move(t, -y, 0.0, 8.0) == pytest.approx(-3.75, abs=1e-12)
 
 
 def test_resampling_a_straight_line_and_a_circle_arc_in_closed_form():
@@ -178,6 +226,7 @@ def test_write_episodes_writes_demonstrations_and_the_index(tmp_path):
     assert row.tv_role == "target_follower" and row.tv_id == "f"
     assert row.interacting == "target_follower:f;target_leader:l;own_leader:o"
     assert (row.first_frame, row.last_frame) == (20, 100) and row.lane_width_m == W
+    assert row.lateral_move_m == pytest.approx(W)
     demo = load_demonstration(tmp_path / "out" / row.file)
     np.testing.assert_allclose(demo.ev, episodes[0].demo.ev)
 
@@ -239,6 +288,12 @@ def test_the_config_refuses_an_observed_part_past_the_crossing():
     with pytest.raises(ValueError, match="observed part must end before the lane crossing"):
         ExtractionConfig(observe_s=3.5)
     assert math.isclose(ExtractionConfig().dt, 0.2)
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.5, math.nan])
+def test_the_config_refuses_a_min_lateral_move_outside_a_lane(value):
+    with pytest.raises(ValueError, match=r"min_lateral_move must be a fraction of the lane width"):
+        ExtractionConfig(min_lateral_move=value)
 
 
 def _ten_hz(states, u, sc):
@@ -335,3 +390,29 @@ def test_an_smpc_lane_change_in_levelx_image_coordinates_is_identified_like_its_
     from_npz = identify(demo, library).risk_interpolated
     from_levelx = identify(ep.demo, library).risk_interpolated
     assert from_levelx == pytest.approx(from_npz, abs=0.05)
+
+
+def test_an_implausible_episode_names_the_lane_lines_not_metadata(tmp_path):
+    # the target-lane follower, in lane 2 at the window's start (2 s), moves on to lane 3 at
+    # 3 s: its median y lies in another lane than the one it was chosen in
+    t = np.round(np.arange(0, 12.0 + 1e-9, RATE), 9)
+    extra = [("g", 70 + 26 * t, _lane_change(t, 3.0, 2.5 * W, 3.5 * W, duration=1.0))]
+    df = _table(extra=extra)
+    df = df[df.id != "f"]
+    (ep,) = _extract(tmp_path, df, lane_markings=[0, W, 2 * W, 3 * W, 4 * W])
+    assert dict(ep.interacting)["target_follower"] == "g" and not ep.usable
+    (reason,) = ep.reasons
+    assert "the TV, which keeps lane 1" in reason and "metadata" not in reason
+    assert reason.endswith(
+        "lane_width, ev_lane and tv_lane come from the lane lines of carriageway '+x' and the "
+        "TV's lane at the window's start: the TV changes lane or drives on a line in the "
+        "window, or the lines are not the road's"
+    )
+    # a demonstration without the extraction's note (a user's .npz) keeps the metadata hint
+    from drivestyle.envs.demonstration import plausibility_problems
+
+    meta = {k: v for k, v in ep.demo.meta.items() if k != "lanes_from"}
+    (problem,) = plausibility_problems(replace(ep.demo, meta=meta))
+    assert problem.endswith(
+        "wrong lane_width or tv_lane in the metadata, or y in another frame or unit?"
+    )
