@@ -415,7 +415,7 @@ def test_a_driver_library_row_carries_the_verdict(paper_demo):
     assert row.informative is False and row.out_of_class is False
     assert row.kl_nats == 0.0 and row.interval_width_ratio == 1.0
     assert row.residual_rms == pytest.approx(0.1, abs=1e-6)
-    assert "cannot inform the risk" in row.reason
+    assert "no chance constraint binds" in row.reason
 
 
 _RAY_JOB = """
