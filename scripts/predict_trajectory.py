@@ -78,8 +78,15 @@ def main(argv: list[str] | None = None) -> dict:
     if ident is None:  # no style method was run: nothing identified to report
         return payload
     lo, hi = ident.risk_interval
+    # only an informative posterior is an identified risk; the others say what they are first
+    v = ident.verdict
+    said = (
+        "posterior mean"
+        if v is None
+        else ("identified risk" if v.informative else f"{v.phrase}; posterior mean")
+    )
     print(
-        f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; identified risk "
+        f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; {said} "
         f"{ident.risk_interpolated:.3f} (90 % [{lo:g}, {hi:g}])"
         + ("" if pred.true_risk is None else f", true {pred.true_risk:g}")
     )
