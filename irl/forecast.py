@@ -308,6 +308,7 @@ class Prediction:
                 "risk_mean": ident.risk_interpolated,
                 "risk_interval": list(ident.risk_interval),
                 "informative": ident.informative,
+                "verdict": ident.label,
             },
             "t": self.t.round(6).tolist(),
             "actual": self.actual.round(4).tolist(),

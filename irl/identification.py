@@ -46,9 +46,16 @@ from drivestyle.irl.risk_profile import RiskProfile, refined_profile
 
 __all__ = [
     "DEFAULT_SCORER",
+    "ENTERS_REGION",
     "ENTERS_REGION_S_E",
+    "INFORMATIVE",
     "MIN_MEMBERS",
+    "NO_CONSTRAINT",
+    "OUT_OF_CLASS",
+    "PRIOR",
     "SCORERS",
+    "VERDICT_LABELS",
+    "VERDICT_PHRASES",
     "Calibration",
     "DemoScores",
     "Identification",
@@ -66,9 +73,11 @@ __all__ = [
     "identify_driver",
     "kl_from_uniform",
     "posterior_from_scores",
+    "recorded_verdict_label",
     "risk_interval",
     "risk_log_likelihood",
     "summarise",
+    "verdict_label",
 ]
 
 SCORERS = ("feature", "rmse_xy", "rmse_y", "suboptimality")
@@ -93,9 +102,10 @@ TEMPERATURE = 0.5
 """τ of the likelihood ℓ_p = −(s_p / min_q s_q − 1)/τ (relative score gap), the smallest
 τ whose 90 % intervals cover the truth for ≈ 90 % of validation demonstrations (89 %)."""
 S_E_INFORMATIVE = 8.0
-"""A demonstration is informative when the TV comes within this elliptical index of the
-EV (s_e < 8, 120 m ahead or behind in the same lane): farther, no library risk changes the
-SMPC's path (probes with the TV 60–150 m behind: identical paths for p = 0.5 … 0.95)."""
+"""The paper model's stand-in for a binding constraint: a demonstration can say something
+about p only when its TV comes within this elliptical index of the EV (s_e < 8, 120 m ahead
+or behind in the same lane); farther, no library risk changes the SMPC's path (probes with
+the TV 60–150 m behind: identical paths for p = 0.5 … 0.95)."""
 INTERVAL_MASS = 0.9
 """Posterior mass of the reported risk interval."""
 OUT_OF_CLASS_FACTOR = 55.0
@@ -135,8 +145,11 @@ class DemoScores:
 
     scores: Mapping[str, tuple[float, ...]]
     """Scorer → score per library risk (the median over the risk's nearest members)."""
-    informative: bool
-    """Whether the TV came near enough (s_e < :data:`S_E_INFORMATIVE`) for p to matter."""
+    constraint_binds: bool
+    """Whether p can matter in this demonstration: a chance constraint binds at some step
+    (driver libraries, :func:`constraint_binds`), or the TV came within
+    s_e < :data:`S_E_INFORMATIVE` (paper model). A fact of the demonstration, not a
+    verdict (:attr:`Verdict.label`)."""
     min_s_e: float
     """Closest approach of the TV in ellipse units."""
     trigger_fired: bool
@@ -146,55 +159,127 @@ class DemoScores:
         """JSON-ready dict (``scores`` as lists over the library's risks)."""
         return {
             "scores": {s: list(v) for s, v in self.scores.items()},
-            "informative": self.informative,
+            "constraint_binds": self.constraint_binds,
             "min_s_e": self.min_s_e,
             "trigger_fired": self.trigger_fired,
         }
+
+
+INFORMATIVE = "informative"
+PRIOR = "prior"
+NO_CONSTRAINT = "no_constraint"
+OUT_OF_CLASS = "out_of_class"
+ENTERS_REGION = "enters_region"
+VERDICT_PHRASES: Mapping[str, str] = {
+    INFORMATIVE: "informative: the data identify the risk",
+    PRIOR: "the prior: nothing in the data moves the risk",
+    NO_CONSTRAINT: "the prior: nothing in the data can move the risk",
+    OUT_OF_CLASS: "out of class: the style does not describe this driver",
+    ENTERS_REGION: "less cautious than the class: its risk lies below the library's range",
+}
+"""A verdict's label → its phrase, in the order of :func:`verdict_label`'s answers (the
+only verdict vocabulary: reports count and print these)."""
+VERDICT_LABELS: tuple[str, ...] = tuple(VERDICT_PHRASES)
+"""The labels of :data:`VERDICT_PHRASES`, in report order."""
+
+
+def verdict_label(
+    constraint_binds: bool, moved: bool, out_of_class: bool, enters_region: bool
+) -> str:
+    """The one label of a verdict (:data:`VERDICT_LABELS`), from its flags.
+
+    The first that applies: ``enters_region`` (another vehicle came inside the safety
+    region every risk keeps clear of: less cautious than the class), ``out_of_class`` (the
+    residuals are too large for any style of the class), ``no_constraint`` (no chance
+    constraint binds, so the data cannot move the risk: the posterior is the prior),
+    ``informative`` (the posterior moved: KL and interval width pass), else ``prior``
+    (in the class, but the data barely moved the risk). A driver outside the class comes
+    first because its posterior, moved or not, is not a risk of the class.
+
+    Args:
+        constraint_binds: a chance constraint binds at some step (paper model: a TV came
+            within :data:`S_E_INFORMATIVE`).
+        moved: KL > :data:`KL_INFORMATIVE` and width ratio < :data:`WIDTH_INFORMATIVE`.
+        out_of_class: the residual RMS exceeds :data:`OUT_OF_CLASS_FACTOR` noise floors.
+        enters_region: another vehicle came to s_e < :data:`ENTERS_REGION_S_E`.
+
+    Returns:
+        One of :data:`VERDICT_LABELS`.
+    """
+    if enters_region:
+        return ENTERS_REGION
+    if out_of_class:
+        return OUT_OF_CLASS
+    if not constraint_binds:
+        return NO_CONSTRAINT
+    return INFORMATIVE if moved else PRIOR
+
+
+def recorded_verdict_label(
+    informative: bool | None,
+    out_of_class: bool | None,
+    constraint_binds: bool | None,
+    enters_region: bool | None,
+) -> str:
+    """:func:`verdict_label` of a verdict's recorded flags (a ``styles.csv`` row).
+
+    A row records ``informative`` (the label was ``informative``), not whether the
+    posterior moved; where the label depends on ``moved`` (binding, in class and not in the
+    region) the two agree, so ``informative`` stands in for it. Flags a table of an earlier
+    version lacks (None): ``out_of_class`` and ``enters_region`` false (a driver inside the
+    region was flagged ``out_of_class`` then, so it reads as out of class), and
+    ``constraint_binds`` true (a row without a binding constraint reads as ``prior``: its
+    posterior is the prior either way).
+    """
+    return verdict_label(
+        constraint_binds is not False, bool(informative), bool(out_of_class), bool(enters_region)
+    )
 
 
 @dataclass(frozen=True)
 class Verdict:
     """What the data added to the prior, and whether the style describes the driver at all.
 
-    Every identification carries one (:attr:`Identification.verdict`). For a driver
+    Every identification carries one (:attr:`Identification.verdict`); its fields are the
+    numbers, and everything said about them — the flags, the :attr:`label`, the
+    :attr:`reason` — is derived from them here, so no two can disagree. For a driver
     library (DESIGN §15): the residual RMS the demonstrations leave at their best risk,
     √(min_p S(p) / n) [σ_u units], against the library's noise floor
-    √(fit_residual² + s_floor²) (:attr:`~drivestyle.irl.library.DriverLibrary.noise_floor`);
-    ``out_of_class`` above :data:`OUT_OF_CLASS_FACTOR` floors. What the data added: the
-    KL divergence of the posterior from the uniform prior on the density grid,
-    KL = Σ_i q_i log(q_i / u_i) [nats] (0 for the prior itself, log N for a point mass on
-    one of N cells), and the 90 % interval's width relative to the prior's. ``informative``
-    only when a chance constraint binds at some step, KL > :data:`KL_INFORMATIVE` and the
-    width ratio < :data:`WIDTH_INFORMATIVE`. A paper-model library has no residual scale
-    (``residual_rms`` None, never out of class); its KL and width are those of the
-    posterior over the library's risks, and ``informative`` is the TV-proximity rule
-    (s_e < :data:`S_E_INFORMATIVE`).
+    √(fit_residual² + s_floor²) (:attr:`~drivestyle.irl.library.DriverLibrary.noise_floor`):
+    out of class above :data:`OUT_OF_CLASS_FACTOR` floors. What the data added: the KL
+    divergence of the posterior from the uniform prior, KL = Σ_i q_i log(q_i / u_i) [nats]
+    (0 for the prior itself, log N for a point mass on one of N cells), and the 90 %
+    interval's width relative to the prior's; the posterior *moved* when KL >
+    :data:`KL_INFORMATIVE` and the width ratio < :data:`WIDTH_INFORMATIVE`. A paper-model
+    library has no residual scale (``residual_rms`` and ``noise_floor`` None, never out of
+    class); its KL and width are those of the posterior over the library's risks, and a TV
+    within s_e < :data:`S_E_INFORMATIVE` stands for a binding constraint.
     """
 
     residual_rms: float | None
-    """Residual RMS at the best risk [σ_u units] (None: no residual yet, or a paper model)."""
+    """Residual RMS at the best risk [σ_u units] (None: no step yet, or a paper model)."""
     noise_floor: float | None
     """The residual RMS one driver of the class leaves [σ_u units] (None: paper model)."""
-    out_of_class: bool
-    """Whether ``residual_rms`` exceeds :data:`OUT_OF_CLASS_FACTOR` noise floors: the
-    style does not describe this driver and its risk is that of the nearest style."""
     kl_nats: float
     """KL(posterior ‖ prior) [nats]."""
     width_ratio: float
     """The 90 % interval's width over the prior's 90 % interval's width."""
     constraint_binds: bool
     """Whether a chance constraint binds at some step (at the largest risk): the only
-    steps whose plan depends on p."""
-    informative: bool
-    """Whether the data moved the posterior (class docstring)."""
-    reason: str
-    """One line saying why (the numbers behind the flags)."""
-    enters_region: bool = False
-    """Whether another vehicle came inside the safety region every risk keeps clear of
-    (closest s_e < :data:`ENTERS_REGION_S_E`): less cautious than the class allows, so
-    also ``out_of_class`` and never ``informative``."""
+    steps whose plan depends on p (paper model: whether a TV came within
+    :data:`S_E_INFORMATIVE`)."""
     min_s_e: float | None = None
-    """The closest approach of any other vehicle [ellipse units] (None: paper model)."""
+    """The closest approach of any other vehicle [ellipse units] (None: not known)."""
+
+    @property
+    def paper_model(self) -> bool:
+        """Whether this is a paper-model library's verdict (no residual scale)."""
+        return self.noise_floor is None
+
+    @property
+    def moved(self) -> bool:
+        """Whether the posterior moved from the prior: a quarter of the range ruled out."""
+        return self.kl_nats > KL_INFORMATIVE and self.width_ratio < WIDTH_INFORMATIVE
 
     @property
     def floors(self) -> float | None:
@@ -203,9 +288,106 @@ class Verdict:
             return None
         return self.residual_rms / self.noise_floor
 
+    @property
+    def residual_out_of_class(self) -> bool:
+        """Whether ``residual_rms`` exceeds :data:`OUT_OF_CLASS_FACTOR` noise floors.
+
+        Then the style does not describe this driver and its risk is that of the nearest
+        style.
+        """
+        if self.residual_rms is None or self.noise_floor is None:
+            return False
+        return self.residual_rms > OUT_OF_CLASS_FACTOR * self.noise_floor
+
+    @property
+    def enters_region(self) -> bool:
+        """Whether another vehicle came inside the safety region every risk keeps clear of.
+
+        Closest s_e < :data:`ENTERS_REGION_S_E`, once there are residuals: less cautious
+        than the class allows.
+        """
+        return (
+            self.residual_rms is not None
+            and self.min_s_e is not None
+            and self.min_s_e < ENTERS_REGION_S_E
+        )
+
+    @property
+    def out_of_class(self) -> bool:
+        """Whether the style does not describe the driver.
+
+        Its residuals (:attr:`residual_out_of_class`) or a vehicle inside the region
+        (:attr:`enters_region`) say so.
+        """
+        return self.residual_out_of_class or self.enters_region
+
+    @property
+    def label(self) -> str:
+        """The verdict in one word (:func:`verdict_label`, :data:`VERDICT_LABELS`)."""
+        return verdict_label(
+            self.constraint_binds, self.moved, self.residual_out_of_class, self.enters_region
+        )
+
+    @property
+    def informative(self) -> bool:
+        """Whether the identified risk says something: the :attr:`label` is ``informative``.
+
+        A chance constraint binds, the posterior moved and the driver is of the class.
+        """
+        return self.label == INFORMATIVE
+
+    @property
+    def phrase(self) -> str:
+        """The :attr:`label` in words (:data:`VERDICT_PHRASES`)."""
+        return VERDICT_PHRASES[self.label]
+
+    @property
+    def reason(self) -> str:
+        """Why, one line: the numbers behind each flag, each part chosen by that flag.
+
+        No parentheses at the top level, so :attr:`headline` can put it in some.
+        """
+        parts = []
+        if self.enters_region:
+            parts.append(
+                f"another vehicle came to s_e {self.min_s_e:.2f}, inside the safety region "
+                "every risk keeps clear of, s_e ≥ 1"
+            )
+        if self.residual_out_of_class:
+            parts.append(
+                f"residual RMS {self.residual_rms:.2f} σ_u is {self.floors:.0f}× the class's "
+                f"noise floor {self.noise_floor:.3f}, above {OUT_OF_CLASS_FACTOR:g}×"
+            )
+        closest = "" if self.min_s_e is None else f": closest s_e {self.min_s_e:.1f}"
+        if self.paper_model:
+            near = f"within s_e {S_E_INFORMATIVE:g}{closest}"
+            parts.append(f"paper model, a TV came {near}" if self.constraint_binds
+                         else f"paper model, no TV came {near}")  # fmt: skip
+        elif self.residual_rms is None:
+            parts.append("no step yet")
+        elif not self.constraint_binds:
+            parts.append("no chance constraint binds at any risk, the other vehicles never "
+                         f"come near{closest}")  # fmt: skip
+        if self.constraint_binds:
+            # each comparison printed as it came out, so the text cannot contradict the flag
+            kl = ">" if self.kl_nats > KL_INFORMATIVE else "≤"
+            width = "<" if self.width_ratio < WIDTH_INFORMATIVE else "≥"
+            parts.append(
+                f"the data {'moved' if self.moved else 'barely moved'} the posterior: "
+                f"KL {self.kl_nats:.3f} {kl} {KL_INFORMATIVE:.3f} nats, interval "
+                f"{self.width_ratio:.1%} {width} {WIDTH_INFORMATIVE:.0%} of the prior's"
+            )
+        return "; ".join(parts)
+
+    @property
+    def headline(self) -> str:
+        """The verdict first, the why after: ``<phrase> (<reason>)``."""
+        return f"{self.phrase} ({self.reason})"
+
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (keys of ``identify.json``)."""
         return {
+            "verdict": self.label,
             "informative": self.informative,
             "out_of_class": self.out_of_class,
             "residual_rms": self.residual_rms,
@@ -232,11 +414,6 @@ def kl_from_uniform(mass: np.ndarray) -> float:
     q = np.asarray(mass, float)
     q = q[q > 0]
     return max(float(np.sum(q * np.log(q * np.asarray(mass).size))), 0.0)
-
-
-def _moved(kl: float, width_ratio: float) -> bool:
-    """Whether the posterior moved enough from the prior to be called informative."""
-    return kl > KL_INFORMATIVE and width_ratio < WIDTH_INFORMATIVE
 
 
 def constraint_binds(profile: RiskProfile) -> bool:
@@ -280,57 +457,26 @@ def fit_verdict(
         :data:`WIDTH_INFORMATIVE`).
     """
     rms = float(np.sqrt(max(float(np.min(ssr)), 0.0) / n_residuals)) if n_residuals else None
-    inside = bool(n_residuals) and min_s_e < ENTERS_REGION_S_E
-    out = rms is not None and rms > OUT_OF_CLASS_FACTOR * noise_floor
     kl = kl_from_uniform(mass)
     width = (interval[1] - interval[0]) / (prior_interval[1] - prior_interval[0])
-    informative = binds and _moved(kl, width) and not inside
-    if not n_residuals:
-        why = "no step yet: the posterior is the prior"
-    elif not binds:
-        why = (
-            "cannot inform the risk: no chance constraint binds at any risk (the other "
-            f"vehicles never come near, closest s_e {min_s_e:.1f}); the posterior is the prior"
-        )
-    elif informative:
-        why = (
-            f"the data moved the posterior (KL {kl:.2f} nats, interval {width:.0%} of the prior's)"
-        )
-    else:
-        why = (
-            f"the data barely moved the posterior (KL {kl:.2f} nats, needs > "
-            f"{KL_INFORMATIVE:g}; interval {width:.0%} of the prior's, needs < "
-            f"{WIDTH_INFORMATIVE:.0%})"
-        )
-    if out:
-        assert rms is not None
-        why = (
-            f"out of class: residual RMS {rms:.2f} σ_u is {rms / noise_floor:.0f}× the "
-            f"class's noise floor {noise_floor:.3f} (above {OUT_OF_CLASS_FACTOR:g}×), the "
-            f"style does not describe this driver; {why}"
-        )
-    if inside:
-        why = (
-            f"less cautious than the class: another vehicle came to s_e {min_s_e:.2f}, inside "
-            "the safety region every risk keeps clear of (s_e ≥ 1), so the risk lies below the "
-            f"library's range and is not identified; {why}"
-        )
-    return Verdict(rms, noise_floor, out or inside, kl, float(width), binds, informative, why,
-                   inside, float(min_s_e))  # fmt: skip
+    return Verdict(rms, noise_floor, kl, float(width), binds, float(min_s_e))
 
 
 def _paper_verdict(
-    risks: np.ndarray, posterior: np.ndarray, interval: tuple[float, float], near: bool
+    risks: np.ndarray,
+    posterior: np.ndarray,
+    interval: tuple[float, float],
+    near: bool,
+    min_s_e: float,
 ) -> Verdict:
-    """The :class:`Verdict` of a paper-model identification (no residual scale)."""
+    """The :class:`Verdict` of a paper-model identification (no residual scale).
+
+    A TV within s_e < :data:`S_E_INFORMATIVE` stands for a binding constraint; KL and width
+    are those of the posterior over the library's risks, whose prior is uniform on them.
+    """
     kl = kl_from_uniform(posterior)
     width = (interval[1] - interval[0]) / float(np.ptp(risks))
-    why = (
-        f"paper model (no residual scale): KL {kl:.2f} nats, interval {width:.0%} of the "
-        "library's range; "
-        + ("a TV came near" if near else f"no TV came within s_e {S_E_INFORMATIVE:g}")
-    )
-    return Verdict(None, None, False, kl, float(width), near, near, why)
+    return Verdict(None, None, kl, float(width), near, float(min_s_e))
 
 
 @dataclass(frozen=True)
@@ -367,13 +513,16 @@ class Identification:
 
     @property
     def informative(self) -> bool:
-        """Whether the data moved the posterior (:attr:`Verdict.informative`).
+        """Whether the identified risk says something (:attr:`Verdict.informative`).
 
-        Without a verdict: whether any demonstration's TV came near enough for p to matter.
+        False without a verdict.
         """
-        if self.verdict is not None:
-            return self.verdict.informative
-        return any(d.informative for d in self.per_demo)
+        return self.verdict is not None and self.verdict.informative
+
+    @property
+    def label(self) -> str | None:
+        """The verdict's label (:attr:`Verdict.label`; None without a verdict)."""
+        return None if self.verdict is None else self.verdict.label
 
     @property
     def out_of_class(self) -> bool:
@@ -382,7 +531,7 @@ class Identification:
 
     @property
     def reason(self) -> str:
-        """Why the identification is (not) informative or out of class, one line."""
+        """Why the verdict is what it is, one line (:attr:`Verdict.reason`)."""
         return "" if self.verdict is None else self.verdict.reason
 
     @property
@@ -422,7 +571,7 @@ class Identification:
             "posterior": {str(p): q for p, q in zip(self.risks, self.posterior, strict=True)},
             "informative": self.informative,
             **(self.verdict.to_json() if self.verdict is not None else {}),
-            "informative_per_demo": [d.informative for d in self.per_demo],
+            "constraint_binds_per_demo": [d.constraint_binds for d in self.per_demo],
             "min_s_e_per_demo": [d.min_s_e for d in self.per_demo],
             "scores": all_scores[self.scorer],
             "all_scores": all_scores,
@@ -537,7 +686,7 @@ def demo_scores(
     min_s_e = float(np.min(s_e))
     return DemoScores(
         scores={s: tuple(v) for s, v in scores.items()},
-        informative=min_s_e < S_E_INFORMATIVE,
+        constraint_binds=min_s_e < S_E_INFORMATIVE,
         min_s_e=min_s_e,
         trigger_fired=bool(events.reactive_active),
     )
@@ -545,20 +694,20 @@ def demo_scores(
 
 def posterior_from_scores(
     scores: Sequence[Sequence[float]],
-    informative: Sequence[bool],
+    binds: Sequence[bool],
     temperature: float = TEMPERATURE,
 ) -> np.ndarray:
     """Posterior over the library's risks from one or several demonstrations' scores.
 
-    Each informative demonstration contributes the log-likelihood
+    Each demonstration in which p can matter (``binds``) contributes the log-likelihood
     ℓ_p = −(s_p / min_q s_q − 1)/τ (its relative score gap, free of the scorer's unit and of
-    how hard the scenario is to reproduce); uninformative ones contribute nothing; the
+    how hard the scenario is to reproduce); the others contribute nothing; the
     prior is uniform over the library's risks. Demonstrations of one vehicle pool by adding
     their log-likelihoods, so the posterior sharpens as they are added.
 
     Args:
         scores: per demonstration, the scores of the library's risks (lower is better).
-        informative: per demonstration, whether it says anything about p.
+        binds: per demonstration, whether p can matter in it (:attr:`DemoScores.constraint_binds`).
         temperature: τ > 0.
 
     Returns:
@@ -570,7 +719,7 @@ def posterior_from_scores(
     if n == 0:
         raise ValueError("need the scores of at least one demonstration")
     log_lik = np.zeros(n)
-    for row, info in zip(scores, informative, strict=True):
+    for row, info in zip(scores, binds, strict=True):
         s = np.asarray(row, float)
         if not info or not np.any(np.isfinite(s)):
             continue
@@ -628,11 +777,12 @@ def summarise(
         raise ValueError("need the scores of at least one demonstration")
     risks_a = np.asarray(risks, float)
     posterior = posterior_from_scores(
-        [d.scores[scorer] for d in per_demo], [d.informative for d in per_demo]
+        [d.scores[scorer] for d in per_demo], [d.constraint_binds for d in per_demo]
     )
     order = np.argsort(-posterior, kind="stable")
     interval = risk_interval(risks_a, posterior)
-    near = any(d.informative for d in per_demo)
+    near = any(d.constraint_binds for d in per_demo)
+    closest = min(d.min_s_e for d in per_demo)
     return Identification(
         scorer=scorer,
         risks=tuple(float(p) for p in risks_a),
@@ -643,7 +793,7 @@ def summarise(
         ranking=tuple(float(risks_a[i]) for i in order),
         per_demo=tuple(per_demo),
         true_risks=tuple(true_risks),
-        verdict=_paper_verdict(risks_a, posterior, interval, near),
+        verdict=_paper_verdict(risks_a, posterior, interval, near, closest),
     )
 
 
@@ -682,7 +832,7 @@ def identify(
 
     Returns:
         The :class:`Identification`: posterior mode, mean and 90 % interval, the
-        posterior, the ranking, the scores, whether the demonstrations were informative.
+        posterior, the ranking, the scores and the :class:`Verdict`.
 
     Raises:
         ValueError: unknown scorer or no demonstrations.
@@ -887,7 +1037,7 @@ def driver_posterior(
     per_demo = [
         DemoScores(
             scores={LIKELIHOOD: tuple(np.interp(risks, pr.risks, pr.ssr).tolist())},
-            informative=constraint_binds(pr),
+            constraint_binds=constraint_binds(pr),
             min_s_e=float(s_e),
             trigger_fired=pr.n_active > 0,
         )
@@ -955,7 +1105,7 @@ def calibrate_temperature(
         The :class:`Calibration`.
 
     Raises:
-        ValueError: no informative demonstration with a true risk.
+        ValueError: no demonstration with a true risk and an active chance constraint.
     """
     pairs = []
     for d in demos:
@@ -966,7 +1116,9 @@ def calibrate_temperature(
         if pr.n_active > 0:
             pairs.append((pr, truth))
     if not pairs:
-        raise ValueError("no informative calibration demonstration with a true risk")
+        raise ValueError(
+            "no calibration demonstration with a true risk and an active chance constraint"
+        )
     grid = density_grid()
     coverage: dict[float, float] = {}
     for tau in candidates:

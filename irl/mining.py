@@ -48,7 +48,15 @@ from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_st
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.envs.real_data import recorded_view
 from drivestyle.irl.driver_style import reproduce
-from drivestyle.irl.identification import Identification, identify
+from drivestyle.irl.identification import (
+    ENTERS_REGION,
+    INFORMATIVE,
+    OUT_OF_CLASS,
+    VERDICT_LABELS,
+    Identification,
+    identify,
+    recorded_verdict_label,
+)
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
 
@@ -57,7 +65,9 @@ __all__ = [
     "CONNECT_TIMEOUT_S",
     "ENGINES",
     "FAILURE_KINDS",
+    "LABEL_COLUMNS",
     "LEGACY_COLUMNS",
+    "PRE_LABEL_COLUMNS",
     "PRE_VERDICT_COLUMNS",
     "RAY_TASK_RETRIES",
     "READABLE_HEADERS",
@@ -151,7 +161,8 @@ class MinedRow:
     risk_mean: float | None = None
     """Posterior mean."""
     informative: bool | None = None
-    """Whether the TV came near enough for the risk to matter."""
+    """Whether the verdict is ``informative`` (:attr:`label`; tables before
+    :data:`LABEL_COLUMNS`: whether the data moved the posterior, or the TV came near)."""
     trigger_fired: bool | None = None
     """Whether the reaction trigger fired."""
     theta_normalised: tuple[float, ...] | None = None
@@ -183,7 +194,16 @@ class MinedRow:
     interval_width_ratio: float | None = None
     """The 90 % interval's width over the prior's."""
     reason: str = ""
-    """Why the identification is (not) informative or out of class (one line)."""
+    """Why the verdict is what it is (one line: the verdict's ``reason``)."""
+    constraint_binds: bool | None = None
+    """Whether a chance constraint binds at some step (the columns :data:`LABEL_COLUMNS`,
+    appended last; None in tables written before them)."""
+    enters_region: bool | None = None
+    """Whether another vehicle came inside the safety region every risk keeps clear of."""
+    verdict: str = ""
+    """The verdict's label (:data:`~drivestyle.irl.identification.VERDICT_LABELS`), the one
+    :attr:`label` derives from the row's flags; empty in failed rows and tables written
+    before the column."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.id, str) and self.id):
@@ -196,6 +216,10 @@ class MinedRow:
             raise ValueError(f"row {self.id}: the error must be one line")
         if "\n" in self.reason or "\r" in self.reason:
             raise ValueError(f"row {self.id}: the reason must be one line")
+        if self.verdict not in ("", *VERDICT_LABELS):
+            raise ValueError(
+                f"row {self.id}: verdict must be one of {VERDICT_LABELS}, got {self.verdict!r}"
+            )
         if self.status == "failed":
             if not self.error:
                 raise ValueError(f"row {self.id}: a failed row needs its error")
@@ -207,6 +231,10 @@ class MinedRow:
             return
         if self.error or self.failure_kind:
             raise ValueError(f"row {self.id}: an ok row has no error, got {self.error!r}")
+        if self.verdict and self.verdict != self.label:
+            raise ValueError(
+                f"row {self.id}: verdict {self.verdict!r} contradicts its flags ({self.label})"
+            )
         needed = ("risk_estimate", "risk_lo", "risk_hi", "risk_mean", "theta_normalised")
         missing = [k for k in needed if getattr(self, k) is None]
         if missing:
@@ -214,6 +242,20 @@ class MinedRow:
         assert self.risk_lo is not None and self.risk_hi is not None  # checked above
         if not self.risk_lo <= self.risk_hi:
             raise ValueError(f"row {self.id}: interval [{self.risk_lo}, {self.risk_hi}] is empty")
+
+    @property
+    def label(self) -> str | None:
+        """The verdict's label from the row's flags (None: a failed row).
+
+        :func:`~drivestyle.irl.identification.recorded_verdict_label`: the same function
+        as the identification's, so a row of an older table (flags missing) is labelled
+        the way every reader labels it.
+        """
+        if self.status != "ok":
+            return None
+        return recorded_verdict_label(
+            self.informative, self.out_of_class, self.constraint_binds, self.enters_region
+        )
 
     @classmethod
     def failed(
@@ -257,8 +299,9 @@ class MinedRow:
     def from_csv(cls, record: Mapping[str | None, Any]) -> MinedRow:
         """A row from ``styles.csv``'s cells (a ``csv.DictReader`` record).
 
-        Tables of earlier versions read too (:data:`READABLE_HEADERS`): before the verdict
-        (:data:`PRE_VERDICT_COLUMNS`) its cells are missing (None, reason empty); before
+        Tables of earlier versions read too (:data:`READABLE_HEADERS`): before the label
+        (:data:`PRE_LABEL_COLUMNS`) its cells are missing (None, verdict empty: :attr:`label`
+        derives it); before the verdict (:data:`PRE_VERDICT_COLUMNS`) those too; before
         ``failure_kind`` (:data:`LEGACY_COLUMNS`) the failed rows are data failures (its
         local engine wrote no others).
 
@@ -272,7 +315,7 @@ class MinedRow:
         cell = {c: str(record[c]) for c in columns}
         if columns is LEGACY_COLUMNS:
             cell["failure_kind"] = "data" if cell["status"] == "failed" else ""
-        for c in VERDICT_COLUMNS:
+        for c in (*VERDICT_COLUMNS, *LABEL_COLUMNS):
             cell.setdefault(c, "")
         return cls(
             id=cell["id"],
@@ -300,6 +343,9 @@ class MinedRow:
             kl_nats=_opt_float(cell["kl_nats"]),
             interval_width_ratio=_opt_float(cell["interval_width_ratio"]),
             reason=cell["reason"],
+            constraint_binds=_opt_bool(cell["constraint_binds"]),
+            enters_region=_opt_bool(cell["enters_region"]),
+            verdict=cell["verdict"],
         )
 
     def without_timings(self) -> MinedRow:
@@ -310,16 +356,24 @@ class MinedRow:
 COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(MinedRow))
 """Columns of ``styles.csv``, in :class:`MinedRow`'s field order; ``theta_normalised`` is a
 JSON list in the library's feature order, the interval is [risk_lo, risk_hi]."""
+LABEL_COLUMNS: tuple[str, ...] = ("constraint_binds", "enters_region", "verdict")
+"""The flags the verdict's label needs beside ``informative`` and ``out_of_class``, and the
+label itself: the last columns of :data:`COLUMNS`."""
+assert COLUMNS[-len(LABEL_COLUMNS) :] == LABEL_COLUMNS
+PRE_LABEL_COLUMNS: tuple[str, ...] = COLUMNS[: -len(LABEL_COLUMNS)]
+"""The columns of a table written before the label (read, and rewritten)."""
 VERDICT_COLUMNS: tuple[str, ...] = (
     "residual_rms", "noise_floor", "out_of_class", "kl_nats", "interval_width_ratio", "reason",
 )  # fmt: skip
-"""The verdict's columns (issue 26), the last ones of :data:`COLUMNS`."""
-assert COLUMNS[-len(VERDICT_COLUMNS) :] == VERDICT_COLUMNS
-PRE_VERDICT_COLUMNS: tuple[str, ...] = COLUMNS[: -len(VERDICT_COLUMNS)]
+"""The verdict's numbers, the last columns of :data:`PRE_LABEL_COLUMNS`."""
+assert PRE_LABEL_COLUMNS[-len(VERDICT_COLUMNS) :] == VERDICT_COLUMNS
+PRE_VERDICT_COLUMNS: tuple[str, ...] = PRE_LABEL_COLUMNS[: -len(VERDICT_COLUMNS)]
 """The columns of a table written before the verdict (read, and rewritten)."""
 LEGACY_COLUMNS: tuple[str, ...] = PRE_VERDICT_COLUMNS[:-1]
 """The columns of a table written before ``failure_kind`` (read, and rewritten)."""
-READABLE_HEADERS: tuple[tuple[str, ...], ...] = (COLUMNS, PRE_VERDICT_COLUMNS, LEGACY_COLUMNS)
+READABLE_HEADERS: tuple[tuple[str, ...], ...] = (
+    COLUMNS, PRE_LABEL_COLUMNS, PRE_VERDICT_COLUMNS, LEGACY_COLUMNS,
+)  # fmt: skip
 """Every header :meth:`MinedRow.from_csv` reads, newest first (each extends the next)."""
 
 
@@ -459,6 +513,9 @@ def _ok_row(
         kl_nats=None if v is None else _round(v.kl_nats),
         interval_width_ratio=None if v is None else _round(v.width_ratio),
         reason="" if v is None else _one_line(v.reason),
+        constraint_binds=None if v is None else v.constraint_binds,
+        enters_region=None if v is None else v.enters_region,
+        verdict="" if v is None else v.label,
     )
 
 
@@ -678,7 +735,10 @@ def verdict_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
     """The verdicts on fit over the ok rows (DESIGN §8): counts and ranges.
 
     Returns:
-        ``n_informative``, ``n_out_of_class`` and the [min, max] of the residual in noise
+        ``verdicts`` (label → rows, every label of
+        :data:`~drivestyle.irl.identification.VERDICT_LABELS`), ``n_informative`` (label
+        ``informative``), ``n_out_of_class`` (``out_of_class`` or ``enters_region``: the
+        style does not describe the driver) and the [min, max] of the residual in noise
         floors (``residual_floors``), of ``kl_nats`` and of ``interval_width_ratio`` (None
         where no row has the number).
     """
@@ -686,9 +746,11 @@ def verdict_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
     floors = [
         r.residual_rms / r.noise_floor for r in ok if r.residual_rms is not None and r.noise_floor
     ]
+    labels = Counter(r.label for r in ok)
     return {
-        "n_informative": sum(bool(r.informative) for r in ok),
-        "n_out_of_class": sum(bool(r.out_of_class) for r in ok),
+        "verdicts": {label: labels[label] for label in VERDICT_LABELS},
+        "n_informative": labels[INFORMATIVE],
+        "n_out_of_class": labels[OUT_OF_CLASS] + labels[ENTERS_REGION],
         "residual_floors": _range(floors),
         "kl_nats": _range([r.kl_nats for r in ok]),
         "interval_width_ratio": _range([r.interval_width_ratio for r in ok]),

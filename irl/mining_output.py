@@ -19,8 +19,9 @@ skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
 - rows that failed for an infrastructure reason (``failure_kind``: a worker that died, was
   killed, ran out of memory) are dropped on entering, so a resumed run mines them again;
   data failures are final. A table of the version before ``failure_kind`` is read (its
-  failures are data failures) and rewritten with the new header; so is one of the version
-  before the verdict columns (its rows keep empty verdict cells);
+  failures are data failures) and rewritten with the new header; so are those of the
+  versions before the verdict columns and before the label columns (their rows keep those
+  cells empty; a row's label is derived from the flags it has);
 - a demonstration's id is its path under the input folder (:data:`ID_SCHEME`), whatever the
   other files are; rows of an earlier version (stem ids) are given their path ids on
   entering, or dropped and mined again where a stem is ambiguous now; rows of

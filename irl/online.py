@@ -134,7 +134,7 @@ class StyleTracker:
 
         Returns:
             The :class:`~drivestyle.irl.identification.Identification` of the samples so
-            far (the uniform prior, flagged not informative, until a step where p matters).
+            far (the uniform prior, verdict ``no_constraint``, until a step where p matters).
 
         Raises:
             TrackerError: a sample of the wrong shape, not finite, with another number of

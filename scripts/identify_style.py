@@ -9,14 +9,16 @@ scored by reproducing r*_θ in each demonstration's own scenario (``--scorer``, 
 one validation picked; see irl/identification.py). Writes
 ``OUT/identify.json`` with ``scorer``, ``risk_estimate`` (posterior mode),
 ``risk_interpolated`` (posterior mean), ``posterior`` (per library risk), ``risk_interval``
-(90 % of the posterior), ``informative`` (false when no TV came near enough for the risk
-to matter: the interval is then the whole grid), ``scores``, ``ranking``,
-``trigger_fired`` and, where the demonstrations' metadata holds it, ``true_risk``. The
-verdict on fit (:class:`~drivestyle.irl.identification.Verdict`): ``informative`` (the
-data moved the posterior: KL and interval width against the prior, a binding chance
-constraint), ``out_of_class`` (residual RMS at the best risk above k noise floors),
-``residual_rms``, ``noise_floor``, ``residual_floors``, ``kl_nats``,
-``interval_width_ratio``, ``constraint_binds`` and ``reason``; the summary line says it.
+(90 % of the posterior), ``scores``, ``ranking``, ``trigger_fired``, per demonstration
+``constraint_binds_per_demo`` and ``min_s_e_per_demo`` and, where the demonstrations'
+metadata holds it, ``true_risk``. The verdict (:class:`~drivestyle.irl.identification.Verdict`):
+``verdict``, one label of ``informative``, ``prior``, ``no_constraint``, ``out_of_class``
+and ``enters_region`` (:func:`~drivestyle.irl.identification.verdict_label`), the flags it
+comes from (``informative`` is the label ``informative``; ``out_of_class`` is either label
+of a driver the class does not describe; ``constraint_binds``, ``enters_region``), the
+numbers (``residual_rms``, ``noise_floor``, ``residual_floors``, ``kl_nats``,
+``interval_width_ratio``, ``min_s_e``) and ``reason``. The printed summary says the verdict
+first; only an informative one is headed by a risk estimate.
 ``--plot`` also writes ``OUT/identify.png``: the posterior with the prior and the 90 %
 interval, and the library's style driven in closed loop at the identified risk over each
 recorded path (driver libraries). Several
@@ -41,7 +43,16 @@ from drivestyle.common.cli import HelpFormatter, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver_style import DriverStyleError, Reproduction, reproduce
-from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS, Identification, identify
+from drivestyle.irl.identification import (
+    DEFAULT_SCORER,
+    INFORMATIVE,
+    NO_CONSTRAINT,
+    OUT_OF_CLASS_FACTOR,
+    PRIOR,
+    SCORERS,
+    Identification,
+    identify,
+)
 from drivestyle.irl.library import DriverLibrary, StyleLibrary, load_any_library
 
 
@@ -86,17 +97,8 @@ def main(argv: list[str] | None = None) -> dict:
         write_json(tmp / "identify.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         if args.plot:
             _plot(ident, demos, library, tmp / "identify.png")
-    known = sorted({p for p in ident.true_risks if p is not None})
-    lo, hi = ident.risk_interval
-    print(
-        f"risk estimate {ident.risk_estimate:g}, 90 % interval [{lo:g}, {hi:g}], "
-        f"posterior mean {ident.risk_interpolated:.3f} ({ident.scorer} scorer, "
-        f"{len(demos)} demonstration{'s' if len(demos) > 1 else ''}"
-        + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
-        + f"; {_verdict_text(ident)}"
-    )
-    if ident.reason:
-        print(f"  verdict: {ident.reason}")
+    for line in summary_lines(ident, len(demos)):
+        print(line)
     print(
         "  posterior: " + ", ".join(f"p={p:g}: {q:.2f}" for p, q in ident.posterior_by_risk.items())
     )
@@ -107,17 +109,39 @@ def main(argv: list[str] | None = None) -> dict:
     return payload
 
 
-def _verdict_text(ident: Identification) -> str:
-    """The verdict in a few words: informative or not, in class or not, KL and width."""
+def summary_lines(ident: Identification, n_demos: int) -> list[str]:
+    """The printed summary: the verdict first (its phrase and why), then the numbers.
+
+    Only an ``informative`` verdict is headed by a risk estimate; for the others the
+    numbers follow as what they are (the prior's, or the nearest style's of a class that
+    does not describe the driver), so a posterior that is the prior never reads as an answer.
+
+    Args:
+        ident: the identification (with its verdict, as :func:`identify` returns it).
+        n_demos: how many demonstrations it pooled.
+    """
     v = ident.verdict
-    if v is None:
-        return "informative" if ident.informative else "not informative"
-    words = ["informative" if v.informative else "NOT informative"]
+    assert v is not None  # identify attaches one to every identification
+    known = sorted({p for p in ident.true_risks if p is not None})
+    lo, hi = ident.risk_interval
+    numbers = (
+        f"90 % interval [{lo:g}, {hi:g}], posterior mean {ident.risk_interpolated:.3f} "
+        f"({ident.scorer} scorer, {n_demos} demonstration{'s' if n_demos > 1 else ''}"
+        + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
+    )
+    if v.label == INFORMATIVE:
+        numbers = f"risk estimate {ident.risk_estimate:g}, {numbers}"
+    elif v.label in (PRIOR, NO_CONSTRAINT):
+        numbers = f"posterior ≈ the prior: {numbers}"
+    else:
+        numbers = f"the risk of the class's nearest style, not this driver's: {numbers}"
+    lines = [v.headline, f"  {numbers}"]
     if v.floors is not None:
-        fit = "OUT OF CLASS" if v.out_of_class else "in class"
-        words.append(f"{fit} (residual {v.residual_rms:.2f} σ_u = {v.floors:.1f} floors)")
-    words.append(f"KL {v.kl_nats:.2f} nats, interval {v.width_ratio:.0%} of the prior's")
-    return ", ".join(words)
+        lines.append(
+            f"  residual {v.residual_rms:.2f} σ_u = {v.floors:.1f} noise floors (out of class "
+            f"above {OUT_OF_CLASS_FACTOR:g})"
+        )
+    return lines
 
 
 def _plot(

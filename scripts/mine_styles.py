@@ -204,10 +204,8 @@ def main(argv: list[str] | None = None) -> dict:
         f"on {args.engine} x{args.workers}"
     )
     if payload["n_ok"]:
-        print(
-            f"verdicts: {payload['n_informative']} of {payload['n_ok']} informative, "
-            f"{payload['n_out_of_class']} out of class (summary.json: the ranges)"
-        )
+        counts = ", ".join(f"{label} {n}" for label, n in payload["verdicts"].items())
+        print(f"verdicts of the {payload['n_ok']} ok rows: {counts} (summary.json: the ranges)")
     return payload
 
 

@@ -97,9 +97,16 @@ def main(argv: list[str] | None = None) -> dict:
     ident = pred.identification
     if ident is not None:
         lo, hi = ident.risk_interval
+        # only an informative posterior is an identified risk; the others say what they are first
+        v = ident.verdict
+        said = (
+            "posterior mean"
+            if v is None
+            else ("identified risk" if v.informative else f"{v.phrase}; posterior mean")
+        )
         print(
-            f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; identified "
-            f"risk {ident.risk_interpolated:.3f} (90 % [{lo:g}, {hi:g}])"
+            f"observed {args.observe:g} s, predicted {payload['horizon_s']:.1f} s; {said} "
+            f"{ident.risk_interpolated:.3f} (90 % [{lo:g}, {hi:g}])"
             + ("" if pred.true_risk is None else f", true {pred.true_risk:g}")
         )
     for method, m in pred.methods.items():

@@ -34,6 +34,7 @@ from drivestyle.agents.studies.real_traffic import lane_change_stats
 from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lanes import leaders
+from drivestyle.irl.identification import ENTERS_REGION, OUT_OF_CLASS, recorded_verdict_label
 
 AV_VEHICLE = "cats:AV:3"
 """The computer-driven car (CATS vehicle 3 on its AV days)."""
@@ -53,6 +54,8 @@ QUANTITIES = {
 """Quantity → its meaning (the report's rows)."""
 NEAR_M = 100.0
 """Closest approaches beyond this are no approach (a vehicle absent or far) [m]."""
+NOT_MINED = "not mined"
+"""The verdict of a lane change the mine-styles run has no ok row of."""
 MIN_LANE_CHANGES = 3
 """Fewer lane changes in a group give its median but no interval and no difference (a
 bootstrap of one or two values is no interval)."""
@@ -116,6 +119,23 @@ class MinedRow:
     risk_hi: float | None
     informative: bool
     out_of_class: bool
+    constraint_binds: bool | None = None
+    """None: a table written before the column (:func:`recorded_verdict_label`)."""
+    enters_region: bool | None = None
+    """None: a table written before the column."""
+
+    @property
+    def verdict(self) -> str:
+        """The identification's label, by the identification's own rule."""
+        return recorded_verdict_label(
+            self.informative, self.out_of_class, self.constraint_binds, self.enters_region
+        )
+
+
+def _flag(row: Mapping[str, str], column: str) -> bool | None:
+    """A True/False cell, None where the table has no such column or the cell is empty."""
+    value = row.get(column) or ""
+    return None if value == "" else value == "True"
 
 
 def _cell(value: str) -> float | None:
@@ -149,6 +169,8 @@ def read_mined(folder: str | Path) -> dict[str, MinedRow]:
             _cell(r["risk_hi"]),
             r["informative"] == "True",
             r["out_of_class"] == "True",
+            _flag(r, "constraint_binds"),
+            _flag(r, "enters_region"),
         )
         for r in rows
         if r["status"] == "ok"
@@ -165,8 +187,8 @@ class EpisodeCaution:
     values: dict[str, float | None]
     """:data:`QUANTITIES` key → value (None: not available, e.g. not mined)."""
     verdict: str
-    """'out of class' (the style does not describe the driver, whatever its posterior),
-    'informative', 'prior' (in the class, posterior the prior) or 'not mined'."""
+    """The identification's label (:data:`~drivestyle.irl.identification.VERDICT_LABELS`),
+    or :data:`NOT_MINED`."""
 
 
 def episode_caution(
@@ -184,16 +206,12 @@ def episode_caution(
         "peak_lateral_speed_mps": stats["peak_lateral_speed_mps"],
         "duration_10_90_s": stats["duration_10_90_s"],
     }
-    verdict = "not mined"
+    verdict = NOT_MINED
     if mined is not None:
+        verdict = mined.verdict
         # a driver the style does not describe has no risk of the class: its posterior
         # may have moved, but not towards anything the class means
-        verdict = (
-            "out of class"
-            if mined.out_of_class
-            else ("informative" if mined.informative else "prior")
-        )
-        if not mined.out_of_class:
+        if verdict not in (OUT_OF_CLASS, ENTERS_REGION):
             values["risk_mean"] = mined.risk_mean
             if mined.risk_lo is not None and mined.risk_hi is not None:
                 values["risk_interval_width"] = mined.risk_hi - mined.risk_lo

@@ -934,10 +934,7 @@ def plot_identification(
     v = ident.verdict
     if v is not None:
         floors = "" if v.floors is None else f", residual {v.floors:.1f} floors"
-        verdict = ("informative" if v.informative else "not informative") + (
-            ", OUT OF CLASS" if v.out_of_class else ""
-        )
-        ax.set_title(f"{verdict}\nKL {v.kl_nats:.2f} nats, interval "
+        ax.set_title(f"{v.phrase}\nKL {v.kl_nats:.2f} nats, interval "
                      f"{v.width_ratio:.0%} of prior{floors}", fontsize=8)  # fmt: skip
     ax.set_xlabel("risk p")
     ax.set_ylim(bottom=0)

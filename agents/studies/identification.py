@@ -304,7 +304,11 @@ class ScorerSummary:
 
     grid_accuracy: float | None
     grid_accuracy_informative: float | None
+    """Accuracy among grid demonstrations in which p can matter
+    (:attr:`~drivestyle.irl.identification.DemoScores.constraint_binds`; the name is the
+    results' key, older than the verdict's labels)."""
     grid_mae_informative: float | None
+    """MAE of the posterior mode on the same demonstrations."""
     grid_accuracy_interactive: float | None
     """Accuracy among grid demonstrations whose trigger fired."""
     between_mae_nearest: float | None
@@ -373,6 +377,7 @@ class EvaluationSummary:
     n_failed: int
     n_grid: int
     n_grid_informative: int
+    """Grid demonstrations in which p can matter (``grid_accuracy_informative``'s)."""
     n_between: int
     noise_sigma_m: float
     by_scorer: Mapping[str, ScorerSummary]
@@ -557,7 +562,7 @@ def pooled_accuracy(
             else:
                 scored = [r.scores for r in group if r.scores is not None]
                 post = posterior_from_scores(
-                    [d.scores[scorer] for d in scored], [d.informative for d in scored]
+                    [d.scores[scorer] for d in scored], [d.constraint_binds for d in scored]
                 )
                 pooled.append(risks[int(np.argmax(post))] == p)
                 lo, hi = risk_interval(risks, post)
@@ -576,15 +581,15 @@ def pooled_accuracy(
 
 def _scorer_summary(s: str, ok: Sequence[EvaluationRecord]) -> ScorerSummary:
     grid = [r for r in ok if r.grid]
-    informative = [r for r in grid if r.scores is not None and r.scores.informative]
+    binding = [r for r in grid if r.scores is not None and r.scores.constraint_binds]
     interactive = [r for r in grid if r.scores is not None and r.scores.trigger_fired]
     between = [r for r in ok if not r.grid and not r.continuous]
     continuous = [r for r in ok if r.continuous]
     identifiable = [r for r in grid if r.identifiable]
     return ScorerSummary(
         grid_accuracy=_mean([r.correct(s) for r in grid]),
-        grid_accuracy_informative=_mean([r.correct(s) for r in informative]),
-        grid_mae_informative=_mean([abs(r.estimate(s) - r.risk) for r in informative]),
+        grid_accuracy_informative=_mean([r.correct(s) for r in binding]),
+        grid_mae_informative=_mean([abs(r.estimate(s) - r.risk) for r in binding]),
         grid_accuracy_interactive=_mean([r.correct(s) for r in interactive]),
         between_mae_nearest=_mean([abs(r.estimate(s) - r.risk) for r in between]),
         between_mae_interpolated=_mean(
@@ -691,7 +696,7 @@ def evaluate_identification(
         n=len(records),
         n_failed=len(records) - len(ok),
         n_grid=len(grid_recs),
-        n_grid_informative=sum(bool(r.scores and r.scores.informative) for r in grid_recs),
+        n_grid_informative=sum(bool(r.scores and r.scores.constraint_binds) for r in grid_recs),
         n_between=len(ok) - len(grid_recs),
         noise_sigma_m=noise,
         by_scorer={s: _scorer_summary(s, ok) for s in scorers},

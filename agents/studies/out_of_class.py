@@ -21,7 +21,7 @@ known by construction:
   known caution order is p within a variant.
 
 For each lane change :func:`identify_episode` reports the posterior mean p, its 90 %
-interval and the verdict of fit (DESIGN §15, "Verdict on fit"); :func:`order_checks`
+interval and the verdict (DESIGN §15, "Verdict"); :func:`order_checks`
 compares the known caution rank with the identified p by Spearman's ρ, over the episodes
 and over the groups' medians (the issue's goal: ρ ≥ :data:`SPEARMAN_GOAL`).
 :func:`predict_episode` predicts each lane change after t_obs ∈ :data:`T_OBS` with every
@@ -55,7 +55,7 @@ from drivestyle.agents.studies.prediction import (
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
 from drivestyle.envs.tracks import Carriageway, Recording, Track
-from drivestyle.irl.identification import Identification, identify_driver
+from drivestyle.irl.identification import Identification, identify_driver, recorded_verdict_label
 from drivestyle.irl.library import DriverLibrary, LibraryError
 from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
@@ -542,12 +542,13 @@ class EpisodeResult:
 
     @property
     def verdict(self) -> str:
-        """``enters_region``, ``out_of_class``, ``informative`` or ``uninformative``."""
-        if self.enters_region:
-            return "enters_region"
-        if self.out_of_class:
-            return "out_of_class"
-        return "informative" if self.informative else "uninformative"
+        """The identification's label (:data:`~drivestyle.irl.identification.VERDICT_LABELS`).
+
+        Derived from the flags by the identification's own rule.
+        """
+        return recorded_verdict_label(
+            self.informative, self.out_of_class, self.constraint_binds, self.enters_region
+        )
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from drivestyle.agents.studies.compare import LABELS
 from drivestyle.common.io import fmt
-from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS
+from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS, VERDICT_LABELS
 
 if TYPE_CHECKING:
     from drivestyle.agents.studies.av_vs_human import AVHumanComparison
@@ -722,7 +722,6 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
     from drivestyle.agents.studies.out_of_class import FDE_GOAL, SPEARMAN_GOAL
 
     cfg = study.config
-    verdicts = ("informative", "uninformative", "out_of_class", "enters_region")
     lines = [
         "# Drivers outside the style class (issue 27)",
         "",
@@ -747,13 +746,13 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
         "## Identified risk per group",
         "",
         "| family | group | caution | n | median p | IQR | binds | median min s_e | "
-        + " | ".join(verdicts)
+        + " | ".join(VERDICT_LABELS)
         + " |",
-        "|---|---|---|---|---|---|---|---|" + "---|" * len(verdicts),
+        "|---|---|---|---|---|---|---|---|" + "---|" * len(VERDICT_LABELS),
     ]
     for grp in study.groups:
         iqr = "—" if grp.risk_q25 is None else f"{grp.risk_q25:.3f}–{grp.risk_q75:.3f}"
-        counts = " | ".join(str(grp.verdicts.get(v, 0)) for v in verdicts)
+        counts = " | ".join(str(grp.verdicts.get(v, 0)) for v in VERDICT_LABELS)
         lines.append(f"| {grp.family} | {grp.group} | {grp.caution:g} | {grp.n} | "
                      f"{fmt(grp.risk_median)} | {iqr} | {grp.n_binds} | "
                      f"{fmt(grp.min_s_e_median, 2)} | {counts} |")  # fmt: skip

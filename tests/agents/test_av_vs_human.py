@@ -63,6 +63,7 @@ def _episodes():
 def test_a_real_difference_excludes_zero_and_equal_groups_do_not():
     mined = {f"a{i}": MinedRow(0.6, 0.55, 0.7, True, False) for i in range(6)}
     mined |= {f"h{i}": MinedRow(0.9, 0.5, 0.99, False, False) for i in range(5)}
+    mined["h4"] = MinedRow(0.9, 0.5, 0.99, False, False, constraint_binds=False)
     mined["h5"] = MinedRow(0.2, 0.1, 0.3, True, True)  # moved, but out of class: no risk
     c = compare_av_human(_episodes(), mined, samples=300, seed=1)
     d = {(x.quantity, x.against): x for x in c.differences}
@@ -74,7 +75,8 @@ def test_a_real_difference_excludes_zero_and_equal_groups_do_not():
     assert d["risk_mean", "same car, human"].median == pytest.approx(-0.3)
     assert d["risk_mean", "other humans"].median is None  # not mined
     assert c.verdicts == {"AV": {"informative": 6},
-                          "same car, human": {"prior": 5, "out of class": 1},
+                          "same car, human": {"prior": 4, "no_constraint": 1,
+                                              "out_of_class": 1},
                           "other humans": {"not mined": 6}}  # fmt: skip
     hv = next(s for s in c.stats if s.quantity == "risk_mean" and s.group == "same car, human")
     assert hv.n == 5 and hv.median == 0.9
@@ -108,6 +110,16 @@ def test_the_mined_table_is_read_and_a_foreign_table_refused(tmp_path):
         "x,ok,0.7,0.6,0.8,True,False\ny,failed,,,,False,False\n"
     )
     assert read_mined(tmp_path) == {"x": MinedRow(0.7, 0.6, 0.8, True, False)}
+    assert read_mined(tmp_path)["x"].verdict == "informative"
+    # a table with the label's flags: the same function labels its rows
+    (tmp_path / "styles.csv").write_text(
+        "id,status,risk_mean,risk_lo,risk_hi,informative,out_of_class,constraint_binds,"
+        "enters_region\nx,ok,0.7,0.6,0.8,False,True,True,True\n"
+        "z,ok,0.745,0.5,0.99,False,False,False,False\n"
+    )
+    read = read_mined(tmp_path)
+    assert read["x"] == MinedRow(0.7, 0.6, 0.8, False, True, True, True)
+    assert (read["x"].verdict, read["z"].verdict) == ("enters_region", "no_constraint")
     (tmp_path / "styles.csv").write_text("id,status\nx,ok\n")
     with pytest.raises(ValueError, match="no column informative"):
         read_mined(tmp_path)

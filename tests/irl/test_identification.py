@@ -31,7 +31,7 @@ IDENTIFY_JSON_KEYS = {
     "interval_mass",
     "posterior",
     "informative",
-    "informative_per_demo",
+    "constraint_binds_per_demo",
     "min_s_e_per_demo",
     "scores",
     "all_scores",
@@ -40,7 +40,8 @@ IDENTIFY_JSON_KEYS = {
     "trigger_fired",
     "trigger_fired_per_demo",
     "true_risk",
-    # the verdict (issue 26)
+    # the verdict
+    "verdict",
     "out_of_class",
     "residual_rms",
     "noise_floor",
@@ -101,7 +102,8 @@ def test_a_library_with_too_few_scenarios_is_refused(style_library, paper_demo):
         identify(paper_demo, small)
     with pytest.raises(LibraryError, match="at least 10"):
         identify(paper_demo, style_library, nearest=10)
-    assert identify(paper_demo, _first_scenarios(style_library, MIN_MEMBERS)).informative
+    answer = identify(paper_demo, _first_scenarios(style_library, MIN_MEMBERS))
+    assert answer.verdict is not None and answer.verdict.constraint_binds  # the TV came near
 
 
 def test_demo_of_another_kind_is_rejected(style_library, paper_demo):
@@ -154,7 +156,9 @@ def test_scrambled_inputs_are_out_of_class(paper_demo):
         verdicts[name] = res.verdict
     assert not verdicts["exact"].out_of_class and verdicts["exact"].residual_rms < 0.1
     assert verdicts["scrambled"].out_of_class and verdicts["scrambled"].residual_rms > 5.0
-    assert "out of class" in verdicts["scrambled"].reason
+    assert verdicts["scrambled"].label == "out_of_class"
+    assert verdicts["scrambled"].headline.startswith("out of class: ")
+    assert "89× the class's noise floor" in verdicts["scrambled"].reason
 
 
 def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_recorded_bounds(

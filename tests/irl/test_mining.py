@@ -133,6 +133,8 @@ def test_verdict_ranges_are_in_noise_floors():
     ]  # fmt: skip
     v = verdict_numbers(rows)
     assert v["n_informative"] == 1 and v["n_out_of_class"] == 1
+    assert v["verdicts"] == {"informative": 1, "prior": 0, "no_constraint": 0,
+                             "out_of_class": 1, "enters_region": 0}  # fmt: skip
     assert v["residual_floors"] == pytest.approx([2.0, 60.0])
     assert v["kl_nats"] == pytest.approx([0.01, 0.5])
     assert v["interval_width_ratio"] == pytest.approx([0.4, 0.99])
@@ -332,7 +334,7 @@ def test_the_styles_csv_header_is_the_documented_one():
         "risk_mean", "informative", "trigger_fired", "theta_normalised", "rmse_y_m",
         "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s", "failure_kind",
         "residual_rms", "noise_floor", "out_of_class", "kl_nats", "interval_width_ratio",
-        "reason",
+        "reason", "constraint_binds", "enters_region", "verdict",
     )  # fmt: skip
 
 
@@ -377,7 +379,7 @@ def test_a_failure_kind_is_validated_and_round_trips():
         MinedRow.failed("v", "pop", "x", kind="cosmic rays")
     # a row of the version before failure_kind: its failures are data failures
     legacy = {k: v for k, v in MinedRow.failed("v", "pop", "x").to_csv().items()}
-    for column in ("failure_kind", *mining.VERDICT_COLUMNS):
+    for column in ("failure_kind", *mining.VERDICT_COLUMNS, *mining.LABEL_COLUMNS):
         del legacy[column]
     assert MinedRow.from_csv(legacy).failure_kind == "data"
 
@@ -388,13 +390,20 @@ def test_the_verdict_columns_round_trip_and_an_older_row_reads():
         informative=False, theta_normalised=(1.0, 2.0), residual_rms=5.04,
         noise_floor=0.1005, out_of_class=False, kl_nats=0.046, interval_width_ratio=0.94,
         reason="the data barely moved the posterior (KL 0.05 nats, σ_u, a comma)",
+        constraint_binds=True, enters_region=False, verdict="prior",
     )  # fmt: skip
-    assert mining.COLUMNS[-len(mining.VERDICT_COLUMNS) :] == mining.VERDICT_COLUMNS
-    assert MinedRow.from_csv(row.to_csv()) == row
-    older = {k: v for k, v in row.to_csv().items() if k not in mining.VERDICT_COLUMNS}
+    assert mining.COLUMNS[-len(mining.LABEL_COLUMNS) :] == mining.LABEL_COLUMNS
+    assert MinedRow.from_csv(row.to_csv()) == row and row.label == "prior"
+    # a table of the version before the label columns: the label from the flags it has
+    before_label = {k: v for k, v in row.to_csv().items() if k not in mining.LABEL_COLUMNS}
+    read = MinedRow.from_csv(before_label)
+    assert read.constraint_binds is None and read.verdict == "" and read.label == "prior"
+    assert read.reason == row.reason
+    # … and before the verdict columns
+    older = {k: v for k, v in before_label.items() if k not in mining.VERDICT_COLUMNS}
     read = MinedRow.from_csv(older)
     assert read.residual_rms is None and read.out_of_class is None and read.reason == ""
-    assert read.risk_mean == 0.7 and read.informative is False
+    assert read.risk_mean == 0.7 and read.informative is False and read.label == "prior"
     with pytest.raises(ValueError, match="one line"):
         MinedRow("v", "pop", "failed", error="x", failure_kind="data", reason="a\nb")
 
@@ -415,7 +424,32 @@ def test_a_driver_library_row_carries_the_verdict(paper_demo):
     assert row.informative is False and row.out_of_class is False
     assert row.kl_nats == 0.0 and row.interval_width_ratio == 1.0
     assert row.residual_rms == pytest.approx(0.1, abs=1e-6)
-    assert "cannot inform the risk" in row.reason
+    assert "no chance constraint binds" in row.reason
+    assert row.verdict == row.label == ident.verdict.label == "no_constraint"
+    assert (row.constraint_binds, row.enters_region) == (False, False)
+
+
+@pytest.mark.parametrize(
+    ("flags", "label"),
+    [
+        ({"informative": True, "constraint_binds": True}, "informative"),
+        ({"constraint_binds": True}, "prior"),
+        ({"constraint_binds": False}, "no_constraint"),
+        ({"out_of_class": True, "constraint_binds": True, "informative": False}, "out_of_class"),
+        ({"out_of_class": True, "enters_region": True, "constraint_binds": True},
+         "enters_region"),
+    ],
+)  # fmt: skip
+def test_a_row_label_follows_its_flags_and_a_contradicting_verdict_is_refused(flags, label):
+    fields = {"informative": False, "out_of_class": False, "enters_region": False} | flags
+    row = dataclasses.replace(OK_ROW, **fields)
+    assert row.label == label
+    assert dataclasses.replace(row, verdict=label).verdict == label
+    other = next(v for v in ("informative", "prior") if v != label)
+    with pytest.raises(ValueError, match=f"verdict '{other}' contradicts its flags"):
+        dataclasses.replace(row, verdict=other)
+    with pytest.raises(ValueError, match="verdict must be one of"):
+        dataclasses.replace(row, verdict="uninformative")
 
 
 _RAY_JOB = """

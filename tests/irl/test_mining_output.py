@@ -224,12 +224,15 @@ def test_infrastructure_failures_are_retried_and_data_failures_are_final(tmp_pat
     ]
 
 
-@pytest.mark.parametrize("version", ["before failure_kind", "before the verdict"])
+@pytest.mark.parametrize(
+    "version", ["before failure_kind", "before the verdict", "before the label"]
+)
 def test_a_table_of_an_earlier_version_is_read_and_rewritten(tmp_path, version):
-    from drivestyle.irl.mining import LEGACY_COLUMNS, PRE_VERDICT_COLUMNS
+    from drivestyle.irl.mining import LEGACY_COLUMNS, PRE_LABEL_COLUMNS, PRE_VERDICT_COLUMNS
 
     (tmp_path / FINGERPRINT).write_text(json.dumps(FP.to_json()))
-    legacy = LEGACY_COLUMNS if version == "before failure_kind" else PRE_VERDICT_COLUMNS
+    legacy = {"before failure_kind": LEGACY_COLUMNS, "before the verdict": PRE_VERDICT_COLUMNS,
+              "before the label": PRE_LABEL_COLUMNS}[version]  # fmt: skip
     row = _row("v1").to_csv()
     (tmp_path / TABLE).write_text(
         ",".join(legacy) + "\r\n" + ",".join(row[c] for c in legacy) + "\r\n"

@@ -58,8 +58,11 @@ def test_plot_writes_a_figure_and_the_summary_says_the_verdict(tmp_path, paper_d
     payload = identify_style.main([str(demo), "--library", str(tmp_path), "--out", str(out),
                                    "--plot"])  # fmt: skip
     assert payload["informative"] is True and payload["out_of_class"] is False
-    first = capsys.readouterr().out.splitlines()[0]
-    assert "informative, in class (residual 0.00 σ_u = 0.0 floors), KL" in first
+    assert payload["verdict"] == "informative"
+    first, numbers, fit = capsys.readouterr().out.splitlines()[:3]
+    assert first.startswith("informative: the data identify the risk (the data moved the")
+    assert numbers.startswith("  risk estimate 0.7, 90 % interval [")
+    assert fit.startswith("  residual 0.00 σ_u = 0.0 noise floors")
     png = np.asarray(Image.open(out / "identify.png").convert("L"), float)
     assert png.shape[0] > 200 and png.shape[1] > 600
     assert png.std() > 10  # not blank: lines and text on white

@@ -24,7 +24,7 @@ def files(tmp_path_factory, paper_demo):
     return d
 
 
-def test_predict_trajectory_writes_every_method(files):
+def test_predict_trajectory_writes_every_method(files, capsys):
     out = files / "out"
     payload = predict_trajectory.main(
         [str(files / "demo.npz"), "--library", str(files), "--observe", "2", "--out", str(out)]
@@ -38,6 +38,25 @@ def test_predict_trajectory_writes_every_method(files):
     assert js["t_obs_s"] == 2.0 and js["true_risk"] == 0.7 and js["recorded"] is False
     assert js["command"].endswith("--out " + str(out))
     assert payload["methods"]["oracle"]["fde_m"] < 0.05
+    assert js["identified"]["verdict"] == "informative" and js["identified"]["informative"]
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("observed 2 s, predicted 4.0 s; identified risk 0.700 (90 % [")
+
+
+def test_predict_trajectory_says_when_the_posterior_is_the_prior(files, capsys):
+    from drivestyle.agents import generate_demonstration
+    from drivestyle.envs.scenario import PAPER
+
+    far = PAPER.with_overrides(tv_gap=-1000.0, tv_speed=25.0, ev_speed=25.0)
+    save_demonstration(generate_demonstration(0.7, far)[0], files / "far.npz")
+    out = files / "far_out"
+    js = predict_trajectory.main(
+        [str(files / "far.npz"), "--library", str(files), "--observe", "2", "--out", str(out)]
+    )
+    assert js["identified"]["verdict"] == "no_constraint" and not js["identified"]["informative"]
+    first = capsys.readouterr().out.splitlines()[0]
+    assert "; the prior: nothing in the data can move the risk; posterior mean 0.745" in first
+    assert "identified risk" not in first
 
 
 def test_predict_trajectory_refuses_a_jump_after_the_observed_part(files, paper_demo):
