@@ -334,3 +334,62 @@ def test_evaluate_prediction_splits_an_episodes_folder_by_vehicle(files, paper_d
                                   "--out", str(tmp_path / "o2")])  # fmt: skip
     with pytest.raises(ValueError, match="--write-split needs --split-file"):
         evaluate_prediction.main(["--episodes", str(folder), "--write-split"])
+
+
+@pytest.mark.slow  # extraction, then three NGSIM episodes predicted twice (≈ 40 s)
+@pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
+def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(files, tmp_path):
+    """The shipped NGSIM sample written as one generic CSV (a recording column) with a lanes
+    file, extracted and benchmarked with --episodes, equals the shipped benchmark's path."""
+    import subprocess
+    import sys
+
+    from drivestyle.agents.studies.prediction import (
+        PHYSICS_FILE,
+        SPLIT_FILE,
+        predict_vehicle,
+        read_split,
+        recorded_episodes,
+        summarise_records,
+    )
+    from drivestyle.envs.readers import read_sample, write_table
+    from drivestyle.irl.library import load_driver_library
+    from drivestyle.irl.physics import load_params
+
+    write_table(read_sample(DATA / "ngsim"), tmp_path / "tracks.csv", tmp_path / "lanes.json")
+    env = {"cwd": tmp_path, "capture_output": True, "text": True, "timeout": 900}
+    run = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "extract-episodes", "tracks.csv", "--format", "csv",
+         "--lanes", "lanes.json", "--out", "eps"], **env,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    run = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "evaluate-prediction", "--library", str(files),
+         "--episodes", "eps", "--split-file", str(SPLIT_FILE), "--split", "validation",
+         "--observe", "2", "--out", "bench"], **env,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    own = json.loads((tmp_path / "bench" / "prediction_eval.json").read_text())
+    # the shipped path: the same episodes from the sample reader, the same split and physics
+    rows = [r for r in read_split(SPLIT_FILE) if r.dataset == "ngsim" and r.split == "validation"]
+    shipped = {e: d for e, _, d in recorded_episodes(str(DATA), "ngsim")}
+    library, physics = load_driver_library(files, "prediction"), load_params(PHYSICS_FILE)
+    records = []
+    for r in rows:
+        recs, skipped = predict_vehicle("ngsim", r.episode_id, shipped[r.episode_id], library,
+                                        (2.0,), physics=physics, unit=r.vehicle_id)  # fmt: skip
+        records += recs
+        assert not skipped
+    assert own["recorded_sets"] == ["ngsim"] and own["n_records"] == len(records) == 3
+    by_id = {rec["vehicle_id"]: rec for rec in own["records"]}
+    for rec in records:
+        for m, fde in rec.fde_m.items():
+            assert by_id[rec.vehicle_id]["fde_m"][m] == pytest.approx(fde, abs=1e-9), m
+            assert by_id[rec.vehicle_id]["ade_m"][m] == pytest.approx(rec.ade_m[m], abs=1e-9), m
+    # and the tables: the same medians and bootstrap intervals over the same vehicles
+    theirs = {(s.set, s.t_obs, s.method): s.to_json() for s in summarise_records(records)}
+    for s in own["summaries"]:
+        mine = theirs[(s["set"], s["t_obs"], s["method"])]
+        assert s["n_units"] == mine["n_units"] == 3
+        for metric, stat in s["stats"].items():
+            assert stat == pytest.approx(mine["stats"][metric]), (s["method"], metric)
