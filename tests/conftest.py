@@ -54,3 +54,12 @@ def style_library(tmp_path_factory, worker_id):
         library = _build_style_library(workers=1)
         shared.write_bytes(pickle.dumps(library))
         return library
+
+
+@pytest.fixture(autouse=True)
+def _the_solver_cache_stays_where_it_was():
+    """A test that moves ``$DRIVESTYLE_CACHE`` and leaves it moved makes every later test of
+    its worker process compile its solvers again (≈ 20 s each): fail the test that does."""
+    before = os.environ.get("DRIVESTYLE_CACHE")
+    yield
+    assert os.environ.get("DRIVESTYLE_CACHE") == before, "the test left $DRIVESTYLE_CACHE moved"

@@ -216,7 +216,11 @@ def test_without_a_usable_home_the_cache_falls_back_to_the_temp_folder(tmp_path)
 
 def test_no_home_at_all_is_said_once_and_shared_with_workers(tmp_path, monkeypatch, capsys):
     for name in ("DRIVESTYLE_CACHE", "XDG_CACHE_HOME"):
-        monkeypatch.delenv(name, raising=False)
+        # set first, so that monkeypatch restores the variable (or its absence) afterwards:
+        # cache_dir() exports its fallback, and a later test in this worker process would
+        # otherwise compile every solver again into this test's temp folder
+        monkeypatch.setenv(name, "")
+        monkeypatch.delenv(name)
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR
 
