@@ -314,3 +314,15 @@ def test_bench_solver_paths_measures_each_path_against_the_product(tmp_path):
     for s in summary.values():
         assert s["wall_over_reference_median"] > 0 and s["max_rel_change"] >= 0
     assert json.loads((tmp_path / "paths.json").read_text())["demos"] == 1
+
+
+def test_bench_irl_times_identification_with_the_default_driver_library(tmp_path):
+    # build-style-library's default library was refused: "no 'feature_config'"
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.scripts.bench_irl import time_identification
+
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))
+    (tmp_path / "library.json").write_text(json.dumps(library.to_json()))
+    timing = time_identification(tmp_path, 1, 0)
+    assert timing["n"] == 1 and 0 < timing["identify_s_median"] == timing["identify_s_p95"]
