@@ -70,6 +70,27 @@ def test_learn_style_writes_spec_fields(tmp_path, demo_file):
     assert (out / "reproduction.png").exists() and (out / "lateral.png").exists()
 
 
+def test_a_learned_style_finds_its_demonstration_from_any_working_directory(
+    tmp_path, demo_file, monkeypatch
+):
+    # style.json recorded the path as given (relative to the learning run's folder):
+    # compare-baseline, deviating-tv and render-rollout run elsewhere did not find it
+    import shutil
+
+    from drivestyle.irl.style import load_style
+
+    (tmp_path / "runs").mkdir()
+    shutil.copy(demo_file, tmp_path / "runs" / "demo.npz")
+    monkeypatch.chdir(tmp_path)
+    _main("learn_style")(["runs/demo.npz", "--model", "paper", "--out", "runs/style"])
+    js = json.loads((tmp_path / "runs" / "style" / "style.json").read_text())
+    assert js["demos"][0]["path"] == "runs/demo.npz"  # as given
+    assert js["demos"][0]["path_from_style"] == "../demo.npz"
+    monkeypatch.chdir(tmp_path / "runs")
+    found = load_style("style").demo_path()
+    assert found.resolve() == (tmp_path / "runs" / "demo.npz").resolve()
+
+
 @pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 @pytest.mark.parametrize(
     ("mutate", "message"),
