@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,7 +32,12 @@ __all__ = [
     "StyleError",
     "fit_style",
     "load_style",
+    "locate_demos",
 ]
+
+DEMO_FROM_STYLE = "path_from_style"
+"""``style.json`` → ``demos``: the demonstration's file relative to the folder of ``style.json``
+(``path`` is as it was given, relative to the working directory of the learning run)."""
 
 
 class StyleError(ValueError):
@@ -214,6 +220,8 @@ class Style:
     features: FeatureConfig
     control_point_rule: str
     raw: dict[str, Any]
+    file: Path | None = None
+    """The ``style.json`` it was read from."""
 
     @property
     def theta_normalised(self) -> np.ndarray:
@@ -223,6 +231,9 @@ class Style:
     def demo_path(self, source: str | Path = "the style") -> Path:
         """The file of the (first) demonstration the style was learned from.
 
+        Found from the style's own folder where ``style.json`` records it so
+        (:data:`DEMO_FROM_STYLE`, whatever the working directory), else as recorded.
+
         Args:
             source: how to name the style in the error (e.g. its path).
 
@@ -230,9 +241,34 @@ class Style:
             StyleError: the style names no demonstration.
         """
         try:
-            return Path(self.raw["demos"][0]["path"])
-        except (KeyError, IndexError, TypeError):
+            entry = self.raw["demos"][0]
+            beside = entry.get(DEMO_FROM_STYLE)
+            if beside is not None and self.file is not None:
+                return self.file.parent / beside
+            return Path(entry["path"])
+        except (KeyError, IndexError, TypeError, AttributeError):
             raise StyleError(f"{source} names no demonstration: pass --demo") from None
+
+
+def locate_demos(
+    payload: dict[str, Any], style_dir: str | Path, demo_files: Sequence[str | Path]
+) -> dict[str, Any]:
+    """A ``style.json`` payload whose demonstrations are also found from its own folder.
+
+    Args:
+        payload: :meth:`FittedStyle.to_json`.
+        style_dir: the folder ``style.json`` is written to.
+        demo_files: the demonstrations' files, in order (both relative to one working
+            directory, or absolute).
+
+    Returns:
+        The payload with :data:`DEMO_FROM_STYLE` in each ``demos`` entry.
+    """
+    demos = [
+        {**entry, DEMO_FROM_STYLE: os.path.relpath(file, style_dir)}
+        for entry, file in zip(payload["demos"], demo_files, strict=True)
+    ]
+    return {**payload, "demos": demos}
 
 
 def load_style(path: str | Path) -> Style:
@@ -264,7 +300,7 @@ def load_style(path: str | Path) -> Style:
         raise StyleError(
             f"{path}: features {names} do not match feature_set {features.feature_set!r}"
         )
-    return Style(names, theta, features, raw.get("control_point_rule", "kinematic"), raw)
+    return Style(names, theta, features, raw.get("control_point_rule", "kinematic"), raw, path)
 
 
 def fit_style(

@@ -5,8 +5,9 @@ the outer loop including every inner solve, excluding interpreter start-up and t
 one-off CasADi build, which is reported separately as ``build_s``) and the median inner
 solve, over ``--repeats`` runs; the median over runs is reported.
 
-With ``--library DIR`` it also times identification (``identify_s_median`` over
-``--identify N`` fresh random-family demonstrations of random grid risks, seeded).
+With ``--library DIR`` (a driver library, build-style-library's default, or a paper-model
+one) it also times identification (``identify_s_median`` over ``--identify N`` fresh
+random-family demonstrations of random grid risks, seeded).
 
 ``driver`` (the default style model, issue 18): on every step of the paper demonstration
 the planner's NLP is solved by the product solver (fatrop generated as C, cached on disk)
@@ -46,7 +47,7 @@ from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl.driver_learning import learn_driver
 from drivestyle.irl.driver_style import DriverStyle, StylePlanner
 from drivestyle.irl.identification import identify
-from drivestyle.irl.library import DriverLibrary, load_library
+from drivestyle.irl.library import DriverLibrary, load_any_library
 from drivestyle.planning.plan_solver import IPMOptions, bounds_vector, compiled_solver
 
 
@@ -176,7 +177,7 @@ def bench_driver(demo, n_identify: int, seed: int, learn: bool) -> dict:
 
 def time_identification(library_dir: Path, n: int, seed: int) -> dict:
     """Median wall time of :func:`drivestyle.irl.identification.identify` on n new demos."""
-    library = load_library(library_dir)
+    library = load_any_library(library_dir)
     rng = np.random.default_rng(seed)
     times = []
     for _ in tqdm(range(n), desc="identify", leave=False):

@@ -57,7 +57,7 @@ from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
-from drivestyle.irl.style import fit_style
+from drivestyle.irl.style import fit_style, locate_demos
 
 EXIT_POOR_FIT = 3
 """Exit status when the driver model's fit is ``poor_fit`` (``style.json`` is written)."""
@@ -232,7 +232,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         raise RuntimeError(f"learning failed at the initial theta: {exc}") from None
     finally:
         bar.close()
-    result, payload = fitted.result, fitted.to_json()
+    result, payload = fitted.result, locate_demos(fitted.to_json(), args.out, args.demos)
     with atomic_output_dir(args.out, replace=False) as tmp:
         write_json(tmp / "style.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         if args.plot:

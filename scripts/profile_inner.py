@@ -18,8 +18,8 @@ steadier than absolute times, and the load average is recorded with them):
     solves per identification and the same split.
 
 (b3) ``--recorded N``: the same as (b2) for the first N recorded CATS lane changes of the
-    benchmark's extraction, seen as identification sees them (the driver model's recorded
-    bounds beyond the scenario's heading bound).
+    benchmark's extraction of ``--data-dir``'s CATS sample, seen as identification sees them
+    (the driver model's recorded bounds beyond the scenario's heading bound).
 
 (b1) and (b2) run with the uncompiled planner and with the gcc-compiled (jit) one.
 The timers are wrappers installed around the solvers' functions for the profiled calls
@@ -49,9 +49,11 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
+from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR
 from drivestyle.common.cli import HelpFormatter, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.real_data import DATASETS
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl import driver_style as ds
@@ -97,6 +99,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=0,
         help="also profile the identification of this many recorded CATS lane changes (the "
         "benchmark's extraction, seen as identification sees them), jit planner",
+    )
+    p.add_argument(
+        "--data-dir",
+        type=Path,
+        default=DEFAULT_DATA_DIR,
+        help="folder holding cats-av-lanechange/ (--recorded)",
     )
     p.add_argument(
         "--no-jit",
@@ -626,6 +634,12 @@ def main(argv: list[str] | None = None) -> dict:
     """Run the profile; returns the JSON payload."""
     args = parse_args(argv)
     check_output_file(args.out)
+    cats = args.data_dir / DATASETS["cats"]
+    if args.recorded > 0 and not cats.is_dir():  # found before the work, not after it
+        raise FileNotFoundError(
+            f"--data-dir {args.data_dir}: no {DATASETS['cats']}/ folder (pass the folder "
+            "holding the datasets, or drop --recorded)"
+        )
     load_before = [round(x, 2) for x in os.getloadavg()]
     demo = generate_demonstration(0.7)[0]
     result: dict[str, Any] = {
@@ -658,10 +672,10 @@ def main(argv: list[str] | None = None) -> dict:
         bar.update(1)
         result["driver"][key] = entry
     if args.recorded > 0:
-        from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
+        from drivestyle.agents.studies.prediction import recorded_episodes
         from drivestyle.envs.real_data import recorded_view
 
-        episodes = recorded_episodes(str(DEFAULT_DATA_DIR), "cats")[: args.recorded]
+        episodes = recorded_episodes(str(args.data_dir), "cats")[: args.recorded]
         rec = [recorded_view(d) for _, _, d in episodes]
         result["recorded"] = profile_identification(rec, library, jit=not args.no_jit)
         result["recorded"]["episodes"] = [e for e, _, _ in episodes]

@@ -261,14 +261,18 @@ class AVHumanComparison:
     differences: tuple[Difference, ...]
     verdicts: dict[str, dict[str, int]]
     """Group → verdict → lane changes."""
+    samples: int = BOOTSTRAP_SAMPLES
+    """Bootstrap replicates the intervals were drawn with."""
+    seed: int = BOOTSTRAP_SEED
+    """Their seed."""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
         return {
             "quantities": QUANTITIES,
             "bootstrap": {
-                "samples": BOOTSTRAP_SAMPLES,
-                "seed": BOOTSTRAP_SEED,
+                "samples": self.samples,
+                "seed": self.seed,
                 "unit": "episode (lane change)",
             },
             "verdicts": self.verdicts,
@@ -334,4 +338,4 @@ def compare_av_human(
     for r in rows:
         verdicts.setdefault(r.group, {}).setdefault(r.verdict, 0)
         verdicts[r.group][r.verdict] += 1
-    return AVHumanComparison(rows, tuple(stats), tuple(diffs), verdicts)
+    return AVHumanComparison(rows, tuple(stats), tuple(diffs), verdicts, samples, seed)

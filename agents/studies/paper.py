@@ -33,7 +33,7 @@ from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.irl.features import FeatureConfig, feature_basis, feature_values
 from drivestyle.irl.learner import IRLConfig, LearningResult
 from drivestyle.irl.spline import demo_control_points
-from drivestyle.irl.style import fit_style
+from drivestyle.irl.style import fit_style, locate_demos
 
 __all__ = [
     "PAPER_REPORTED",
@@ -271,8 +271,9 @@ def write_paper_study(study: PaperStudy, out: str | Path, argv: list[str]) -> No
         out / "demo" / "demo.png",
         title=f"SMPC demonstration, p = {study.demo_summary['risk']:g} (Fig. 2)",
     )
-    for name, style in study.styles.items():
-        write_json(out / name / "style.json", style, argv)
+    for name, style in study.styles.items():  # each finds the demonstration from its folder
+        located = locate_demos(style, out / name, [out / "demo" / "demo.npz"])
+        write_json(out / name / "style.json", located, argv)
     C = demo_control_points(demo)
     plot_reproductions(
         demo, study.results, C, out / "fig3_reproductions.png", study.reaction_window_x_m

@@ -97,6 +97,14 @@ def test_a_group_of_fewer_than_three_gets_no_interval_and_no_difference():
     assert d.median is None and not d.excludes_zero
 
 
+def test_the_json_reports_the_bootstrap_it_was_drawn_with():
+    # it reported the default 2000 replicates and seed whatever --samples said
+    c = compare_av_human(_episodes(), samples=300, seed=1)
+    assert c.to_json()["bootstrap"] == {
+        "samples": 300, "seed": 1, "unit": "episode (lane change)"
+    }  # fmt: skip
+
+
 def test_without_the_av_or_without_humans_it_refuses():
     with pytest.raises(ValueError, match="need lane changes of the AV"):
         compare_av_human(_episodes()[6:])

@@ -88,6 +88,13 @@ def test_a_style_names_its_demonstration_or_says_it_has_none(tmp_path):
 
     named = Style(("ax",), np.ones(1), None, "kinematic", {"demos": [{"path": "d/demo.npz"}]})
     assert str(named.demo_path()) == "d/demo.npz"
+    # where style.json records it relative to its own folder, it is found from there
+    located = {"demos": [{"path": "d/demo.npz", "path_from_style": "../d/demo.npz"}]}
+    file = tmp_path / "styles" / "a" / "style.json"
+    beside = Style(("ax",), np.ones(1), None, "kinematic", located, file)
+    assert beside.demo_path() == tmp_path / "styles" / "a" / ".." / "d" / "demo.npz"
+    unread = Style(("ax",), np.ones(1), None, "kinematic", located)  # not read from a file
+    assert str(unread.demo_path()) == "d/demo.npz"
     with pytest.raises(StyleError, match=r"s\.json names no demonstration: pass --demo"):
         Style(("ax",), np.ones(1), None, "kinematic", {"demos": []}).demo_path("s.json")
 

@@ -70,6 +70,27 @@ def test_learn_style_writes_spec_fields(tmp_path, demo_file):
     assert (out / "reproduction.png").exists() and (out / "lateral.png").exists()
 
 
+def test_a_learned_style_finds_its_demonstration_from_any_working_directory(
+    tmp_path, demo_file, monkeypatch
+):
+    # style.json recorded the path as given (relative to the learning run's folder):
+    # compare-baseline, deviating-tv and render-rollout run elsewhere did not find it
+    import shutil
+
+    from drivestyle.irl.style import load_style
+
+    (tmp_path / "runs").mkdir()
+    shutil.copy(demo_file, tmp_path / "runs" / "demo.npz")
+    monkeypatch.chdir(tmp_path)
+    _main("learn_style")(["runs/demo.npz", "--model", "paper", "--out", "runs/style"])
+    js = json.loads((tmp_path / "runs" / "style" / "style.json").read_text())
+    assert js["demos"][0]["path"] == "runs/demo.npz"  # as given
+    assert js["demos"][0]["path_from_style"] == "../demo.npz"
+    monkeypatch.chdir(tmp_path / "runs")
+    found = load_style("style").demo_path()
+    assert found.resolve() == (tmp_path / "runs" / "demo.npz").resolve()
+
+
 @pytest.mark.slow  # CI runs it (-m slow): margin under the 2-minute default run
 @pytest.mark.parametrize(
     ("mutate", "message"),
@@ -314,3 +335,15 @@ def test_bench_solver_paths_measures_each_path_against_the_product(tmp_path):
     for s in summary.values():
         assert s["wall_over_reference_median"] > 0 and s["max_rel_change"] >= 0
     assert json.loads((tmp_path / "paths.json").read_text())["demos"] == 1
+
+
+def test_bench_irl_times_identification_with_the_default_driver_library(tmp_path):
+    # build-style-library's default library was refused: "no 'feature_config'"
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.scripts.bench_irl import time_identification
+
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))
+    (tmp_path / "library.json").write_text(json.dumps(library.to_json()))
+    timing = time_identification(tmp_path, 1, 0)
+    assert timing["n"] == 1 and 0 < timing["identify_s_median"] == timing["identify_s_p95"]

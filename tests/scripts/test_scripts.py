@@ -151,6 +151,22 @@ def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
         assert getattr(obj, name) is fn, name
 
 
+def test_profile_inner_reads_the_recorded_data_from_data_dir_and_checks_it_first(
+    tmp_path, monkeypatch
+):
+    # it read ../shared/data of the working directory, and only after the profile's work
+    from drivestyle.scripts import profile_inner
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the data folder is checked before any work")
+
+    monkeypatch.setattr(profile_inner, "generate_demonstration", no_work)
+    with pytest.raises(FileNotFoundError, match=rf"--data-dir {tmp_path}: no cats-av-lanechange/"):
+        profile_inner.main(["--recorded", "1", "--data-dir", str(tmp_path), "--out",
+                            str(tmp_path / "p.json")])  # fmt: skip
+    assert not (tmp_path / "p.json").exists()
+
+
 @pytest.mark.parametrize("name", ["generate_demo", "bench_smpc", "profile_inner"])
 def test_help(name):
     proc = subprocess.run(
