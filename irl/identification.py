@@ -512,6 +512,19 @@ class Identification:
     :func:`summarise` and :func:`driver_posterior`)."""
 
     @property
+    def risk_mode(self) -> float:
+        """The posterior's mode (its density's argmax; else :attr:`risk_estimate`).
+
+        Driver libraries have a density on a fine grid; a paper-model library's mode is
+        the library risk of the largest mass. A library's risks are a coarse grid: a
+        posterior peaked halfway between two of them gives its mass to one of them, which
+        can lie outside the 90 % interval; the density's argmax cannot.
+        """
+        if self.density:
+            return float(self.density_risks[int(np.argmax(self.density))])
+        return self.risk_estimate
+
+    @property
     def informative(self) -> bool:
         """Whether the identified risk says something (:attr:`Verdict.informative`).
 
@@ -565,6 +578,7 @@ class Identification:
         return {
             "scorer": self.scorer,
             "risk_estimate": self.risk_estimate,
+            "risk_mode": self.risk_mode,
             "risk_interpolated": self.risk_interpolated,
             "risk_interval": list(self.risk_interval),
             "interval_mass": self.interval_mass,

@@ -7,7 +7,8 @@ risk is a continuous parameter of the library's one style: its posterior over p 
 mass per library risk). With a paper-model library (``--model paper``) every style is
 scored by reproducing r*_θ in each demonstration's own scenario (``--scorer``, default: the
 one validation picked; see irl/identification.py). Writes
-``OUT/identify.json`` with ``scorer``, ``risk_estimate`` (posterior mode),
+``OUT/identify.json`` with ``scorer``, ``risk_estimate`` (the library risk of the
+largest posterior mass; the printed estimate is the density's mode, ``risk_mode``),
 ``risk_interpolated`` (posterior mean), ``posterior`` (per library risk), ``risk_interval``
 (90 % of the posterior), ``scores``, ``ranking``, ``trigger_fired``, per demonstration
 ``constraint_binds_per_demo`` and ``min_s_e_per_demo`` and, where the demonstrations'
@@ -130,7 +131,7 @@ def summary_lines(ident: Identification, n_demos: int) -> list[str]:
         + (f"; true risk {', '.join(f'{p:g}' for p in known)})" if known else ")")
     )
     if v.label == INFORMATIVE:
-        numbers = f"risk estimate {ident.risk_estimate:g}, {numbers}"
+        numbers = f"risk estimate {ident.risk_mode:g}, {numbers}"
     elif v.label in (PRIOR, NO_CONSTRAINT):
         numbers = f"posterior ≈ the prior: {numbers}"
     else:

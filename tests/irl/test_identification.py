@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 IDENTIFY_JSON_KEYS = {
     "scorer",
     "risk_estimate",
+    "risk_mode",
     "risk_interpolated",
     "risk_interval",
     "interval_mass",
@@ -195,3 +196,21 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
     identify_driver(within, library)
     assert seen[2].scenario.phi_max == paper_demo.scenario.phi_max < RECORDED_PHI_MAX
     assert seen[2].u.tolist() == paper_demo.u.tolist()
+
+
+def test_the_printed_estimate_is_the_densitys_mode_inside_its_interval():
+    """A posterior peaked between two library risks gives its grid mass to one of them (the
+    documented ``risk_estimate``), which may lie outside the interval; ``risk_mode`` may not."""
+    from drivestyle.irl.identification import Identification
+
+    grid = np.linspace(0.5, 0.99, 197)
+    density = np.exp(-0.5 * ((grid - 0.7) / 0.003) ** 2)
+    density /= density.sum()
+    ident = Identification(
+        scorer="likelihood", risks=(0.5, 0.9), posterior=(0.4, 0.6), risk_estimate=0.9,
+        risk_interpolated=0.7, risk_interval=(0.6975, 0.7025), ranking=(0.9, 0.5), per_demo=(),
+        density_risks=tuple(grid), density=tuple(density),
+    )  # fmt: skip
+    assert ident.risk_mode == pytest.approx(0.7, abs=0.003)
+    lo, hi = ident.risk_interval
+    assert lo <= ident.risk_mode <= hi and not lo <= ident.risk_estimate <= hi
