@@ -8,12 +8,12 @@ skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
   library by its content's SHA-256) the rows come from; a run with another input or library
   is refused (its rows would be credited to the wrong input, or never mined), unless it
   starts over (``force``);
-- a lock (``flock`` on ``.lock``, which records the holder's pid and start time) is held
-  while a run writes: a second run into the same folder is refused, naming the holder's pid,
-  instead of writing every row twice. The kernel releases the lock of a process that dies,
-  and forked workers drop their copy, so a killed run is no obstacle; a lock still held
-  although the run that took it is gone (its pid is dead, or now another process: another
-  start time) is taken over with a one-line notice on stderr;
+- the folder's lock (:func:`~drivestyle.common.io.output_lock`, the one every command's
+  output has: ``flock`` on a file beside the folder, recording the holder) is held while a
+  run writes: a second run into the same folder is refused, naming the holder's pid,
+  instead of writing every row twice. A killed run is no obstacle: its lock is taken over
+  with a one-line notice on stderr. In ``mine_styles.py`` the command took the lock before
+  any work (:func:`~drivestyle.common.io.check_output_dir`) and the folder uses it;
 - a last row torn by a kill (no line end) is dropped, and so are malformed and repeated
   rows, so their demonstrations are mined again instead of being glued to the next row;
 - rows that failed for an infrastructure reason (``failure_kind``: a worker that died, was
@@ -30,27 +30,20 @@ skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
 import json
-import os
-import sys
-import weakref
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path, PurePosixPath
 from types import TracebackType
 from typing import Any
 
-from drivestyle.common.io import write_text
+from drivestyle.common.io import OutputInUseError, output_lock, write_text
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
 from drivestyle.irl.mining import COLUMNS, READABLE_HEADERS, MinedRow
-
-try:  # POSIX; elsewhere the output folder is not locked
-    import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None  # type: ignore[assignment]
 
 __all__ = [
     "FINGERPRINT",
@@ -66,7 +59,6 @@ __all__ = [
 
 TABLE = "styles.csv"
 FINGERPRINT = "fingerprint.json"
-LOCK = ".lock"
 RESULTS = (TABLE, "summary.json", "population.png", FINGERPRINT)
 ID_SCHEME = "path"
 """A demonstration's id is its path under the input folder, without suffix, with ``/``
@@ -195,86 +187,12 @@ def read_rows(path: str | Path) -> list[MinedRow]:
     return _parse_table(text, str(path))[0]
 
 
-def _proc_stat(pid: int) -> list[str] | None:
-    """The fields of ``/proc/<pid>/stat`` after the command name (state first), else None."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    return stat.rpartition(")")[2].split()  # the command name may hold spaces
-
-
-def _start_time(pid: int) -> str | None:
-    """The start time of process ``pid`` (``/proc/<pid>/stat`` field 22), None if unknown."""
-    fields = _proc_stat(pid)
-    return fields[19] if fields and len(fields) > 19 else None
-
-
-def _holder_record() -> str:
-    """This process's lock record: ``pid start-time`` (the time tells a reused pid apart)."""
-    started = _start_time(os.getpid())
-    return f"{os.getpid()} {started}" if started else str(os.getpid())
-
-
-def _parse_holder(record: str) -> tuple[int | None, str | None]:
-    """(pid, start time) of a lock record (an older version's has the pid only)."""
-    parts = record.split()
-    if not parts or not parts[0].isdigit():
-        return None, None
-    return int(parts[0]), parts[1] if len(parts) > 1 else None
-
-
-def _holder_gone(pid: int | None, started: str | None) -> bool:
-    """Whether the run that wrote a lock record has ended (unknown holder: it has not).
-
-    Ended: its pid is dead or a zombie, or now names another process (another start time).
-    """
-    if pid is None:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    except PermissionError:  # alive, another user's
-        pass
-    fields = _proc_stat(pid)
-    if not fields:  # no /proc here (or it just ended): trust the pid
-        return not os.path.exists(f"/proc/{pid}") and sys.platform.startswith("linux")
-    if fields[0] in ("Z", "X"):
-        return True
-    return started is not None and len(fields) > 19 and fields[19] != started
-
-
-def _notice(text: str) -> None:
-    print(text, file=sys.stderr, flush=True)
-
-
-_HOLDERS: weakref.WeakSet[MiningOutput] = weakref.WeakSet()
-"""The output folders this process holds locked (a forked child drops them)."""
-
-
-def _forget_locks_in_child() -> None:
-    # a forked worker must not keep its parent's lock: killed parent, orphaned worker,
-    # folder locked forever; and its copy must never unlock the parent's (flock is shared)
-    for holder in list(_HOLDERS):
-        if holder._lock_fd is not None:
-            try:
-                os.close(holder._lock_fd)
-            except OSError:
-                pass
-            holder._lock_fd = None
-    _HOLDERS.clear()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_locks_in_child)
-
-
 class MiningOutput:
     """The output folder of a resumable mining run (module docstring); a context manager.
 
-    On entering: takes the folder's lock (a second run is refused; the lock of a run that
-    has ended is taken over, with a notice on stderr), checks ``fingerprint.json`` against this
+    On entering: takes the folder's lock (:func:`~drivestyle.common.io.output_lock`, the
+    running command's if it holds it; a second run is refused; the lock of a run that has
+    ended is taken over, with a notice on stderr), checks ``fingerprint.json`` against this
     run's (``force``: delete the earlier run's results first), repairs ``styles.csv`` (drops
     a torn last row, malformed rows, repeated ids and infrastructure failures, so those
     demonstrations are mined again) and opens it for appending. On leaving: closes the
@@ -319,7 +237,7 @@ class MiningOutput:
         """Ids whose rows failed for an infrastructure reason: dropped on entering, so that
         this run mines them again (data failures stay: they would fail again)."""
         self._rows: dict[str, MinedRow] = {}
-        self._lock_fd: int | None = None
+        self._lock = contextlib.ExitStack()
         self._fh: io.TextIOWrapper | None = None
 
     # -- context manager
@@ -383,56 +301,17 @@ class MiningOutput:
 
     # -- internals
     def _acquire_lock(self) -> None:
-        if fcntl is None:  # pragma: no cover - no flock on this platform
-            return
-        path = self.folder / LOCK
-        # the folder's own flock serialises the runs' lock-taking (a take-over replaces the
-        # lock file, and two runs must not both replace it); it is held for microseconds
-        guard = os.open(self.folder, os.O_RDONLY)
         try:
-            fcntl.flock(guard, fcntl.LOCK_EX)
-            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-            record = os.pread(fd, 64, 0).decode(errors="replace")
-            pid, started = _parse_holder(record)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                os.close(fd)
-                if not _holder_gone(pid, started):
-                    raise MiningOutputError(
-                        f"{self.folder} is in use by another mining run (pid "
-                        f"{pid if pid is not None else 'unknown'}); wait for it to finish or "
-                        "choose another --out"
-                    ) from None
-                # the run that took it is gone, yet its lock is held: by a process that
-                # inherited it (an older version's orphaned worker); a new lock file is ours
-                _notice(
-                    f"{self.folder}: taking over the lock of pid {pid}, which is no longer "
-                    "running (a leftover process of it still held the lock)"
-                )
-                path.unlink()
-                fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            else:
-                if pid is not None:  # a release clears the record: this run was killed
-                    _notice(
-                        f"{self.folder}: taking over the lock of pid {pid}, which ended "
-                        "without releasing it (killed?)"
-                    )
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, _holder_record().encode(), 0)
-        finally:
-            os.close(guard)  # releases the folder's flock
-        self._lock_fd = fd
-        _HOLDERS.add(self)
+            self._lock.enter_context(output_lock(self.folder))
+        except OutputInUseError as exc:
+            raise MiningOutputError(
+                f"{self.folder} is in use by another mining run (pid "
+                f"{exc.pid if exc.pid is not None else 'unknown'}); wait for it to finish or "
+                "choose another --out"
+            ) from None
 
     def _release_lock(self) -> None:
-        if self._lock_fd is not None and fcntl is not None:
-            _HOLDERS.discard(self)
-            os.ftruncate(self._lock_fd, 0)  # released, not abandoned (see _acquire_lock)
-            fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
-            os.close(self._lock_fd)
-        self._lock_fd = None
+        self._lock.close()
 
     def _check_fingerprint(self) -> None:
         path = self.folder / FINGERPRINT

@@ -1,11 +1,13 @@
 """What every command-line script shares: clear one-line errors, Ctrl-C, checked arguments.
 
 :func:`run_cli` wraps a script's ``main``: a bad input (a missing or malformed file, an
-invalid value, a solver that cannot start) ends with one line ``error: …`` naming the
-problem and exit status 2; Ctrl-C ends with exit status 130 after the script's atomic
-writes (:mod:`drivestyle.common.io`) have discarded the unfinished output; anything
-unexpected ends with one line and exit status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the
-traceback).
+invalid value, a solver that cannot start, an output another run is writing) ends with one
+line ``error: …`` naming the problem and exit status 2; Ctrl-C ends with exit status 130
+and SIGTERM with 143 after the script's atomic writes (:mod:`drivestyle.common.io`) have
+discarded the unfinished output; anything unexpected ends with one line and exit status 1
+(``DRIVESTYLE_TRACEBACK=1`` shows the traceback). The outputs the script checks stay
+locked while it runs (:func:`~drivestyle.common.io.command_outputs`): a second run into
+them is refused.
 
 The ``argparse`` types below reject out-of-range values at parse time, so a script never
 starts long work on an argument it would ignore or misread: every ``--seed`` is a
@@ -22,6 +24,8 @@ import os
 import sys
 from collections.abc import Callable, Hashable, Sequence
 from typing import Any, TypeVar
+
+from drivestyle.common.io import command_outputs
 
 _T = TypeVar("_T", bound=Hashable)
 
@@ -93,7 +97,15 @@ def run_cli(main: Callable[[list[str] | None], Any], argv: list[str] | None = No
         argv: arguments (default: ``sys.argv[1:]``).
     """
     try:
-        main(argv)
+        try:
+            with command_outputs():
+                main(argv)
+        except SystemError as exc:
+            # a C extension (CasADi's function call) that saw a signal handler raise returns
+            # its result anyway, and Python wraps the handler's exception: Ctrl-C or SIGTERM
+            if isinstance(exc.__cause__, (KeyboardInterrupt, SystemExit)):
+                raise exc.__cause__ from None
+            raise
     except KeyboardInterrupt:
         print("\ninterrupted: unfinished output was discarded", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)

@@ -132,7 +132,7 @@ def sigterm_stops_the_job(replace: bool = False) -> Iterator[SigtermState]:
             os.kill(os.getpid(), signum)
             return
         state.received = True
-        print("terminated: stopping the worker processes", file=sys.stderr, flush=True)
+        print("terminated: stopping the job", file=sys.stderr, flush=True)
         raise SystemExit(EXIT_TERMINATED)
 
     previous = signal.signal(signal.SIGTERM, on_sigterm)

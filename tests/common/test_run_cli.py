@@ -46,6 +46,25 @@ def test_ctrl_c_exits_130(capsys):
     assert info.value.code == 130 and "interrupted" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    ("signal_exc", "code"), [(KeyboardInterrupt(), 130), (SystemExit(143), 143)]
+)
+def test_a_signal_wrapped_by_a_c_extension_is_that_signal(signal_exc, code, capsys):
+    # CasADi returns from a call whose signal handler raised; Python then raises SystemError
+    # from the handler's exception (Ctrl-C, or SIGTERM's SystemExit)
+    def main(argv):
+        try:
+            raise signal_exc
+        except BaseException as exc:
+            raise SystemError(
+                "<built-in function f> returned a result with an exception set"
+            ) from exc
+
+    with pytest.raises(SystemExit) as info:
+        run_cli(main, [])
+    assert info.value.code == code and "unexpected" not in capsys.readouterr().err
+
+
 def test_success_and_explicit_exits_pass_through():
     run_cli(lambda argv: None, [])
     with pytest.raises(SystemExit) as info:

@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from drivestyle.common.io import lock_file
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
 from drivestyle.irl.mining import COLUMNS, MinedRow
@@ -133,11 +134,11 @@ def _dead_pid() -> int:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="needs /proc")
 def test_a_lock_whose_run_is_gone_is_taken_over_with_a_notice(tmp_path, capfd):
     dead = _dead_pid()
-    holder = _hold_lock(tmp_path / ".lock", f"{dead} 12345")
+    holder = _hold_lock(lock_file(tmp_path), f"{dead} 12345")
     try:
         with MiningOutput(tmp_path, FP) as out:
             out.append(_row("v1"))
-            assert (tmp_path / ".lock").read_text().split()[0] == str(os.getpid())
+            assert (lock_file(tmp_path)).read_text().split()[0] == str(os.getpid())
         err = capfd.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f"taking over the lock of pid {dead}" in err[0]
     finally:
@@ -150,7 +151,7 @@ def test_a_lock_whose_pid_now_names_another_process_is_taken_over(tmp_path, capf
     # the holder's pid is alive, but its start time is not the one the lock recorded
     holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        sleeper = _hold_lock(tmp_path / ".lock", f"{holder.pid} 1")
+        sleeper = _hold_lock(lock_file(tmp_path), f"{holder.pid} 1")
         try:
             with MiningOutput(tmp_path, FP):
                 pass

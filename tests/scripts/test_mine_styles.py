@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.io import write_json
+from drivestyle.common.io import lock_file, write_json
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
@@ -189,7 +189,7 @@ def test_a_running_job_locks_its_output_folder(lib, tmp_path):
         holder.kill()
         holder.wait()
     # stale: its holder is dead (a released lock has no record)
-    assert (out / ".lock").read_text().split()[0] == str(holder.pid)
+    assert lock_file(out).read_text().split()[0] == str(holder.pid)
     assert _mine(a, lib, out)["n"] == 1
 
 
