@@ -311,6 +311,17 @@ def _folder_guard(folder: Path) -> Iterator[None]:
         os.close(fd)  # releases the flock
 
 
+def _unlock(fd: int, file: Path) -> None:
+    """Remove the lock file held as ``fd`` and close it, which releases its ``flock``."""
+    try:
+        if _same_file(fd, file):  # never another run's newer lock file
+            file.unlink()
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.ftruncate(fd, 0)  # left in place: an empty record is a released lock
+    os.close(fd)
+
+
 def _notice(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
@@ -392,10 +403,21 @@ class OutputLock:
                 self._made += self._make_folder()
                 with _folder_guard(folder):
                     fd = os.open(self.file, os.O_RDWR | os.O_CREAT, 0o644)
-                    if self._take(fd):
-                        self._fd = fd
-                        _HELD.add(self)
-                        return self
+                    if not self._take(fd):
+                        continue
+                    # held from here on: Ctrl-C or SIGTERM once the record names this
+                    # process finds the lock to release
+                    self._fd = fd
+                    _HELD.add(self)
+                    try:
+                        os.ftruncate(fd, 0)
+                        os.pwrite(fd, _holder_record().encode(), 0)
+                    except BaseException:
+                        self._fd = None
+                        _HELD.discard(self)
+                        _unlock(fd, self.file)
+                        raise
+                    return self
             except FileNotFoundError as exc:
                 if not folder.is_dir():  # removed by a run that had made it: make it again
                     continue
@@ -417,7 +439,10 @@ class OutputLock:
         )
 
     def _take(self, fd: int) -> bool:
-        """Lock the open lock file ``fd``; False (``fd`` closed): it was replaced, try again.
+        """Lock the open lock file ``fd`` (its record is the caller's to write).
+
+        Returns:
+            True: locked. False (``fd`` closed): the file was replaced, try again.
 
         Raises:
             OutputInUseError: a running holder has it (``fd`` closed).
@@ -454,8 +479,6 @@ class OutputLock:
                 f"{self.option} {self.path}: taking over the lock of pid {pid}, which ended "
                 "without releasing it (killed?)"
             )
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, _holder_record().encode(), 0)
         return True
 
     def _make_folder(self) -> list[Path]:
@@ -498,12 +521,7 @@ class OutputLock:
             return
         _HELD.discard(self)
         with _folder_guard(self.file.parent):
-            try:
-                if _same_file(fd, self.file):  # never another run's newer lock file
-                    self.file.unlink()
-            except OSError:
-                os.ftruncate(fd, 0)  # left in place: an empty record is a released lock
-            os.close(fd)  # releases the flock
+            _unlock(fd, self.file)
         self._remove_made()
 
     def _forget(self) -> None:
@@ -551,10 +569,12 @@ def _lock_for_command(path: Path, option: str) -> None:
     key = lock_file(path)
     if key in _COMMAND:
         return
+    # registered before it is taken: an interrupt meanwhile still finds it to release
     lock = _COMMAND[key] = OutputLock(path, option)
     try:
         lock.acquire()
     except BaseException:
+        lock.release()
         del _COMMAND[key]
         raise
 
