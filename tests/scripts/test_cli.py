@@ -260,3 +260,21 @@ def test_an_unwritable_output_is_reported_before_the_work(name, time_limit):
     assert message.startswith(f"{option} {target}: cannot create files in"), message
     assert "partial" not in message  # the user's path, not a temporary one
     assert _partials(Path("/")) == before  # nothing left at the root
+
+
+@pytest.mark.parametrize("name", sorted(WRITES))
+def test_an_output_another_run_writes_is_refused_before_the_work(name, time_limit, tmp_path):
+    # every script takes its output's lock where it checks it, first thing: with the lock
+    # held (here by this process, as another run would hold it), it stops at once
+    from drivestyle.common.io import OutputLock
+
+    option, leaf, rest = WRITES[name]
+    target = tmp_path / leaf
+    with OutputLock(target, option):
+        code, stderr = _run_in_process(f"scripts/{name}.py", *rest, option, str(target))
+    assert code == 2, stderr
+    assert stderr.strip().splitlines()[-1] == (
+        f"error: {option} {target} is in use by another run (pid {os.getpid()}); wait for it "
+        f"to finish or choose another {option}"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # nothing made, nothing left
