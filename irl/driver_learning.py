@@ -161,6 +161,11 @@ ROBUST_TOL = 1e-2
 """Relative cost decrease below which the Cauchy descent stops: it only has to reach the
 basin, the least-squares descent after it converges (at 1e-4 its runs near an exact fit
 went to the iteration cap: 3× the evaluations)."""
+NEGLIGIBLE_RATIO = 1e-3
+"""Residual RMS, in noise floors, at which a Cauchy descent has explained the
+demonstrations: it stops there and the other starts are not tried (near an exact fit
+forward-difference LM converges linearly, ≈ ×0.3 per iteration: the way on to 1e-20 is
+least squares' alone)."""
 RISK_AGREEMENT = 0.05
 """A demonstration whose best risk alone lies further than this (the profile grid's
 spacing) from the learned risk disagrees with it."""
@@ -412,9 +417,10 @@ def learn_driver(
     against the driver's 10, some ``poor_fit``). So the descents from the ``restarts``
     best starts minimise the Cauchy loss of the steps' residuals first
     (:func:`cauchy_residuals`, c = :data:`ROBUST_SCALE` floors, stopping at a relative
-    decrease of :data:`ROBUST_TOL`), where those steps weigh little, and least squares
-    finishes from the end with the lowest squared cost (with ``fit_weights`` False: least
-    squares from ``initial`` alone).
+    decrease of :data:`ROBUST_TOL`, or at :data:`NEGLIGIBLE_RATIO` floors, where the other
+    starts are skipped), where those steps weigh little, and least squares finishes from
+    the end with the lowest squared cost (with ``fit_weights`` False: least squares from
+    ``initial`` alone).
 
     Each demonstration's residual RMS is then compared with the noise floor: above
     :data:`POOR_FIT_RATIO` floors the demonstration is not explained by the learned
@@ -565,11 +571,15 @@ def learn_driver(
     def robust_profile(z: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         return profile(z, robust=True)
 
+    # a Cauchy descent is done when the fit is negligible against the noise floor
+    negligible = 0.5 * scored[0][3].size * (NEGLIGIBLE_RATIO * residual_floor) ** 2
+
     def descend(z: np.ndarray, r: np.ndarray, robust: bool) -> _Run:
         prof = (robust_profile if robust else profile) if risk_free else None
         return _descend(
             (lambda x: residuals(x, robust=True)) if robust else residuals, prof, i_p, z, r,
             0.5 * float(r @ r), box, max_iter, ROBUST_TOL if robust else tol, progress,
+            max(negligible, _EXACT) if robust else _EXACT,
         )  # fmt: skip
 
     starts = scored[: max(restarts, 1)]
@@ -588,6 +598,8 @@ def learn_driver(
             total_it += run.iterations
             r_end = residuals(run.z)
             ends.append((0.5 * float(r_end @ r_end), run.z, r_end))
+            if ends[-1][0] <= negligible:
+                break  # explained to a thousandth of the floor: no start can do better
         _, z_end, r_end = min(ends, key=lambda e: e[0] if np.isfinite(e[0]) else np.inf)
         best = descend(z_end, r_end, robust=False)
         total_it += best.iterations
@@ -728,6 +740,7 @@ def _descend(
     max_iter: int,
     tol: float,
     progress: Callable[[int, float], None] | None,
+    exact: float = _EXACT,
 ) -> _Run:
     """LM from z, alternating with the 1-D profile over p while it finds a better risk.
 
@@ -743,12 +756,13 @@ def _descend(
         max_iter: iteration cap of each LM run.
         tol: relative cost decrease below which a run has converged.
         progress: called with (iteration, cost) after each iteration.
+        exact: a cost this small is an exact fit: nothing to improve.
     """
     history = [cost]
     iterations, status = 0, "converged"
-    ssr, rs = profile(z) if profile is not None and cost > _EXACT else (None, [])
+    ssr, rs = profile(z) if profile is not None and cost > exact else (None, [])
     for round_ in range(PROFILE_ROUNDS):
-        if cost <= _EXACT:
+        if cost <= exact:
             break
         if ssr is not None:
             totals = 0.5 * ssr.sum(axis=1)
@@ -763,14 +777,14 @@ def _descend(
             elif round_ > 0:
                 break
         z, r, cost, h, it, status = _levenberg_marquardt(
-            residuals, z, r, cost, box, max_iter, tol, progress
+            residuals, z, r, cost, box, max_iter, tol, progress, exact
         )
         history.extend(h[1:])
         iterations += it
-        if profile is None or cost <= _EXACT:
+        if profile is None or cost <= exact:
             break
         ssr, rs = profile(z)
-    if profile is not None and ssr is None and cost > _EXACT:
+    if profile is not None and ssr is None and cost > exact:
         ssr, _ = profile(z)  # each demonstration's best risk (DriverFit.per_demo)
     return _Run(z, r, cost, history, iterations, status, ssr)
 
@@ -784,11 +798,13 @@ def _levenberg_marquardt(
     max_iter: int,
     tol: float,
     progress: Callable[[int, float], None] | None,
+    exact: float = _EXACT,
 ) -> tuple[np.ndarray, np.ndarray, float, list[float], int, str]:
     """Projected LM with forward-difference Jacobians from z (residuals r, cost ½‖r‖²).
 
     A coordinate at its bound whose gradient points out of the box is held for the
-    iteration; the step is clipped to each coordinate's largest step and to the box.
+    iteration; the step is clipped to each coordinate's largest step and to the box. A
+    cost at or below ``exact`` is an exact fit: the run stops there.
 
     Returns:
         (z, r, cost, cost history, iterations, status).
@@ -797,7 +813,7 @@ def _levenberg_marquardt(
     lam = 1e-2
     status = "max_iter"
     it = 0
-    if cost <= _EXACT:
+    if cost <= exact:
         return z, r, cost, history, it, "converged"
     for it in range(1, max_iter + 1):
         J = np.empty((r.size, z.size))
@@ -824,7 +840,7 @@ def _levenberg_marquardt(
             lam *= 10.0
         if not improved:
             # nothing lowers the cost: a minimum (an exact fit counts, even at once)
-            status = "stalled" if it == 1 and cost > _EXACT else "converged"
+            status = "stalled" if it == 1 and cost > exact else "converged"
             break
         rel = (cost - cost_try) / max(cost, 1e-12)
         z, r, cost = z_try, r_try, cost_try
@@ -832,7 +848,7 @@ def _levenberg_marquardt(
         history.append(cost)
         if progress is not None:
             progress(it, cost)
-        if rel < tol:
+        if rel < tol or cost <= exact:
             status = "converged"
             break
     return z, r, cost, history, it, status
