@@ -8,10 +8,13 @@ cost) and only the driver's own risk (and desired speed) is learned. Writes
 ``OUT/style.json`` (``kind: driver-style``: style, fit status, residuals, per-demonstration
 residual RMS and best risk alone, per-demonstration rmse_y_m / rmse_xy_m of the
 closed-loop reproduction). When some demonstrations' residuals lie far above the
-noise floor (``--residual-floor``: what one driver of the class leaves) no single driver
+noise floor (``--residual-floor``: what one driver of the class leaves) and the learned
+style's closed loop does not reproduce them (rmse_xy above 0.01 m), no single driver
 explains them all — e.g. two drivers of different risks learned together: ``style.json``
 is still written, with ``"status": "poor_fit"`` and the disagreeing demonstrations named,
-and the script ends with one ``error: poor fit …`` line and exit status 3.
+and the script ends with one ``error: poor fit …`` line and exit status 3. A residual
+above the threshold whose closed loop reproduces the demonstration is a local minimum of
+learning, not a poor fit: one ``note:`` line, and the optimiser's status.
 
 ``--model paper``: the paper's whole-horizon model, feature weights θ by ME-IRL. Writes
 ``OUT/style.json`` (docs/DESIGN.md §7: features, theta, iterations, converged,
@@ -50,9 +53,10 @@ from drivestyle.irl.driver_learning import (
     RESIDUAL_FLOOR,
     DriverFit,
     learn_driver,
+    reproduced_note,
     save_driver_style,
 )
-from drivestyle.irl.driver_style import WEIGHT_NAMES, reproduce
+from drivestyle.irl.driver_style import WEIGHT_NAMES
 from drivestyle.irl.inner import InnerSolveError
 from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
 from drivestyle.irl.library import load_driver_library
@@ -295,13 +299,8 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
             initial=initial,
             fit_weights=initial is None,
         )
-    reproductions = []
-    for demo in demos:
-        rep = reproduce(fit.style, demo)
-        rmse_y, rmse_xy = rep.errors(demo)
-        reproductions.append(
-            {"rmse_y_m": rmse_y, "rmse_xy_m": rmse_xy, "min_d": rep.min_d, "failures": rep.failures}
-        )
+    # learn_driver drove the learned style in closed loop from each demonstration's start
+    reproductions = [d.closed_loop.to_json() for d in fit.per_demo if d.closed_loop is not None]
     with atomic_output_dir(args.out, replace=False) as tmp:
         save_driver_style(fit, tmp / "style.json", [str(p) for p in args.demos], reproductions)
     payload = json.loads((args.out / "style.json").read_text())
@@ -316,6 +315,9 @@ def _learn_driver(args: argparse.Namespace, demos: list, argv: list[str] | None)
         f"closed-loop median rmse_y {med_y:.3f} m, rmse_xy {med_xy:.3f} m over {len(demos)} "
         f"demonstration{'s' if len(demos) > 1 else ''}"
     )
+    for d in fit.per_demo:
+        if d.reproduced and d.residual_rms > fit.poor_fit_threshold:
+            print(f"note: {reproduced_note(d, fit.residual_floor, args.demos[d.index].name)}")
     if fit.optimiser_status == "stalled":
         raise LearningStalledError(
             f"learning stalled ({args.out / 'style.json'} holds the starting style)"
@@ -332,13 +334,20 @@ def _poor_fit_message(fit: DriverFit, paths: list[Path]) -> str:
     named = []
     for d in poor:
         alone = "" if d.best_risk is None else f", alone best at p {d.best_risk:.2f}"
-        named.append(f"{paths[d.index].name} (rms {d.residual_rms:.3g}{alone})")
+        loop = (
+            ""
+            if d.closed_loop is None
+            else f", closed loop rmse_xy {d.closed_loop.rmse_xy_m:.2f} m"
+        )
+        named.append(f"{paths[d.index].name} (rms {d.residual_rms:.3g}{alone}{loop})")
     return (
         f"poor fit: residual rms above {POOR_FIT_RATIO:g}× the noise floor "
-        f"{fit.residual_floor:g} σ_u at the learned risk {fit.style.risk:.3f} for "
+        f"{fit.residual_floor:g} σ_u at the learned risk {fit.style.risk:.3f}, and the closed "
+        "loop does not reproduce them, for "
         + ", ".join(named)
-        + ": the learned driver does not explain them (drivers of different styles, or "
-        "a local minimum of learning); style.json has status 'poor_fit'"
+        + ": the learned driver does not explain them (drivers of different styles, a "
+        "driver outside the class, or a local minimum of learning); style.json has status "
+        "'poor_fit'"
     )
 
 

@@ -1,21 +1,28 @@
 """Teacher-forced learning of a driver style (irl/driver_learning.py, DESIGN §15): the
 risk reaches the bound p = 0.5, the profile over p leaves the saw-tooth's local minima,
-and the fit says when no single driver explains the demonstrations (``poor_fit``)."""
+the Cauchy descent leaves least squares' local minima, and the fit says when no single
+driver explains the demonstrations (``poor_fit``) — not when only the learner's residual
+is high and the closed loop reproduces them."""
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from drivestyle.irl.driver_learning import (
     POOR_FIT_RATIO,
+    REPRODUCTION_TOLERANCE,
     RESIDUAL_FLOOR,
+    ClosedLoop,
     DemoFit,
     DriverFit,
     _Box,
     _diagnose,
     _levenberg_marquardt,
+    cauchy_residuals,
     learn_driver,
 )
-from drivestyle.irl.driver_style import DriverStyle, DriverStyleError
+from drivestyle.irl.driver_style import INPUT_SCALE, DriverStyle, DriverStyleError
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's weights: SMPC(p) drivers are the style (SMPC_WEIGHTS, p)."""
@@ -48,6 +55,42 @@ def test_projected_lm_reaches_a_bound_exactly():
     assert z[0] == 0.0  # on the bound, not approaching it (a sigmoid never gets there)
     assert z[1] == pytest.approx(2.0, abs=1e-6)
     assert cost == pytest.approx(0.5) and status == "converged"
+
+
+def test_cauchy_residuals_are_the_square_root_of_the_steps_cauchy_loss():
+    r = np.array([[0.0, 0.0], [1e-4, -2e-4], [3.0, 4.0], [-300.0, 400.0]])
+    c = 0.3
+    out = cauchy_residuals(r, c)
+    steps = np.sum(r**2, axis=1)
+    assert np.allclose(np.sum(out**2, axis=1), c**2 * np.log1p(steps / c**2))
+    assert np.all(out[0] == 0.0)  # no division by a zero norm
+    assert np.allclose(out[1], r[1], rtol=1e-6)  # a small residual is kept
+    # same direction; a 100× larger outlier weighs only ≈ 1.6× more (logarithmic growth)
+    assert np.allclose(out[2] / np.linalg.norm(out[2]), r[2] / 5.0)
+    assert np.linalg.norm(out[3]) / np.linalg.norm(out[2]) == pytest.approx(1.62, abs=0.01)
+
+
+# ---------------------------------------------------------------------------- local minima
+@pytest.fixture(scope="module")
+def p09_demo():
+    """SMPC(0.9) in the 3rd interactive scenario of seed 2: least squares' local minimum."""
+    from drivestyle.agents import generate_demonstration
+    from drivestyle.agents.demo_generation import draw_interactive_scenarios
+    from drivestyle.agents.smpc import SMPCConfig
+
+    scenario = draw_interactive_scenarios(3, seed=2)[2]
+    return generate_demonstration(0.9, scenario, SMPCConfig(risk=0.9))[0]
+
+
+def test_the_cauchy_descent_leaves_least_squares_local_minimum(p09_demo):
+    # least squares alone (before the Cauchy descent) stopped at w_δ 57 against the
+    # driver's 10, 4.4 noise floors: poor_fit (the default search: w_δ 81630, 5.6 floors)
+    fit = learn_driver([p09_demo], screen=4, restarts=1)
+    assert fit.status == "converged" and not fit.poor_demos and not fit.notes
+    assert np.allclose(fit.style.normalised(), SMPC_WEIGHTS, rtol=1e-3)
+    assert fit.style.risk == pytest.approx(0.9, abs=1e-3)
+    assert fit.residual_rms < 1e-3 * fit.residual_floor
+    assert fit.per_demo[0].reproduced and fit.per_demo[0].closed_loop.rmse_xy_m < 1e-3
 
 
 # ---------------------------------------------------------------------------- low risks
@@ -112,6 +155,48 @@ def test_diagnosis_names_the_demonstration_no_shared_driver_explains():
     assert _fit_with(lifted).poor_demos == (1,)
     both = [DemoFit(0, 60, 0.6, 30, 0.5, 0.6, True), DemoFit(1, 60, 0.5, 30, 0.5, 0.5, True)]
     assert _fit_with(both).poor_demos == (0, 1)  # no odd one: every poorly fitted one
+
+
+def test_a_residual_above_the_threshold_counts_only_where_the_closed_loop_misses():
+    off, active = np.full((30, 2), 1.0), np.ones(30, bool)  # 10 floors
+    near = ClosedLoop(0.002, REPRODUCTION_TOLERANCE / 2, 0.5, 0)
+    far = ClosedLoop(0.2, 1.5, 0.5, 0)
+    per_demo = _diagnose([(off, active)] * 3, None, 0.7, RESIDUAL_FLOOR, [near, far, None])
+    assert [d.reproduced for d in per_demo] == [True, False, False]
+    assert [d.poor for d in per_demo] == [False, True, True]  # not driven: the residual decides
+    assert per_demo[0].to_json()["closed_loop"]["rmse_xy_m"] == REPRODUCTION_TOLERANCE / 2
+
+
+def test_a_fit_whose_closed_loop_reproduces_the_demonstration_is_not_poor(paper_demo):
+    # one recorded input off by 5 σ_u, the path as driven: 6.5 floors of teacher-forced
+    # residual, but the style drives the recorded path (before the closed-loop check:
+    # poor_fit)
+    u = paper_demo.u.copy()
+    u[8, 0] += 5 * INPUT_SCALE[0]
+    demo = replace(paper_demo, u=u)
+    start = DriverStyle(SMPC_WEIGHTS, risk=0.7)
+    fit = learn_driver([demo], initial=start, fit_weights=False)
+    (d,) = fit.per_demo
+    assert d.residual_rms > fit.poor_fit_threshold and d.reproduced and not d.poor
+    assert fit.status == fit.optimiser_status == "converged"
+    assert fit.style.risk == pytest.approx(0.7, abs=1e-3)
+    assert len(fit.notes) == 1 and fit.notes[0].startswith("per_demo[0]: teacher-forced")
+    assert fit.to_json()["notes"] == list(fit.notes)
+
+
+def test_a_fit_whose_closed_loop_misses_the_demonstration_stays_poor(paper_demo):
+    # p = 0.5 and p = 0.95 drivers with the expert's weights given, one shared risk learned:
+    # one of them is neither fitted nor reproduced
+    from drivestyle.agents import generate_demonstration
+
+    demos = [generate_demonstration(p)[0] for p in (0.5, 0.95)]
+    start = DriverStyle(SMPC_WEIGHTS, risk=0.7)
+    fit = learn_driver(demos, initial=start, fit_weights=False)
+    assert fit.status == "poor_fit" and fit.poor_demos and not fit.notes
+    for i in fit.poor_demos:
+        d = fit.per_demo[i]
+        assert d.residual_rms > fit.poor_fit_threshold and not d.reproduced
+        assert d.closed_loop.rmse_xy_m > 10 * REPRODUCTION_TOLERANCE
 
 
 def test_a_larger_floor_accepts_larger_residuals():

@@ -229,13 +229,13 @@ def test_learn_style_refuses_options_of_the_other_model(
 
 def test_learn_style_exits_3_on_a_poor_fit_and_names_the_demonstration(tmp_path, demo_file, capsys):
     from drivestyle.common.cli import run_cli
-    from drivestyle.irl.driver_learning import DemoFit, DriverFit
+    from drivestyle.irl.driver_learning import ClosedLoop, DemoFit, DriverFit
     from drivestyle.irl.driver_style import DriverStyle
 
     def poor_fit(demos, **kwargs):  # two drivers' demonstrations: the second unexplained
         per_demo = (
-            DemoFit(0, 60, 0.01, 30, 0.5, 0.01, False),
-            DemoFit(1, 60, 9.5, 30, 0.9, 0.02, True, True),
+            DemoFit(0, 60, 0.01, 30, 0.5, 0.01, False, closed_loop=ClosedLoop(0, 0, 0.1, 0)),
+            DemoFit(1, 60, 9.5, 30, 0.9, 0.02, True, True, ClosedLoop(1.2, 7.5, 2.0, 0)),
         )
         style = DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.5)
         return DriverFit(style, (0.5, 0.5), 2700.0, 6.7, 120, 12, "poor_fit", 1.0,
@@ -255,13 +255,44 @@ def test_learn_style_exits_3_on_a_poor_fit_and_names_the_demonstration(tmp_path,
     assert (
         printed.err.count("error:") == 1
         and err.startswith("error: poor fit")
-        and "other.npz (rms 9.5, alone best at p 0.90)" in err
+        and "other.npz (rms 9.5, alone best at p 0.90, closed loop rmse_xy 7.50 m)" in err
     )
     assert "demo.npz" not in err
     js = json.loads((out / "style.json").read_text())  # written: nothing is lost
     assert js["status"] == "poor_fit" and js["optimiser_status"] == "converged"
     assert js["poor_demos"] == [1] and js["per_demo"][1]["path"] == str(other)
     assert js["residual_floor"] == 0.1 and js["per_demo"][1]["best_risk"] == 0.9
+    assert [r["rmse_xy_m"] for r in js["reproductions"]] == [0, 7.5]  # the fit's closed loops
+
+
+@pytest.mark.slow  # five demonstrations, the default search (≈ 1–3 min)
+def test_learn_style_learns_five_p09_demonstrations_it_once_called_a_poor_fit(tmp_path):
+    # least squares alone stopped at w_δ 65.6 against the driver's 10, four demonstrations
+    # at 4.4–8 noise floors: exit 3, poor_fit
+    from drivestyle.agents import generate_demonstration
+    from drivestyle.agents.demo_generation import draw_interactive_scenarios
+    from drivestyle.agents.smpc import SMPCConfig
+
+    paths = []
+    for i, scenario in enumerate(draw_interactive_scenarios(5, seed=2)):
+        paths.append(tmp_path / f"d{i + 1}.npz")
+        save_demonstration(
+            generate_demonstration(0.9, scenario, SMPCConfig(risk=0.9))[0], paths[-1]
+        )
+    out = tmp_path / "style"
+    proc = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "learn-style", *map(str, paths), "--out", str(out)],
+        capture_output=True, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    js = json.loads((out / "style.json").read_text())
+    assert js["status"] == "converged" and not js["poor_demos"] and not js["notes"]
+    steer = js["style"]["weights"][4] / js["style"]["weights"][3]
+    assert steer == pytest.approx(10.0, rel=0.02) and js["style"]["risk"] == pytest.approx(
+        0.9, abs=0.002
+    )
+    assert max(d["residual_rms"] for d in js["per_demo"]) < 0.1 * js["residual_floor"]
+    assert max(r["rmse_xy_m"] for r in js["reproductions"]) < 1e-3
 
 
 def test_learn_style_help_names_the_exit_status_of_a_poor_fit():
