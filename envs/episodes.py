@@ -45,7 +45,9 @@ rules (the numbers are :class:`ExtractionConfig` fields):
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -68,6 +70,7 @@ __all__ = [
     "Episode",
     "ExtractionConfig",
     "LaneChange",
+    "episode_file_name",
     "extract_episodes",
     "find_lane_changes",
     "interacting_vehicles",
@@ -740,8 +743,57 @@ def _cell(value: float | None) -> str:
     return str(int(value)) if float(value).is_integer() else f"{value:g}"
 
 
+FILE_NAME_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]")
+"""Characters a file name built from data may not hold: everything outside
+``[A-Za-z0-9._+-]`` (a path separator, ``..`` as a name, NUL, spaces, non-ASCII letters a
+file system may normalise or refuse) is replaced by ``_``."""
+FILE_NAME_MAX = 120
+"""Most characters of a file name built from data, before ``.npz``: file systems take 255
+bytes, and an id is data (a 300-character id must not end the run with ``File name too
+long``)."""
+FILE_NAME_HASH = 12
+"""Hex digits of the id's SHA-256 appended to a name that had to change (two ids that
+differ only in replaced or cut characters keep distinct names)."""
+
+
+def episode_file_name(episode_id: str, taken: set[str] | None = None) -> str:
+    """The demonstration file's name of an episode: ``<episode_id>.npz`` where that is safe.
+
+    An episode id holds data (the carriageway's and the vehicle's ids), so it may hold a
+    path separator, ``..``, NUL or hundreds of characters. The name keeps the id where it
+    is made of ``[A-Za-z0-9._+-]``, does not start with ``.``, has at most
+    :data:`FILE_NAME_MAX` characters and is not in ``taken`` (ignoring case); otherwise
+    every other character becomes ``_``, a leading ``.`` too, the result is cut to leave
+    room for ``-`` and the first :data:`FILE_NAME_HASH` hex digits of the id's SHA-256,
+    which are appended. The name is always one path component, so a file stays inside its
+    folder; two ids get two names (unless their hashes agree, which
+    :func:`write_episodes` refuses).
+
+    Args:
+        episode_id: the episode's id (``episodes.csv`` keeps it as it is).
+        taken: names already given in the folder, casefolded (ids that differ only in case
+            would share one file on macOS and Windows file systems).
+
+    Returns:
+        The file name, e.g. ``+x_car_3973.npz`` or ``+x_.._.._etc_3973-1f0c25e1a2b9.npz``.
+    """
+    name = FILE_NAME_UNSAFE.sub("_", episode_id)
+    if name.startswith("."):
+        name = "_" + name[1:]  # never a hidden file, "." or ".."
+    changed = name != episode_id or len(name) > FILE_NAME_MAX
+    if changed or (taken is not None and f"{name}.npz".casefold() in taken):
+        digest = hashlib.sha256(episode_id.encode("utf-8", "surrogatepass")).hexdigest()
+        name = f"{name[: FILE_NAME_MAX - FILE_NAME_HASH - 1]}-{digest[:FILE_NAME_HASH]}"
+    return f"{name}.npz"
+
+
 def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
-    """Each usable episode's demonstration as ``<episode_id>.npz`` and ``episodes.csv``.
+    """Each usable episode's demonstration in ``out_dir`` and every episode in ``episodes.csv``.
+
+    A demonstration's file is named by :func:`episode_file_name` (``<episode_id>.npz``
+    where the id is a safe file name, else a safe name with the id's hash;
+    ``episodes.csv``'s ``file`` column says which): no id places a file outside
+    ``out_dir``, and ids that differ only in case get different names.
 
     Args:
         episodes: from :func:`extract_episodes` (unusable ones appear only in the index).
@@ -749,17 +801,33 @@ def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
 
     Returns:
         The path of ``episodes.csv``.
+
+    Raises:
+        ValueError: two usable episodes of one id (their files would be one); the message
+            names the id.
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "episodes.csv"
+    names: dict[str, str] = {}  # episode id → file name
+    taken: set[str] = set()
+    for ep in episodes:
+        if ep.usable and ep.demo is not None:
+            name = episode_file_name(ep.episode_id, taken)
+            if ep.episode_id in names or name.casefold() in taken:
+                raise ValueError(
+                    f"two episodes would be written to {out_dir / name} (episode "
+                    f"{ep.episode_id!r} twice): an episode id is unique in a folder"
+                )
+            names[ep.episode_id] = name
+            taken.add(name.casefold())
     with path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(EPISODE_COLUMNS)
         for ep in episodes:
             name = ""
             if ep.usable and ep.demo is not None:
-                name = f"{ep.episode_id}.npz"
+                name = names[ep.episode_id]
                 save_demonstration(ep.demo, out_dir / name)
             tv_role, tv_id = ep.interacting[0] if ep.interacting else ("phantom", "")
             writer.writerow(

@@ -1,0 +1,127 @@
+"""Bad inputs to ``drivestyle extract-episodes``, each met where a user meets it.
+
+Every test writes a small table with one faulty property, runs the command in a fresh
+process (``python -m drivestyle extract-episodes``) and checks that it ends clearly: a
+one-line ``error: …`` naming the file, option and value with exit status 2, or the
+episode kept in ``episodes.csv`` as unusable with its reason, or a documented fallback
+with a warning. The healthy table (:func:`_vehicles`) gives one usable lane change, so a
+test fails when a rule stops firing.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name
+
+ROOT = Path(__file__).resolve().parents[2]
+W = 3.75
+"""Lane width of the tables [m]."""
+T = np.round(np.arange(0.0, 12.0 + 1e-9, 0.1), 9)
+"""Sample times of the tables: 12 s at 10 Hz [s]."""
+SPEED = 25.0
+"""Every vehicle's speed [m/s] (90 km/h)."""
+
+
+def _lane_change(t_c: float = 6.0, duration: float = 4.0) -> np.ndarray:
+    """y of a change from lane 0's centre to lane 1's, crossing y = W at ``t_c`` [m]."""
+    s = np.clip((T - t_c) / duration + 0.5, 0, 1)
+    return 0.5 * W + W * (1 - np.cos(np.pi * s)) / 2
+
+
+def _vehicles(changer: str = "1", follower: str = "2") -> pd.DataFrame:
+    """A lane changer and the target lane's follower 20 m behind it: one usable episode."""
+    return pd.concat(
+        [
+            pd.DataFrame({"id": changer, "t": T, "x": SPEED * T, "y": _lane_change()}),
+            pd.DataFrame({"id": follower, "t": T, "x": SPEED * T - 20.0, "y": 1.5 * W}),
+        ],
+        ignore_index=True,
+    )
+
+
+def _run(tmp_path: Path, table: pd.DataFrame | Path, *options: str) -> subprocess.CompletedProcess:
+    """``python -m drivestyle extract-episodes TABLE OPTIONS --out tmp/out`` in its own process."""
+    if isinstance(table, pd.DataFrame):
+        path = tmp_path / "tracks.csv"
+        table.to_csv(path, index=False)
+    else:
+        path = table
+    if not any(o.startswith("--lane") for o in options) and "--format" not in options:
+        options = ("--lane-width", str(W), *options)
+    env = {k: v for k, v in os.environ.items() if k != "DRIVESTYLE_TRACEBACK"}
+    return subprocess.run(
+        [sys.executable, "-m", "drivestyle", "extract-episodes", str(path), *options,
+         "--out", str(tmp_path / "out")],
+        capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120,
+    )  # fmt: skip
+
+
+def _error(proc: subprocess.CompletedProcess) -> str:
+    """The one line ``error: …`` of a run that ended with exit status 2."""
+    assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    return lines[0]
+
+
+def _episodes(tmp_path: Path, proc: subprocess.CompletedProcess) -> pd.DataFrame:
+    """``episodes.csv`` of a run that succeeded."""
+    assert proc.returncode == 0, proc.stderr
+    return pd.read_csv(tmp_path / "out" / "episodes.csv", dtype={"vehicle_id": str})
+
+
+def test_the_healthy_table_gives_one_usable_lane_change(tmp_path):
+    rows = _episodes(tmp_path, _run(tmp_path, _vehicles()))
+    assert rows.episode_id.tolist() == ["+x_1_6000"] and rows.usable.tolist() == [True]
+    assert rows.file.tolist() == ["+x_1_6000.npz"]
+    assert (tmp_path / "out" / "+x_1_6000.npz").is_file()
+
+
+# ------------------------------------------------------------------ 1, 2: output paths
+@pytest.mark.parametrize(
+    "vehicle",
+    ["../../escaped", "../" * 12 + "tmp/escaped", "/tmp/escaped", "a/b", "..", "a\x00b"],
+)
+def test_a_vehicle_id_cannot_place_a_file_outside_the_output_folder(tmp_path, vehicle):
+    rows = _episodes(tmp_path, _run(tmp_path, _vehicles(changer=vehicle)))
+    (name,) = rows.file
+    out = tmp_path / "out"
+    assert rows.vehicle_id.tolist() == [vehicle]  # the index keeps the id as it is
+    assert Path(name).name == name and "/" not in name and "\x00" not in name
+    assert not name.startswith(".") and (out / name).is_file()
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [".drivestyle-output", "episodes.csv", "extract.json", name]
+    )
+    assert [p for p in tmp_path.rglob("*.npz")] == [out / name]
+    assert name == episode_file_name(f"+x_{vehicle}_6000")
+    if vehicle != "..":  # "+x_.._6000" is one safe name already
+        assert re.fullmatch(r"\+x_[A-Za-z0-9._+-]*_6000-[0-9a-f]{12}\.npz", name), name
+
+
+def test_a_300_character_vehicle_id_gets_a_bounded_file_name(tmp_path):
+    vehicle = "a" * 300
+    proc = _run(tmp_path, _vehicles(changer=vehicle))
+    assert "partial" not in proc.stderr and "Errno" not in proc.stderr
+    rows = _episodes(tmp_path, proc)
+    (name,) = rows.file
+    assert len(name) == FILE_NAME_MAX + len(".npz") and (tmp_path / "out" / name).is_file()
+    assert rows.vehicle_id.tolist() == [vehicle]
+    # cut ids keep distinct names: the hash of the whole id is in the name
+    assert episode_file_name("+x_" + "a" * 300 + "b") != episode_file_name("+x_" + "a" * 301)
+
+
+def test_file_names_of_ids_differing_in_unsafe_characters_or_case_differ():
+    assert episode_file_name("+x_1_6000") == "+x_1_6000.npz"  # safe ids are kept
+    assert episode_file_name("+x_a/b_1") != episode_file_name("+x_a_b_1")
+    taken = {episode_file_name("+x_A_1").casefold()}
+    other = episode_file_name("+x_a_1", taken)
+    assert other.casefold() not in taken and other.startswith("+x_a_1-")
