@@ -62,6 +62,7 @@ from drivestyle.envs.demonstration import (
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracks import Carriageway, Recording, Track
+from drivestyle.envs.units import ROAD_SPEED_MAX_MPS
 
 __all__ = [
     "EPISODE_COLUMNS",
@@ -492,11 +493,13 @@ def speed_constants(speeds: np.ndarray) -> tuple[float, float, float]:
 
     Returns:
         (v̄, v_max, l_a): the speed level v̄ = the 90th percentile (≥ 1 m/s), the desired
-        speed when none is known [m/s]; v_max = max(70, 1.5 × the fastest) [m/s]; the
-        speed-scaled ellipse l_a = max(5 m, 15 m · v̄ / 27.5 m/s).
+        speed when none is known [m/s]; v_max = the fixed bound of every road vehicle,
+        :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS` (70 m/s), never one the data
+        raises — a speed beyond it is a unit slip, and :func:`plausibility_problems` says
+        so [m/s]; the speed-scaled ellipse l_a = max(5 m, 15 m · v̄ / 27.5 m/s).
     """
     level = float(np.percentile(speeds, 90))
-    return max(level, 1.0), max(70.0, 1.5 * float(np.max(speeds))), max(5.0, 15.0 * level / 27.5)
+    return max(level, 1.0), ROAD_SPEED_MAX_MPS, max(5.0, 15.0 * level / 27.5)
 
 
 def observed_scenario(
@@ -515,8 +518,10 @@ def observed_scenario(
 
     Lane width from the markings; the speed level v̄ = the 90th percentile of the observed
     EV speeds; v_ref = ``v_ref`` if known, else v̄ (≥ 1 m/s); the ellipse l_a = max(5 m,
-    15 m · v̄ / 27.5 m/s), l_b = 3 m · w / 5.25 m; v_max = max(70, 1.5 × the observed
-    maximum) m/s; l_f = l_r = 0.4 · length; initial states from the first sample.
+    15 m · v̄ / 27.5 m/s), l_b = 3 m · w / 5.25 m; v_max = 70 m/s, the bound of every road
+    vehicle (:func:`speed_constants`); l_f = l_r = 0.4 · length; initial states from the
+    first sample (the speed clamped to [0, v_max]: a faster EV is refused by the
+    plausibility check, which names the speed).
 
     Args:
         ev_observed: EV states of the observed part, shape (k, 4), k ≥ 1.
@@ -546,7 +551,7 @@ def observed_scenario(
         target_lane=1,
         tv_lane=tv_lane,
         ev_x=float(ev_observed[0, 0]),
-        ev_speed=min(max(float(ev_observed[0, 3]), 0.0), 70.0),
+        ev_speed=min(max(float(ev_observed[0, 3]), 0.0), v_max),
         tv_gap=float(tv0[0] - ev_observed[0, 0]),
         tv_speed=max(float(tv0[3]), 0.0),
         v_ref=v_ref if v_ref is not None else v_level,
@@ -597,7 +602,8 @@ def _episode(
         "lane_width": w,
         "lateral_move": move,
     }
-    reasons = []
+    # the readers' checks (envs.track_checks): the vehicle is not a road vehicle's motion
+    reasons = [f"vehicle {track.vehicle_id} {problem}" for problem in track.problems]
     if t_c - start < config.min_before_s - 1e-9:
         reasons.append(
             f"only {t_c - start:.2f} s of track before the crossing (min_before_s "
@@ -638,6 +644,15 @@ def _episode(
         tv[:, 1], tv[:, 2] = 1.5 * w, 0.0
         tv_lane = 1
     first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
+    suspect = tuple(
+        f"interacting vehicle {other.vehicle_id} ({role}) {problem}"
+        for role, other in chosen
+        for problem in other.problems
+    )
+    if suspect:
+        return Episode(**common, first_frame=first, last_frame=last,
+                       interacting=tuple((r, o.vehicle_id) for r, o in chosen),
+                       no_interaction=False, usable=False, reasons=suspect, demo=None)  # fmt: skip
     try:
         sc = observed_scenario(
             ev[observed], tv[0], tv_lane, w, dt, t_grid.size, track.length, track.width,

@@ -16,7 +16,9 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
+from drivestyle.envs.track_checks import check_recording
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
+from drivestyle.envs.units import FOOT
 
 __all__ = [
     "INTERACTION_COLUMNS",
@@ -532,7 +534,7 @@ def read_table(
         meta["recordings"] = recordings
     if lines_from is not None:
         meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
-    return Recording(source=str(path), carriageways=tuple(carriageways), meta=meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 READERS["csv"] = read_table
@@ -725,9 +727,6 @@ def _size(data: dict[str, np.ndarray], column: str, a: int, b: int, default: flo
 
 
 # ------------------------------------------- published formats: NGSIM, levelX, INTERACTION
-
-FOOT = 0.3048
-"""Metres per foot (NGSIM's unit)."""
 
 NGSIM_COLUMNS = (
     "Vehicle_ID",
@@ -1103,7 +1102,7 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
         markings=markings,
         single_sample_tracks_dropped=dropped,
     )
-    return Recording(str(path), tuple(carriageways), meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 # ------------------------------------------------------------------------- levelX (highD)
@@ -1261,7 +1260,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
         "files": [str(path), str(meta_path), str(rec_path)],
         "single_sample_tracks_dropped": dropped,
     }
-    return Recording(str(path), tuple(carriageways), meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 # ---------------------------------------------------------------------------- INTERACTION
@@ -1417,7 +1416,7 @@ def read_interaction(
         "single_sample_tracks_dropped": dropped,
         "outside_road": _warn_outside_road(carriageways, "lane_markings (--lane-markings)"),
     }
-    return Recording(str(path), carriageways, meta)
+    return check_recording(Recording(str(path), carriageways, meta))
 
 
 READERS["ngsim"] = read_ngsim
@@ -1498,7 +1497,7 @@ def read_sample(folder: str | Path) -> Recording:
         "dataset": "cats" if cats else "ngsim",
         "units": "metres",
     }
-    return Recording(str(path), tuple(carriageways), meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 READERS["sample"] = read_sample

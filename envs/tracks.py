@@ -69,6 +69,10 @@ class Track:
     """Vehicle width [m]."""
     source: str = ""
     """The file it was read from (for messages and ``episodes.csv``)."""
+    problems: tuple[str, ...] = ()
+    """Why the track is not a road vehicle's motion, one line each (the readers' checks,
+    :func:`drivestyle.envs.track_checks.check_recording`); its lane changes are kept
+    unusable with these reasons. Empty: plausible."""
 
     def __post_init__(self) -> None:
         where = f"{self.source or 'track'}, vehicle {self.vehicle_id}"
@@ -93,6 +97,7 @@ class Track:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, _array(name, value, n, where))
+        object.__setattr__(self, "problems", tuple(str(p) for p in self.problems))
         if not (0 < self.length < 30 and 0 < self.width < 5):
             raise TrackError(
                 f"{where}: a {self.length:g} m × {self.width:g} m vehicle is not a road "

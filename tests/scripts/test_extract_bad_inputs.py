@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name
 
@@ -68,9 +67,16 @@ def _run(tmp_path: Path, table: pd.DataFrame | Path, *options: str) -> subproces
 def _error(proc: subprocess.CompletedProcess) -> str:
     """The one line ``error: …`` of a run that ended with exit status 2."""
     assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
-    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    lines = [line for line in _said(proc) if not line.startswith("warning: ")]
     assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
     return lines[0]
+
+
+def _said(proc: subprocess.CompletedProcess) -> list[str]:
+    """The lines on stderr besides the progress bars (tqdm: ``…%|…|…``)."""
+    return [
+        line for line in proc.stderr.splitlines() if line.strip() and not re.search(r"%\|", line)
+    ]
 
 
 def _episodes(tmp_path: Path, proc: subprocess.CompletedProcess) -> pd.DataFrame:
@@ -87,24 +93,33 @@ def test_the_healthy_table_gives_one_usable_lane_change(tmp_path):
 
 
 # ------------------------------------------------------------------ 1, 2: output paths
-@pytest.mark.parametrize(
-    "vehicle",
-    ["../../escaped", "../" * 12 + "tmp/escaped", "/tmp/escaped", "a/b", "..", "a\x00b"],
-)
-def test_a_vehicle_id_cannot_place_a_file_outside_the_output_folder(tmp_path, vehicle):
-    rows = _episodes(tmp_path, _run(tmp_path, _vehicles(changer=vehicle)))
-    (name,) = rows.file
-    out = tmp_path / "out"
-    assert rows.vehicle_id.tolist() == [vehicle]  # the index keeps the id as it is
-    assert Path(name).name == name and "/" not in name and "\x00" not in name
-    assert not name.startswith(".") and (out / name).is_file()
-    assert sorted(p.name for p in out.iterdir()) == sorted(
-        [".drivestyle-output", "episodes.csv", "extract.json", name]
+ESCAPES = ("../../escaped", "../" * 12 + "tmp/escaped", "/tmp/escaped", "a/b", "..", "a\x00b")
+"""Vehicle ids that would leave the output folder (or the file system's rules) as file names."""
+
+
+def test_a_vehicle_id_cannot_place_a_file_outside_the_output_folder(tmp_path):
+    # each id changes lane 300 m after the previous one (no interaction, one process)
+    table = pd.concat(
+        [
+            pd.DataFrame({"id": vid, "t": T, "x": SPEED * T + 300.0 * k, "y": _lane_change()})
+            for k, vid in enumerate(ESCAPES)
+        ],
+        ignore_index=True,
     )
-    assert [p for p in tmp_path.rglob("*.npz")] == [out / name]
-    assert name == episode_file_name(f"+x_{vehicle}_6000")
-    if vehicle != "..":  # "+x_.._6000" is one safe name already
-        assert re.fullmatch(r"\+x_[A-Za-z0-9._+-]*_6000-[0-9a-f]{12}\.npz", name), name
+    rows = _episodes(tmp_path, _run(tmp_path, table))
+    out = tmp_path / "out"
+    assert sorted(rows.vehicle_id) == sorted(ESCAPES)  # the index keeps the ids as they are
+    assert rows.usable.all() and rows.file.nunique() == len(ESCAPES)
+    for vid, name in zip(rows.vehicle_id, rows.file, strict=True):
+        assert Path(name).name == name and "/" not in name and "\x00" not in name
+        assert not name.startswith(".") and (out / name).is_file()
+        assert name == episode_file_name(f"+x_{vid}_6000")
+        if vid != "..":  # "+x_.._6000" is one safe name already
+            assert re.fullmatch(r"\+x_[A-Za-z0-9._+-]*_6000-[0-9a-f]{12}\.npz", name), name
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [".drivestyle-output", "episodes.csv", "extract.json", *rows.file]
+    )
+    assert sorted(tmp_path.rglob("*.npz")) == sorted(out / name for name in rows.file)
 
 
 def test_a_300_character_vehicle_id_gets_a_bounded_file_name(tmp_path):
@@ -125,3 +140,33 @@ def test_file_names_of_ids_differing_in_unsafe_characters_or_case_differ():
     taken = {episode_file_name("+x_A_1").casefold()}
     other = episode_file_name("+x_a_1", taken)
     assert other.casefold() not in taken and other.startswith("+x_a_1-")
+
+
+# --------------------------------------------------------------- 3: the speed limit
+def test_a_fleet_at_120_mps_is_refused_with_the_likely_unit(tmp_path):
+    table = _vehicles()
+    table["x"] *= 120 / SPEED  # every vehicle at 120 m/s by its positions
+    line = _error(_run(tmp_path, table))
+    assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles drive at a median ")
+    assert "120 m/s by their positions" in line and "beyond 70 m/s (252 km/h)" in line
+    assert "positions in feet (× 0.3048: 36.6 m/s)?" in line
+    assert "computed from a speed in km/h (÷ 3.6: 33.3 m/s)?" in line
+    # a speed column in km/h: named as such
+    table = _vehicles().assign(v=SPEED * 3.6)
+    line = _error(_run(tmp_path, table))
+    assert "2 of 2 vehicles drive at a median 90 m/s by the speed column" in line
+    assert "km/h given as m/s (÷ 3.6: 25 m/s)?" in line
+
+
+def test_one_car_at_120_mps_is_kept_unusable_with_its_speed(tmp_path):
+    table = _vehicles()
+    table.loc[table.id == "1", "x"] *= 120 / SPEED
+    proc = _run(tmp_path, table)
+    rows = _episodes(tmp_path, proc)
+    assert rows.usable.tolist() == [False] and rows.file.isna().all()
+    assert rows.reason[0].startswith(
+        "vehicle 1 drives at a median 120 m/s by its positions, beyond 70 m/s (252 km/h), the "
+        "fastest a road vehicle drives: positions in feet (× 0.3048: 36.6 m/s)?"
+    )
+    (warning,) = _said(proc)
+    assert "1 vehicle(s) kept but unusable" in warning and "vehicle 1 (+x) drives" in warning

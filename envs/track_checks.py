@@ -1,0 +1,167 @@
+"""Every reader's tracks checked by their physics: the rules' one home.
+
+Each reader of :mod:`drivestyle.envs.readers` (the generic table, raw NGSIM, levelX,
+INTERACTION, the shipped samples) ends with :func:`check_recording`; no reader keeps a
+copy of a rule. A rule has two outcomes:
+
+- **the file** is refused (:class:`~drivestyle.envs.tracks.TrackError`, one line naming
+  the file, the column and the value with the likely unit) where most of its vehicles
+  break the rule: that is a unit or a convention of the file, not a vehicle;
+- **a vehicle** that breaks it alone is kept with the reason in
+  :attr:`~drivestyle.envs.tracks.Track.problems`: its lane changes are listed unusable in
+  ``episodes.csv`` with it, and a warning on stderr names the vehicles.
+
+The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's constants):
+
+- **speed**: a vehicle's median speed — the recorded one and the one its positions imply —
+  is at most :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+
+from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
+from drivestyle.envs.units import ROAD_SPEED_MAX_MPS, speed_unit_hint
+
+__all__ = [
+    "WARN_VEHICLES",
+    "check_recording",
+    "implied_speeds",
+    "track_problems_warning",
+]
+
+WARN_VEHICLES = 5
+"""Vehicles the warning names (the rest are counted)."""
+
+
+def implied_speeds(t: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The speed two consecutive positions imply, per step.
+
+    Args:
+        t: sample times, shape (n,) [s], increasing.
+        x: positions along the road, shape (n,) [m].
+        y: lateral positions, shape (n,) [m].
+
+    Returns:
+        Shape (n − 1,) [m/s].
+    """
+    return np.hypot(np.diff(x), np.diff(y)) / np.diff(t)
+
+
+def _where(road: Carriageway, track: Track) -> str:
+    return f"vehicle {track.vehicle_id} ({road.name})"
+
+
+def _majority(flags: Sequence[bool]) -> bool:
+    """More than half of the vehicles: a property of the file, not of a vehicle."""
+    return 2 * sum(flags) > len(flags)
+
+
+def _speed_problems(
+    recording: Recording, tracks: list[tuple[Carriageway, Track]]
+) -> list[tuple[str, ...]]:
+    """Median speeds beyond a road vehicle's (the speed rule), per track.
+
+    Raises:
+        TrackError: most vehicles are beyond it (a unit of the file).
+    """
+    bound = ROAD_SPEED_MAX_MPS
+    limit = f"beyond {bound:g} m/s ({bound * 3.6:.0f} km/h), the fastest a road vehicle drives"
+    implied = np.array([float(np.median(implied_speeds(tr.t, tr.x, tr.y))) for _, tr in tracks])
+    recorded = np.array(
+        [float(np.median(np.abs(tr.v))) if tr.v is not None else 0.0 for _, tr in tracks]
+    )
+    kinds = (("speeds", "the speed column", recorded), ("positions", "their positions", implied))
+    for of, column, speeds in kinds:
+        fast = speeds > bound
+        if _majority(fast.tolist()):
+            k = int(np.argmax(speeds))
+            median = float(np.median(speeds))
+            raise TrackError(
+                f"{recording.source}: {int(fast.sum())} of {len(tracks)} vehicles drive at a "
+                f"median {median:.3g} m/s by {column} (the fastest, {_where(*tracks[k])}, at "
+                f"{speeds[k]:.3g} m/s), {limit}: {speed_unit_hint(median, of)}"
+            )
+    out: list[tuple[str, ...]] = []
+    for k in range(len(tracks)):
+        found = [
+            f"drives at a median {speeds[k]:.3g} m/s by {column.replace('their', 'its')}, "
+            f"{limit}: {speed_unit_hint(float(speeds[k]), of)}"
+            for of, column, speeds in kinds
+            if speeds[k] > bound
+        ]
+        out.append(tuple(found[:1]))  # the speed column's first: the positions' would repeat it
+    return out
+
+
+def track_problems_warning(recording: Recording) -> str | None:
+    """A one-line warning naming the vehicles kept with problems, or None.
+
+    Args:
+        recording: a checked recording (:func:`check_recording`).
+
+    Returns:
+        ``warning: …`` naming up to :data:`WARN_VEHICLES` vehicles with their first
+        problem, or None when every track is plausible.
+    """
+    found = [(road, tr) for road in recording.carriageways for tr in road.tracks if tr.problems]
+    if not found:
+        return None
+    named = "; ".join(f"{_where(road, tr)} {tr.problems[0]}" for road, tr in found[:WARN_VEHICLES])
+    rest = len(found) - WARN_VEHICLES
+    more = f"; and {rest} more vehicle(s)" if rest > 0 else ""
+    return (
+        f"warning: {recording.source}: {len(found)} vehicle(s) kept but unusable (their lane "
+        f"changes are listed unusable in episodes.csv): {named}{more}"
+    )
+
+
+def check_recording(recording: Recording, warn: bool = True) -> Recording:
+    """A reader's recording checked by the rules (module docstring).
+
+    Args:
+        recording: as a reader built it (tracks without problems).
+        warn: print :func:`track_problems_warning` on stderr.
+
+    Returns:
+        The recording with each track's :attr:`~drivestyle.envs.tracks.Track.problems` set
+        (``meta["track_problems"]``: carriageway, vehicle and problems of each such track).
+
+    Raises:
+        TrackError: a rule that most of the file's vehicles break (a unit or convention of
+            the file); one line naming the file, the value and the likely unit.
+    """
+    tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
+    if not tracks:
+        return recording
+    rules = [_speed_problems(recording, tracks)]
+    found = {id(tr): sum((rule[k] for rule in rules), ()) for k, (_, tr) in enumerate(tracks)}
+    roads = tuple(
+        dataclasses.replace(
+            road,
+            tracks=tuple(
+                dataclasses.replace(tr, problems=tr.problems + found[id(tr)])
+                if found[id(tr)]
+                else tr
+                for tr in road.tracks
+            ),
+        )
+        for road in recording.carriageways
+    )
+    meta = dict(recording.meta)
+    meta["track_problems"] = [
+        {"carriageway": road.name, "vehicle_id": tr.vehicle_id, "problems": list(tr.problems)}
+        for road in roads
+        for tr in road.tracks
+        if tr.problems
+    ]
+    checked = Recording(recording.source, roads, meta)
+    warning = track_problems_warning(checked) if warn else None
+    if warning:
+        print(warning, file=sys.stderr, flush=True)
+    return checked
