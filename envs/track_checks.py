@@ -13,6 +13,9 @@ copy of a rule. A rule has two outcomes:
 
 The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's constants):
 
+- **sampling**: a vehicle's median time step is at most
+  :data:`~drivestyle.envs.units.SAMPLE_PERIOD_MAX_S` (a step of 100 is a time in
+  milliseconds: its cars drive at 0.025 m/s);
 - **speed**: a vehicle's median speed — the recorded one and the one its positions imply —
   is at most :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`.
 """
@@ -26,7 +29,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
-from drivestyle.envs.units import ROAD_SPEED_MAX_MPS, speed_unit_hint
+from drivestyle.envs.units import (
+    ROAD_SPEED_MAX_MPS,
+    SAMPLE_PERIOD_MAX_S,
+    speed_unit_hint,
+    time_unit_hint,
+)
 
 __all__ = [
     "WARN_VEHICLES",
@@ -60,6 +68,36 @@ def _where(road: Carriageway, track: Track) -> str:
 def _majority(flags: Sequence[bool]) -> bool:
     """More than half of the vehicles: a property of the file, not of a vehicle."""
     return 2 * sum(flags) > len(flags)
+
+
+def _sampling_problems(
+    recording: Recording, tracks: list[tuple[Carriageway, Track]]
+) -> list[tuple[str, ...]]:
+    """Tracks sampled too rarely to show a lane change (the sampling rule), per track.
+
+    Raises:
+        TrackError: most vehicles are (a time unit of the file).
+    """
+    bound = SAMPLE_PERIOD_MAX_S
+    steps = np.array([float(np.median(np.diff(tr.t))) for _, tr in tracks])
+    rare = steps > bound
+    if _majority(rare.tolist()):
+        step = float(np.median(steps))
+        speed = float(np.median([np.median(implied_speeds(tr.t, tr.x, tr.y)) for _, tr in tracks]))
+        raise TrackError(
+            f"{recording.source}: {int(rare.sum())} of {len(tracks)} vehicles have a median time "
+            f"step of {step:g} (read as seconds: more than {bound:g} s, too rare to show a lane "
+            f"change) and drive at a median {speed:.3g} m/s: {time_unit_hint(step)}"
+        )
+    return [
+        (
+            f"has a median time step of {steps[k]:g} s, more than {bound:g} s: too rare to show "
+            "a lane change (3–6 s)",
+        )
+        if rare[k]
+        else ()
+        for k in range(len(tracks))
+    ]
 
 
 def _speed_problems(
@@ -139,7 +177,8 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
     tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
     if not tracks:
         return recording
-    rules = [_speed_problems(recording, tracks)]
+    # the sampling first: a time in the wrong unit makes every speed wrong too
+    rules = [_sampling_problems(recording, tracks), _speed_problems(recording, tracks)]
     found = {id(tr): sum((rule[k] for rule in rules), ()) for k, (_, tr) in enumerate(tracks)}
     roads = tuple(
         dataclasses.replace(

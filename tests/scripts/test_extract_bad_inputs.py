@@ -170,3 +170,15 @@ def test_one_car_at_120_mps_is_kept_unusable_with_its_speed(tmp_path):
     )
     (warning,) = _said(proc)
     assert "1 vehicle(s) kept but unusable" in warning and "vehicle 1 (+x) drives" in warning
+
+
+# ------------------------------------------------------------ 4: time in milliseconds
+def test_times_in_milliseconds_are_refused_with_the_conversion(tmp_path):
+    table = _vehicles()
+    table["t"] = np.round(table.t * 1000)
+    line = _error(_run(tmp_path, table))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles have a median time step of 100 (read "
+        "as seconds: more than 1 s, too rare to show a lane change) and drive at a median "
+        "0.025 m/s: times in milliseconds? divide by 1000 (a step of 0.1 s, 10 Hz)"
+    )
