@@ -182,3 +182,12 @@ def test_times_in_milliseconds_are_refused_with_the_conversion(tmp_path):
         "as seconds: more than 1 s, too rare to show a lane change) and drive at a median "
         "0.025 m/s: times in milliseconds? divide by 1000 (a step of 0.1 s, 10 Hz)"
     )
+
+
+# ------------------------------------------------------------- 5: positions in feet
+def test_positions_in_feet_are_refused_also_when_the_lanes_are_given_in_metres(tmp_path):
+    table = _vehicles()
+    table[["x", "y"]] /= 0.3048  # feet, and no speed column; the lanes given in metres
+    line = _error(_run(tmp_path, table, "--lane-width", str(W)))
+    assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles drive at a median ")
+    assert "82 m/s by their positions" in line and "positions in feet (× 0.3048: 25 m/s)?" in line
