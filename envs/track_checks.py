@@ -17,7 +17,10 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
   :data:`~drivestyle.envs.units.SAMPLE_PERIOD_MAX_S` (a step of 100 is a time in
   milliseconds: its cars drive at 0.025 m/s);
 - **speed**: a vehicle's median speed — the recorded one and the one its positions imply —
-  is at most :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`.
+  is at most :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`;
+- **heading**: a recorded heading agrees with the course of the positions (their direction
+  over :data:`COURSE_BASE_M` of path) within :data:`HEADING_COURSE_TOL_RAD` at all but
+  :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not).
 """
 
 from __future__ import annotations
@@ -32,19 +35,36 @@ from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.envs.units import (
     ROAD_SPEED_MAX_MPS,
     SAMPLE_PERIOD_MAX_S,
+    degrees_hint,
     speed_unit_hint,
     time_unit_hint,
 )
 
 __all__ = [
+    "COURSE_BASE_M",
+    "HEADING_COURSE_TOL_RAD",
+    "HEADING_DISAGREE_SHARE",
     "WARN_VEHICLES",
     "check_recording",
+    "course_disagreement",
     "implied_speeds",
     "track_problems_warning",
 ]
 
 WARN_VEHICLES = 5
 """Vehicles the warning names (the rest are counted)."""
+COURSE_BASE_M = 2.0
+"""The course of the positions is their direction over this much path [m]: 0.1 m of
+position noise at each end turns it by ≈ 0.07 rad, and a lane-changing car's heading
+changes by less than 0.02 rad over it."""
+HEADING_COURSE_TOL_RAD = 0.35
+"""How far (20°) a recorded heading may differ from the course [rad]: a car's slip angle
+at road speeds is below 0.05 rad, recorded lane changes turn by at most 0.22 rad, and the
+course's noise adds ≈ 0.07 (:data:`COURSE_BASE_M`). A heading in degrees read as radians
+is off by 0.35 rad from a course of 0.35° (0.006 rad) on: anything but dead straight."""
+HEADING_DISAGREE_SHARE = 0.1
+"""The share of a track's compared samples whose heading may differ from the course by
+more than :data:`HEADING_COURSE_TOL_RAD` (a noisy fix, a sample at a standstill)."""
 
 
 def implied_speeds(t: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -59,6 +79,35 @@ def implied_speeds(t: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         Shape (n − 1,) [m/s].
     """
     return np.hypot(np.diff(x), np.diff(y)) / np.diff(t)
+
+
+def course_disagreement(
+    t: np.ndarray, x: np.ndarray, y: np.ndarray, heading: np.ndarray, base_m: float = COURSE_BASE_M
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How far a recorded heading is from the course of the positions.
+
+    The course at sample i is the direction from position i to the first position at least
+    ``base_m`` of path further; it is compared with the heading at the time midway between
+    the two samples (the heading unwrapped and interpolated).
+
+    Args:
+        t: sample times, shape (n,) [s], increasing.
+        x: positions along the road, shape (n,) [m].
+        y: lateral positions, shape (n,) [m].
+        heading: recorded headings against +x, shape (n,) [rad].
+        base_m: the path over which the course is taken [m].
+
+    Returns:
+        (|heading − course| wrapped to [0, π] [rad], the heading compared [rad], the
+        course [rad]), each of shape (m,) for the m samples with ``base_m`` of path ahead.
+    """
+    path = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+    ahead = np.searchsorted(path, path + base_m)
+    i = np.flatnonzero(ahead < path.size)
+    j = ahead[i]
+    course = np.arctan2(y[j] - y[i], x[j] - x[i])
+    compared = np.interp((t[i] + t[j]) / 2, t, np.unwrap(heading))
+    return np.abs(np.angle(np.exp(1j * (compared - course)))), compared, course
 
 
 def _where(road: Carriageway, track: Track) -> str:
@@ -137,6 +186,50 @@ def _speed_problems(
     return out
 
 
+def _heading_problems(
+    recording: Recording, tracks: list[tuple[Carriageway, Track]]
+) -> list[tuple[str, ...]]:
+    """Recorded headings that disagree with the course of the positions, per track.
+
+    Raises:
+        TrackError: most vehicles with a heading disagree (the file's unit or convention).
+    """
+    tol, share = HEADING_COURSE_TOL_RAD, HEADING_DISAGREE_SHARE
+    said: list[str | None] = []
+    for _, tr in tracks:
+        if tr.heading is None:
+            said.append(None)
+            continue
+        off, heading, course = course_disagreement(tr.t, tr.x, tr.y, tr.heading)
+        if not off.size or np.mean(off > tol) <= share:
+            said.append("")
+            continue
+        k = int(np.argmax(off))
+        # the usual slips: the opposite direction's heading, degrees read as radians
+        backwards = np.abs(np.angle(np.exp(1j * (heading - course - np.pi))))
+        in_degrees = np.abs(np.angle(np.exp(1j * (np.radians(heading) - course))))
+        if np.mean(backwards > tol) <= share:
+            hint = "it points against its motion: the heading of the other driving direction?"
+        elif np.mean(in_degrees > tol) <= share:
+            hint = degrees_hint(float(heading[k]))
+        else:
+            hint = "a heading is against +x, counter-clockwise, in radians"
+        said.append(
+            f"has a recorded heading of {heading[k]:.3g} rad where its positions' course is "
+            f"{course[k]:.3g} rad ({np.mean(off > tol):.0%} of its samples differ by more than "
+            f"{tol:g} rad): {hint}"
+        )
+    checked = [p for p in said if p is not None]
+    if checked and _majority([bool(p) for p in checked]):
+        k = next(k for k, p in enumerate(said) if p)
+        raise TrackError(
+            f"{recording.source}: column heading: {sum(map(bool, checked))} of {len(checked)} "
+            f"vehicles' headings disagree with the course of their positions; "
+            f"{_where(*tracks[k])} {said[k]}"
+        )
+    return [(p,) if p else () for p in said]
+
+
 def track_problems_warning(recording: Recording) -> str | None:
     """A one-line warning naming the vehicles kept with problems, or None.
 
@@ -178,7 +271,11 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
     if not tracks:
         return recording
     # the sampling first: a time in the wrong unit makes every speed wrong too
-    rules = [_sampling_problems(recording, tracks), _speed_problems(recording, tracks)]
+    rules = [
+        _sampling_problems(recording, tracks),
+        _speed_problems(recording, tracks),
+        _heading_problems(recording, tracks),
+    ]
     found = {id(tr): sum((rule[k] for rule in rules), ()) for k, (_, tr) in enumerate(tracks)}
     roads = tuple(
         dataclasses.replace(

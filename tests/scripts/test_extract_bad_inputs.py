@@ -191,3 +191,34 @@ def test_positions_in_feet_are_refused_also_when_the_lanes_are_given_in_metres(t
     line = _error(_run(tmp_path, table, "--lane-width", str(W)))
     assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles drive at a median ")
     assert "82 m/s by their positions" in line and "positions in feet (× 0.3048: 25 m/s)?" in line
+
+
+# ------------------------------------------------------------ 6: heading in degrees
+def _course(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The direction of motion of positions sampled on :data:`T` [rad]."""
+    return np.arctan2(np.gradient(y, T), np.gradient(x, T))
+
+
+def test_a_heading_in_degrees_is_checked_against_the_course_and_named(tmp_path):
+    table = _vehicles()
+    table["heading"] = 0.0
+    changer = table.id == "1"
+    heading = np.degrees(_course(table.x[changer].to_numpy(), table.y[changer].to_numpy()))
+    table.loc[changer, "heading"] = heading  # up to 3.2 "rad" for a lane change
+    proc = _run(tmp_path, table)
+    rows = _episodes(tmp_path, proc)
+    assert rows.usable.tolist() == [False]
+    assert re.fullmatch(
+        r"vehicle 1 has a recorded heading of 3\.\d+ rad where its positions' course is "
+        r"0\.05\d+ rad \(\d+% of its samples differ by more than 0\.35 rad\): degrees\? "
+        r"\(3\.\d+° = 0\.05\d+ rad; × π/180\)",
+        rows.reason[0],
+    ), rows.reason[0]
+    (warning,) = _said(proc)
+    assert "vehicle 1 (+x) has a recorded heading of 3." in warning
+    # every vehicle's heading in degrees: the file's unit, refused
+    table["id"] = np.where(changer, "1", "2")
+    table.loc[~changer, "heading"] = np.degrees(0.01)  # ≈ 0.57° for a car driving straight
+    line = _error(_run(tmp_path, table))
+    assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: column heading: 2 of 2 vehicles'")
+    assert "degrees?" in line
