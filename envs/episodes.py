@@ -602,8 +602,11 @@ def _episode(
         "lane_width": w,
         "lateral_move": move,
     }
-    # the readers' checks (envs.track_checks): the vehicle is not a road vehicle's motion
-    reasons = [f"vehicle {track.vehicle_id} {problem}" for problem in track.problems]
+    # the readers' checks (envs.track_checks): the vehicle's motion in the window is not a
+    # road vehicle's
+    reasons = [
+        f"vehicle {track.vehicle_id} {p.text}" for p in track.problems if p.meets(start, stop)
+    ]
     if t_c - start < config.min_before_s - 1e-9:
         reasons.append(
             f"only {t_c - start:.2f} s of track before the crossing (min_before_s "
@@ -645,9 +648,10 @@ def _episode(
         tv_lane = 1
     first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
     suspect = tuple(
-        f"interacting vehicle {other.vehicle_id} ({role}) {problem}"
+        f"interacting vehicle {other.vehicle_id} ({role}) {p.text}"
         for role, other in chosen
-        for problem in other.problems
+        for p in other.problems
+        if p.meets(start, stop)
     )
     if suspect:
         return Episode(**common, first_frame=first, last_frame=last,

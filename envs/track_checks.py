@@ -8,8 +8,9 @@ copy of a rule. A rule has two outcomes:
   the file, the column and the value with the likely unit) where most of its vehicles
   break the rule: that is a unit or a convention of the file, not a vehicle;
 - **a vehicle** that breaks it alone is kept with the reason in
-  :attr:`~drivestyle.envs.tracks.Track.problems`: its lane changes are listed unusable in
-  ``episodes.csv`` with it, and a warning on stderr names the vehicles.
+  :attr:`~drivestyle.envs.tracks.Track.problems` (with the times it concerns): a lane
+  change whose window meets it — the lane changer's or an interacting vehicle's — is
+  listed unusable in ``episodes.csv`` with it, and a warning on stderr names the vehicles.
 
 The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's constants):
 
@@ -20,7 +21,11 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
   is at most :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`;
 - **heading**: a recorded heading agrees with the course of the positions (their direction
   over :data:`COURSE_BASE_M` of path) within :data:`HEADING_COURSE_TOL_RAD` at all but
-  :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not).
+  :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not);
+- **overlap**: no two vehicles of a carriageway overlap at any time (their rectangles,
+  shrunk to :data:`~drivestyle.envs.demonstration.OVERLAP_SHRINK` as the demonstration's
+  check shrinks them, on a common time grid; :func:`overlaps`): both are kept unusable,
+  each naming the other. A pair is never a unit of the file, so this rule marks only.
 """
 
 from __future__ import annotations
@@ -31,7 +36,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
+from drivestyle.envs.demonstration import OVERLAP_SHRINK
+from drivestyle.envs.safety import vehicles_overlap
+from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError, TrackProblem
 from drivestyle.envs.units import (
     ROAD_SPEED_MAX_MPS,
     SAMPLE_PERIOD_MAX_S,
@@ -46,8 +53,10 @@ __all__ = [
     "HEADING_DISAGREE_SHARE",
     "WARN_VEHICLES",
     "check_recording",
+    "course",
     "course_disagreement",
     "implied_speeds",
+    "overlaps",
     "track_problems_warning",
 ]
 
@@ -110,6 +119,79 @@ def course_disagreement(
     return np.abs(np.angle(np.exp(1j * (compared - course)))), compared, course
 
 
+def course(x: np.ndarray, y: np.ndarray, base_m: float = COURSE_BASE_M) -> np.ndarray:
+    """The direction of motion at each sample: towards the position ``base_m`` of path ahead.
+
+    Over a base of path, not one step: a standing vehicle's position noise would turn a
+    one-step direction anywhere. Samples with less path ahead take the direction from the
+    position ``base_m`` behind; a track shorter than ``base_m`` points along +x.
+
+    Args:
+        x: positions along the road, shape (n,) [m].
+        y: lateral positions, shape (n,) [m].
+        base_m: the path over which the direction is taken [m].
+
+    Returns:
+        The course against +x, shape (n,) [rad].
+    """
+    path = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+    out = np.zeros(path.size)
+    ahead = np.searchsorted(path, path + base_m)
+    i = np.flatnonzero(ahead < path.size)
+    out[i] = np.arctan2(y[ahead[i]] - y[i], x[ahead[i]] - x[i])
+    behind = np.searchsorted(path, path - base_m, side="right") - 1
+    rest = np.flatnonzero((ahead >= path.size) & (behind >= 0))
+    out[rest] = np.arctan2(y[rest] - y[behind[rest]], x[rest] - x[behind[rest]])
+    return out
+
+
+def overlaps(
+    key: np.ndarray,
+    states: np.ndarray,
+    length: np.ndarray,
+    width: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair of vehicle rectangles that overlap at the same time key.
+
+    Sorted by (key, x), a rectangle can reach only those after it within the sum of the
+    largest circumscribed radii along x at the same key: the candidates are found offset by
+    offset (i, i + 1), (i, i + 2), … until none is left, never comparing all pairs; a
+    candidate whose circumscribed circles meet is tested exactly, rectangle against
+    rectangle (:func:`~drivestyle.envs.safety.vehicles_overlap`: the separating-axis test
+    the demonstration's overlap check makes).
+
+    Args:
+        key: the time (grid index) of each rectangle, shape (r,).
+        states: [x, y, φ] of each centre, shape (r, 3) [m, m, rad].
+        length: each rectangle's length, shape (r,) [m].
+        width: each rectangle's width, shape (r,) [m].
+
+    Returns:
+        (i, j): row indices into the inputs of each overlapping pair, shape (p,) each.
+    """
+    order = np.lexsort((states[:, 0], key))
+    k, xs, ys = key[order], states[order, 0], states[order, 1]
+    radius = np.hypot(length, width)[order] / 2
+    reach = 2 * float(radius.max()) if radius.size else 0.0
+    found_i: list[np.ndarray] = []
+    found_j: list[np.ndarray] = []
+    for m in range(1, k.size):
+        a, b = np.arange(k.size - m), np.arange(m, k.size)
+        near = (k[a] == k[b]) & (xs[b] - xs[a] < reach)
+        if not near.any():
+            break
+        a, b = a[near], b[near]
+        meet = np.hypot(xs[b] - xs[a], ys[b] - ys[a]) < radius[a] + radius[b]
+        i, j = order[a[meet]], order[b[meet]]
+        size = np.column_stack([length, width])
+        hit = vehicles_overlap(states[i], states[j], size[i], size[j])
+        found_i.append(i[hit])
+        found_j.append(j[hit])
+    if not found_i:
+        return np.zeros(0, int), np.zeros(0, int)
+    return np.concatenate(found_i), np.concatenate(found_j)
+
+
 def _where(road: Carriageway, track: Track) -> str:
     return f"vehicle {track.vehicle_id} ({road.name})"
 
@@ -121,7 +203,7 @@ def _majority(flags: Sequence[bool]) -> bool:
 
 def _sampling_problems(
     recording: Recording, tracks: list[tuple[Carriageway, Track]]
-) -> list[tuple[str, ...]]:
+) -> list[tuple[TrackProblem, ...]]:
     """Tracks sampled too rarely to show a lane change (the sampling rule), per track.
 
     Raises:
@@ -140,8 +222,10 @@ def _sampling_problems(
         )
     return [
         (
-            f"has a median time step of {steps[k]:g} s, more than {bound:g} s: too rare to show "
-            "a lane change (3–6 s)",
+            TrackProblem(
+                f"has a median time step of {steps[k]:g} s, more than {bound:g} s: too rare to "
+                "show a lane change (3–6 s)"
+            ),
         )
         if rare[k]
         else ()
@@ -151,7 +235,7 @@ def _sampling_problems(
 
 def _speed_problems(
     recording: Recording, tracks: list[tuple[Carriageway, Track]]
-) -> list[tuple[str, ...]]:
+) -> list[tuple[TrackProblem, ...]]:
     """Median speeds beyond a road vehicle's (the speed rule), per track.
 
     Raises:
@@ -174,7 +258,7 @@ def _speed_problems(
                 f"median {median:.3g} m/s by {column} (the fastest, {_where(*tracks[k])}, at "
                 f"{speeds[k]:.3g} m/s), {limit}: {speed_unit_hint(median, of)}"
             )
-    out: list[tuple[str, ...]] = []
+    out: list[tuple[TrackProblem, ...]] = []
     for k in range(len(tracks)):
         found = [
             f"drives at a median {speeds[k]:.3g} m/s by {column.replace('their', 'its')}, "
@@ -182,13 +266,14 @@ def _speed_problems(
             for of, column, speeds in kinds
             if speeds[k] > bound
         ]
-        out.append(tuple(found[:1]))  # the speed column's first: the positions' would repeat it
+        # the speed column's first: the positions' would repeat it
+        out.append(tuple(TrackProblem(text) for text in found[:1]))
     return out
 
 
 def _heading_problems(
     recording: Recording, tracks: list[tuple[Carriageway, Track]]
-) -> list[tuple[str, ...]]:
+) -> list[tuple[TrackProblem, ...]]:
     """Recorded headings that disagree with the course of the positions, per track.
 
     Raises:
@@ -200,14 +285,14 @@ def _heading_problems(
         if tr.heading is None:
             said.append(None)
             continue
-        off, heading, course = course_disagreement(tr.t, tr.x, tr.y, tr.heading)
+        off, heading, moving = course_disagreement(tr.t, tr.x, tr.y, tr.heading)
         if not off.size or np.mean(off > tol) <= share:
             said.append("")
             continue
         k = int(np.argmax(off))
         # the usual slips: the opposite direction's heading, degrees read as radians
-        backwards = np.abs(np.angle(np.exp(1j * (heading - course - np.pi))))
-        in_degrees = np.abs(np.angle(np.exp(1j * (np.radians(heading) - course))))
+        backwards = np.abs(np.angle(np.exp(1j * (heading - moving - np.pi))))
+        in_degrees = np.abs(np.angle(np.exp(1j * (np.radians(heading) - moving))))
         if np.mean(backwards > tol) <= share:
             hint = "it points against its motion: the heading of the other driving direction?"
         elif np.mean(in_degrees > tol) <= share:
@@ -216,7 +301,7 @@ def _heading_problems(
             hint = "a heading is against +x, counter-clockwise, in radians"
         said.append(
             f"has a recorded heading of {heading[k]:.3g} rad where its positions' course is "
-            f"{course[k]:.3g} rad ({np.mean(off > tol):.0%} of its samples differ by more than "
+            f"{moving[k]:.3g} rad ({np.mean(off > tol):.0%} of its samples differ by more than "
             f"{tol:g} rad): {hint}"
         )
     checked = [p for p in said if p is not None]
@@ -227,7 +312,52 @@ def _heading_problems(
             f"vehicles' headings disagree with the course of their positions; "
             f"{_where(*tracks[k])} {said[k]}"
         )
-    return [(p,) if p else () for p in said]
+    return [(TrackProblem(p),) if p else () for p in said]
+
+
+def _overlap_problems(
+    recording: Recording, tracks: list[tuple[Carriageway, Track]]
+) -> list[tuple[TrackProblem, ...]]:
+    """Vehicles of one carriageway that overlap another at some time (both marked).
+
+    The tracks are compared on the carriageway's grid of its median time step (linear
+    between samples), which every track shares whatever its own clock.
+    """
+    index = {id(tr): k for k, (_, tr) in enumerate(tracks)}
+    said: list[list[TrackProblem]] = [[] for _ in tracks]
+    for road in recording.carriageways:
+        if len(road.tracks) < 2:
+            continue
+        dt = float(np.median(np.concatenate([np.diff(tr.t) for tr in road.tracks])))
+        keys, states, owner = [], [], []
+        for n, tr in enumerate(road.tracks):
+            grid = np.arange(np.ceil(tr.t[0] / dt - 1e-9), np.floor(tr.t[-1] / dt + 1e-9) + 1)
+            # the recorded heading where there is one, else the course of the positions
+            phi = np.unwrap(tr.heading if tr.heading is not None else course(tr.x, tr.y))
+            keys.append(grid.astype(np.int64))
+            states.append(
+                np.column_stack([np.interp(grid * dt, tr.t, v) for v in (tr.x, tr.y, phi)])
+            )
+            owner.append(np.full(grid.size, n))
+        who = np.concatenate(owner)
+        size = np.array([[tr.length, tr.width] for tr in road.tracks]) * OVERLAP_SHRINK
+        key = np.concatenate(keys)
+        i, j = overlaps(key, np.concatenate(states), size[who, 0], size[who, 1])
+        pairs: dict[tuple[int, int], list[int]] = {}
+        for a, b in zip(i.tolist(), j.tolist(), strict=True):
+            pair = (min(who[a], who[b]), max(who[a], who[b]))
+            pairs.setdefault(pair, []).append(a)
+        for (a, b), rows in pairs.items():
+            first, last = float(key[min(rows)] * dt), float(key[max(rows)] * dt)
+            span = f"at t = {first:g} s" if len(rows) == 1 else f"from t = {first:g} to {last:g} s"
+            for me, other in ((a, b), (b, a)):
+                text = (
+                    f"overlaps vehicle {road.tracks[other].vehicle_id} {span} ({len(rows)} "
+                    f"sample(s) {dt:g} s apart): two vehicles cannot share a place; the same "
+                    "vehicle under two ids, or positions or sizes in another unit?"
+                )
+                said[index[id(road.tracks[me])]].append(TrackProblem(text, first, last))
+    return [tuple(p) for p in said]
 
 
 def track_problems_warning(recording: Recording) -> str | None:
@@ -243,12 +373,15 @@ def track_problems_warning(recording: Recording) -> str | None:
     found = [(road, tr) for road in recording.carriageways for tr in road.tracks if tr.problems]
     if not found:
         return None
-    named = "; ".join(f"{_where(road, tr)} {tr.problems[0]}" for road, tr in found[:WARN_VEHICLES])
+    named = "; ".join(
+        f"{_where(road, tr)} {tr.problems[0].text}" for road, tr in found[:WARN_VEHICLES]
+    )
     rest = len(found) - WARN_VEHICLES
     more = f"; and {rest} more vehicle(s)" if rest > 0 else ""
     return (
-        f"warning: {recording.source}: {len(found)} vehicle(s) kept but unusable (their lane "
-        f"changes are listed unusable in episodes.csv): {named}{more}"
+        f"warning: {recording.source}: {len(found)} vehicle(s) whose motion is not a road "
+        f"vehicle's (kept; a lane change whose window meets it, by the vehicle or one it "
+        f"interacts with, is listed unusable in episodes.csv): {named}{more}"
     )
 
 
@@ -275,6 +408,7 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
         _sampling_problems(recording, tracks),
         _speed_problems(recording, tracks),
         _heading_problems(recording, tracks),
+        _overlap_problems(recording, tracks),
     ]
     found = {id(tr): sum((rule[k] for rule in rules), ()) for k, (_, tr) in enumerate(tracks)}
     roads = tuple(
@@ -291,7 +425,11 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
     )
     meta = dict(recording.meta)
     meta["track_problems"] = [
-        {"carriageway": road.name, "vehicle_id": tr.vehicle_id, "problems": list(tr.problems)}
+        {
+            "carriageway": road.name,
+            "vehicle_id": tr.vehicle_id,
+            "problems": [dataclasses.asdict(p) for p in tr.problems],
+        }
         for road in roads
         for tr in road.tracks
         if tr.problems

@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name
+from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name, extract_episodes
+from drivestyle.envs.readers import read_table
 
 ROOT = Path(__file__).resolve().parents[2]
 W = 3.75
@@ -169,7 +170,8 @@ def test_one_car_at_120_mps_is_kept_unusable_with_its_speed(tmp_path):
         "fastest a road vehicle drives: positions in feet (× 0.3048: 36.6 m/s)?"
     )
     (warning,) = _said(proc)
-    assert "1 vehicle(s) kept but unusable" in warning and "vehicle 1 (+x) drives" in warning
+    assert "1 vehicle(s) whose motion is not a road vehicle's" in warning
+    assert "vehicle 1 (+x) drives" in warning
 
 
 # ------------------------------------------------------------ 4: time in milliseconds
@@ -222,3 +224,33 @@ def test_a_heading_in_degrees_is_checked_against_the_course_and_named(tmp_path):
     line = _error(_run(tmp_path, table))
     assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: column heading: 2 of 2 vehicles'")
     assert "degrees?" in line
+
+
+# ----------------------------------------------------- 7: one car under two ids
+def test_the_same_car_under_two_ids_is_found_and_both_named(tmp_path):
+    table = _vehicles()
+    twin = table[table.id == "1"].assign(id="1b")  # the lane changer again, for all 12 s
+    rows = _episodes(tmp_path, proc := _run(tmp_path, pd.concat([table, twin])))
+    assert rows.episode_id.tolist() == ["+x_1_6000", "+x_1b_6000"]
+    assert rows.usable.tolist() == [False, False]
+    for me, other in (("1", "1b"), ("1b", "1")):
+        (reason,) = rows.reason[rows.vehicle_id == me]
+        assert reason == (
+            f"vehicle {me} overlaps vehicle {other} from t = 0 to 12 s (121 sample(s) 0.1 s "
+            "apart): two vehicles cannot share a place; the same vehicle under two ids, or "
+            "positions or sizes in another unit?"
+        )
+    (warning,) = _said(proc)
+    assert "2 vehicle(s) whose motion is not a road vehicle's" in warning
+
+
+def test_an_overlap_outside_the_window_leaves_the_lane_change_usable(tmp_path, capsys):
+    # vehicle 3 sits on the follower (vehicle 2) for the first second, before the window
+    table = _vehicles()
+    follower = table[table.id == "2"]
+    path = tmp_path / "tracks.csv"
+    pd.concat([table, follower.iloc[:11].assign(id="3")]).to_csv(path, index=False)
+    rec = read_table(path, lane_width=W)
+    assert "vehicle 2 (+x) overlaps vehicle 3 from t = 0 to 1 s" in capsys.readouterr().err
+    (episode,) = extract_episodes(rec)
+    assert episode.usable and episode.interacting == (("target_follower", "2"),)
