@@ -11,9 +11,12 @@ rules (the numbers are :class:`ExtractionConfig` fields):
   side), the vehicle was in the old lane for ``min_stay_s`` before and stays in the new one
   for ``min_stay_s`` after. The crossing time t_c is where y crosses the line (linear
   between the two samples).
-- **Window.** [t_c − ``before_s``, t_c + ``after_s``], cut to the track and to the
-  vehicle's previous and next crossing; it must keep ``min_before_s`` before and
-  ``min_after_s`` after t_c, else the episode is kept unusable with the reason.
+- **Window.** [t_c − ``before_s``, t_c + ``after_s``], cut to the track, to the
+  vehicle's previous and next crossing and at a gap between samples longer than
+  ``max_gap_s``; it must keep ``min_before_s`` before and ``min_after_s`` after t_c, else
+  the episode is kept unusable with the reason. A crossing inside such a gap, or an
+  interacting vehicle with one in the window, is unusable too: a spline across it would
+  invent the motion.
 - **Lateral move.** Across the window the vehicle must move towards the new lane by at
   least ``min_lateral_move`` lane widths (default half the mean width w of the two lanes;
   :func:`lateral_move`), else the episode is kept unusable with the reason: a vehicle
@@ -62,7 +65,7 @@ from drivestyle.envs.demonstration import (
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracks import Carriageway, Recording, Track
-from drivestyle.envs.units import ROAD_SPEED_MAX_MPS
+from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS
 
 __all__ = [
     "EPISODE_COLUMNS",
@@ -195,6 +198,11 @@ class ExtractionConfig:
     centre moves about w, and a window cut short (3 s before, 2 s after) still holds most
     of it (the shipped samples' usable changes move 0.55–1.6 w; CATS's converter keeps
     changes that move 0.5 w over its window)."""
+    max_gap_s: float = MAX_GAP_S
+    """The longest time between two samples a window may hold [s]
+    (:data:`~drivestyle.envs.units.MAX_GAP_S`): the window is cut at a longer gap of the
+    lane changer's track, a crossing inside one is unusable, and so is an episode whose
+    interacting vehicle has one in the window (the spline would invent its motion)."""
     observe_s: float = 2.0
     """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``)."""
     interaction_range_m: float = 100.0
@@ -219,6 +227,7 @@ class ExtractionConfig:
             "min_stay_s",
             "observe_s",
             "interaction_range_m",
+            "max_gap_s",
         ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -564,6 +573,15 @@ def observed_scenario(
 
 
 # ----------------------------------------------------------------------------- the episodes
+def _gaps(
+    track: Track, start: float, stop: float, max_gap_s: float
+) -> list[tuple[float, float, float]]:
+    """(from, to, length) [s] of each gap longer than ``max_gap_s`` meeting [start, stop]."""
+    t = track.t
+    k = np.flatnonzero((np.diff(t) > max_gap_s) & (t[1:] > start) & (t[:-1] < stop))
+    return [(float(t[i]), float(t[i + 1]), float(t[i + 1] - t[i])) for i in k]
+
+
 def _frame_near(track: Track, t: float, side: str) -> float:
     """The source frame of the first sample at/after (side 'after') or last before t."""
     if side == "after":
@@ -589,6 +607,18 @@ def _episode(
     t_next = (track.t[later[0]] + track.t[later[0] + 1]) / 2 if later.size else np.inf
     start = max(track.t[0], t_c - config.before_s, t_prev)
     stop = min(track.t[-1], t_c + config.after_s, t_next)
+    # the window ends at a gap longer than max_gap_s: a spline would invent the motion there
+    steps = np.diff(track.t)
+    holes = np.flatnonzero(steps > config.max_gap_s)
+    across = change.index in holes
+    cut_at = []
+    for g in holes:
+        if track.t[g + 1] <= t_c and track.t[g + 1] > start:
+            start = float(track.t[g + 1])
+            cut_at.append(int(g))
+        elif track.t[g] >= t_c and track.t[g] < stop:
+            stop = float(track.t[g])
+            cut_at.append(int(g))
     move = (1.0 if b > a else -1.0) * lateral_move(track.t, track.y, start, stop)
     common: dict[str, Any] = {
         "episode_id": eid,
@@ -607,15 +637,28 @@ def _episode(
     reasons = [
         f"vehicle {track.vehicle_id} {p.text}" for p in track.problems if p.meets(start, stop)
     ]
-    if t_c - start < config.min_before_s - 1e-9:
+    gap_limit = f"more than max_gap_s (--max-gap) {config.max_gap_s:g} s"
+    k = change.index
+    if across:
+        reasons.append(
+            f"no sample for {steps[k]:.3g} s across the crossing (t = {track.t[k]:g} to "
+            f"{track.t[k + 1]:g} s), {gap_limit}: the lane change itself is not recorded, and a "
+            "spline would invent it"
+        )
+    cut = "".join(
+        f"; the window is cut at a {steps[g]:.3g} s gap (t = {track.t[g]:g} to "
+        f"{track.t[g + 1]:g} s, {gap_limit})"
+        for g in cut_at
+    )
+    if not across and t_c - start < config.min_before_s - 1e-9:
         reasons.append(
             f"only {t_c - start:.2f} s of track before the crossing (min_before_s "
-            f"{config.min_before_s:g} s)"
+            f"{config.min_before_s:g} s){cut if start > track.t[0] else ''}"
         )
-    if stop - t_c < config.min_after_s - 1e-9:
+    if not across and stop - t_c < config.min_after_s - 1e-9:
         reasons.append(
             f"only {stop - t_c:.2f} s of track after the crossing (min_after_s "
-            f"{config.min_after_s:g} s)"
+            f"{config.min_after_s:g} s){cut if stop < track.t[-1] else ''}"
         )
     need = config.min_lateral_move * w
     if config.min_lateral_move > 0 and move < need:
@@ -652,6 +695,12 @@ def _episode(
         for role, other in chosen
         for p in other.problems
         if p.meets(start, stop)
+    ) + tuple(
+        f"interacting vehicle {other.vehicle_id} ({role}) has no sample for {gap:.3g} s "
+        f"(t = {a:g} to {b:g} s) inside the window, {gap_limit}: a spline would invent its "
+        "motion"
+        for role, other in chosen
+        for a, b, gap in _gaps(other, start, stop, config.max_gap_s)[:1]
     )
     if suspect:
         return Episode(**common, first_frame=first, last_frame=last,

@@ -775,9 +775,12 @@ NGSIM_LANE_FT = 12.0
 """Nominal NGSIM lane width [ft] (``markings="nominal"``: lane k spans 12(k − 1)…12k ft of
 Local_X from the left road edge)."""
 
-NGSIM_MAX_GAP_S = 1.0
-"""A vehicle id seen again after a longer gap is another vehicle (NGSIM reuses ids across its
-15-minute periods) [s]."""
+NGSIM_REUSED_ID_GAP_S = 60.0
+"""A vehicle id seen again after a longer gap is another vehicle [s]: NGSIM numbers the
+vehicles of each 15-minute period from 1 again, and a vehicle crosses the study area in
+minutes, so a reused id comes back 10 minutes or more later. A shorter gap is a gap in one
+vehicle's track, the extraction's rule for every reader (``ExtractionConfig.max_gap_s``):
+its lane change is kept unusable, not lost between two tracks."""
 
 INTERACTION_VEHICLES = frozenset({"car", "truck", "bus", "truck_bus", "van", "motorcycle"})
 """INTERACTION ``agent_type`` values kept (pedestrians and bicycles are dropped)."""
@@ -839,7 +842,8 @@ def _published_tracks(
 
     Rows may come in any order; a track is a vehicle's rows sorted by time, cut where the
     time jumps by more than ``max_gap_s`` (a reused id: the later parts are named
-    ``'<id>@<first frame>'``). Tracks of a single sample are dropped (counted).
+    ``'<id>@<first frame>'``; a gap in one vehicle's track is the extraction's rule,
+    ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (counted).
 
     Raises:
         TrackError: a vehicle has two rows at one time or one frame, or frames that do not
@@ -998,7 +1002,7 @@ def _ngsim_carriageway(
     t0 = float(t_ms.min())
     t = (t_ms - t0) / 1000.0
     groups, dropped = _published_tracks(
-        path, num["Vehicle_ID"].astype(np.int64), t, num[frame], NGSIM_MAX_GAP_S
+        path, num["Vehicle_ID"].astype(np.int64), t, num[frame], NGSIM_REUSED_ID_GAP_S
     )
     tracks = []
     for vid, rows in groups:
@@ -1043,8 +1047,9 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
       fits Local_X = a + w·Lane_ID through the median Local_X of each main lane and puts
       the lines at a + w·(k − ½), k = 1…M + 1 (equal lanes of the data's width, ≈ 12 ft);
       ``"nominal"`` puts them at 12 ft steps from the left road edge (Local_X = 0).
-    - a vehicle id seen again more than 1 s later (ids are reused across the 15-minute
-      periods of the CSV) is a new track named ``'<id>@<first frame>'``.
+    - a vehicle id seen again more than a minute later (ids are reused across the
+      15-minute periods of the CSV, :data:`NGSIM_REUSED_ID_GAP_S`) is a new track named
+      ``'<id>@<first frame>'``.
 
     Args:
         path: the trajectory file (``.txt``/``.csv``, optionally ``.gz``).

@@ -16,6 +16,7 @@ import math
 __all__ = [
     "FOOT",
     "KMH",
+    "MAX_GAP_S",
     "MPH",
     "ROAD_SPEED_MAX_MPS",
     "SAMPLE_PERIOD_MAX_S",
@@ -34,6 +35,13 @@ SAMPLE_PERIOD_MAX_S = 1.0
 """The longest median time step between a track's samples [s]: a lane change takes
 3–6 s, so a track sampled less often than once a second cannot show one (the recorded
 samples are 2–10 Hz); a step of 100 is a time in milliseconds."""
+
+MAX_GAP_S = 1.0
+"""The longest time between two of a track's samples that the extraction bridges with a
+spline [s]: over a longer gap the spline invents the motion (a whole lane change fits in
+4 s). Every recorded sample (2–10 Hz) has none longer than 0.5 s. An episode's window is
+cut at a longer gap, and a crossing inside one is unusable (``ExtractionConfig.max_gap_s``,
+``--max-gap``)."""
 
 FOOT = 0.3048
 """Metres per foot."""

@@ -107,6 +107,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "unusable in episodes.csv; 0: no minimum",
     )
     p.add_argument(
+        "--max-gap",
+        type=positive_float,
+        default=d.max_gap_s,
+        help="the longest time between two samples a window may hold [s]: a window is cut at "
+        "a longer gap, and a lane change across one (or with an interacting vehicle that has "
+        "one in the window) is kept unusable in episodes.csv",
+    )
+    p.add_argument(
         "--observe",
         type=positive_float,
         default=d.observe_s,
@@ -134,6 +142,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         min_after_s=args.min_after,
         min_stay_s=args.min_stay,
         min_lateral_move=args.min_lateral_move,
+        max_gap_s=args.max_gap,
         observe_s=args.observe,
         v_ref=args.v_ref,
     )

@@ -515,3 +515,22 @@ def test_ngsim_i80_has_six_main_lanes_and_us101_five(tmp_path):
         _write_classic(pd.concat([_ngsim_table(), ramp]), tmp_path / "i80.txt")
     ).carriageways
     assert len(cw.markings) == 7 and np.all(_track(cw, "7").lane == -1)
+
+
+def test_ngsim_a_gap_across_a_lane_change_keeps_it_unusable_not_lost(tmp_path):
+    from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+
+    df = _ngsim_table()
+    hole = (df.Vehicle_ID == 2) & df.Frame_ID.between(15, 26)  # 1.3 s across its crossing
+    [cw] = read_ngsim(_write_classic(df[~hole], tmp_path / "t.txt")).carriageways
+    changer = _track(cw, "2")  # one track: a gap is not a reused id
+    assert changer.n == 8 and not any(tr.vehicle_id.startswith("2@") for tr in cw.tracks)
+    config = ExtractionConfig(dt=0.1, before_s=1, after_s=1, min_before_s=0.3, min_after_s=0.3,
+                              min_stay_s=0.1, observe_s=0.2, min_lateral_move=0)  # fmt: skip
+    [episode] = [e for e in extract_episodes(read_ngsim(tmp_path / "t.txt"), config)
+                 if e.vehicle_id == "2"]  # fmt: skip
+    assert not episode.usable
+    assert episode.reasons[0].startswith(
+        "no sample for 1.3 s across the crossing (t = 0.4 to 1.7 s), more than max_gap_s "
+        "(--max-gap) 1 s: the lane change itself is not recorded"
+    )

@@ -254,3 +254,26 @@ def test_an_overlap_outside_the_window_leaves_the_lane_change_usable(tmp_path, c
     assert "vehicle 2 (+x) overlaps vehicle 3 from t = 0 to 1 s" in capsys.readouterr().err
     (episode,) = extract_episodes(rec)
     assert episode.usable and episode.interacting == (("target_follower", "2"),)
+
+
+# ------------------------------------------------------------ 8: a hole in a track
+def test_a_hole_across_the_lane_change_keeps_it_unusable_with_the_gap(tmp_path):
+    table = _vehicles()
+    hole = (table.id == "1") & (table.t > 3.5) & (table.t < 8.5)  # 5 s around the crossing
+    rows = _episodes(tmp_path, _run(tmp_path, table[~hole]))
+    assert rows.usable.tolist() == [False] and rows.file.isna().all()
+    assert rows.reason[0] == (
+        "no sample for 5 s across the crossing (t = 3.5 to 8.5 s), more than max_gap_s "
+        "(--max-gap) 1 s: the lane change itself is not recorded, and a spline would invent it"
+    )
+    # a hole before the crossing cuts the window; one in the follower's track marks it
+    hole = (table.id == "1") & (table.t > 0.5) & (table.t < 3.5)
+    rows = _episodes(tmp_path, _run(tmp_path, table[~hole], "--min-before", "2.4"))
+    assert rows.usable.tolist() == [True] and rows.first_frame.tolist() == [35]
+    hole = (table.id == "2") & (table.t > 6.5) & (table.t < 8.0)
+    rows = _episodes(tmp_path, _run(tmp_path, table[~hole]))
+    assert rows.usable.tolist() == [False] and rows.reason[0] == (
+        "interacting vehicle 2 (target_follower) has no sample for 1.5 s (t = 6.5 to 8 s) "
+        "inside the window, more than max_gap_s (--max-gap) 1 s: a spline would invent its "
+        "motion"
+    )
