@@ -494,6 +494,7 @@ def read_table(
             f"{path}: no lane geometry: pass lane_width (--lane-width), lane_markings "
             "(--lane-markings) or lanes (--lanes), or give the table a 'lane' column"
         )
+    in_file = (ids, rec_codes, t)
     order = np.lexsort((t, ids, rec_codes))
     ids, frames, rec_codes = ids[order], frames[order], rec_codes[order]
     data = {c: a[order] for c, a in data.items()}
@@ -506,6 +507,7 @@ def read_table(
             f"{path}: {where}vehicle {ids[i]}, frame {_frame(frames[i])}: two rows at t = "
             f"{data['t'][i]:g} s"
         )
+    _check_time_order(path, df, *in_file)
     cut = np.flatnonzero(~same_vehicle) + 1
     starts, stops = np.r_[0, cut], np.r_[cut, ids.size]
     bar = None
@@ -610,6 +612,29 @@ def write_table(
     lanes = {road.name: list(road.markings) for road in recording.carriageways}
     lanes_path.write_text(json.dumps(lanes, indent=1) + "\n")
     return csv_path, lanes_path
+
+
+def _check_time_order(
+    path: Path, df: Any, ids: np.ndarray, rec_codes: np.ndarray, t: np.ndarray
+) -> None:
+    """Refuse a vehicle whose rows' times go back in file order (one line naming the rows).
+
+    A vehicle's rows are read in file order, and its time must not fall from one row to
+    the next (rows of different vehicles may interleave; equal times are the caller's
+    "two rows" error). Sorting them instead would silently move a sample with a swapped
+    or mistyped time stamp, e.g. across a lane change.
+    """
+    rows = np.lexsort((np.arange(t.size), ids, rec_codes))  # per vehicle, in file order
+    same = (ids[rows][1:] == ids[rows][:-1]) & (rec_codes[rows][1:] == rec_codes[rows][:-1])
+    back = np.flatnonzero(same & (np.diff(t[rows]) < 0))
+    if back.size:
+        i, before = int(rows[back[0] + 1]), int(rows[back[0]])
+        raise TrackError(
+            f"{path}: {_row_vehicle(df, i)}, data row {i + 1}: t = {t[i]:g} s comes after "
+            f"t = {t[before]:g} s (data row {before + 1}): a vehicle's rows must be in time "
+            "order (rows of different vehicles may interleave); sort the table by vehicle and "
+            "time if its row order means nothing"
+        )
 
 
 def _median_step(t: np.ndarray) -> float:

@@ -277,3 +277,21 @@ def test_a_hole_across_the_lane_change_keeps_it_unusable_with_the_gap(tmp_path):
         "inside the window, more than max_gap_s (--max-gap) 1 s: a spline would invent its "
         "motion"
     )
+
+
+# ------------------------------------------------------ 9: time going backwards
+def test_a_vehicle_whose_time_goes_back_in_file_order_is_refused_with_the_rows(tmp_path):
+    table = _vehicles()
+    swapped = table.index[(table.id == "1") & table.t.between(5.85, 6.15)]  # 5.9 … 6.1 s
+    table.loc[swapped, ["t", "x", "y"]] = table.loc[swapped[::-1], ["t", "x", "y"]].to_numpy()
+    line = _error(_run(tmp_path, table))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: vehicle 1, data row 61: t = 6 s comes after t = "
+        "6.1 s (data row 60): a vehicle's rows must be in time order (rows of different "
+        "vehicles may interleave); sort the table by vehicle and time if its row order means "
+        "nothing"
+    )
+    # rows of different vehicles interleaved, each in time order: legal, the same episode
+    mixed = _vehicles().sort_values(["t", "id"], kind="stable")
+    rows = _episodes(tmp_path, _run(tmp_path, mixed))
+    assert rows.episode_id.tolist() == ["+x_1_6000"] and rows.usable.tolist() == [True]
