@@ -442,6 +442,14 @@ def read_table(
         )
     if df.empty:
         raise TrackError(f"{path} has a header but no rows")
+    blank = df["id"].isna().to_numpy() | (df["id"].astype(str).str.strip() == "").to_numpy()
+    if blank.any():
+        i = int(np.flatnonzero(blank)[0])
+        raise TrackError(
+            f"{path}: data row {i + 1} (line {i + 2}): no vehicle id (column "
+            f"{renamed.get('id', 'id')!r} is empty; {int(blank.sum())} such row(s)): every row "
+            "names its vehicle"
+        )
     has_recordings = "recording" in df.columns
     if has_recordings and df["recording"].isna().any():
         i = int(np.flatnonzero(df["recording"].isna().to_numpy())[0])

@@ -295,3 +295,14 @@ def test_a_vehicle_whose_time_goes_back_in_file_order_is_refused_with_the_rows(t
     mixed = _vehicles().sort_values(["t", "id"], kind="stable")
     rows = _episodes(tmp_path, _run(tmp_path, mixed))
     assert rows.episode_id.tolist() == ["+x_1_6000"] and rows.usable.tolist() == [True]
+
+
+# ------------------------------------------------------------- 10: an empty id
+def test_a_row_without_a_vehicle_id_is_refused_with_the_row(tmp_path):
+    table = _vehicles()
+    table.loc[130, "id"] = None  # the follower's tenth row
+    line = _error(_run(tmp_path, table))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: data row 131 (line 132): no vehicle id (column 'id' "
+        "is empty; 1 such row(s)): every row names its vehicle"
+    )
