@@ -416,11 +416,14 @@ def read_table(
     Raises:
         FileNotFoundError: no such file.
         ValueError: an unreadable file, Parquet without pyarrow, missing columns, no rows,
-            a non-numeric, missing or repeated value, a row without a recording, lanes no
-            road has (feet), lines that do not increase, a recording without lines or lines
-            of a recording the table lacks, ``lanes`` with ``lane_width`` or
-            ``lane_markings``, or no lane geometry; one line naming the file, and the
-            recording, vehicle and frame where one is at fault.
+            a non-numeric, missing or repeated value, a row without a vehicle id or a
+            recording, a vehicle whose time goes back in file order, lanes no road has
+            (feet), lines that do not increase, a recording without lines or lines of a
+            recording the table lacks, two of ``lanes``, ``lane_width`` and
+            ``lane_markings``, no lane geometry, or a file the readers' checks refuse
+            (:func:`~drivestyle.envs.track_checks.check_recording`: times, speeds or
+            headings in another unit); one line naming the file, and the recording,
+            vehicle, row and frame where one is at fault.
     """
     import pandas as pd
 
@@ -428,6 +431,11 @@ def read_table(
     if lanes is not None and (lane_width is not None or lane_markings is not None):
         raise TrackError(
             f"{lanes}: lanes and lane_width / lane_markings contradict: give the lane lines once"
+        )
+    if lane_width is not None and lane_markings is not None:
+        raise TrackError(
+            f"{path}: lane_width (--lane-width) and lane_markings (--lane-markings) contradict: "
+            "give the lane lines once"
         )
     renamed = dict(columns or {})
     df = _read_frame(path, [renamed.get(c, c) for c in TABLE_TEXT])

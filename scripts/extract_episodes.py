@@ -163,6 +163,23 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 f"--lanes {args.lanes} and {' and '.join(given)} contradict: give the lane "
                 "lines once (--lanes holds every recording's lines)"
             )
+    if args.lane_width is not None and args.lane_markings is not None:
+        markings = ",".join(f"{m:g}" for m in args.lane_markings)
+        raise ValueError(
+            f"--lane-width {args.lane_width:g} and --lane-markings {markings} contradict: give "
+            "the lane lines once (--lane-width W puts them at multiples of W, --lane-markings "
+            "at the given y)"
+        )
+    if args.format == "interaction" and args.lane_width is not None:
+        raise ValueError(
+            "--lane-width is for --format csv; --format interaction takes the lane lines as "
+            "--lane-markings"
+        )
+    if args.direction is not None and args.format != "interaction":
+        raise ValueError(
+            f"--direction is for --format interaction; --format {args.format} files say their "
+            "own direction of travel"
+        )
     if args.format == "interaction" and (args.lane_markings is None or args.direction is None):
         raise ValueError("--format interaction needs --lane-markings and --direction")
     t0 = time.perf_counter()

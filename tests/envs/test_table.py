@@ -144,6 +144,8 @@ def test_lanes_contradicting_options_and_tables_are_refused(tmp_path):
     table, lanes = _write(tmp_path, _two_recordings())
     with pytest.raises(TrackError, match=r"lanes\.json: lanes and lane_width / lane_markings"):
         read_table(table, lanes=lanes, lane_width=W)
+    with pytest.raises(TrackError, match=r"tracks\.csv: lane_width \(--lane-width\) and "):
+        read_table(table, lane_width=W, lane_markings=R1)
     (tmp_path / "bad.json").write_text("{'r1': [0, 3.5]}")
     with pytest.raises(TrackError, match=r"bad\.json is not valid JSON"):
         read_table(table, lanes=tmp_path / "bad.json")

@@ -306,3 +306,21 @@ def test_a_row_without_a_vehicle_id_is_refused_with_the_row(tmp_path):
         f"error: {tmp_path / 'tracks.csv'}: data row 131 (line 132): no vehicle id (column 'id' "
         "is empty; 1 such row(s)): every row names its vehicle"
     )
+
+
+# ------------------------------------------------------ 11: contradicting lane options
+def test_lane_options_that_contradict_are_one_line_errors(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    markings = "0,3.75,7.5"
+    line = _error(_run(tmp_path, table, "--lane-width", str(W), "--lane-markings", markings))
+    assert line == (
+        f"error: --lane-width {W:g} and --lane-markings {markings} contradict: give the lane "
+        "lines once (--lane-width W puts them at multiples of W, --lane-markings at the given y)"
+    )
+    lanes = tmp_path / "lanes.json"
+    lanes.write_text("[0, 3.75, 7.5]")
+    line = _error(_run(tmp_path, table, "--lanes", str(lanes), "--lane-width", str(W)))
+    assert line.startswith(f"error: --lanes {lanes} and --lane-width contradict")
+    line = _error(_run(tmp_path, table, "--lane-width", str(W), "--direction", "x+"))
+    assert line.startswith("error: --direction is for --format interaction")
