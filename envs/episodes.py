@@ -74,6 +74,7 @@ __all__ = [
     "Episode",
     "ExtractionConfig",
     "LaneChange",
+    "check_sampling",
     "episode_file_name",
     "extract_episodes",
     "find_lane_changes",
@@ -234,13 +235,30 @@ class ExtractionConfig:
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         if self.min_before_s > self.before_s or self.min_after_s > self.after_s:
             raise ValueError(
-                f"the window ({self.before_s:g} s before, {self.after_s:g} s after) is shorter "
-                f"than its minimum ({self.min_before_s:g} s, {self.min_after_s:g} s)"
+                f"the window ({self.before_s:g} s before, {self.after_s:g} s after: before_s, "
+                f"after_s, --before, --after) is shorter than its minimum "
+                f"({self.min_before_s:g} s, {self.min_after_s:g} s: --min-before, --min-after)"
             )
         if self.observe_s > self.min_before_s:
             raise ValueError(
-                f"observe_s = {self.observe_s:g} s exceeds min_before_s = {self.min_before_s:g} "
-                "s: the observed part must end before the lane crossing"
+                f"observe_s (--observe) = {self.observe_s:g} s exceeds min_before_s "
+                f"(--min-before) = {self.min_before_s:g} s: the observed part must end before "
+                "the lane crossing"
+            )
+        # T_s against the windows: every episode needs an observed part of two samples or
+        # more and three samples at least (what a Demonstration holds)
+        if self.dt > self.observe_s:
+            raise ValueError(
+                f"dt (--dt) = {self.dt:g} s, T_s of the demonstrations, is longer than the "
+                f"observed part observe_s (--observe) = {self.observe_s:g} s, which would hold "
+                f"a single sample: T_s is a fraction of a second (the model's is 0.2 s)"
+            )
+        shortest = self.min_before_s + self.min_after_s
+        if 2 * self.dt > shortest:
+            raise ValueError(
+                f"dt (--dt) = {self.dt:g} s leaves the shortest window ({shortest:g} s: "
+                f"--min-before {self.min_before_s:g} + --min-after {self.min_after_s:g}) fewer "
+                "than 3 samples: T_s is a fraction of a second (the model's is 0.2 s)"
             )
         f = self.min_lateral_move
         if not (isinstance(f, (int, float)) and math.isfinite(f) and 0 <= f <= 1):
@@ -749,6 +767,39 @@ def _episode(
     )
 
 
+def check_sampling(recording: Recording, config: ExtractionConfig) -> None:
+    """Refuse settings the recording's sampling cannot meet, before any work.
+
+    Against the recording's median time step (over every track's steps): ``max_gap_s``
+    must not be shorter (every step would be a gap, every episode unusable) and neither
+    must ``min_stay_s`` (the lanes held around a crossing would hold no sample, so the rule
+    would hold for any wobble on a line).
+
+    Args:
+        recording: the tracks (any reader).
+        config: the extraction's numbers.
+
+    Raises:
+        ValueError: one line naming the setting (and its option), its value and the step.
+    """
+    steps = [np.diff(tr.t) for road in recording.carriageways for tr in road.tracks]
+    if not steps:
+        return
+    step = float(np.median(np.concatenate(steps)))
+    where = f"{recording.source}: the data's median time step is {step:.3g} s"
+    if config.max_gap_s < step:
+        raise ValueError(
+            f"{where}, longer than max_gap_s (--max-gap) = {config.max_gap_s:g} s: every step "
+            "would be a gap; give --max-gap at least the time step"
+        )
+    if config.min_stay_s < step:
+        raise ValueError(
+            f"{where}, longer than min_stay_s (--min-stay) = {config.min_stay_s:g} s: no "
+            "sample would show the lanes held around a crossing; give --min-stay at least the "
+            "time step"
+        )
+
+
 def extract_episodes(
     recording: Recording, config: ExtractionConfig | None = None, progress: bool = False
 ) -> list[Episode]:
@@ -762,8 +813,12 @@ def extract_episodes(
     Returns:
         The episodes in carriageway, vehicle and time order; unusable ones carry their
         reasons (too little track around the crossing, an implausible demonstration).
+
+    Raises:
+        ValueError: settings the recording's sampling cannot meet (:func:`check_sampling`).
     """
     config = config or ExtractionConfig()
+    check_sampling(recording, config)
     items = [(road, track) for road in recording.carriageways for track in road.tracks]
     if progress:
         from tqdm import tqdm

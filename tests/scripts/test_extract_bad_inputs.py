@@ -324,3 +324,25 @@ def test_lane_options_that_contradict_are_one_line_errors(tmp_path):
     assert line.startswith(f"error: --lanes {lanes} and --lane-width contradict")
     line = _error(_run(tmp_path, table, "--lane-width", str(W), "--direction", "x+"))
     assert line.startswith("error: --direction is for --format interaction")
+
+
+# ------------------------------------------------ 12: --dt and the other numbers
+def test_dt_and_the_numbers_are_checked_up_front_against_windows_and_sampling(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    line = _error(_run(tmp_path, table, "--dt", "10"))
+    assert line == (
+        "error: dt (--dt) = 10 s, T_s of the demonstrations, is longer than the observed part "
+        "observe_s (--observe) = 2 s, which would hold a single sample: T_s is a fraction of a "
+        "second (the model's is 0.2 s)"
+    )
+    line = _error(_run(tmp_path, table, "--dt", "2", "--min-before", "2", "--min-after", "1"))
+    assert line.startswith("error: dt (--dt) = 2 s leaves the shortest window (3 s: ")
+    line = _error(_run(tmp_path, table, "--max-gap", "0.05"))
+    assert line == (
+        f"error: {table}: the data's median time step is 0.1 s, longer than max_gap_s "
+        "(--max-gap) = 0.05 s: every step would be a gap; give --max-gap at least the time step"
+    )
+    line = _error(_run(tmp_path, table, "--min-stay", "0.05"))
+    assert line.startswith(f"error: {table}: the data's median time step is 0.1 s, longer than")
+    assert not (tmp_path / "out").exists()  # nothing written
