@@ -599,6 +599,29 @@ def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
     return path
 
 
+def _not_npz(path: Path) -> str:
+    """What a file is when it is not a zip archive (an .npz is one), else ''.
+
+    ``np.load`` reads a file that is neither a zip nor an .npy as a pickle and refuses it
+    with "allow_pickle=False": a user who named a text file ``.npz`` learns nothing from it.
+    """
+    with path.open("rb") as f:
+        head = f.read(4096)
+    if head.startswith(b"PK"):
+        return ""
+    if not head:
+        return "empty"
+    if head.startswith(b"\x93NUMPY"):
+        return "a single .npy array"
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start < len(head) - 4:  # not only a character cut at the 4 KB boundary
+            return "a binary file of another kind"
+    first = head.splitlines()[0][:40].decode("utf-8", "replace") if head.strip() else ""
+    return f"a text file (it begins {first!r})" if first else "a text file"
+
+
 def load_demonstration(path: str | Path) -> Demonstration:
     """Read and validate a demonstration file.
 
@@ -611,8 +634,9 @@ def load_demonstration(path: str | Path) -> Demonstration:
 
     Raises:
         FileNotFoundError: no such file.
-        DemonstrationError: a folder instead of a file, an unreadable file (not a zip,
-            truncated, failed CRC, pickled objects), missing arrays, wrong shapes, NaNs,
+        DemonstrationError: a folder instead of a file, a file of another kind (text, an
+            .npy, empty: said as such), an unreadable archive (truncated, failed CRC,
+            pickled objects), missing arrays, wrong shapes, NaNs,
             non-increasing times, fewer than 3 samples or a metadata risk outside (0, 1);
             the message starts with the path.
     """
@@ -626,6 +650,13 @@ def load_demonstration(path: str | Path) -> Demonstration:
         )
     if not path.is_file():
         raise FileNotFoundError(f"demonstration file not found: {path}")
+    kind = _not_npz(path)
+    if kind:
+        raise DemonstrationError(
+            f"{path} is {kind}, not a demonstration: a demonstration is an .npz archive with "
+            f"arrays {', '.join(REQUIRED)} and meta (written by drivestyle, e.g. "
+            "extract-episodes or build-style-library)"
+        )
     try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in REQUIRED if k not in data.files]

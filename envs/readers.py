@@ -65,10 +65,82 @@ LaneLines = Sequence[float] | Mapping[str, RoadLines]
 """Lane lines of a table: one list for every recording, or per recording."""
 
 
-def _read_frame(path: Path, text: Sequence[str] = ()) -> Any:
+def _not_text(path: Path) -> str:
+    """What a file that is not UTF-8 is: binary (NUL bytes) or text in another encoding.
+
+    Said with the first byte that is not UTF-8, its offset and line in the file.
+    """
+    import codecs
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    seen, lines, binary = 0, 1, False
+    where = "a byte that is not UTF-8"
+    try:
+        with opener(path, "rb") as f:
+            while chunk := f.read(1 << 20):
+                binary |= seen == 0 and b"\x00" in chunk[:8192]
+                try:
+                    decoder.decode(chunk)
+                except UnicodeDecodeError as exc:
+                    k = exc.start
+                    line = lines + chunk[:k].count(b"\n")
+                    where = f"byte 0x{chunk[k]:02x} at offset {seen + k}, line {line}"
+                    break
+                seen, lines = seen + len(chunk), lines + chunk.count(b"\n")
+    except OSError:
+        pass
+    if binary:
+        return f"is a binary file, not text ({where})"
+    return (
+        f"is not UTF-8 text ({where}): text in another encoding (latin-1, Windows-1252?); "
+        "save it as UTF-8"
+    )
+
+
+def _read_csv(path: Path, what: str, **options: Any) -> Any:
+    """``pandas.read_csv`` of a reader's file, or a one-line error naming it and what it is.
+
+    Never a decoder's or parser's words alone: the message says what the file is (empty,
+    binary, another encoding, not gzip, not CSV) and what was expected.
+
+    Args:
+        path: the file (``.gz`` decompressed).
+        what: what the file should be, for the message (e.g. "an NGSIM trajectory file").
+        options: passed to ``pandas.read_csv``.
+
+    Raises:
+        ValueError: an empty or blank file, a binary file or text not in UTF-8, a file that
+            is not gzip though named so, or not CSV.
+    """
+    import gzip
+    import zlib
+
+    import pandas as pd
+
+    try:
+        return pd.read_csv(path, **options)
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"{path} is empty (no header, no rows): expected {what}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path} {_not_text(path)}; expected {what}") from None
+    except (gzip.BadGzipFile, zlib.error, EOFError) as exc:
+        raise ValueError(f"{path} is not a readable gzip file ({exc}); expected {what}") from None
+    except pd.errors.ParserError as exc:
+        said = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"{path} is not a readable CSV ({said}); expected {what}") from None
+
+
+def _read_frame(
+    path: Path,
+    text: Sequence[str] = (),
+    what: str = "a CSV table of tracks (columns id, t, x, y, …)",
+) -> Any:
     """The file as a pandas DataFrame (CSV or Parquet), or a one-line error naming it.
 
-    ``text``: columns of a CSV read as text, not parsed as numbers.
+    ``text``: columns of a CSV read as text, not parsed as numbers; ``what``: what the file
+    should be, for messages.
     """
     import pandas as pd
 
@@ -84,12 +156,7 @@ def _read_frame(path: Path, text: Sequence[str] = ()) -> Any:
             ) from None
         except (OSError, ValueError) as exc:
             raise ValueError(f"{path} is not a readable Parquet file ({exc})") from None
-    try:
-        df = pd.read_csv(path, dtype=dict.fromkeys(text, str))
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"{path} is empty (no header, no rows)") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, EOFError, OSError) as exc:
-        raise ValueError(f"{path} is not a readable CSV ({exc})") from None
+    df = _read_csv(path, what, dtype=dict.fromkeys(text, str))
     if df.empty:
         raise ValueError(f"{path} has a header but no rows")
     return df
@@ -928,11 +995,13 @@ def _published_tracks(
 # ------------------------------------------------------------------------------ raw NGSIM
 
 
+NGSIM_FILE = "an NGSIM trajectory file (US-101, I-80)"
+"""What :func:`read_ngsim` reads, for messages."""
+
+
 def _ngsim_table(path: Path) -> Any:
     """The rows of an NGSIM trajectory file with the standard column names."""
     import gzip
-
-    import pandas as pd
 
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found (an NGSIM trajectory file)")
@@ -949,11 +1018,11 @@ def _ngsim_table(path: Path) -> Any:
     except ValueError:
         header = True
     if header:
-        df = pd.read_csv(path, sep=sep, low_memory=False, thousands=",")
+        df = _read_csv(path, NGSIM_FILE, sep=sep, low_memory=False, thousands=",")
         canonical = {c.lower(): c for c in (*NGSIM_COLUMNS, "Location")}
         df = df.rename(columns={c: canonical.get(str(c).strip().lower(), c) for c in df.columns})
     else:
-        df = pd.read_csv(path, sep=sep, header=None)
+        df = _read_csv(path, NGSIM_FILE, sep=sep, header=None)
         if df.shape[1] != len(NGSIM_COLUMNS):
             kind = (
                 " (the 24 columns of the arterial Lankershim / Peachtree files, not a freeway)"
@@ -1158,14 +1227,13 @@ LEVELX_TRACK_COLUMNS = ("frame", "id", "x", "y", "width", "height", "xVelocity",
 
 
 def _levelx_csv(path: Path, required: Sequence[str]) -> Any:
-    import pandas as pd
 
     if not path.is_file():
         raise FileNotFoundError(
             f"{path} not found: read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and "
             "NN_recordingMeta.csv side by side"
         )
-    df = pd.read_csv(path)
+    df = _read_csv(path, f"a levelX {path.name.split('_')[-1]} (highD)")
     _published_columns(df, path, required, "levelX (highD)")
     return df
 
@@ -1233,7 +1301,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
     meta_path = path.with_name(prefix + "tracksMeta.csv")
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found (a levelX NN_tracks.csv)")
-    df = pd.read_csv(path)
+    df = _read_csv(path, "a levelX NN_tracks.csv (highD)")
     if "trackId" in df.columns and "xCenter" in df.columns:
         raise TrackError(
             f"{path}: the exiD/inD/rounD layout (trackId, xCenter, yCenter, heading…): their "
@@ -1400,15 +1468,13 @@ def read_interaction(
             non-increasing frame (naming the file, the track and the frame), no vehicle, or
             lane lines no road has.
     """
-    import pandas as pd
-
     path = Path(path)
     angle = _interaction_direction(direction)
     lines = _interaction_lines(lane_markings, direction, angle)
     _check_markings(lines, path, f"lane_markings along {direction!r}, in the road frame")
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found (an INTERACTION vehicle_tracks_NNN.csv)")
-    df = pd.read_csv(path)
+    df = _read_csv(path, "an INTERACTION vehicle_tracks_NNN.csv")
     _published_columns(df, path, INTERACTION_COLUMNS, "INTERACTION")
     agent = df["agent_type"].astype(str).str.strip().str.lower()
     vehicle = agent.isin(INTERACTION_VEHICLES)
@@ -1494,7 +1560,7 @@ def read_sample(folder: str | Path) -> Recording:
         TrackError: neither sample's columns, or a malformed track (naming the vehicle).
     """
     path = Path(folder) / "tracks.csv.gz"
-    df = _read_frame(path)
+    df = _read_frame(path, what="a shipped sample's tracks (NGSIM or CATS), gzip-compressed CSV")
     cats = "run_id" in df.columns
     key, t_col = ("run_id", "t_s") if cats else ("recording", "time_s")
     lane_col = "lane" if cats else "lane_id"

@@ -346,3 +346,59 @@ def test_dt_and_the_numbers_are_checked_up_front_against_windows_and_sampling(tm
     line = _error(_run(tmp_path, table, "--min-stay", "0.05"))
     assert line.startswith(f"error: {table}: the data's median time step is 0.1 s, longer than")
     assert not (tmp_path / "out").exists()  # nothing written
+
+
+# ------------------------------------------------------------------- 13: messages
+def test_unreadable_files_are_said_to_be_what_they_are(tmp_path):
+    latin = tmp_path / "latin1.csv"
+    latin.write_bytes("id,t,x,y\nJürgen,0,0,0\n".encode("latin-1"))
+    line = _error(_run(tmp_path, latin))
+    assert line == (
+        f"error: {latin} is not UTF-8 text (byte 0xfc at offset 10, line 2): text in another "
+        "encoding (latin-1, Windows-1252?); save it as UTF-8; expected a CSV table of tracks "
+        "(columns id, t, x, y, …)"
+    )
+    binary = tmp_path / "tracks.xlsx"
+    binary.write_bytes(b"PK\x03\x04\x14\x00\x06\x00\x08\x00\x00\x00!\x00\xb5U\x80")
+    line = _error(_run(tmp_path, binary))
+    assert line.startswith(f"error: {binary} is a binary file, not text (byte 0xb5 at offset 14")
+    blank = tmp_path / "vehicle_tracks_000.csv"
+    blank.write_text("\n  \n")
+    line = _error(_run(tmp_path, blank, "--format", "interaction", "--lane-markings", "0,3.75,7.5",
+                       "--direction", "x+"))  # fmt: skip
+    assert line == (
+        f"error: {blank} is empty (no header, no rows): expected an INTERACTION "
+        "vehicle_tracks_NNN.csv"
+    )
+
+
+def test_a_text_file_named_npz_and_an_off_grid_observe_time_are_said_plainly(tmp_path):
+    import json
+
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))
+    (tmp_path / "library.json").write_text(json.dumps(library.to_json()))
+    env = {k: v for k, v in os.environ.items() if k != "DRIVESTYLE_TRACEBACK"}
+
+    def predict(demo: Path, observe: str) -> str:
+        return _error(subprocess.run(
+            [sys.executable, "-m", "drivestyle", "predict-trajectory", str(demo), "--library",
+             str(tmp_path), "--observe", observe, "--out", str(tmp_path / "p")],
+            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120,
+        ))  # fmt: skip
+
+    text = tmp_path / "episode.npz"
+    text.write_text("id,t,x,y\n")
+    assert predict(text, "2") == (
+        f"error: {text} is a text file (it begins 'id,t,x,y'), not a demonstration: a "
+        "demonstration is an .npz archive with arrays t, ev, tv, u and meta (written by "
+        "drivestyle, e.g. extract-episodes or build-style-library)"
+    )
+    # an extracted episode's sample times are differences of floats (0.20000000000000018)
+    rows = _episodes(tmp_path, _run(tmp_path, _vehicles()))
+    episode = tmp_path / "out" / rows.file[0]
+    assert predict(episode, "0.3") == (
+        "error: the observed time 0.3 s is not a whole number of T_s = 0.2 s; use 0.2 or 0.4 s"
+    )
