@@ -308,8 +308,8 @@ def _heading_problems(
     if checked and _majority([bool(p) for p in checked]):
         k = next(k for k, p in enumerate(said) if p)
         raise TrackError(
-            f"{recording.source}: column heading: {sum(map(bool, checked))} of {len(checked)} "
-            f"vehicles' headings disagree with the course of their positions; "
+            f"{recording.source}: {sum(map(bool, checked))} of {len(checked)} vehicles' "
+            f"recorded headings disagree with the course of their positions; "
             f"{_where(*tracks[k])} {said[k]}"
         )
     return [(TrackProblem(p),) if p else () for p in said]

@@ -222,7 +222,7 @@ def test_a_heading_in_degrees_is_checked_against_the_course_and_named(tmp_path):
     table["id"] = np.where(changer, "1", "2")
     table.loc[~changer, "heading"] = np.degrees(0.01)  # ≈ 0.57° for a car driving straight
     line = _error(_run(tmp_path, table))
-    assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: column heading: 2 of 2 vehicles'")
+    assert line.startswith(f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles' recorded heading")
     assert "degrees?" in line
 
 
