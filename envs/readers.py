@@ -2,7 +2,10 @@
 
 Every reader keeps its source's conventions here, at the edge, and returns tracks in the
 one road frame of :mod:`drivestyle.envs.tracks` (x along travel, y to the left, lane 0
-rightmost, vehicle centres, SI units). :data:`READERS` maps a format name to its reader.
+rightmost, vehicle centres, SI units), checked by their physics by the one home of the
+readers' rules, :func:`~drivestyle.envs.track_checks.check_recording`, which every reader
+calls last. Every CSV is read through :func:`_read_csv` (one-line messages for empty,
+binary and non-UTF-8 files). :data:`READERS` maps a format name to its reader.
 """
 
 from __future__ import annotations
