@@ -651,10 +651,11 @@ def _episode(
         "lateral_move": move,
     }
     # the readers' checks (envs.track_checks): the vehicle's motion in the window is not a
-    # road vehicle's
-    reasons = [
+    # road vehicle's; the demonstration is still built, for the plausibility's own say
+    flagged = tuple(
         f"vehicle {track.vehicle_id} {p.text}" for p in track.problems if p.meets(start, stop)
-    ]
+    )
+    reasons = []
     gap_limit = f"more than max_gap_s (--max-gap) {config.max_gap_s:g} s"
     k = change.index
     if across:
@@ -689,7 +690,7 @@ def _episode(
     if reasons:
         return Episode(
             **common, first_frame=None, last_frame=None, interacting=(), no_interaction=False,
-            usable=False, reasons=tuple(reasons), demo=None,
+            usable=False, reasons=(*flagged, *reasons), demo=None,
         )  # fmt: skip
     dt = config.dt
     t_grid = np.round(start + np.arange(math.floor((stop - start) / dt + 1e-9) + 1) * dt, 9)
@@ -708,22 +709,19 @@ def _episode(
         tv[:, 1], tv[:, 2] = 1.5 * w, 0.0
         tv_lane = 1
     first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
-    suspect = tuple(
+    # the interacting vehicles' problems and holes in the window make it unusable too
+    flagged += tuple(
         f"interacting vehicle {other.vehicle_id} ({role}) {p.text}"
         for role, other in chosen
         for p in other.problems
         if p.meets(start, stop)
     ) + tuple(
         f"interacting vehicle {other.vehicle_id} ({role}) has no sample for {gap:.3g} s "
-        f"(t = {a:g} to {b:g} s) inside the window, {gap_limit}: a spline would invent its "
+        f"(t = {t0:g} to {t1:g} s) inside the window, {gap_limit}: a spline would invent its "
         "motion"
         for role, other in chosen
-        for a, b, gap in _gaps(other, start, stop, config.max_gap_s)[:1]
+        for t0, t1, gap in _gaps(other, start, stop, config.max_gap_s)[:1]
     )
-    if suspect:
-        return Episode(**common, first_frame=first, last_frame=last,
-                       interacting=tuple((r, o.vehicle_id) for r, o in chosen),
-                       no_interaction=False, usable=False, reasons=suspect, demo=None)  # fmt: skip
     try:
         sc = observed_scenario(
             ev[observed], tv[0], tv_lane, w, dt, t_grid.size, track.length, track.width,
@@ -751,8 +749,8 @@ def _episode(
         return Episode(**common, first_frame=first, last_frame=last,
                        interacting=tuple((r, o.vehicle_id) for r, o in chosen),
                        no_interaction=not chosen, usable=False,
-                       reasons=(f"unusable: {exc}",), demo=None)  # fmt: skip
-    problems = tuple(f"implausible: {p}" for p in plausibility_problems(demo))
+                       reasons=(*flagged, f"unusable: {exc}"), demo=None)  # fmt: skip
+    problems = flagged + tuple(f"implausible: {p}" for p in plausibility_problems(demo))
     return Episode(
         **common,
         first_frame=first,
