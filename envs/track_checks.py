@@ -20,7 +20,7 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
 - **speed**: a vehicle's median speed — the recorded one and the one its positions imply —
   is at most :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`;
 - **heading**: a recorded heading agrees with the course of the positions (their direction
-  over :data:`COURSE_BASE_M` of path) within :data:`HEADING_COURSE_TOL_RAD` at all but
+  over :data:`COURSE_BASE_M` along the road) within :data:`HEADING_COURSE_TOL_RAD` at all but
   :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not);
 - **overlap**: no two vehicles of a carriageway overlap at any time (their rectangles,
   shrunk to :data:`~drivestyle.envs.demonstration.OVERLAP_SHRINK` as the demonstration's
@@ -63,7 +63,7 @@ __all__ = [
 WARN_VEHICLES = 5
 """Vehicles the warning names (the rest are counted)."""
 COURSE_BASE_M = 2.0
-"""The course of the positions is their direction over this much path [m]: 0.1 m of
+"""The course of the positions is their direction over this much advance along x [m]: 0.1 m of
 position noise at each end turns it by ≈ 0.07 rad, and a lane-changing car's heading
 changes by less than 0.02 rad over it."""
 HEADING_COURSE_TOL_RAD = 0.35
@@ -90,14 +90,27 @@ def implied_speeds(t: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.hypot(np.diff(x), np.diff(y)) / np.diff(t)
 
 
+def _ahead(x: np.ndarray, base_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(i, j): each sample i and the first later sample j at least ``base_m`` further along x.
+
+    Along x, not along the path: every vehicle of a carriageway drives to +x (the road
+    frame), and a standing vehicle's jitter grows its path without taking it anywhere.
+    """
+    reached = np.maximum.accumulate(x)  # nondecreasing: the farthest x so far
+    ahead = np.searchsorted(reached, x + base_m)
+    i = np.flatnonzero(ahead < x.size)
+    return i, ahead[i]
+
+
 def course_disagreement(
     t: np.ndarray, x: np.ndarray, y: np.ndarray, heading: np.ndarray, base_m: float = COURSE_BASE_M
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How far a recorded heading is from the course of the positions.
 
     The course at sample i is the direction from position i to the first position at least
-    ``base_m`` of path further; it is compared with the heading at the time midway between
-    the two samples (the heading unwrapped and interpolated).
+    ``base_m`` further along x (not a standing vehicle's jitter); it is compared with the
+    heading at the time midway between the two samples (the heading unwrapped and
+    interpolated).
 
     Args:
         t: sample times, shape (n,) [s], increasing.
@@ -108,23 +121,20 @@ def course_disagreement(
 
     Returns:
         (|heading − course| wrapped to [0, π] [rad], the heading compared [rad], the
-        course [rad]), each of shape (m,) for the m samples with ``base_m`` of path ahead.
+        course [rad]), each of shape (m,) for the m samples with a course.
     """
-    path = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
-    ahead = np.searchsorted(path, path + base_m)
-    i = np.flatnonzero(ahead < path.size)
-    j = ahead[i]
-    course = np.arctan2(y[j] - y[i], x[j] - x[i])
+    i, j = _ahead(x, base_m)
+    moving = np.arctan2(y[j] - y[i], x[j] - x[i])
     compared = np.interp((t[i] + t[j]) / 2, t, np.unwrap(heading))
-    return np.abs(np.angle(np.exp(1j * (compared - course)))), compared, course
+    return np.abs(np.angle(np.exp(1j * (compared - moving)))), compared, moving
 
 
 def course(x: np.ndarray, y: np.ndarray, base_m: float = COURSE_BASE_M) -> np.ndarray:
-    """The direction of motion at each sample: towards the position ``base_m`` of path ahead.
+    """The direction of motion at each sample: towards the position ``base_m`` further along x.
 
-    Over a base of path, not one step: a standing vehicle's position noise would turn a
-    one-step direction anywhere. Samples with less path ahead take the direction from the
-    position ``base_m`` behind; a track shorter than ``base_m`` points along +x.
+    Over a base, not one step: a standing vehicle's position noise would turn a one-step
+    direction anywhere. A sample without such a position ahead (the track's end) takes the
+    nearest earlier course; a vehicle that never moves ``base_m`` points along +x.
 
     Args:
         x: positions along the road, shape (n,) [m].
@@ -134,15 +144,16 @@ def course(x: np.ndarray, y: np.ndarray, base_m: float = COURSE_BASE_M) -> np.nd
     Returns:
         The course against +x, shape (n,) [rad].
     """
-    path = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
-    out = np.zeros(path.size)
-    ahead = np.searchsorted(path, path + base_m)
-    i = np.flatnonzero(ahead < path.size)
-    out[i] = np.arctan2(y[ahead[i]] - y[i], x[ahead[i]] - x[i])
-    behind = np.searchsorted(path, path - base_m, side="right") - 1
-    rest = np.flatnonzero((ahead >= path.size) & (behind >= 0))
-    out[rest] = np.arctan2(y[rest] - y[behind[rest]], x[rest] - x[behind[rest]])
-    return out
+    i, j = _ahead(x, base_m)
+    if not i.size:
+        return np.zeros(x.size)
+    known = np.full(x.size, -1)
+    known[i] = i
+    earlier = np.maximum.accumulate(known)  # the nearest sample with a course at or before
+    source = np.where(earlier >= 0, earlier, i[0])
+    out = np.zeros(x.size)
+    out[i] = np.arctan2(y[j] - y[i], x[j] - x[i])
+    return out[source]
 
 
 def overlaps(
