@@ -266,8 +266,13 @@ class ExtractionConfig:
                 f"min_lateral_move must be a fraction of the lane width in [0, 1] (0: no "
                 f"minimum), got {f!r}"
             )
-        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= 70):
-            raise ValueError(f"v_ref must be in (0, 70] m/s, got {self.v_ref!r}")
+        bound = ROAD_SPEED_MAX_MPS
+        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= bound):
+            raise ValueError(
+                f"v_ref (--v-ref) must be in (0, {bound:g}] m/s ({bound:g} m/s = "
+                f"{bound * 3.6:.0f} km/h, the fastest a road vehicle drives), got {self.v_ref!r}"
+                + (": km/h given as m/s?" if self.v_ref > bound else "")
+            )
         if self.l_a is not None and not (math.isfinite(self.l_a) and self.l_a > 0):
             raise ValueError(f"l_a must be a finite number > 0 [m], got {self.l_a!r}")
 

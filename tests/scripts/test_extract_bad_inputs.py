@@ -345,6 +345,11 @@ def test_dt_and_the_numbers_are_checked_up_front_against_windows_and_sampling(tm
     )
     line = _error(_run(tmp_path, table, "--min-stay", "0.05"))
     assert line.startswith(f"error: {table}: the data's median time step is 0.1 s, longer than")
+    line = _error(_run(tmp_path, table, "--v-ref", "100"))
+    assert line == (
+        "error: v_ref (--v-ref) must be in (0, 70] m/s (70 m/s = 252 km/h, the fastest a road "
+        "vehicle drives), got 100.0: km/h given as m/s?"
+    )
     assert not (tmp_path / "out").exists()  # nothing written
 
 
