@@ -29,6 +29,7 @@ import numpy as np
 
 from drivestyle.envs.safety import rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.units import speed_unit_hint
 
 __all__ = [
     "Demonstration",
@@ -81,9 +82,11 @@ STANDING_DRIFT_M = 0.3
 """Lateral displacement allowed in total over the samples where the EV stands [m]."""
 
 SPEED_TOLERANCE_MPS = 1.0
-"""How far a speed may exceed the scenario's v_max (70 m/s by default, the model's bound)
-[m/s]: the speed a step's positions imply carries position noise (0.1 m per sample at
-T_s = 0.2 s). SMPC demonstrations stay at or below v_max, recorded ones below 22 m/s."""
+"""How far a speed may exceed the scenario's v_max (by default and for every extracted
+episode :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`, 70 m/s, the fastest a road
+vehicle drives) [m/s]: the speed a step's positions imply carries position noise (0.1 m per
+sample at T_s = 0.2 s). SMPC demonstrations stay at or below v_max, recorded ones below
+22 m/s."""
 
 ACCEL_MAX_MPS2 = 25.0
 """Largest acceleration (magnitude of the change of the velocity the positions imply
@@ -435,7 +438,7 @@ def _kinematic_problems(
         k, j = (int(i) for i in np.unravel_index(int(np.argmax(v)), v.shape))
         problems.append(
             f"{_who(j)}'s speed v = {_fmt(v[k, j])} m/s at t = {_fmt(t[k])} s (sample "
-            f"{first + k}): {limit_text}; speeds in another unit (km/h: ×3.6)?"
+            f"{first + k}): {limit_text}; {speed_unit_hint(float(v[k, j]), 'speeds')}"
         )
     if t.size >= 2:
         dt = np.diff(t)
@@ -444,10 +447,18 @@ def _kinematic_problems(
         if not problems and implied.max() > v_limit:
             k, j = (int(i) for i in np.unravel_index(int(np.argmax(implied)), implied.shape))
             jump = implied[k, j] * dt[k]
+            # a fleet beyond the bound is refused by the readers (envs.track_checks): one
+            # step beyond it is a jump, one vehicle at that speed throughout a unit slip
+            steady = bool(np.median(implied[:, j]) > v_limit)
+            cause = (
+                speed_unit_hint(float(implied[k, j]), "positions")
+                if steady
+                else "a position jump in the data?"
+            )
             problems.append(
                 f"{_who(j)} moves {_fmt(jump)} m between t = {_fmt(t[k])} and "
                 f"{_fmt(t[k + 1])} s (samples {first + k} and {first + k + 1}): "
-                f"{_fmt(implied[k, j])} m/s, but {limit_text}; a position jump in the data?"
+                f"{_fmt(implied[k, j])} m/s, but {limit_text}; {cause}"
             )
         if t.size >= 3:
             # between the midpoints of consecutive steps (uneven steps allowed)
@@ -588,6 +599,29 @@ def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
     return path
 
 
+def _not_npz(path: Path) -> str:
+    """What a file is when it is not a zip archive (an .npz is one), else ''.
+
+    ``np.load`` reads a file that is neither a zip nor an .npy as a pickle and refuses it
+    with "allow_pickle=False": a user who named a text file ``.npz`` learns nothing from it.
+    """
+    with path.open("rb") as f:
+        head = f.read(4096)
+    if head.startswith(b"PK"):
+        return ""
+    if not head:
+        return "empty"
+    if head.startswith(b"\x93NUMPY"):
+        return "a single .npy array"
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start < len(head) - 4:  # not only a character cut at the 4 KB boundary
+            return "a binary file of another kind"
+    first = head.splitlines()[0][:40].decode("utf-8", "replace") if head.strip() else ""
+    return f"a text file (it begins {first!r})" if first else "a text file"
+
+
 def load_demonstration(path: str | Path) -> Demonstration:
     """Read and validate a demonstration file.
 
@@ -600,8 +634,9 @@ def load_demonstration(path: str | Path) -> Demonstration:
 
     Raises:
         FileNotFoundError: no such file.
-        DemonstrationError: a folder instead of a file, an unreadable file (not a zip,
-            truncated, failed CRC, pickled objects), missing arrays, wrong shapes, NaNs,
+        DemonstrationError: a folder instead of a file, a file of another kind (text, an
+            .npy, empty: said as such), an unreadable archive (truncated, failed CRC,
+            pickled objects), missing arrays, wrong shapes, NaNs,
             non-increasing times, fewer than 3 samples or a metadata risk outside (0, 1);
             the message starts with the path.
     """
@@ -615,6 +650,13 @@ def load_demonstration(path: str | Path) -> Demonstration:
         )
     if not path.is_file():
         raise FileNotFoundError(f"demonstration file not found: {path}")
+    kind = _not_npz(path)
+    if kind:
+        raise DemonstrationError(
+            f"{path} is {kind}, not a demonstration: a demonstration is an .npz archive with "
+            f"arrays {', '.join(REQUIRED)} and meta (written by drivestyle, e.g. "
+            "extract-episodes or build-style-library)"
+        )
     try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in REQUIRED if k not in data.files]

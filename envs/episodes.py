@@ -11,9 +11,12 @@ rules (the numbers are :class:`ExtractionConfig` fields):
   side), the vehicle was in the old lane for ``min_stay_s`` before and stays in the new one
   for ``min_stay_s`` after. The crossing time t_c is where y crosses the line (linear
   between the two samples).
-- **Window.** [t_c − ``before_s``, t_c + ``after_s``], cut to the track and to the
-  vehicle's previous and next crossing; it must keep ``min_before_s`` before and
-  ``min_after_s`` after t_c, else the episode is kept unusable with the reason.
+- **Window.** [t_c − ``before_s``, t_c + ``after_s``], cut to the track, to the
+  vehicle's previous and next crossing and at a gap between samples longer than
+  ``max_gap_s``; it must keep ``min_before_s`` before and ``min_after_s`` after t_c, else
+  the episode is kept unusable with the reason. A crossing inside such a gap, or an
+  interacting vehicle with one in the window, is unusable too: a spline across it would
+  invent the motion.
 - **Lateral move.** Across the window the vehicle must move towards the new lane by at
   least ``min_lateral_move`` lane widths (default half the mean width w of the two lanes;
   :func:`lateral_move`), else the episode is kept unusable with the reason: a vehicle
@@ -45,7 +48,9 @@ rules (the numbers are :class:`ExtractionConfig` fields):
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -60,6 +65,7 @@ from drivestyle.envs.demonstration import (
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracks import Carriageway, Recording, Track
+from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS
 
 __all__ = [
     "EPISODE_COLUMNS",
@@ -68,6 +74,8 @@ __all__ = [
     "Episode",
     "ExtractionConfig",
     "LaneChange",
+    "check_sampling",
+    "episode_file_name",
     "extract_episodes",
     "find_lane_changes",
     "interacting_vehicles",
@@ -191,6 +199,11 @@ class ExtractionConfig:
     centre moves about w, and a window cut short (3 s before, 2 s after) still holds most
     of it (the shipped samples' usable changes move 0.55–1.6 w; CATS's converter keeps
     changes that move 0.5 w over its window)."""
+    max_gap_s: float = MAX_GAP_S
+    """The longest time between two samples a window may hold [s]
+    (:data:`~drivestyle.envs.units.MAX_GAP_S`): the window is cut at a longer gap of the
+    lane changer's track, a crossing inside one is unusable, and so is an episode whose
+    interacting vehicle has one in the window (the spline would invent its motion)."""
     observe_s: float = 2.0
     """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``)."""
     interaction_range_m: float = 100.0
@@ -215,19 +228,37 @@ class ExtractionConfig:
             "min_stay_s",
             "observe_s",
             "interaction_range_m",
+            "max_gap_s",
         ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         if self.min_before_s > self.before_s or self.min_after_s > self.after_s:
             raise ValueError(
-                f"the window ({self.before_s:g} s before, {self.after_s:g} s after) is shorter "
-                f"than its minimum ({self.min_before_s:g} s, {self.min_after_s:g} s)"
+                f"the window ({self.before_s:g} s before, {self.after_s:g} s after: before_s, "
+                f"after_s, --before, --after) is shorter than its minimum "
+                f"({self.min_before_s:g} s, {self.min_after_s:g} s: --min-before, --min-after)"
             )
         if self.observe_s > self.min_before_s:
             raise ValueError(
-                f"observe_s = {self.observe_s:g} s exceeds min_before_s = {self.min_before_s:g} "
-                "s: the observed part must end before the lane crossing"
+                f"observe_s (--observe) = {self.observe_s:g} s exceeds min_before_s "
+                f"(--min-before) = {self.min_before_s:g} s: the observed part must end before "
+                "the lane crossing"
+            )
+        # T_s against the windows: every episode needs an observed part of two samples or
+        # more and three samples at least (what a Demonstration holds)
+        if self.dt > self.observe_s:
+            raise ValueError(
+                f"dt (--dt) = {self.dt:g} s, T_s of the demonstrations, is longer than the "
+                f"observed part observe_s (--observe) = {self.observe_s:g} s, which would hold "
+                f"a single sample: T_s is a fraction of a second (the model's is 0.2 s)"
+            )
+        shortest = self.min_before_s + self.min_after_s
+        if 2 * self.dt > shortest:
+            raise ValueError(
+                f"dt (--dt) = {self.dt:g} s leaves the shortest window ({shortest:g} s: "
+                f"--min-before {self.min_before_s:g} + --min-after {self.min_after_s:g}) fewer "
+                "than 3 samples: T_s is a fraction of a second (the model's is 0.2 s)"
             )
         f = self.min_lateral_move
         if not (isinstance(f, (int, float)) and math.isfinite(f) and 0 <= f <= 1):
@@ -235,8 +266,13 @@ class ExtractionConfig:
                 f"min_lateral_move must be a fraction of the lane width in [0, 1] (0: no "
                 f"minimum), got {f!r}"
             )
-        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= 70):
-            raise ValueError(f"v_ref must be in (0, 70] m/s, got {self.v_ref!r}")
+        bound = ROAD_SPEED_MAX_MPS
+        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= bound):
+            raise ValueError(
+                f"v_ref (--v-ref) must be in (0, {bound:g}] m/s ({bound:g} m/s = "
+                f"{bound * 3.6:.0f} km/h, the fastest a road vehicle drives), got {self.v_ref!r}"
+                + (": km/h given as m/s?" if self.v_ref > bound else "")
+            )
         if self.l_a is not None and not (math.isfinite(self.l_a) and self.l_a > 0):
             raise ValueError(f"l_a must be a finite number > 0 [m], got {self.l_a!r}")
 
@@ -489,11 +525,13 @@ def speed_constants(speeds: np.ndarray) -> tuple[float, float, float]:
 
     Returns:
         (v̄, v_max, l_a): the speed level v̄ = the 90th percentile (≥ 1 m/s), the desired
-        speed when none is known [m/s]; v_max = max(70, 1.5 × the fastest) [m/s]; the
-        speed-scaled ellipse l_a = max(5 m, 15 m · v̄ / 27.5 m/s).
+        speed when none is known [m/s]; v_max = the fixed bound of every road vehicle,
+        :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS` (70 m/s), never one the data
+        raises — a speed beyond it is a unit slip, and :func:`plausibility_problems` says
+        so [m/s]; the speed-scaled ellipse l_a = max(5 m, 15 m · v̄ / 27.5 m/s).
     """
     level = float(np.percentile(speeds, 90))
-    return max(level, 1.0), max(70.0, 1.5 * float(np.max(speeds))), max(5.0, 15.0 * level / 27.5)
+    return max(level, 1.0), ROAD_SPEED_MAX_MPS, max(5.0, 15.0 * level / 27.5)
 
 
 def observed_scenario(
@@ -512,8 +550,10 @@ def observed_scenario(
 
     Lane width from the markings; the speed level v̄ = the 90th percentile of the observed
     EV speeds; v_ref = ``v_ref`` if known, else v̄ (≥ 1 m/s); the ellipse l_a = max(5 m,
-    15 m · v̄ / 27.5 m/s), l_b = 3 m · w / 5.25 m; v_max = max(70, 1.5 × the observed
-    maximum) m/s; l_f = l_r = 0.4 · length; initial states from the first sample.
+    15 m · v̄ / 27.5 m/s), l_b = 3 m · w / 5.25 m; v_max = 70 m/s, the bound of every road
+    vehicle (:func:`speed_constants`); l_f = l_r = 0.4 · length; initial states from the
+    first sample (the speed clamped to [0, v_max]: a faster EV is refused by the
+    plausibility check, which names the speed).
 
     Args:
         ev_observed: EV states of the observed part, shape (k, 4), k ≥ 1.
@@ -543,7 +583,7 @@ def observed_scenario(
         target_lane=1,
         tv_lane=tv_lane,
         ev_x=float(ev_observed[0, 0]),
-        ev_speed=min(max(float(ev_observed[0, 3]), 0.0), 70.0),
+        ev_speed=min(max(float(ev_observed[0, 3]), 0.0), v_max),
         tv_gap=float(tv0[0] - ev_observed[0, 0]),
         tv_speed=max(float(tv0[3]), 0.0),
         v_ref=v_ref if v_ref is not None else v_level,
@@ -556,6 +596,15 @@ def observed_scenario(
 
 
 # ----------------------------------------------------------------------------- the episodes
+def _gaps(
+    track: Track, start: float, stop: float, max_gap_s: float
+) -> list[tuple[float, float, float]]:
+    """(from, to, length) [s] of each gap longer than ``max_gap_s`` meeting [start, stop]."""
+    t = track.t
+    k = np.flatnonzero((np.diff(t) > max_gap_s) & (t[1:] > start) & (t[:-1] < stop))
+    return [(float(t[i]), float(t[i + 1]), float(t[i + 1] - t[i])) for i in k]
+
+
 def _frame_near(track: Track, t: float, side: str) -> float:
     """The source frame of the first sample at/after (side 'after') or last before t."""
     if side == "after":
@@ -581,6 +630,18 @@ def _episode(
     t_next = (track.t[later[0]] + track.t[later[0] + 1]) / 2 if later.size else np.inf
     start = max(track.t[0], t_c - config.before_s, t_prev)
     stop = min(track.t[-1], t_c + config.after_s, t_next)
+    # the window ends at a gap longer than max_gap_s: a spline would invent the motion there
+    steps = np.diff(track.t)
+    holes = np.flatnonzero(steps > config.max_gap_s)
+    across = change.index in holes
+    cut_at = []
+    for g in holes:
+        if track.t[g + 1] <= t_c and track.t[g + 1] > start:
+            start = float(track.t[g + 1])
+            cut_at.append(int(g))
+        elif track.t[g] >= t_c and track.t[g] < stop:
+            stop = float(track.t[g])
+            cut_at.append(int(g))
     move = (1.0 if b > a else -1.0) * lateral_move(track.t, track.y, start, stop)
     common: dict[str, Any] = {
         "episode_id": eid,
@@ -594,16 +655,34 @@ def _episode(
         "lane_width": w,
         "lateral_move": move,
     }
+    # the readers' checks (envs.track_checks): the vehicle's motion in the window is not a
+    # road vehicle's; the demonstration is still built, for the plausibility's own say
+    flagged = tuple(
+        f"vehicle {track.vehicle_id} {p.text}" for p in track.problems if p.meets(start, stop)
+    )
     reasons = []
-    if t_c - start < config.min_before_s - 1e-9:
+    gap_limit = f"more than max_gap_s (--max-gap) {config.max_gap_s:g} s"
+    k = change.index
+    if across:
+        reasons.append(
+            f"no sample for {steps[k]:.3g} s across the crossing (t = {track.t[k]:g} to "
+            f"{track.t[k + 1]:g} s), {gap_limit}: the lane change itself is not recorded, and a "
+            "spline would invent it"
+        )
+    cut = "".join(
+        f"; the window is cut at a {steps[g]:.3g} s gap (t = {track.t[g]:g} to "
+        f"{track.t[g + 1]:g} s, {gap_limit})"
+        for g in cut_at
+    )
+    if not across and t_c - start < config.min_before_s - 1e-9:
         reasons.append(
             f"only {t_c - start:.2f} s of track before the crossing (min_before_s "
-            f"{config.min_before_s:g} s)"
+            f"{config.min_before_s:g} s){cut if start > track.t[0] else ''}"
         )
-    if stop - t_c < config.min_after_s - 1e-9:
+    if not across and stop - t_c < config.min_after_s - 1e-9:
         reasons.append(
             f"only {stop - t_c:.2f} s of track after the crossing (min_after_s "
-            f"{config.min_after_s:g} s)"
+            f"{config.min_after_s:g} s){cut if stop < track.t[-1] else ''}"
         )
     need = config.min_lateral_move * w
     if config.min_lateral_move > 0 and move < need:
@@ -616,7 +695,7 @@ def _episode(
     if reasons:
         return Episode(
             **common, first_frame=None, last_frame=None, interacting=(), no_interaction=False,
-            usable=False, reasons=tuple(reasons), demo=None,
+            usable=False, reasons=(*flagged, *reasons), demo=None,
         )  # fmt: skip
     dt = config.dt
     t_grid = np.round(start + np.arange(math.floor((stop - start) / dt + 1e-9) + 1) * dt, 9)
@@ -635,6 +714,19 @@ def _episode(
         tv[:, 1], tv[:, 2] = 1.5 * w, 0.0
         tv_lane = 1
     first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
+    # the interacting vehicles' problems and holes in the window make it unusable too
+    flagged += tuple(
+        f"interacting vehicle {other.vehicle_id} ({role}) {p.text}"
+        for role, other in chosen
+        for p in other.problems
+        if p.meets(start, stop)
+    ) + tuple(
+        f"interacting vehicle {other.vehicle_id} ({role}) has no sample for {gap:.3g} s "
+        f"(t = {t0:g} to {t1:g} s) inside the window, {gap_limit}: a spline would invent its "
+        "motion"
+        for role, other in chosen
+        for t0, t1, gap in _gaps(other, start, stop, config.max_gap_s)[:1]
+    )
     try:
         sc = observed_scenario(
             ev[observed], tv[0], tv_lane, w, dt, t_grid.size, track.length, track.width,
@@ -662,8 +754,8 @@ def _episode(
         return Episode(**common, first_frame=first, last_frame=last,
                        interacting=tuple((r, o.vehicle_id) for r, o in chosen),
                        no_interaction=not chosen, usable=False,
-                       reasons=(f"unusable: {exc}",), demo=None)  # fmt: skip
-    problems = tuple(f"implausible: {p}" for p in plausibility_problems(demo))
+                       reasons=(*flagged, f"unusable: {exc}"), demo=None)  # fmt: skip
+    problems = flagged + tuple(f"implausible: {p}" for p in plausibility_problems(demo))
     return Episode(
         **common,
         first_frame=first,
@@ -676,6 +768,39 @@ def _episode(
         observed_until_s=float(t_rel[observed][-1]),
         flags={"observed_samples": int(observed.sum())},
     )
+
+
+def check_sampling(recording: Recording, config: ExtractionConfig) -> None:
+    """Refuse settings the recording's sampling cannot meet, before any work.
+
+    Against the recording's median time step (over every track's steps): ``max_gap_s``
+    must not be shorter (every step would be a gap, every episode unusable) and neither
+    must ``min_stay_s`` (the lanes held around a crossing would hold no sample, so the rule
+    would hold for any wobble on a line).
+
+    Args:
+        recording: the tracks (any reader).
+        config: the extraction's numbers.
+
+    Raises:
+        ValueError: one line naming the setting (and its option), its value and the step.
+    """
+    steps = [np.diff(tr.t) for road in recording.carriageways for tr in road.tracks]
+    if not steps:
+        return
+    step = float(np.median(np.concatenate(steps)))
+    where = f"{recording.source}: the data's median time step is {step:.3g} s"
+    if config.max_gap_s < step:
+        raise ValueError(
+            f"{where}, longer than max_gap_s (--max-gap) = {config.max_gap_s:g} s: every step "
+            "would be a gap; give --max-gap at least the time step"
+        )
+    if config.min_stay_s < step:
+        raise ValueError(
+            f"{where}, longer than min_stay_s (--min-stay) = {config.min_stay_s:g} s: no "
+            "sample would show the lanes held around a crossing; give --min-stay at least the "
+            "time step"
+        )
 
 
 def extract_episodes(
@@ -691,8 +816,12 @@ def extract_episodes(
     Returns:
         The episodes in carriageway, vehicle and time order; unusable ones carry their
         reasons (too little track around the crossing, an implausible demonstration).
+
+    Raises:
+        ValueError: settings the recording's sampling cannot meet (:func:`check_sampling`).
     """
     config = config or ExtractionConfig()
+    check_sampling(recording, config)
     items = [(road, track) for road in recording.carriageways for track in road.tracks]
     if progress:
         from tqdm import tqdm
@@ -740,8 +869,57 @@ def _cell(value: float | None) -> str:
     return str(int(value)) if float(value).is_integer() else f"{value:g}"
 
 
+FILE_NAME_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]")
+"""Characters a file name built from data may not hold: everything outside
+``[A-Za-z0-9._+-]`` (a path separator, ``..`` as a name, NUL, spaces, non-ASCII letters a
+file system may normalise or refuse) is replaced by ``_``."""
+FILE_NAME_MAX = 120
+"""Most characters of a file name built from data, before ``.npz``: file systems take 255
+bytes, and an id is data (a 300-character id must not end the run with ``File name too
+long``)."""
+FILE_NAME_HASH = 12
+"""Hex digits of the id's SHA-256 appended to a name that had to change (two ids that
+differ only in replaced or cut characters keep distinct names)."""
+
+
+def episode_file_name(episode_id: str, taken: set[str] | None = None) -> str:
+    """The demonstration file's name of an episode: ``<episode_id>.npz`` where that is safe.
+
+    An episode id holds data (the carriageway's and the vehicle's ids), so it may hold a
+    path separator, ``..``, NUL or hundreds of characters. The name keeps the id where it
+    is made of ``[A-Za-z0-9._+-]``, does not start with ``.``, has at most
+    :data:`FILE_NAME_MAX` characters and is not in ``taken`` (ignoring case); otherwise
+    every other character becomes ``_``, a leading ``.`` too, the result is cut to leave
+    room for ``-`` and the first :data:`FILE_NAME_HASH` hex digits of the id's SHA-256,
+    which are appended. The name is always one path component, so a file stays inside its
+    folder; two ids get two names (unless their hashes agree, which
+    :func:`write_episodes` refuses).
+
+    Args:
+        episode_id: the episode's id (``episodes.csv`` keeps it as it is).
+        taken: names already given in the folder, casefolded (ids that differ only in case
+            would share one file on macOS and Windows file systems).
+
+    Returns:
+        The file name, e.g. ``+x_car_3973.npz`` or ``+x_.._.._etc_3973-1f0c25e1a2b9.npz``.
+    """
+    name = FILE_NAME_UNSAFE.sub("_", episode_id)
+    if name.startswith("."):
+        name = "_" + name[1:]  # never a hidden file, "." or ".."
+    changed = name != episode_id or len(name) > FILE_NAME_MAX
+    if changed or (taken is not None and f"{name}.npz".casefold() in taken):
+        digest = hashlib.sha256(episode_id.encode("utf-8", "surrogatepass")).hexdigest()
+        name = f"{name[: FILE_NAME_MAX - FILE_NAME_HASH - 1]}-{digest[:FILE_NAME_HASH]}"
+    return f"{name}.npz"
+
+
 def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
-    """Each usable episode's demonstration as ``<episode_id>.npz`` and ``episodes.csv``.
+    """Each usable episode's demonstration in ``out_dir`` and every episode in ``episodes.csv``.
+
+    A demonstration's file is named by :func:`episode_file_name` (``<episode_id>.npz``
+    where the id is a safe file name, else a safe name with the id's hash;
+    ``episodes.csv``'s ``file`` column says which): no id places a file outside
+    ``out_dir``, and ids that differ only in case get different names.
 
     Args:
         episodes: from :func:`extract_episodes` (unusable ones appear only in the index).
@@ -749,17 +927,33 @@ def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
 
     Returns:
         The path of ``episodes.csv``.
+
+    Raises:
+        ValueError: two usable episodes of one id (their files would be one); the message
+            names the id.
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "episodes.csv"
+    names: dict[str, str] = {}  # episode id → file name
+    taken: set[str] = set()
+    for ep in episodes:
+        if ep.usable and ep.demo is not None:
+            name = episode_file_name(ep.episode_id, taken)
+            if ep.episode_id in names or name.casefold() in taken:
+                raise ValueError(
+                    f"two episodes would be written to {out_dir / name} (episode "
+                    f"{ep.episode_id!r} twice): an episode id is unique in a folder"
+                )
+            names[ep.episode_id] = name
+            taken.add(name.casefold())
     with path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(EPISODE_COLUMNS)
         for ep in episodes:
             name = ""
             if ep.usable and ep.demo is not None:
-                name = f"{ep.episode_id}.npz"
+                name = names[ep.episode_id]
                 save_demonstration(ep.demo, out_dir / name)
             tv_role, tv_id = ep.interacting[0] if ep.interacting else ("phantom", "")
             writer.writerow(

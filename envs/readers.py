@@ -2,7 +2,10 @@
 
 Every reader keeps its source's conventions here, at the edge, and returns tracks in the
 one road frame of :mod:`drivestyle.envs.tracks` (x along travel, y to the left, lane 0
-rightmost, vehicle centres, SI units). :data:`READERS` maps a format name to its reader.
+rightmost, vehicle centres, SI units), checked by their physics by the one home of the
+readers' rules, :func:`~drivestyle.envs.track_checks.check_recording`, which every reader
+calls last. Every CSV is read through :func:`_read_csv` (one-line messages for empty,
+binary and non-UTF-8 files). :data:`READERS` maps a format name to its reader.
 """
 
 from __future__ import annotations
@@ -16,7 +19,9 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
+from drivestyle.envs.track_checks import check_recording
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
+from drivestyle.envs.units import FOOT
 
 __all__ = [
     "INTERACTION_COLUMNS",
@@ -63,10 +68,82 @@ LaneLines = Sequence[float] | Mapping[str, RoadLines]
 """Lane lines of a table: one list for every recording, or per recording."""
 
 
-def _read_frame(path: Path, text: Sequence[str] = ()) -> Any:
+def _not_text(path: Path) -> str:
+    """What a file that is not UTF-8 is: binary (NUL bytes) or text in another encoding.
+
+    Said with the first byte that is not UTF-8, its offset and line in the file.
+    """
+    import codecs
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    seen, lines, binary = 0, 1, False
+    where = "a byte that is not UTF-8"
+    try:
+        with opener(path, "rb") as f:
+            while chunk := f.read(1 << 20):
+                binary |= seen == 0 and b"\x00" in chunk[:8192]
+                try:
+                    decoder.decode(chunk)
+                except UnicodeDecodeError as exc:
+                    k = exc.start
+                    line = lines + chunk[:k].count(b"\n")
+                    where = f"byte 0x{chunk[k]:02x} at offset {seen + k}, line {line}"
+                    break
+                seen, lines = seen + len(chunk), lines + chunk.count(b"\n")
+    except OSError:
+        pass
+    if binary:
+        return f"is a binary file, not text ({where})"
+    return (
+        f"is not UTF-8 text ({where}): text in another encoding (latin-1, Windows-1252?); "
+        "save it as UTF-8"
+    )
+
+
+def _read_csv(path: Path, what: str, **options: Any) -> Any:
+    """``pandas.read_csv`` of a reader's file, or a one-line error naming it and what it is.
+
+    Never a decoder's or parser's words alone: the message says what the file is (empty,
+    binary, another encoding, not gzip, not CSV) and what was expected.
+
+    Args:
+        path: the file (``.gz`` decompressed).
+        what: what the file should be, for the message (e.g. "an NGSIM trajectory file").
+        options: passed to ``pandas.read_csv``.
+
+    Raises:
+        ValueError: an empty or blank file, a binary file or text not in UTF-8, a file that
+            is not gzip though named so, or not CSV.
+    """
+    import gzip
+    import zlib
+
+    import pandas as pd
+
+    try:
+        return pd.read_csv(path, **options)
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"{path} is empty (no header, no rows): expected {what}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path} {_not_text(path)}; expected {what}") from None
+    except (gzip.BadGzipFile, zlib.error, EOFError) as exc:
+        raise ValueError(f"{path} is not a readable gzip file ({exc}); expected {what}") from None
+    except pd.errors.ParserError as exc:
+        said = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"{path} is not a readable CSV ({said}); expected {what}") from None
+
+
+def _read_frame(
+    path: Path,
+    text: Sequence[str] = (),
+    what: str = "a CSV table of tracks (columns id, t, x, y, …)",
+) -> Any:
     """The file as a pandas DataFrame (CSV or Parquet), or a one-line error naming it.
 
-    ``text``: columns of a CSV read as text, not parsed as numbers.
+    ``text``: columns of a CSV read as text, not parsed as numbers; ``what``: what the file
+    should be, for messages.
     """
     import pandas as pd
 
@@ -82,12 +159,7 @@ def _read_frame(path: Path, text: Sequence[str] = ()) -> Any:
             ) from None
         except (OSError, ValueError) as exc:
             raise ValueError(f"{path} is not a readable Parquet file ({exc})") from None
-    try:
-        df = pd.read_csv(path, dtype=dict.fromkeys(text, str))
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"{path} is empty (no header, no rows)") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, EOFError, OSError) as exc:
-        raise ValueError(f"{path} is not a readable CSV ({exc})") from None
+    df = _read_csv(path, what, dtype=dict.fromkeys(text, str))
     if df.empty:
         raise ValueError(f"{path} has a header but no rows")
     return df
@@ -414,11 +486,14 @@ def read_table(
     Raises:
         FileNotFoundError: no such file.
         ValueError: an unreadable file, Parquet without pyarrow, missing columns, no rows,
-            a non-numeric, missing or repeated value, a row without a recording, lanes no
-            road has (feet), lines that do not increase, a recording without lines or lines
-            of a recording the table lacks, ``lanes`` with ``lane_width`` or
-            ``lane_markings``, or no lane geometry; one line naming the file, and the
-            recording, vehicle and frame where one is at fault.
+            a non-numeric, missing or repeated value, a row without a vehicle id or a
+            recording, a vehicle whose time goes back in file order, lanes no road has
+            (feet), lines that do not increase, a recording without lines or lines of a
+            recording the table lacks, two of ``lanes``, ``lane_width`` and
+            ``lane_markings``, no lane geometry, or a file the readers' checks refuse
+            (:func:`~drivestyle.envs.track_checks.check_recording`: times, speeds or
+            headings in another unit); one line naming the file, and the recording,
+            vehicle, row and frame where one is at fault.
     """
     import pandas as pd
 
@@ -426,6 +501,11 @@ def read_table(
     if lanes is not None and (lane_width is not None or lane_markings is not None):
         raise TrackError(
             f"{lanes}: lanes and lane_width / lane_markings contradict: give the lane lines once"
+        )
+    if lane_width is not None and lane_markings is not None:
+        raise TrackError(
+            f"{path}: lane_width (--lane-width) and lane_markings (--lane-markings) contradict: "
+            "give the lane lines once"
         )
     renamed = dict(columns or {})
     df = _read_frame(path, [renamed.get(c, c) for c in TABLE_TEXT])
@@ -440,6 +520,14 @@ def read_table(
         )
     if df.empty:
         raise TrackError(f"{path} has a header but no rows")
+    blank = df["id"].isna().to_numpy() | (df["id"].astype(str).str.strip() == "").to_numpy()
+    if blank.any():
+        i = int(np.flatnonzero(blank)[0])
+        raise TrackError(
+            f"{path}: data row {i + 1} (line {i + 2}): no vehicle id (column "
+            f"{renamed.get('id', 'id')!r} is empty; {int(blank.sum())} such row(s)): every row "
+            "names its vehicle"
+        )
     has_recordings = "recording" in df.columns
     if has_recordings and df["recording"].isna().any():
         i = int(np.flatnonzero(df["recording"].isna().to_numpy())[0])
@@ -492,6 +580,7 @@ def read_table(
             f"{path}: no lane geometry: pass lane_width (--lane-width), lane_markings "
             "(--lane-markings) or lanes (--lanes), or give the table a 'lane' column"
         )
+    in_file = (ids, rec_codes, t)
     order = np.lexsort((t, ids, rec_codes))
     ids, frames, rec_codes = ids[order], frames[order], rec_codes[order]
     data = {c: a[order] for c, a in data.items()}
@@ -504,6 +593,7 @@ def read_table(
             f"{path}: {where}vehicle {ids[i]}, frame {_frame(frames[i])}: two rows at t = "
             f"{data['t'][i]:g} s"
         )
+    _check_time_order(path, df, *in_file)
     cut = np.flatnonzero(~same_vehicle) + 1
     starts, stops = np.r_[0, cut], np.r_[cut, ids.size]
     bar = None
@@ -532,7 +622,7 @@ def read_table(
         meta["recordings"] = recordings
     if lines_from is not None:
         meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
-    return Recording(source=str(path), carriageways=tuple(carriageways), meta=meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 READERS["csv"] = read_table
@@ -608,6 +698,29 @@ def write_table(
     lanes = {road.name: list(road.markings) for road in recording.carriageways}
     lanes_path.write_text(json.dumps(lanes, indent=1) + "\n")
     return csv_path, lanes_path
+
+
+def _check_time_order(
+    path: Path, df: Any, ids: np.ndarray, rec_codes: np.ndarray, t: np.ndarray
+) -> None:
+    """Refuse a vehicle whose rows' times go back in file order (one line naming the rows).
+
+    A vehicle's rows are read in file order, and its time must not fall from one row to
+    the next (rows of different vehicles may interleave; equal times are the caller's
+    "two rows" error). Sorting them instead would silently move a sample with a swapped
+    or mistyped time stamp, e.g. across a lane change.
+    """
+    rows = np.lexsort((np.arange(t.size), ids, rec_codes))  # per vehicle, in file order
+    same = (ids[rows][1:] == ids[rows][:-1]) & (rec_codes[rows][1:] == rec_codes[rows][:-1])
+    back = np.flatnonzero(same & (np.diff(t[rows]) < 0))
+    if back.size:
+        i, before = int(rows[back[0] + 1]), int(rows[back[0]])
+        raise TrackError(
+            f"{path}: {_row_vehicle(df, i)}, data row {i + 1}: t = {t[i]:g} s comes after "
+            f"t = {t[before]:g} s (data row {before + 1}): a vehicle's rows must be in time "
+            "order (rows of different vehicles may interleave); sort the table by vehicle and "
+            "time if its row order means nothing"
+        )
 
 
 def _median_step(t: np.ndarray) -> float:
@@ -726,9 +839,6 @@ def _size(data: dict[str, np.ndarray], column: str, a: int, b: int, default: flo
 
 # ------------------------------------------- published formats: NGSIM, levelX, INTERACTION
 
-FOOT = 0.3048
-"""Metres per foot (NGSIM's unit)."""
-
 NGSIM_COLUMNS = (
     "Vehicle_ID",
     "Frame_ID",
@@ -776,9 +886,12 @@ NGSIM_LANE_FT = 12.0
 """Nominal NGSIM lane width [ft] (``markings="nominal"``: lane k spans 12(k − 1)…12k ft of
 Local_X from the left road edge)."""
 
-NGSIM_MAX_GAP_S = 1.0
-"""A vehicle id seen again after a longer gap is another vehicle (NGSIM reuses ids across its
-15-minute periods) [s]."""
+NGSIM_REUSED_ID_GAP_S = 60.0
+"""A vehicle id seen again after a longer gap is another vehicle [s]: NGSIM numbers the
+vehicles of each 15-minute period from 1 again, and a vehicle crosses the study area in
+minutes, so a reused id comes back 10 minutes or more later. A shorter gap is a gap in one
+vehicle's track, the extraction's rule for every reader (``ExtractionConfig.max_gap_s``):
+its lane change is kept unusable, not lost between two tracks."""
 
 INTERACTION_VEHICLES = frozenset({"car", "truck", "bus", "truck_bus", "van", "motorcycle"})
 """INTERACTION ``agent_type`` values kept (pedestrians and bicycles are dropped)."""
@@ -840,7 +953,8 @@ def _published_tracks(
 
     Rows may come in any order; a track is a vehicle's rows sorted by time, cut where the
     time jumps by more than ``max_gap_s`` (a reused id: the later parts are named
-    ``'<id>@<first frame>'``). Tracks of a single sample are dropped (counted).
+    ``'<id>@<first frame>'``; a gap in one vehicle's track is the extraction's rule,
+    ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (counted).
 
     Raises:
         TrackError: a vehicle has two rows at one time or one frame, or frames that do not
@@ -884,11 +998,13 @@ def _published_tracks(
 # ------------------------------------------------------------------------------ raw NGSIM
 
 
+NGSIM_FILE = "an NGSIM trajectory file (US-101, I-80)"
+"""What :func:`read_ngsim` reads, for messages."""
+
+
 def _ngsim_table(path: Path) -> Any:
     """The rows of an NGSIM trajectory file with the standard column names."""
     import gzip
-
-    import pandas as pd
 
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found (an NGSIM trajectory file)")
@@ -905,11 +1021,11 @@ def _ngsim_table(path: Path) -> Any:
     except ValueError:
         header = True
     if header:
-        df = pd.read_csv(path, sep=sep, low_memory=False, thousands=",")
+        df = _read_csv(path, NGSIM_FILE, sep=sep, low_memory=False, thousands=",")
         canonical = {c.lower(): c for c in (*NGSIM_COLUMNS, "Location")}
         df = df.rename(columns={c: canonical.get(str(c).strip().lower(), c) for c in df.columns})
     else:
-        df = pd.read_csv(path, sep=sep, header=None)
+        df = _read_csv(path, NGSIM_FILE, sep=sep, header=None)
         if df.shape[1] != len(NGSIM_COLUMNS):
             kind = (
                 " (the 24 columns of the arterial Lankershim / Peachtree files, not a freeway)"
@@ -999,7 +1115,7 @@ def _ngsim_carriageway(
     t0 = float(t_ms.min())
     t = (t_ms - t0) / 1000.0
     groups, dropped = _published_tracks(
-        path, num["Vehicle_ID"].astype(np.int64), t, num[frame], NGSIM_MAX_GAP_S
+        path, num["Vehicle_ID"].astype(np.int64), t, num[frame], NGSIM_REUSED_ID_GAP_S
     )
     tracks = []
     for vid, rows in groups:
@@ -1044,8 +1160,9 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
       fits Local_X = a + w·Lane_ID through the median Local_X of each main lane and puts
       the lines at a + w·(k − ½), k = 1…M + 1 (equal lanes of the data's width, ≈ 12 ft);
       ``"nominal"`` puts them at 12 ft steps from the left road edge (Local_X = 0).
-    - a vehicle id seen again more than 1 s later (ids are reused across the 15-minute
-      periods of the CSV) is a new track named ``'<id>@<first frame>'``.
+    - a vehicle id seen again more than a minute later (ids are reused across the
+      15-minute periods of the CSV, :data:`NGSIM_REUSED_ID_GAP_S`) is a new track named
+      ``'<id>@<first frame>'``.
 
     Args:
         path: the trajectory file (``.txt``/``.csv``, optionally ``.gz``).
@@ -1103,7 +1220,7 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
         markings=markings,
         single_sample_tracks_dropped=dropped,
     )
-    return Recording(str(path), tuple(carriageways), meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 # ------------------------------------------------------------------------- levelX (highD)
@@ -1113,14 +1230,13 @@ LEVELX_TRACK_COLUMNS = ("frame", "id", "x", "y", "width", "height", "xVelocity",
 
 
 def _levelx_csv(path: Path, required: Sequence[str]) -> Any:
-    import pandas as pd
 
     if not path.is_file():
         raise FileNotFoundError(
             f"{path} not found: read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and "
             "NN_recordingMeta.csv side by side"
         )
-    df = pd.read_csv(path)
+    df = _read_csv(path, f"a levelX {path.name.split('_')[-1]} (highD)")
     _published_columns(df, path, required, "levelX (highD)")
     return df
 
@@ -1188,7 +1304,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
     meta_path = path.with_name(prefix + "tracksMeta.csv")
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found (a levelX NN_tracks.csv)")
-    df = pd.read_csv(path)
+    df = _read_csv(path, "a levelX NN_tracks.csv (highD)")
     if "trackId" in df.columns and "xCenter" in df.columns:
         raise TrackError(
             f"{path}: the exiD/inD/rounD layout (trackId, xCenter, yCenter, heading…): their "
@@ -1261,7 +1377,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
         "files": [str(path), str(meta_path), str(rec_path)],
         "single_sample_tracks_dropped": dropped,
     }
-    return Recording(str(path), tuple(carriageways), meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 # ---------------------------------------------------------------------------- INTERACTION
@@ -1355,15 +1471,13 @@ def read_interaction(
             non-increasing frame (naming the file, the track and the frame), no vehicle, or
             lane lines no road has.
     """
-    import pandas as pd
-
     path = Path(path)
     angle = _interaction_direction(direction)
     lines = _interaction_lines(lane_markings, direction, angle)
     _check_markings(lines, path, f"lane_markings along {direction!r}, in the road frame")
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found (an INTERACTION vehicle_tracks_NNN.csv)")
-    df = pd.read_csv(path)
+    df = _read_csv(path, "an INTERACTION vehicle_tracks_NNN.csv")
     _published_columns(df, path, INTERACTION_COLUMNS, "INTERACTION")
     agent = df["agent_type"].astype(str).str.strip().str.lower()
     vehicle = agent.isin(INTERACTION_VEHICLES)
@@ -1417,7 +1531,7 @@ def read_interaction(
         "single_sample_tracks_dropped": dropped,
         "outside_road": _warn_outside_road(carriageways, "lane_markings (--lane-markings)"),
     }
-    return Recording(str(path), carriageways, meta)
+    return check_recording(Recording(str(path), carriageways, meta))
 
 
 READERS["ngsim"] = read_ngsim
@@ -1449,7 +1563,7 @@ def read_sample(folder: str | Path) -> Recording:
         TrackError: neither sample's columns, or a malformed track (naming the vehicle).
     """
     path = Path(folder) / "tracks.csv.gz"
-    df = _read_frame(path)
+    df = _read_frame(path, what="a shipped sample's tracks (NGSIM or CATS), gzip-compressed CSV")
     cats = "run_id" in df.columns
     key, t_col = ("run_id", "t_s") if cats else ("recording", "time_s")
     lane_col = "lane" if cats else "lane_id"
@@ -1498,7 +1612,7 @@ def read_sample(folder: str | Path) -> Recording:
         "dataset": "cats" if cats else "ngsim",
         "units": "metres",
     }
-    return Recording(str(path), tuple(carriageways), meta)
+    return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
 READERS["sample"] = read_sample

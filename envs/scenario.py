@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.safety import elliptical_index
+from drivestyle.envs.units import ROAD_SPEED_MAX_MPS
 
 __all__ = [
     "PAPER",
@@ -62,8 +63,8 @@ class ScenarioConfig:
     """Distance from the centre of mass to the rear axle [m]."""
     phi_max: float = 0.05
     """Heading bound |φ| ≤ phi_max [rad]."""
-    v_max: float = 70.0
-    """Speed bound 0 ≤ v ≤ v_max [m/s]."""
+    v_max: float = ROAD_SPEED_MAX_MPS
+    """Speed bound 0 ≤ v ≤ v_max [m/s] (:data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS`)."""
     a_min: float = -9.0
     """Lower acceleration bound [m/s²]."""
     a_max: float = 6.0

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Carriageway", "Recording", "Track", "TrackError"]
+__all__ = ["Carriageway", "Recording", "Track", "TrackError", "TrackProblem"]
 
 
 class TrackError(ValueError):
@@ -40,6 +40,25 @@ def _array(name: str, value: object, n: int | None, where: str) -> np.ndarray:
         k = int(np.flatnonzero(~np.isfinite(a))[0])
         raise TrackError(f"{where}: {name} is not finite at sample {k}")
     return a
+
+
+@dataclass(frozen=True)
+class TrackProblem:
+    """Why (part of) a track is not a road vehicle's motion.
+
+    A finding of the readers' checks (:func:`drivestyle.envs.track_checks.check_recording`).
+    """
+
+    text: str
+    """One line without the vehicle, e.g. ``overlaps vehicle 7 from t = 3 to 5 s (…)``."""
+    t_from: float = -math.inf
+    """The first time it concerns [s] (−∞: the whole track)."""
+    t_to: float = math.inf
+    """The last time it concerns [s] (+∞: the whole track)."""
+
+    def meets(self, start: float, stop: float) -> bool:
+        """Whether it concerns a time in [start, stop] [s]."""
+        return self.t_from <= stop and self.t_to >= start
 
 
 @dataclass(frozen=True)
@@ -69,6 +88,11 @@ class Track:
     """Vehicle width [m]."""
     source: str = ""
     """The file it was read from (for messages and ``episodes.csv``)."""
+    problems: tuple[TrackProblem, ...] = ()
+    """Why the track (or a part of it) is not a road vehicle's motion (the readers' checks,
+    :func:`drivestyle.envs.track_checks.check_recording`): a lane change whose window meets
+    one — its own or an interacting vehicle's — is kept unusable with it. Empty:
+    plausible."""
 
     def __post_init__(self) -> None:
         where = f"{self.source or 'track'}, vehicle {self.vehicle_id}"
@@ -93,6 +117,7 @@ class Track:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, _array(name, value, n, where))
+        object.__setattr__(self, "problems", tuple(self.problems))
         if not (0 < self.length < 30 and 0 < self.width < 5):
             raise TrackError(
                 f"{where}: a {self.length:g} m × {self.width:g} m vehicle is not a road "

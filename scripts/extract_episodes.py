@@ -15,6 +15,13 @@ Lane lines are given with the road edges: the outermost lines are the edges, a v
 outside them is in no lane (a warning names such vehicles). A table of several recordings
 (a ``recording`` column) takes ``--lanes lanes.json``, each recording's lines.
 
+The tracks are checked by their physics (envs/track_checks.py): a file in another unit
+(speeds beyond 70 m/s, a time step of 100, headings in degrees) is refused naming the
+likely unit; a vehicle beyond a bound alone, two vehicles in one place, a gap longer than
+``--max-gap`` across a lane change keep the lane change in episodes.csv, unusable, with
+the reason. A demonstration's file name is its episode id made safe
+(envs.episodes.episode_file_name), always inside OUT.
+
 Example:
     python scripts/extract_episodes.py tracks.csv --format csv --lane-width 3.75 \\
         --out runs/episodes
@@ -107,6 +114,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "unusable in episodes.csv; 0: no minimum",
     )
     p.add_argument(
+        "--max-gap",
+        type=positive_float,
+        default=d.max_gap_s,
+        help="the longest time between two samples a window may hold [s]: a window is cut at "
+        "a longer gap, and a lane change across one (or with an interacting vehicle that has "
+        "one in the window) is kept unusable in episodes.csv",
+    )
+    p.add_argument(
         "--observe",
         type=positive_float,
         default=d.observe_s,
@@ -134,6 +149,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         min_after_s=args.min_after,
         min_stay_s=args.min_stay,
         min_lateral_move=args.min_lateral_move,
+        max_gap_s=args.max_gap,
         observe_s=args.observe,
         v_ref=args.v_ref,
     )
@@ -154,6 +170,23 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 f"--lanes {args.lanes} and {' and '.join(given)} contradict: give the lane "
                 "lines once (--lanes holds every recording's lines)"
             )
+    if args.lane_width is not None and args.lane_markings is not None:
+        markings = ",".join(f"{m:g}" for m in args.lane_markings)
+        raise ValueError(
+            f"--lane-width {args.lane_width:g} and --lane-markings {markings} contradict: give "
+            "the lane lines once (--lane-width W puts them at multiples of W, --lane-markings "
+            "at the given y)"
+        )
+    if args.format == "interaction" and args.lane_width is not None:
+        raise ValueError(
+            "--lane-width is for --format csv; --format interaction takes the lane lines as "
+            "--lane-markings"
+        )
+    if args.direction is not None and args.format != "interaction":
+        raise ValueError(
+            f"--direction is for --format interaction; --format {args.format} files say their "
+            "own direction of travel"
+        )
     if args.format == "interaction" and (args.lane_markings is None or args.direction is None):
         raise ValueError("--format interaction needs --lane-markings and --direction")
     t0 = time.perf_counter()

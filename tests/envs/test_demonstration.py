@@ -52,7 +52,7 @@ def test_too_few_samples_and_unreadable(tmp_path):
         Demonstration(**_arrays(2))
     bad = tmp_path / "junk.npz"
     bad.write_text("not a zip")
-    with pytest.raises(DemonstrationError, match="not a readable"):
+    with pytest.raises(DemonstrationError, match=r"junk\.npz is a text file \(it begins 'not a"):
         load_demonstration(bad)
     with pytest.raises(FileNotFoundError):
         load_demonstration(tmp_path / "none.npz")
@@ -72,7 +72,7 @@ def test_arrays_are_read_only():
 
 
 def _corrupt_files(tmp_path):
-    """A valid demonstration file truncated, with a flipped byte in an array, and empty."""
+    """A valid demonstration file truncated and with a flipped byte in an array."""
     demo = Demonstration(**_arrays(), meta={"scenario": PAPER.to_dict()})
     raw = save_demonstration(demo, tmp_path / "good.npz").read_bytes()
     truncated = tmp_path / "truncated.npz"
@@ -81,9 +81,7 @@ def _corrupt_files(tmp_path):
     flipped[raw.find(b"ev.npy") + 200] ^= 0xFF  # inside the member's data: CRC fails
     crc = tmp_path / "crc.npz"
     crc.write_bytes(bytes(flipped))
-    empty = tmp_path / "empty.npz"
-    empty.write_bytes(b"")
-    return {truncated: "BadZipFile", crc: "BadZipFile: Bad CRC", empty: "EOFError"}
+    return {truncated: "BadZipFile", crc: "BadZipFile: Bad CRC"}
 
 
 def test_corrupt_npz_names_the_file(tmp_path):
@@ -93,6 +91,21 @@ def test_corrupt_npz_names_the_file(tmp_path):
         message = str(exc.value)
         assert message.startswith(f"{path}: not a readable demonstration ({cause}"), message
         assert "\n" not in message
+
+
+def test_a_file_that_is_no_archive_is_said_to_be_what_it_is(tmp_path):
+    kinds = {
+        "empty.npz": (b"", "is empty, not a demonstration"),
+        "text.npz": (b"t,x\n0,1\n", "is a text file (it begins 't,x'), not a demonstration"),
+        "array.npz": (b"\x93NUMPY\x01\x00", "is a single .npy array, not a demonstration"),
+        "binary.npz": (b"\x00\xff\xfe\x00" * 8, "is a binary file of another kind, not a "),
+    }
+    for name, (content, said) in kinds.items():
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(DemonstrationError) as exc:
+            load_demonstration(tmp_path / name)
+        assert str(exc.value).startswith(f"{tmp_path / name} {said}"), str(exc.value)
+        assert "allow_pickle" not in str(exc.value) and "\n" not in str(exc.value)
 
 
 def test_folder_passed_as_a_demonstration_says_so(tmp_path):

@@ -18,6 +18,7 @@ from drivestyle.envs.episodes import (
     lateral_move,
     recover_inputs,
     resample_states,
+    speed_constants,
     write_episodes,
 )
 from drivestyle.envs.readers import READERS, read_table
@@ -416,3 +417,11 @@ def test_an_implausible_episode_names_the_lane_lines_not_metadata(tmp_path):
     assert problem.endswith(
         "wrong lane_width or tv_lane in the metadata, or y in another frame or unit?"
     )
+
+
+def test_v_max_is_the_road_vehicles_bound_whatever_the_observed_speeds():
+    from drivestyle.envs.units import ROAD_SPEED_MAX_MPS
+
+    for top in (20.0, 60.0, 120.0):
+        level, v_max, _ = speed_constants(np.array([top / 2, top]))
+        assert v_max == ROAD_SPEED_MAX_MPS == 70.0 and level == pytest.approx(0.95 * top)

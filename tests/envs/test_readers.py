@@ -515,3 +515,81 @@ def test_ngsim_i80_has_six_main_lanes_and_us101_five(tmp_path):
         _write_classic(pd.concat([_ngsim_table(), ramp]), tmp_path / "i80.txt")
     ).carriageways
     assert len(cw.markings) == 7 and np.all(_track(cw, "7").lane == -1)
+
+
+def test_ngsim_a_gap_across_a_lane_change_keeps_it_unusable_not_lost(tmp_path):
+    from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+
+    df = _ngsim_table()
+    hole = (df.Vehicle_ID == 2) & df.Frame_ID.between(15, 26)  # 1.3 s across its crossing
+    [cw] = read_ngsim(_write_classic(df[~hole], tmp_path / "t.txt")).carriageways
+    changer = _track(cw, "2")  # one track: a gap is not a reused id
+    assert changer.n == 8 and not any(tr.vehicle_id.startswith("2@") for tr in cw.tracks)
+    config = ExtractionConfig(dt=0.1, before_s=1, after_s=1, min_before_s=0.3, min_after_s=0.3,
+                              min_stay_s=0.1, observe_s=0.2, min_lateral_move=0)  # fmt: skip
+    [episode] = [e for e in extract_episodes(read_ngsim(tmp_path / "t.txt"), config)
+                 if e.vehicle_id == "2"]  # fmt: skip
+    assert not episode.usable
+    assert episode.reasons[0].startswith(
+        "no sample for 1.3 s across the crossing (t = 0.4 to 1.7 s), more than max_gap_s "
+        "(--max-gap) 1 s: the lane change itself is not recorded"
+    )
+
+
+def _cats_sample(folder, **changes):
+    """A shipped-sample folder in the CATS layout: two vehicles, 10 Hz, 12 s."""
+    t = np.round(np.arange(0, 12.0 + 1e-9, 0.1), 9)
+    rows = pd.concat(
+        [
+            pd.DataFrame(
+                {
+                    "run_id": "run",
+                    "vehicle_id": v,
+                    "t_s": t,
+                    "x_m": x0 + 25.0 * t,
+                    "y_m": y,
+                    "v_mps": 25.0,
+                    "lane": lane,
+                }
+            )
+            for v, x0, y, lane in ((1, 0.0, 2.0, 0), (2, 40.0, 6.0, 1))
+        ],
+        ignore_index=True,
+    )
+    for column, change in changes.items():
+        rows[column] = change(rows[column])
+    folder.mkdir()
+    rows.to_csv(folder / "tracks.csv.gz", index=False)
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("fmt", "unit"),
+    [("ngsim", "6 of 6 vehicles drive at a median 152 m/s by the speed column"),
+     ("highd", "km/h given as m/s (÷ 3.6: 30 m/s)?"),
+     ("interaction", "degrees?"), ("sample", "times in milliseconds? divide by 1000")],
+)  # fmt: skip
+def test_every_reader_applies_the_readers_checks(tmp_path, fmt, unit):
+    """One home for the rules: a fleet in another unit is refused whatever the format."""
+    if fmt == "ngsim":
+        df = _ngsim_table()
+        df["v_Vel"] *= 10  # 500 ft/s
+        read = lambda: read_ngsim(_write_classic(df, tmp_path / "t.txt"))  # noqa: E731
+    elif fmt == "highd":
+        vehicles = [_levelx_vehicle(k, 100.0 + 20 * k, 20.0, 20.0, -30.0 * 3.6) for k in (1, 2)]
+        path = _write_levelx(tmp_path, vehicles, {1: 1, 2: 1})
+        read = lambda: read_levelx(path)  # noqa: E731
+    elif fmt == "interaction":
+        rows = [_interaction_vehicle(1, k, (15.25, 900.0 + 50 * k), (0.0, 20.0), (-3.5, 0.0))
+                for k in (1, 2)]  # fmt: skip
+        df = pd.concat(rows, ignore_index=True)
+        df["psi_rad"] = np.degrees(df["psi_rad"])
+        path = tmp_path / "vehicle_tracks_000.csv"
+        df.to_csv(path, index=False)
+        read = lambda: read_interaction(path, [10.0, 13.5, 17.0, 20.5], direction="y+")  # noqa: E731
+    else:
+        folder = _cats_sample(tmp_path / "sample", t_s=lambda t: t * 1000)
+        read = lambda: READERS["sample"](folder)  # noqa: E731
+    with pytest.raises(TrackError) as info:
+        read()
+    assert unit in str(info.value) and "\n" not in str(info.value)

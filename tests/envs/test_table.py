@@ -144,6 +144,8 @@ def test_lanes_contradicting_options_and_tables_are_refused(tmp_path):
     table, lanes = _write(tmp_path, _two_recordings())
     with pytest.raises(TrackError, match=r"lanes\.json: lanes and lane_width / lane_markings"):
         read_table(table, lanes=lanes, lane_width=W)
+    with pytest.raises(TrackError, match=r"tracks\.csv: lane_width \(--lane-width\) and "):
+        read_table(table, lane_width=W, lane_markings=R1)
     (tmp_path / "bad.json").write_text("{'r1': [0, 3.5]}")
     with pytest.raises(TrackError, match=r"bad\.json is not valid JSON"):
         read_table(table, lanes=tmp_path / "bad.json")
@@ -198,7 +200,10 @@ def test_outside_road_in_closed_form():
 
 # ------------------------------------------------------------------------------ write_table
 def test_write_table_round_trip_keeps_carriageways_tracks_and_lines(tmp_path, capsys):
-    table, _ = _write(tmp_path, _two_recordings().assign(heading=0.0))
+    df = _two_recordings()
+    # headings along each vehicle's motion (vehicle 3 of r2 drives to −x: heading π)
+    df["heading"] = np.where((df.recording == "r2") & (df.id == 3), np.pi, 0.0)
+    table, _ = _write(tmp_path, df)
     rec = read_table(table, lane_markings={"r1": R1, "r2": R2})
     csv_path, lanes_path = write_table(rec, tmp_path / "out.csv", tmp_path / "out.json")
     assert set(json.loads(lanes_path.read_text())) == {"r1", "r2+x", "r2-x"}

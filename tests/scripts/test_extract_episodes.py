@@ -125,7 +125,7 @@ def test_extract_episodes_writes_usable_demonstrations_and_the_index(tmp_path, c
     ("args", "message"),
     [
         (["--lane-width", "12"], "lanes 12 m wide"),
-        (["--observe", "5"], "observe_s = 5 s exceeds min_before_s"),
+        (["--observe", "5"], "observe_s (--observe) = 5 s exceeds min_before_s (--min-before)"),
         (["--format", "ngsim", "--lane-width", "3"], "--lane-width, --lane-markings and --lanes"),
         (["--lanes", "{d}/lanes.json", "--lane-width", "3.5"],
          "--lanes {d}/lanes.json and --lane-width contradict: give the lane lines once"),
