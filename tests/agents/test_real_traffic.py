@@ -209,7 +209,8 @@ def test_off_grid_recording_is_refused_by_the_driver_model():
 def test_recorded_like_demo_learns_and_reproduces():
     from drivestyle.agents.studies.real_traffic import DriverSettings, _driver_fit_task, driver_demo
 
-    demo, _ = _recorded_like()
+    # beyond the highway bound: seen under the recorded bounds, its inputs recovered
+    demo, _ = _recorded_like(steer=0.06, bounds=(0.05, 0.05))
     res = _driver_fit_task((0,), (0,), [driver_demo(demo)], DriverSettings(1, 1))
     assert res["fit"]["style"]["v_ref"] is not None
     assert res["test"][0]["rmse_y_m"] < 0.1 and res["test"][0]["failures"] == 0
