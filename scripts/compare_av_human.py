@@ -23,7 +23,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.av_vs_human import compare_av_human, read_mined
+from drivestyle.agents.studies.av_vs_human import compare_av_human, read_mined, unmined
 from drivestyle.agents.studies.figures import plot_av_human
 from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.agents.studies.reports import av_human_markdown
@@ -58,6 +58,18 @@ def main(argv: list[str] | None = None) -> dict:
     check_output_dir(args.out, inputs=[args.data_dir] + ([args.mined] if args.mined else []))
     mined = read_mined(args.mined) if args.mined is not None else None
     episodes = recorded_episodes(str(args.data_dir), "cats")
+    if mined is not None:
+        try:
+            missing = unmined(episodes, mined)
+        except ValueError as exc:
+            raise ValueError(f"--mined {args.mined}: {exc}") from None
+        if missing:  # legal (a run still going, failed rows), but it shapes every number
+            print(
+                f"note: {len(missing)} of the {len(episodes)} CATS lane changes have no ok row "
+                f"in {args.mined / 'styles.csv'} (failed, or not mined yet): they are reported "
+                "as not mined",
+                file=sys.stderr,
+            )
     comparison = compare_av_human(episodes, mined, samples=args.samples)
     payload = comparison.to_json()
     markdown = av_human_markdown(comparison, command_line(argv_used))
