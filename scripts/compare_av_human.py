@@ -27,7 +27,7 @@ from drivestyle.agents.studies.av_vs_human import compare_av_human, read_mined, 
 from drivestyle.agents.studies.figures import plot_av_human
 from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.agents.studies.reports import av_human_markdown
-from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
+from drivestyle.common.cli import HelpFormatter, count, run_cli
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -35,6 +35,11 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+
+SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)
+"""``--samples``: a replicate holds the resampled indices of a group's lane changes for every
+quantity and group at once (≈ 1.5 kB, ≈ 20 µs on the CATS sample: 10⁵ took 1.4 s and
+125 MB); 10⁵ already pin the 95 % intervals' ends far below their width (default 2000)."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -46,7 +51,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--mined", type=Path, default=None,
         help="a mine-styles --dataset cats output folder (the identified risks)",
     )  # fmt: skip
-    p.add_argument("--samples", type=positive_int, default=2000, help="bootstrap replicates")
+    p.add_argument("--samples", type=SAMPLES, default=2000, help="bootstrap replicates")
     p.add_argument("--out", type=Path, default=Path("runs/av_vs_human"), help="output folder")
     return p.parse_args(argv)
 

@@ -231,24 +231,41 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 1e-6:.3g} µs"
 
 
-def count(limit: int, seconds_each: float, what: str) -> Callable[[str], int]:
+def _bytes(n: float) -> str:
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.3g} bytes"
+
+
+def count(
+    limit: int, seconds_each: float, what: str, bytes_each: float = 0.0
+) -> Callable[[str], int]:
     """An argparse type: how many of something, an integer in [1, ``limit``].
 
     Args:
-        limit: the largest number a run may ask for (where the work takes days or more).
+        limit: the largest number a run may ask for (where the work takes days or more, or
+            the memory runs out).
         seconds_each: the rough cost of one on one core [s], said in the error.
         what: what is counted, plural ("scenes"), said in the error.
+        bytes_each: the rough memory one holds at once with all the others [bytes] (0:
+            the count costs time, not memory), said in the error.
 
     Returns:
-        The type function (its error names the bound and the time the bound already takes).
+        The type function (its error names the bound and the time, and memory, the bound
+        already takes).
     """
 
     def parse(text: str) -> int:
         value = positive_int(text)
         if value > limit:
+            memory = f" and ≈ {_bytes(limit * bytes_each)} of memory" if bytes_each > 0 else ""
+            each = f"{_duration(seconds_each)}" + (
+                f" and {_bytes(bytes_each)}" if bytes_each > 0 else ""
+            )
             raise argparse.ArgumentTypeError(
-                f"at most {limit:,} {what} (≈ {_duration(seconds_each)} each: the bound alone is "
-                f"≈ {_duration(limit * seconds_each)} of work on one core), got {value:,}"
+                f"at most {limit:,} {what} (≈ {each} each: the bound alone is "
+                f"≈ {_duration(limit * seconds_each)} of work on one core{memory}), got {value:,}"
             )
         return value
 

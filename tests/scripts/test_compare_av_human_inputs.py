@@ -153,3 +153,14 @@ def test_a_partial_run_is_compared_with_a_note_naming_what_is_not_mined(tmp_path
     ), run.stderr
     n_cats = int(notes[0].split(" of the ")[1].split()[0])
     assert notes[0].startswith(f"note: {n_cats - 3} of the {n_cats} ")
+
+
+def test_a_bootstrap_beyond_memory_is_refused_before_any_work(tmp_path):
+    run = _run(tmp_path, "--samples", "100000000000", "--out", tmp_path / "out")
+    assert run.returncode == 2 and "MemoryError" not in run.stderr
+    last = run.stderr.strip().splitlines()[-1]
+    assert last == (
+        "drivestyle compare-av-human: error: argument --samples: at most 100,000 bootstrap "
+        "replicates (≈ 20 µs and 1.5 kB each: the bound alone is ≈ 2 s of work on one core "
+        "and ≈ 150 MB of memory), got 100,000,000,000"
+    )
