@@ -62,6 +62,7 @@ from drivestyle.agents.studies.prediction import (
     benchmark_split,
     calibrate_on_split,
     check_observed_times,
+    check_split_selects,
     episodes_split,
     evaluate_prediction,
     example_record,
@@ -169,15 +170,27 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-def _split_rows(args: argparse.Namespace) -> list[SplitRow]:
-    """``--split-file`` (default: the shipped split), read; a missing file named by its option."""
+def _split_rows(args: argparse.Namespace, split: str) -> list[SplitRow]:
+    """``--split-file`` (default: the shipped split), read and checked to select ``split``.
+
+    Every problem is named by the option: a missing, unreadable or malformed file (the row,
+    column and value), and a file with no episode of ``split`` (of each shipped dataset,
+    unless ``--episodes``: what it holds is said).
+    """
     path = SPLIT_FILE if args.split_file is None else args.split_file
     try:
-        return read_split(path)
+        rows = read_split(path)
     except FileNotFoundError:
         raise FileNotFoundError(f"--split-file {path}: no such file") from None
+    except OSError as exc:  # a folder, no permission
+        raise OSError(f"--split-file {path}: {exc.strerror or exc}") from None
     except ValueError as exc:
         raise ValueError(f"--split-file {exc}") from None
+    try:
+        check_split_selects(rows, split, None if args.episodes is not None else tuple(DATASETS))
+    except ValueError as exc:
+        raise ValueError(f"--split-file {path}: {exc}") from None
+    return rows
 
 
 def _physics(args: argparse.Namespace) -> PhysicsParams:
@@ -247,7 +260,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.calibrate_physics:
         if own and args.physics is None:  # never over the shipped benchmark's calibration
             raise ValueError("--episodes --calibrate-physics needs --physics (the file to write)")
-        chosen = None if args.split_file is None and own else _split_rows(args)
+        chosen = None if args.split_file is None and own else _split_rows(args, "train")
         cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
         physics_file = PHYSICS_FILE if args.physics is None else args.physics
         save_params(cal, physics_file)
@@ -287,7 +300,7 @@ def main(argv: list[str] | None = None) -> dict:
         if own and args.split_file is None:
             rows = None if args.split == "all" else episodes_split(args.episodes)
         else:
-            rows = _split_rows(args)
+            rows = _split_rows(args, args.split)
     bars: dict[str, tqdm] = {}
 
     def on_plan(stage: str, n: int) -> None:

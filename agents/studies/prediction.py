@@ -118,6 +118,7 @@ __all__ = [
     "RISK_RANGE",
     "SPLITS",
     "SPLIT_FILE",
+    "SPLIT_HEADER",
     "SPLIT_SEED",
     "STYLE_METHODS",
     "TEST_SEED",
@@ -137,6 +138,7 @@ __all__ = [
     "bootstrap_stats",
     "calibrate_on_split",
     "check_observed_times",
+    "check_split_selects",
     "draw_simulated",
     "episodes_split",
     "evaluate_prediction",
@@ -152,6 +154,7 @@ __all__ = [
     "recorded_episodes",
     "spanning_tracks",
     "split_by_vehicle",
+    "split_contents",
     "summarise_records",
     "summarise_tracking",
     "track_vehicle",
@@ -318,30 +321,95 @@ def write_split(rows: Sequence[SplitRow], path: str | Path = SPLIT_FILE) -> None
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+SPLIT_HEADER = ("dataset", "episode_id", "vehicle_id", "split")
+"""The columns of a split file (:func:`write_split`)."""
+
+
 def read_split(path: str | Path = SPLIT_FILE) -> list[SplitRow]:
-    """The split :func:`write_split` wrote.
+    """The split :func:`write_split` wrote, every row checked.
 
     The dataset column names the set a row's records are summarised under: ``ngsim`` and
     ``cats`` for the shipped samples, :data:`EPISODES_SET` (or any label) for a folder of
-    extracted episodes.
+    extracted episodes. Blank lines and a byte-order mark (a spreadsheet's UTF-8) are
+    skipped.
 
     Raises:
         FileNotFoundError: no such file.
-        ValueError: a malformed row or an unknown split.
+        OSError: not readable (a folder, no permission).
+        ValueError: not UTF-8 text, another header, or a row with cells missing or extra,
+            an empty cell, a split none of :data:`SPLITS`, or an episode listed twice (the
+            message names the file, the row and its line, the column and the value).
     """
     try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text file (a split CSV)") from None
-    if not lines or lines[0] != "dataset,episode_id,vehicle_id,split":
-        raise ValueError(f"{path}: expected the header dataset,episode_id,vehicle_id,split")
-    rows = []
-    for n, line in enumerate(lines[1:], start=2):
+        lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{path}: not a text file (byte {exc.start} is not UTF-8): not a split CSV"
+        ) from None
+    if not lines or tuple(lines[0].split(",")) != SPLIT_HEADER:
+        raise ValueError(
+            f"{path}: expected the header {','.join(SPLIT_HEADER)}, got "
+            f"{lines[0][:80] if lines else 'an empty file'!r}"
+        )
+    rows: list[SplitRow] = []
+    first: dict[str, int] = {}
+    for line_no, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        where = f"{path}, row {len(rows) + 1} (line {line_no}) is malformed"
         parts = line.split(",")
-        if len(parts) != 4 or parts[3] not in SPLITS or not all(parts[:3]):
-            raise ValueError(f"{path}:{n}: malformed row {line!r}")
+        if len(parts) != len(SPLIT_HEADER):
+            raise ValueError(
+                f"{where}: {len(parts)} cells where the header has {len(SPLIT_HEADER)} "
+                f"({line[:80]!r})"
+            )
+        for column, value in zip(SPLIT_HEADER, parts, strict=True):
+            if not value.strip():
+                raise ValueError(f"{where}: column {column} is empty")
+        if parts[3] not in SPLITS:
+            raise ValueError(f"{where}: column split {parts[3]!r} is none of {', '.join(SPLITS)}")
+        if parts[1] in first:
+            raise ValueError(
+                f"{where}: column episode_id {parts[1]} again (first in row {first[parts[1]]}): "
+                "an episode is in one split"
+            )
+        first[parts[1]] = len(rows) + 1
         rows.append(SplitRow(*parts))
     return rows
+
+
+def split_contents(rows: Sequence[SplitRow]) -> str:
+    """What a split holds, per dataset: ``cats: train 60, test 24; ngsim: …`` (for messages)."""
+    counts: dict[str, dict[str, int]] = {}
+    for r in rows:
+        counts.setdefault(r.dataset, dict.fromkeys(SPLITS, 0))[r.split] += 1
+    if not counts:
+        return "no episode"
+    return "; ".join(
+        f"{ds}: " + ", ".join(f"{s} {n}" for s, n in per.items() if n)
+        for ds, per in sorted(counts.items())
+    )
+
+
+def check_split_selects(
+    rows: Sequence[SplitRow], split: str, datasets: Sequence[str] | None = None
+) -> None:
+    """Refuse a split that selects no episode: a benchmark of nothing is no result.
+
+    Args:
+        rows: the split.
+        split: the chosen split (``all``: every row; it selects something if there is one).
+        datasets: datasets that must each have an episode in it (None: any will do).
+
+    Raises:
+        ValueError: no episode of ``split`` (of one of ``datasets``); the message says what
+            the split holds.
+    """
+    chosen = [r for r in rows if split in ("all", r.split)]
+    short = [ds for ds in datasets or () if not any(r.dataset == ds for r in chosen)]
+    if not chosen or short:
+        of = f" of {' or '.join(short)}" if short else ""
+        raise ValueError(f"no {split} episode{of} (the split holds {split_contents(rows)})")
 
 
 # ---------------------------------------------------------------------------- vehicles
@@ -574,7 +642,11 @@ def load_episodes_folder(
         )
     chosen = [r for r in rows if r.episode_id in found and split in ("all", r.split)]
     if not chosen:
-        raise ValueError(f"the split has no {split} episode of {folder}")
+        theirs = [r for r in rows if r.episode_id in found]
+        raise ValueError(
+            f"the split has no {split} episode of {folder} (of its episodes the split holds "
+            f"{split_contents(theirs)})"
+        )
     return [(r.dataset, r.episode_id, found[r.episode_id][1], r.vehicle_id) for r in chosen]
 
 
@@ -1371,6 +1443,7 @@ def calibrate_on_split(
         chosen = load_episodes_folder(episodes_dir, rows, "train")
         return calibrate_physics(physics_cases([(e, d) for _, e, d, _ in chosen], t_obs))
     rows = read_split() if rows is None else rows
+    check_split_selects(rows, "train", tuple(DATASETS))
     recorded = []
     for ds in DATASETS:
         ids = [r.episode_id for r in rows if r.dataset == ds and r.split == "train"]
@@ -1524,6 +1597,8 @@ def evaluate_prediction(
         recorded_sets = tuple(dict.fromkeys(r[0] for r in recorded))
     elif data_dir is not None:
         rows = (split_rows if split_rows is not None else read_split()) if split else []
+        if split:
+            check_split_selects(rows, split, tuple(DATASETS))
         unit_of = {r.episode_id: r.vehicle_id for r in rows}
         for ds in DATASETS:
             ids = None if split is None else [r.episode_id for r in rows

@@ -8,40 +8,24 @@ before any output is written.
 
 import csv
 import io
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from cli_runner import DATA, run_command
 
 from drivestyle.irl.mining import COLUMNS, MinedRow
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 needs_cats = pytest.mark.skipif(
     not (DATA / "cats-av-lanechange" / "tracks.csv.gz").is_file(),
     reason="the CATS sample is absent",
 )
 
 
-def _run(cwd: Path, *args) -> subprocess.CompletedProcess:
-    env = {**os.environ, "MPLBACKEND": "Agg"}
-    env.pop("DRIVESTYLE_TRACEBACK", None)
-    return subprocess.run(
-        [sys.executable, "-m", "drivestyle", "compare-av-human", *map(str, args)],
-        cwd=cwd, capture_output=True, text=True, timeout=300, env=env,
-    )  # fmt: skip
-
-
-def _refused(cwd: Path, *args) -> str:
-    """The one error line of a refused run (exit 2, no output folder)."""
-    run = _run(cwd, *args, "--data-dir", DATA, "--out", cwd / "out")
-    assert run.returncode == 2, run.stderr
-    lines = run.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), run.stderr
-    assert "Traceback" not in run.stderr and not (cwd / "out").exists()
-    return lines[0]
+def _refused(refused, tmp_path: Path, *args) -> str:
+    return "error: " + refused(
+        "compare-av-human", *args, "--data-dir", DATA, "--out", tmp_path / "out"
+    )
 
 
 def _ok(i: str, mean: float = 0.7) -> MinedRow:
@@ -114,16 +98,18 @@ ROWS = [_ok("AV-02-E_4_35217018"), _ok("AV-03-W_3_35208176"), _ok("AV-04-W_2_354
                      id="row-twice"),
     ],
 )  # fmt: skip
-def test_a_damaged_styles_table_is_one_error_naming_row_column_and_value(tmp_path, edit, said):
+def test_a_damaged_styles_table_is_one_error_naming_row_column_and_value(
+    tmp_path, refused, edit, said
+):
     mined = _mined(tmp_path / "mined", ROWS, edit)
-    line = _refused(tmp_path, "--mined", mined)
+    line = _refused(refused, tmp_path, "--mined", mined)
     assert line.startswith(f"error: {mined / 'styles.csv'}, row "), line
     assert re.search(said, line), line
 
 
-def test_a_header_only_run_is_an_error_not_a_table_of_not_mined(tmp_path):
+def test_a_header_only_run_is_an_error_not_a_table_of_not_mined(tmp_path, refused):
     mined = _mined(tmp_path / "mined", [])
-    line = _refused(tmp_path, "--mined", mined)
+    line = _refused(refused, tmp_path, "--mined", mined)
     assert line.endswith(
         f"{mined / 'styles.csv'} has no row: the mining run mined nothing yet (resume it, or "
         "mine the CATS sample: drivestyle mine-styles --dataset cats)"
@@ -131,9 +117,9 @@ def test_a_header_only_run_is_an_error_not_a_table_of_not_mined(tmp_path):
 
 
 @needs_cats
-def test_a_run_of_another_dataset_is_an_error_not_a_table_of_not_mined(tmp_path):
+def test_a_run_of_another_dataset_is_an_error_not_a_table_of_not_mined(tmp_path, refused):
     mined = _mined(tmp_path / "mined", [_ok("i80_1600_first60s_115_57575")])
-    line = _refused(tmp_path, "--mined", mined)
+    line = _refused(refused, tmp_path, "--mined", mined)
     assert (
         line.startswith(f"error: --mined {mined}: the mined rows are of none of the ")
         and "CATS lane changes (their ids: i80_1600_first60s_115_57575); mine the CATS" in line
@@ -143,8 +129,8 @@ def test_a_run_of_another_dataset_is_an_error_not_a_table_of_not_mined(tmp_path)
 @needs_cats
 def test_a_partial_run_is_compared_with_a_note_naming_what_is_not_mined(tmp_path):
     mined = _mined(tmp_path / "mined", ROWS)
-    run = _run(tmp_path, "--mined", mined, "--data-dir", DATA, "--samples", "50",
-               "--out", tmp_path / "out")  # fmt: skip
+    run = run_command(tmp_path, "compare-av-human", "--mined", mined, "--data-dir", DATA,
+                      "--samples", "50", "--out", tmp_path / "out")  # fmt: skip
     assert run.returncode == 0, run.stderr
     notes = [line for line in run.stderr.splitlines() if line.startswith("note: ")]
     assert len(notes) == 1 and notes[0].endswith(
@@ -156,7 +142,7 @@ def test_a_partial_run_is_compared_with_a_note_naming_what_is_not_mined(tmp_path
 
 
 def test_a_bootstrap_beyond_memory_is_refused_before_any_work(tmp_path):
-    run = _run(tmp_path, "--samples", "100000000000", "--out", tmp_path / "out")
+    run = run_command(tmp_path, "compare-av-human", "--samples", "100000000000")
     assert run.returncode == 2 and "MemoryError" not in run.stderr
     last = run.stderr.strip().splitlines()[-1]
     assert last == (

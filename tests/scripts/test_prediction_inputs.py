@@ -1,0 +1,99 @@
+"""evaluate-prediction, predict-trajectory and evaluate-out-of-class on bad inputs, as a user
+meets them: each run in a fresh process must end in one line ``error: …`` naming the option,
+the file and what is wrong with it (exit 2), before any work starts.
+"""
+
+import json
+from pathlib import Path
+
+import pytest
+from cli_runner import DATA
+
+from drivestyle.agents.studies.prediction import SPLIT_FILE, read_split, write_split
+from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.library import DriverLibrary
+
+needs_data = pytest.mark.skipif(
+    not (DATA / "ngsim").is_dir() or not (DATA / "cats-av-lanechange").is_dir(),
+    reason="../shared/data not beside the checkout",
+)
+
+
+@pytest.fixture()
+def library(tmp_path) -> Path:
+    lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9, 0.95))
+    (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
+    return tmp_path / "library.json"
+
+
+def _benchmark(refused, library: Path, *args) -> str:
+    """evaluate-prediction of the recorded benchmark only, refused."""
+    return refused("evaluate-prediction", "--library", library, "--no-simulated",
+                   "--data-dir", DATA, "--out", "out", *args)  # fmt: skip
+
+
+# ------------------------------------------------------------------------- --split-file
+@needs_data
+def test_a_split_file_without_an_episode_of_the_split_is_refused(tmp_path, library, refused):
+    # before: "Predictions: 0", exit 0 — a benchmark of nothing
+    train_only = [r for r in read_split(SPLIT_FILE) if r.split == "train"]
+    write_split(train_only, tmp_path / "train_only.csv")
+    said = _benchmark(refused, library, "--split-file", tmp_path / "train_only.csv")
+    ngsim = sum(r.dataset == "ngsim" for r in train_only)
+    cats = sum(r.dataset == "cats" for r in train_only)
+    assert said == (
+        f"--split-file {tmp_path / 'train_only.csv'}: no validation episode of ngsim or cats "
+        f"(the split holds cats: train {cats}; ngsim: train {ngsim})"
+    )
+    # one dataset without it is refused too: its set would be summarised over nothing
+    rows = [r for r in read_split(SPLIT_FILE) if r.dataset == "ngsim" or r.split != "test"]
+    write_split(rows, tmp_path / "no_cats_test.csv")
+    said = _benchmark(refused, library, "--split", "test", "--split-file",
+                      tmp_path / "no_cats_test.csv")  # fmt: skip
+    assert said.startswith(f"--split-file {tmp_path / 'no_cats_test.csv'}: no test episode of cats")
+
+
+@needs_data
+@pytest.mark.parametrize(
+    ("content", "said"),
+    [
+        (None, "{path}: no such file"),
+        ("folder", "{path}: Is a directory"),
+        ("dataset,episode,vehicle\n", "--split-file {path}: expected the header "
+         "dataset,episode_id,vehicle_id,split, got 'dataset,episode,vehicle'"),
+        ("dataset,episode_id,vehicle_id,split\nngsim,e1,ngsim:i80:1,val\n",
+         "--split-file {path}, row 1 (line 2) is malformed: column split 'val' is none of train, "
+         "validation, test"),
+        ("dataset,episode_id,vehicle_id,split\nngsim,e1,ngsim:i80:1\n",
+         "--split-file {path}, row 1 (line 2) is malformed: 3 cells where the header has 4 "
+         "('ngsim,e1,ngsim:i80:1')"),
+        ("dataset,episode_id,vehicle_id,split\nngsim,e1,,train\n",
+         "--split-file {path}, row 1 (line 2) is malformed: column vehicle_id is empty"),
+        ("dataset,episode_id,vehicle_id,split\nngsim,e1,v,train\ncats,e1,w,test\n",
+         "--split-file {path}, row 2 (line 3) is malformed: column episode_id e1 again (first in "
+         "row 1): "
+         "an episode is in one split"),
+        ("utf-16", "--split-file {path}: not a text file (byte 0 is not UTF-8): not a split CSV"),
+    ],
+    ids=["missing", "folder", "header", "unknown-split", "short-row", "empty-cell",
+         "episode-twice", "utf-16"],
+)  # fmt: skip
+def test_a_missing_malformed_or_foreign_split_file_is_named_by_its_option(
+    tmp_path, library, refused, content, said
+):
+    path = tmp_path / "split.csv"
+    if content == "folder":
+        path.mkdir()
+    elif content == "utf-16":
+        path.write_text("dataset,episode_id,vehicle_id,split\n", encoding="utf-16")
+    elif content is not None:
+        path.write_text(content)
+    line = _benchmark(refused, library, "--split-file", path)
+    expected = said.format(path=path)
+    assert line == (expected if expected.startswith("--") else f"--split-file {expected}"), line
+
+
+def test_a_split_file_with_a_byte_order_mark_is_read(tmp_path):
+    bom = tmp_path / "split.csv"
+    bom.write_text(SPLIT_FILE.read_text(), encoding="utf-8-sig")  # as a spreadsheet saves UTF-8
+    assert read_split(bom) == read_split(SPLIT_FILE)
