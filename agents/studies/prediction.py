@@ -134,6 +134,7 @@ __all__ = [
     "SplitRow",
     "TrackingRecord",
     "TrackingSummary",
+    "VehicleSpan",
     "benchmark_split",
     "bootstrap_stats",
     "calibrate_on_split",
@@ -152,6 +153,7 @@ __all__ = [
     "predict_demo",
     "read_split",
     "recorded_episodes",
+    "recorded_spans",
     "spanning_tracks",
     "split_by_vehicle",
     "split_contents",
@@ -1457,24 +1459,55 @@ def _geometry(demo: Demonstration) -> tuple:
     return (round(sc.l_f, 6), round(sc.l_r, 6), round(sc.l_a, 6), round(sc.l_b, 6), slots)
 
 
-def _simulated_spans() -> list[tuple[float, float]]:
-    """(T_s, length) [s] of the simulated vehicles' demonstrations (both families)."""
+@dataclass(frozen=True)
+class VehicleSpan:
+    """How long the vehicles of one kind last, and their T_s: what an observed time needs."""
+
+    kind: str
+    """What they are, plural ("simulated ones", "highway-env lane changes"), for messages."""
+    dt: float
+    """Their T_s [s]: an observed time is a whole number of it."""
+    length_s: float
+    """The longest one's length [s]: an observed time is shorter."""
+    at_most: bool = False
+    """Whether their lengths vary (the message says "at most")."""
+
+    def __str__(self) -> str:
+        return f"{self.kind} {'at most ' if self.at_most else ''}{self.length_s:g} s"
+
+
+def _simulated_spans() -> list[VehicleSpan]:
+    """The simulated vehicles' demonstrations (both families)."""
     bases = (ScenarioRanges().base, TrafficRanges().single.base)
-    return [(b.dt, b.horizon_s) for b in bases]
+    return [VehicleSpan("simulated ones", b.dt, b.horizon_s) for b in bases]
+
+
+def recorded_spans(recorded: Sequence[Demonstration]) -> list[VehicleSpan]:
+    """The recorded episodes' spans: one per T_s among them (none without episodes)."""
+    by_dt: dict[float, float] = {}
+    for d in recorded:
+        dt = round(float(d.t[1] - d.t[0]), 9)
+        by_dt[dt] = max(by_dt.get(dt, 0.0), float(d.t[-1] - d.t[0]))
+    return [VehicleSpan("recorded ones", dt, n, at_most=True) for dt, n in by_dt.items()]
 
 
 def check_observed_times(
     t_obs: Sequence[float],
     recorded: Sequence[Demonstration] = (),
     simulated: bool = True,
+    others: Sequence[VehicleSpan] = (),
 ) -> tuple[float, ...]:
-    """The observed times as the study uses them, refusing times no vehicle can be observed.
+    """The observed times as a study uses them, refusing times no vehicle can be observed.
+
+    The one rule of every command that predicts after observed times (evaluate-prediction,
+    evaluate-out-of-class), checked before any vehicle is simulated.
 
     Args:
         t_obs: observed times [s] (repeats are dropped: a time counted twice would count
             every vehicle twice in its summary; the caller says so).
         recorded: the run's recorded episodes (raw demonstrations).
-        simulated: whether the run has simulated vehicles.
+        simulated: whether the run has this study's simulated vehicles.
+        others: the spans of the run's other vehicles (another study's).
 
     Returns:
         The distinct times, in the given order.
@@ -1493,25 +1526,23 @@ def check_observed_times(
     bad = [t for t in times if not (np.isfinite(t) and t > 0)]
     if bad:
         raise ValueError(f"observed times must be finite and > 0 s, got {bad}")
-    spans = (_simulated_spans() if simulated else []) + [
-        (float(d.t[1] - d.t[0]), float(d.t[-1] - d.t[0])) for d in recorded
-    ]
+    spans = [*(_simulated_spans() if simulated else []), *recorded_spans(recorded), *others]
     if not spans:
         return tuple(times)
-    longest = max(length for _, length in spans)
+    longest = max(s.length_s for s in spans)
     beyond = [t for t in times if t >= longest - 1e-9]
     if beyond:
-        lasting = []
-        if simulated:
-            lasting.append(f"simulated ones {max(h for _, h in _simulated_spans()):g} s")
-        if recorded:
-            lasting.append(f"recorded ones at most {max(d.t[-1] - d.t[0] for d in recorded):g} s")
+        lasting: dict[tuple[str, bool], VehicleSpan] = {}  # the longest of each kind
+        for span in spans:
+            key = (span.kind, span.at_most)
+            if key not in lasting or span.length_s > lasting[key].length_s:
+                lasting[key] = span
         raise ValueError(
             f"observed time(s) {', '.join(f'{t:g}' for t in beyond)} s: no vehicle of this run "
             "lasts that long, nothing would be left to predict (the "
-            f"{' and '.join(lasting)}); observe less than {longest:g} s"
+            f"{' and '.join(map(str, lasting.values()))}); observe less than {longest:g} s"
         )
-    for dt in sorted({round(dt, 9) for dt, _ in spans}):
+    for dt in sorted({round(s.dt, 9) for s in spans}):
         for t in times:
             k = t / dt
             if abs(k - round(k)) > 1e-6:

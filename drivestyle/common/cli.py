@@ -239,9 +239,9 @@ def _bytes(n: float) -> str:
 
 
 def count(
-    limit: int, seconds_each: float, what: str, bytes_each: float = 0.0
+    limit: int, seconds_each: float, what: str, bytes_each: float = 0.0, least: int = 1
 ) -> Callable[[str], int]:
-    """An argparse type: how many of something, an integer in [1, ``limit``].
+    """An argparse type: how many of something, an integer in [``least``, ``limit``].
 
     Args:
         limit: the largest number a run may ask for (where the work takes days or more, or
@@ -250,6 +250,7 @@ def count(
         what: what is counted, plural ("scenes"), said in the error.
         bytes_each: the rough memory one holds at once with all the others [bytes] (0:
             the count costs time, not memory), said in the error.
+        least: the smallest number (0 where none of it is a choice, e.g. no scenarios).
 
     Returns:
         The type function (its error names the bound and the time, and memory, the bound
@@ -257,7 +258,9 @@ def count(
     """
 
     def parse(text: str) -> int:
-        value = positive_int(text)
+        value = _number(text, int, "an integer")
+        if value < least:
+            raise argparse.ArgumentTypeError(f"must be >= {least}, got {value}")
         if value > limit:
             memory = f" and ≈ {_bytes(limit * bytes_each)} of memory" if bytes_each > 0 else ""
             each = f"{_duration(seconds_each)}" + (

@@ -27,3 +27,19 @@ def refused(tmp_path) -> Callable[..., str]:
         return lines[-1].removeprefix("error: ")
 
     return run
+
+
+@pytest.fixture()
+def refused_option(tmp_path) -> Callable[..., str]:
+    """Run a command whose option its parser refuses: exit 2 and the usage, then one line
+    ``<prog>: error: argument <option>: …``; returns what follows ``argument``."""
+
+    def run(command: str, *args) -> str:
+        done = run_command(tmp_path, command, *args)
+        assert done.returncode == 2, f"exit {done.returncode}\n{done.stderr[-3000:]}"
+        last = done.stderr.strip().splitlines()[-1]
+        prefix = f"drivestyle {command}: error: argument "
+        assert last.startswith(prefix) and "Traceback" not in done.stderr, done.stderr[-3000:]
+        return last.removeprefix(prefix)
+
+    return run

@@ -97,3 +97,57 @@ def test_a_split_file_with_a_byte_order_mark_is_read(tmp_path):
     bom = tmp_path / "split.csv"
     bom.write_text(SPLIT_FILE.read_text(), encoding="utf-8-sig")  # as a spreadsheet saves UTF-8
     assert read_split(bom) == read_split(SPLIT_FILE)
+
+
+# ------------------------------------------------------------------- evaluate-out-of-class
+def _out_of_class(refused, library: Path, *args) -> str:
+    return refused("evaluate-out-of-class", "--library", library, "--out", "out", *args)
+
+
+@pytest.mark.parametrize(
+    ("observe", "said"),
+    [
+        ("50", "--observe: observed time(s) 50 s: no vehicle of this run lasts that long, "
+               "nothing would be left to predict (the highway-env lane changes at most 8 s and "
+               "SMPC drivers 6 s); observe less than 8 s"),
+        ("0.3", "--observe: observed time 0.3 s is not a whole number of the vehicles' T_s = "
+                "0.2 s; use 0.2 or 0.4 s"),
+        ("7", "--observe: observed time(s) 7 s: no vehicle of this run lasts that long, nothing "
+              "would be left to predict (the SMPC drivers 6 s); observe less than 6 s"),
+        ("0,1", "--observe: observed times must be finite and > 0 s, got [0.0]"),
+    ],
+    ids=["beyond-every-lane-change", "not-whole-samples", "beyond-smpc-only", "zero"],
+)  # fmt: skip
+def test_out_of_class_refuses_an_observed_time_no_lane_change_serves(
+    library, refused, observe, said
+):
+    # before: 6–10 min of simulation, then every prediction skipped
+    extra = ["--no-highway"] if observe == "7" else []
+    assert _out_of_class(refused, library, "--observe", observe, *extra) == said
+
+
+def test_out_of_class_checks_its_risks_range_first_then_their_number(
+    library, refused, refused_option
+):
+    # a risk outside the class's range is said as such, not as a count problem
+    said = refused_option("evaluate-out-of-class", "--library", library, "--risks", "1.0")
+    assert said == "--risks: SMPC risks must lie in [0.5, 1), got 1"
+    said = refused_option("evaluate-out-of-class", "--library", library, "--risks", "0.4,0.7")
+    assert said == "--risks: SMPC risks must lie in [0.5, 1), got 0.4"
+    said = _out_of_class(refused, library, "--risks", "0.7,0.7")
+    assert said == (
+        "--risks: the SMPC variants need at least two distinct risks to order, got 0.7 (or "
+        "--scenarios 0: no SMPC variants)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("value", "said"),
+    [("-1", "--scenarios: must be >= 0, got -1"),
+     ("1000000", "--scenarios: at most 1,000 scenarios (≈ 30 s each: the bound alone is ≈ 8.33 "
+                 "hours of work on one core), got 1,000,000"),
+     ("two", "--scenarios: 'two' is not an integer")],
+)  # fmt: skip
+def test_out_of_class_bounds_its_scenarios(library, refused_option, value, said):
+    assert refused_option("evaluate-out-of-class", "--library", library, "--scenarios",
+                          value) == said  # fmt: skip
