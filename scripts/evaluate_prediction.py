@@ -41,7 +41,9 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from tqdm import tqdm
 
@@ -61,11 +63,13 @@ from drivestyle.agents.studies.prediction import (
     SplitRow,
     benchmark_split,
     calibrate_on_split,
+    calibration_records,
     check_observed_times,
     check_split_selects,
     episodes_split,
     evaluate_prediction,
     example_record,
+    read_prediction_run,
     read_split,
     spanning_tracks,
     write_split,
@@ -204,35 +208,28 @@ def _physics(args: argparse.Namespace) -> PhysicsParams:
         raise ValueError(f"--physics {path}: not a physics parameters file ({exc})") from None
 
 
-def _calibration(args: argparse.Namespace) -> list[dict]:
-    """The records of ``--regions-from`` (another split's run), checked."""
-    import json
+def _calibration(args: argparse.Namespace) -> list[Mapping[str, Any]]:
+    """The records of ``--regions-from`` (another split's run) that calibrate the regions.
 
-    path = args.regions_from
-    if Path(path).is_dir():
-        path = Path(path) / "prediction_eval.json"
+    Read and checked (:func:`read_prediction_run`, :func:`calibration_records`) before any
+    work, every problem named by the option.
+    """
     if args.no_recorded:
         raise ValueError(
             "--regions-from calibrates regions for recorded episodes; drop --no-recorded"
         )
     try:
-        raw = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise FileNotFoundError(f"--regions-from {path}: no such file") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"--regions-from {path}: not JSON ({exc})") from None
-    records = raw.get("records") if isinstance(raw, dict) else None
-    if not isinstance(records, list) or not all(
-        isinstance(r, dict) and {"set", "fde_m", "horizon_s", "t_obs_s"} <= r.keys()
-        for r in records
-    ):
-        raise ValueError(f"--regions-from {path}: not a prediction_eval.json (no records)")
-    if raw.get("split") == args.split:
-        raise ValueError(
-            f"--regions-from {path} is a run of the {args.split} split itself: calibrate on "
-            "another split (its coverage would not be a test)"
-        )
-    return records
+        run = read_prediction_run(args.regions_from)
+        if run.split == args.split:
+            raise ValueError(
+                f"{run.path} is a run of the {args.split} split itself: calibrate on another "
+                "split (its coverage would not be a test)"
+            )
+        return calibration_records(run, args.observe)
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"--regions-from {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"--regions-from {exc}") from None
 
 
 def main(argv: list[str] | None = None) -> dict:

@@ -151,3 +151,37 @@ def test_out_of_class_checks_its_risks_range_first_then_their_number(
 def test_out_of_class_bounds_its_scenarios(library, refused_option, value, said):
     assert refused_option("evaluate-out-of-class", "--library", library, "--scenarios",
                           value) == said  # fmt: skip
+
+
+# -------------------------------------------------------------------------- --regions-from
+def _record(set_name: str, t_obs: float, fde: float = 1.0) -> dict:
+    return {"set": set_name, "t_obs_s": t_obs, "horizon_s": 3.0, "fde_m": {"cv": fde}}
+
+
+@pytest.mark.parametrize(
+    ("records", "said"),
+    [
+        ([], "{path} has no record of a recorded episode (no record): calibrate on a run that "
+             "predicted recorded episodes"),
+        ([_record("simulated", 1.0)] * 20,
+         "{path} has no record of a recorded episode (its 20 records are all simulated): "
+         "calibrate on a run that predicted recorded episodes"),
+        ([_record("cats", 1.0)] * 20 + [_record("ngsim", 2.0)] * 4,
+         "{path} calibrates no 90 % region at t_obs 2 s: a region needs at least 9 recorded "
+         "records of its t_obs, the run has 20 at 1 s, 4 at 2 s"),
+        ([_record("cats", 1.0, fde=-2.0)],
+         "{path}: record 0, fde_m.cv: -2.0 is not a distance >= 0 m"),
+        ([{**_record("cats", 1.0), "t_obs_s": "1"}],
+         "{path}: record 0, t_obs_s: '1' is not a time > 0 s"),
+    ],
+    ids=["no-records", "only-simulated", "too-few-at-a-time", "negative-fde", "text-time"],
+)  # fmt: skip
+def test_regions_from_a_run_that_cannot_calibrate_them_is_refused(
+    tmp_path, library, refused, records, said
+):
+    # before: no regions in the report, without a word
+    path = tmp_path / "val.json"
+    path.write_text(json.dumps({"split": "validation", "records": records}))
+    line = _benchmark(refused, library, "--split", "test", "--observe", "1,2",
+                      "--regions-from", path)  # fmt: skip
+    assert line == "--regions-from " + said.format(path=path), line
