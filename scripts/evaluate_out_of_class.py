@@ -27,7 +27,15 @@ from tqdm import tqdm
 from drivestyle.agents.studies.out_of_class import StudyConfig, run_study, vehicle_spans
 from drivestyle.agents.studies.prediction import PHYSICS_FILE, check_observed_times
 from drivestyle.agents.studies.reports import out_of_class_markdown
-from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed
+from drivestyle.common.cli import (
+    HelpFormatter,
+    count,
+    distinct,
+    float_list,
+    for_option,
+    run_cli,
+    seed,
+)
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -137,7 +145,8 @@ def main(argv: list[str] | None = None) -> dict:
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     config = _config(args)
     check_output_dir(args.out, inputs=[args.library])
-    physics = load_params(args.physics)
+    with for_option("--physics"):
+        physics = load_params(args.physics)
     library = load_driver_library(args.library, "identification")
     bars: dict[str, tqdm] = {}
 

@@ -75,7 +75,16 @@ from drivestyle.agents.studies.prediction import (
     write_split,
 )
 from drivestyle.agents.studies.reports import prediction_markdown
-from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed, workers
+from drivestyle.common.cli import (
+    HelpFormatter,
+    count,
+    distinct,
+    float_list,
+    for_option,
+    run_cli,
+    seed,
+    workers,
+)
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -199,13 +208,8 @@ def _split_rows(args: argparse.Namespace, split: str) -> list[SplitRow]:
 
 def _physics(args: argparse.Namespace) -> PhysicsParams:
     """``--physics`` (default: the shipped calibration), read; errors named by the option."""
-    path = PHYSICS_FILE if args.physics is None else args.physics
-    try:
-        return load_params(path)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"--physics {path}: no such file") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ValueError(f"--physics {path}: not a physics parameters file ({exc})") from None
+    with for_option("--physics"):
+        return load_params(PHYSICS_FILE if args.physics is None else args.physics)
 
 
 def _calibration(args: argparse.Namespace) -> list[Mapping[str, Any]]:
@@ -283,6 +287,7 @@ def main(argv: list[str] | None = None) -> dict:
             check_observed_times(args.observe)
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
+    physics = _physics(args)
     library = load_driver_library(args.library, "prediction")
     calibration = None if args.regions_from is None else _calibration(args)
     if not args.no_recorded and not own:
@@ -316,7 +321,7 @@ def main(argv: list[str] | None = None) -> dict:
             on_plan=on_plan,
             split=None if args.no_recorded else args.split,
             split_rows=rows,
-            physics=_physics(args),
+            physics=physics,
             calibration=calibration,
             episodes_dir=args.episodes,
         )

@@ -20,7 +20,8 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable, Hashable, Sequence
+from collections.abc import Callable, Hashable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any, TypeVar
 
 _T = TypeVar("_T", bound=Hashable)
@@ -36,6 +37,7 @@ __all__ = [
     "distinct",
     "finite_float",
     "float_list",
+    "for_option",
     "fraction",
     "nonnegative_int",
     "positive_float",
@@ -274,6 +276,24 @@ def count(
 
     parse.__name__ = f"count of {what}"  # argparse names the type in some messages
     return parse
+
+
+@contextmanager
+def for_option(option: str) -> Iterator[None]:
+    """Errors of reading an option's file, said as the option's: ``--physics FILE: …``.
+
+    The readers name the file first (``FILE: no such file``); the option in front tells the
+    user which of their words it was. A missing file stays a ``FileNotFoundError``, other
+    ``OSError`` and ``ValueError`` keep their kind (:data:`USER_ERRORS`: one line, exit 2).
+    """
+    try:
+        yield
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"{option} {exc}") from None
+    except OSError as exc:
+        raise OSError(f"{option} {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"{option} {exc}") from None
 
 
 def distinct(values: Sequence[_T]) -> tuple[list[_T], list[_T]]:

@@ -185,3 +185,32 @@ def test_regions_from_a_run_that_cannot_calibrate_them_is_refused(
     line = _benchmark(refused, library, "--split", "test", "--observe", "1,2",
                       "--regions-from", path)  # fmt: skip
     assert line == "--regions-from " + said.format(path=path), line
+
+
+# ------------------------------------------------------------------------------- --physics
+@pytest.mark.parametrize(
+    "command", ["predict-trajectory", "evaluate-prediction", "evaluate-out-of-class"]
+)
+def test_a_torn_physics_file_is_one_line_named_by_the_option(
+    tmp_path, library, refused, paper_demo, command
+):
+    # before: json's "Expecting ',' delimiter: line 1 column 29 (char 28)", no file named
+    from drivestyle.envs.demonstration import save_demonstration
+
+    physics = tmp_path / "physics.json"
+    physics.write_text('{"params": {"v0_factor": 1.1')
+    args = {
+        "predict-trajectory": [tmp_path / "demo.npz", "--library", library],
+        "evaluate-prediction": ["--library", library, "--no-recorded", "--vehicles", "2"],
+        "evaluate-out-of-class": ["--library", library],
+    }[command]
+    if command == "predict-trajectory":
+        save_demonstration(paper_demo, tmp_path / "demo.npz")
+    said = refused(command, *args, "--physics", physics, "--out", "out")
+    assert said == (
+        f"--physics {physics}: not JSON (Expecting ',' delimiter at line 1, column 29)"
+    ), said
+    physics.unlink()
+    assert refused(command, *args, "--physics", physics, "--out", "out") == (
+        f"--physics {physics}: no such file"
+    )
