@@ -34,13 +34,13 @@ Example:
 from __future__ import annotations
 
 import argparse
-import hashlib
 import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
 from drivestyle.common.cli import HelpFormatter, run_cli
+from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver_style import DriverStyleError, Reproduction, reproduce
@@ -85,7 +85,10 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out)
     library = load_any_library(args.library)
-    paths = _distinct_files(args.demos)
+    files = distinct_files(args.demos)
+    if files.note:
+        print(files.note, file=sys.stderr)
+    paths = list(files.kept)
     demos = [load_demonstration(p) for p in paths]
     t0 = time.perf_counter()
     ident = identify(demos, library, scorer=args.scorer)
@@ -165,36 +168,6 @@ def _plot(
                 print(f"  note: no reproduction drawn: {exc}", file=sys.stderr)
         reproductions.append(rep)
     plot_identification(ident, demos, reproductions, path)
-
-
-def _distinct_files(paths: list[Path]) -> list[Path]:
-    """``paths`` without repeats — the same file (resolved) or the same bytes — said on stderr.
-
-    The first of each is kept; a missing file too (loading it names it).
-    """
-    kept: list[Path] = []
-    spelled: dict[Path, Path] = {}  # a resolved file → how it was first given
-    given: dict[Path, int] = {}  # … → how often it was given
-    by_content: dict[str, Path] = {}
-    copies: list[tuple[Path, Path]] = []  # (a file, the kept one of the same bytes)
-    for path in paths:
-        real = path.resolve()
-        if real in spelled:
-            given[real] += 1
-            continue
-        spelled[real], given[real] = path, 1
-        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
-        if digest is not None and digest in by_content:
-            copies.append((path, by_content[digest]))
-            continue
-        if digest is not None:
-            by_content[digest] = path
-        kept.append(path)
-    said = [f"{spelled[r]} given {n} times" for r, n in given.items() if n > 1]
-    said += [f"{p} has the content of {first}" for p, first in copies]
-    if said:
-        print(f"note: each demonstration counts once: {'; '.join(said)}", file=sys.stderr)
-    return kept
 
 
 if __name__ == "__main__":

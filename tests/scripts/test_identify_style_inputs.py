@@ -1,4 +1,5 @@
-"""identify_style.py: a demonstration given twice (same file or same content) counts once."""
+"""identify-style and learn-style: a demonstration given twice (same file or same content)
+counts once."""
 
 import json
 import shutil
@@ -66,3 +67,21 @@ def test_plot_writes_a_figure_and_the_summary_says_the_verdict(tmp_path, paper_d
     png = np.asarray(Image.open(out / "identify.png").convert("L"), float)
     assert png.shape[0] > 200 and png.shape[1] > 600
     assert png.std() > 10  # not blank: lines and text on white
+
+
+def test_learn_style_counts_a_repeated_or_copied_demonstration_once(tmp_path, paper_demo):
+    # one rule with identify-style and mine-styles (drivestyle.common.inputs)
+    from cli_runner import run_command
+
+    save_demonstration(paper_demo, tmp_path / "a.npz")
+    shutil.copy(tmp_path / "a.npz", tmp_path / "copy.npz")
+    run = run_command(tmp_path, "learn-style", "a.npz", "copy.npz", "./a.npz", "--model",
+                      "paper", "--max-iter", "1", "--out", "style")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    notes = [line for line in run.stderr.splitlines() if line.startswith("note: ")]
+    assert notes == [
+        "note: each demonstration counts once: a.npz given 2 times; copy.npz has the content "
+        "of a.npz"
+    ]
+    style = json.loads((tmp_path / "style" / "style.json").read_text())
+    assert [d["path"] for d in style["demos"]] == ["a.npz"]

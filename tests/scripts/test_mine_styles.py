@@ -51,10 +51,11 @@ def lib(tmp_path) -> Path:
 
 
 def _unminable(folder: Path, names) -> Path:
-    """Files that load_demonstration rejects cleanly (a failed row each)."""
+    """Files that load_demonstration rejects cleanly (a failed row each), each its own bytes
+    (a byte copy would be mined once)."""
     folder.mkdir(parents=True, exist_ok=True)
     for n in names:
-        (folder / f"{n}.npz").write_bytes(b"not a demonstration " + n.encode())
+        (folder / f"{n}.npz").write_bytes(b"not a demonstration " + str(folder / n).encode())
     return folder
 
 
@@ -312,3 +313,23 @@ def test_a_recorded_sample_is_mined_through_the_extraction(dataset):
     wrong = mine_styles.parse_args(["--dataset", other, "--data", str(folder), "--library", "x"])
     with pytest.raises(ValueError, match=f"holds the {dataset} sample"):
         mine_styles._tasks(wrong)
+
+
+def test_a_byte_copy_is_mined_once_and_said(lib, tmp_path):
+    # before: a copy under another name was a second row, counted twice in the summary
+    from cli_runner import run_command
+
+    inp = _unminable(tmp_path / "in", ["a", "c"])
+    (inp / "sub").mkdir()
+    (inp / "sub" / "b.npz").write_bytes((inp / "a.npz").read_bytes())  # the same content
+    run = run_command(tmp_path, "mine-styles", inp, "--library", lib, "--out", "mined",
+                      "--workers", "1")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    notes = [line for line in run.stderr.splitlines() if line.startswith("note: ")]
+    assert notes == [
+        f"note: each demonstration counts once: {inp / 'sub' / 'b.npz'} has the content of "
+        f"{inp / 'a.npz'}"
+    ]
+    assert sorted(r["id"] for r in _table(tmp_path / "mined")) == ["a", "c"]
+    summary = json.loads((tmp_path / "mined" / "summary.json").read_text())
+    assert summary["n"] == 2
