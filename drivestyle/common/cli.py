@@ -3,7 +3,8 @@
 :func:`run_cli` wraps a script's ``main``: a bad input (a missing or malformed file, an
 invalid value, a solver that cannot start) ends with one line ``error: …`` naming the
 problem and exit status 2; Ctrl-C ends with exit status 130 after the script's atomic
-writes (:mod:`drivestyle.common.io`) have discarded the unfinished output; anything
+writes (:mod:`drivestyle.common.io`) have discarded the unfinished output (a script that
+keeps some, e.g. a resumable run's finished rows, says what with :class:`Interrupted`); anything
 unexpected ends with one line and exit status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the
 traceback).
 
@@ -30,9 +31,11 @@ __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_UNEXPECTED",
     "EXIT_USER_ERROR",
+    "INTERRUPTED",
     "SEED_MAX",
     "USER_ERRORS",
     "HelpFormatter",
+    "Interrupted",
     "count",
     "distinct",
     "finite_float",
@@ -72,6 +75,18 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
 """Exceptions that mean "bad input or environment" and carry a message for the user."""
 
 
+INTERRUPTED = "unfinished output was discarded"
+"""What Ctrl-C leaves of a command that writes its output atomically (most of them)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, with what a command keeps of its work (:func:`run_cli` says it).
+
+    A command whose output is not discarded on Ctrl-C (mine-styles keeps its finished rows
+    for the resume) raises this from the ``KeyboardInterrupt`` with the true words.
+    """
+
+
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """Help that shows each option's default once.
 
@@ -97,8 +112,9 @@ def run_cli(main: Callable[[list[str] | None], Any], argv: list[str] | None = No
     """
     try:
         main(argv)
-    except KeyboardInterrupt:
-        print("\ninterrupted: unfinished output was discarded", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        said = str(exc) if isinstance(exc, Interrupted) and str(exc) else INTERRUPTED
+        print(f"\ninterrupted: {said}", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
     except SystemExit:
         raise
