@@ -214,3 +214,19 @@ def test_a_torn_physics_file_is_one_line_named_by_the_option(
     assert refused(command, *args, "--physics", physics, "--out", "out") == (
         f"--physics {physics}: no such file"
     )
+
+
+# ------------------------------------------------------------------------ learn-population
+def test_learn_population_reads_its_split_file_through_the_same_checks(tmp_path, library, refused):
+    path = tmp_path / "split.csv"
+    write_split([r for r in read_split(SPLIT_FILE) if r.split == "test"], path)
+    said = refused("learn-population", "--library", library, "--split-file", path,
+                   "--data-dir", tmp_path, "--out", "people")  # fmt: skip
+    assert said.startswith(f"--split-file {path}: no train episode (the split holds cats: test ")
+    path.write_text("dataset,episode_id,vehicle_id,split\ncats,e1,cats:AV:3,training\n")
+    said = refused("learn-population", "--library", library, "--split-file", path,
+                   "--data-dir", tmp_path, "--out", "people")  # fmt: skip
+    assert said == (
+        f"--split-file {path}, row 1 (line 2) is malformed: column split 'training' is none of "
+        "train, validation, test"
+    )
