@@ -76,6 +76,14 @@ def test_a_negative_or_huge_seed_ends_in_one_error_line(script, value, capsys):
         ("evaluate_identification", "--scenarios", "at most 10,000 scenarios"),
         ("bench_env", "--steps", "at most 1,000,000,000 env steps"),
         ("compare_av_human", "--samples", "at most 100,000 bootstrap replicates"),
+        ("evaluate_out_of_class", "--scenarios", "at most 1,000 scenarios"),
+        ("evaluate_identification", "--continuous", "at most 1,000 continuous-risk"),
+        ("capacity_study", "--train", "at most 1,000 training scenarios"),
+        ("capacity_study", "--test", "at most 10,000 held-out scenarios"),
+        ("capacity_study", "--budget", "at most 100,000 objective evaluations"),
+        ("compare_baseline", "--heldout", "at most 10,000 held-out scenarios"),
+        ("train_baseline", "--timesteps", "at most 100,000,000 training env steps"),
+        ("reproduce_paper", "--baseline-timesteps", "at most 100,000,000 training env steps"),
     ],
 )
 def test_a_size_beyond_its_bound_is_refused_with_the_bound(script, option, message, capsys):
