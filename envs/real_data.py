@@ -26,6 +26,7 @@ refuse the sample with a message saying to convert.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -39,10 +40,12 @@ __all__ = [
     "DATASETS",
     "MATCH_S",
     "RecordedEpisode",
+    "RecordedVehicle",
     "is_recorded",
     "load_cats",
     "load_ngsim",
     "needs_recorded_bounds",
+    "recorded_vehicle",
     "recorded_view",
     "with_recorded_bounds",
 ]
@@ -201,6 +204,42 @@ to the heading estimate's error; recorded drivers reach 1.3–5× it)."""
 def is_recorded(demo: Demonstration) -> bool:
     """Whether a demonstration is a recorded episode (extracted: ``meta["episode_id"]``)."""
     return "episode_id" in demo.meta
+
+
+@dataclass(frozen=True)
+class RecordedVehicle:
+    """The vehicle a recorded episode is of (:func:`recorded_vehicle`)."""
+
+    source: str
+    """The recording's file (``meta["source"]``; empty where unknown)."""
+    carriageway: str
+    """The carriageway within it (empty where the episode's id does not say)."""
+    vehicle_id: str
+    """The recording's vehicle id (``meta["vehicle_id"]``)."""
+
+    def __str__(self) -> str:
+        return f"{self.carriageway}:{self.vehicle_id}" if self.carriageway else self.vehicle_id
+
+
+def recorded_vehicle(demo: Demonstration) -> RecordedVehicle | None:
+    """Which recorded vehicle a demonstration is of; None where its metadata does not say.
+
+    A vehicle id is unique within its carriageway of one recording (the rule of
+    :func:`~drivestyle.envs.episodes.read_episodes`, ``<carriageway>:<vehicle id>``), so a
+    recorded vehicle is (``meta["source"]``, the carriageway, ``meta["vehicle_id"]``). The
+    carriageway is read from the extraction's episode id, ``<carriageway>_<vehicle
+    id>_<crossing ms>`` (``meta["extraction_id"]`` of a curated episode, else
+    ``meta["episode_id"]``). The same car on two carriageways (CATS's vehicle 3 on two days)
+    is two vehicles here: nothing in an episode's metadata ties them. A demonstration
+    without ``meta["vehicle_id"]`` (a generated SMPC demonstration) is of no known vehicle.
+    """
+    vehicle_id = demo.meta.get("vehicle_id")
+    if vehicle_id is None or str(vehicle_id) == "":
+        return None
+    vid = str(vehicle_id)
+    eid = str(demo.meta.get("extraction_id") or demo.meta.get("episode_id") or "")
+    found = re.fullmatch(rf"(.+)_{re.escape(vid)}_\d+", eid)
+    return RecordedVehicle(str(demo.meta.get("source") or ""), found[1] if found else "", vid)
 
 
 def needs_recorded_bounds(demo: Demonstration, until: int | None = None) -> bool:

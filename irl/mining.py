@@ -67,15 +67,18 @@ __all__ = [
     "FAILURE_KINDS",
     "LABEL_COLUMNS",
     "LEGACY_COLUMNS",
+    "NONNEGATIVE_COLUMNS",
     "PRE_LABEL_COLUMNS",
     "PRE_VERDICT_COLUMNS",
     "RAY_TASK_RETRIES",
     "READABLE_HEADERS",
+    "RISK_COLUMNS",
     "TIMING_COLUMNS",
     "VERDICT_COLUMNS",
     "MinedRow",
     "Miner",
     "MiningTask",
+    "RowError",
     "mine",
     "summary_numbers",
     "verdict_numbers",
@@ -107,29 +110,76 @@ def _one_line(text: str) -> str:
     return flat if len(flat) <= MAX_ERROR_CHARS else flat[: MAX_ERROR_CHARS - 1] + "…"
 
 
-def _opt_float(text: str) -> float | None:
-    return None if text == "" else float(text)
+class RowError(ValueError):
+    """A ``styles.csv`` row that is no mined row, and where: the column and its value.
+
+    A table reader names the file and the row around it
+    (:func:`drivestyle.irl.mining_output.read_table`); a resumed run drops the row and
+    mines it again.
+
+    Args:
+        problem: what is wrong, in words (naming the value).
+        column: the column at fault (None: the row as a whole, e.g. a torn row).
+        value: its value.
+        row_id: the row's id, when known (the message starts with it).
+    """
+
+    def __init__(
+        self, problem: str, column: str | None = None, value: Any = None, row_id: str = ""
+    ) -> None:
+        super().__init__(f"row {row_id}: {problem}" if row_id else problem)
+        self.problem = problem
+        self.column = column
+        self.value = value
 
 
-def _opt_int(text: str) -> int | None:
-    return None if text == "" else int(text)
+RISK_COLUMNS = ("true_risk", "risk_estimate", "risk_lo", "risk_hi", "risk_mean")
+"""Columns that hold a risk level p, in (0, 1) wherever present."""
+NONNEGATIVE_COLUMNS = (
+    "rmse_y_m", "rmse_xy_m", "learn_s", "identify_s",
+    "residual_rms", "noise_floor", "kl_nats", "interval_width_ratio",
+)  # fmt: skip
+"""Columns of errors, times, widths and divergences: finite and >= 0 wherever present."""
 
 
-def _opt_bool(text: str) -> bool | None:
+def _opt_float(text: str, column: str) -> float | None:
+    if text == "":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise RowError(f"{text!r} is not a number", column, text) from None
+
+
+def _opt_int(text: str, column: str) -> int | None:
+    if text == "":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        raise RowError(f"{text!r} is not a whole number", column, text) from None
+
+
+def _opt_bool(text: str, column: str) -> bool | None:
     if text == "":
         return None
     if text not in ("True", "False"):
-        raise ValueError(f"expected True or False, got {text!r}")
+        raise RowError(f"expected True or False, got {text!r}", column, text)
     return text == "True"
 
 
-def _opt_theta(text: str) -> tuple[float, ...] | None:
+def _opt_theta(text: str, column: str = "theta_normalised") -> tuple[float, ...] | None:
     if text == "":
         return None
-    values = json.loads(text)
-    if not isinstance(values, list):
-        raise ValueError(f"theta_normalised must be a JSON list, got {text!r}")
-    return tuple(float(v) for v in values)
+    try:
+        values = json.loads(text)
+        if not isinstance(values, list):
+            raise ValueError
+        return tuple(float(v) for v in values)
+    except (ValueError, TypeError):
+        raise RowError(
+            f"theta_normalised must be a JSON list of numbers, got {text!r}", column, text
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -207,41 +257,63 @@ class MinedRow:
 
     def __post_init__(self) -> None:
         if not (isinstance(self.id, str) and self.id):
-            raise ValueError(f"a mined row needs a non-empty id, got {self.id!r}")
+            raise RowError(f"a mined row needs a non-empty id, got {self.id!r}", "id", self.id)
+        bad = self._bad
         if self.status not in STATUSES:
-            raise ValueError(
-                f"row {self.id}: status must be one of {STATUSES}, got {self.status!r}"
-            )
+            raise bad("status", f"status must be one of {STATUSES}, got {self.status!r}")
         if "\n" in self.error or "\r" in self.error:
-            raise ValueError(f"row {self.id}: the error must be one line")
+            raise bad("error", "the error must be one line")
         if "\n" in self.reason or "\r" in self.reason:
-            raise ValueError(f"row {self.id}: the reason must be one line")
+            raise bad("reason", "the reason must be one line")
         if self.verdict not in ("", *VERDICT_LABELS):
-            raise ValueError(
-                f"row {self.id}: verdict must be one of {VERDICT_LABELS}, got {self.verdict!r}"
-            )
+            raise bad("verdict", f"verdict must be one of {VERDICT_LABELS}, got {self.verdict!r}")
+        self._check_ranges()
         if self.status == "failed":
             if not self.error:
-                raise ValueError(f"row {self.id}: a failed row needs its error")
+                raise bad("error", "a failed row needs its error")
             if self.failure_kind not in FAILURE_KINDS:
-                raise ValueError(
-                    f"row {self.id}: failure_kind must be one of {FAILURE_KINDS}, "
-                    f"got {self.failure_kind!r}"
+                raise bad(
+                    "failure_kind",
+                    f"failure_kind must be one of {FAILURE_KINDS}, got {self.failure_kind!r}",
                 )
             return
         if self.error or self.failure_kind:
-            raise ValueError(f"row {self.id}: an ok row has no error, got {self.error!r}")
+            column = "error" if self.error else "failure_kind"
+            raise bad(column, f"an ok row has no error, got {self.error!r}")
         if self.verdict and self.verdict != self.label:
-            raise ValueError(
-                f"row {self.id}: verdict {self.verdict!r} contradicts its flags ({self.label})"
-            )
+            raise bad("verdict", f"verdict {self.verdict!r} contradicts its flags ({self.label})")
         needed = ("risk_estimate", "risk_lo", "risk_hi", "risk_mean", "theta_normalised")
         missing = [k for k in needed if getattr(self, k) is None]
         if missing:
-            raise ValueError(f"row {self.id}: an ok row needs {', '.join(missing)}")
+            raise bad(missing[0], f"an ok row needs {', '.join(missing)}")
         assert self.risk_lo is not None and self.risk_hi is not None  # checked above
         if not self.risk_lo <= self.risk_hi:
-            raise ValueError(f"row {self.id}: interval [{self.risk_lo}, {self.risk_hi}] is empty")
+            raise bad("risk_hi", f"interval [{self.risk_lo}, {self.risk_hi}] is empty")
+
+    def _bad(self, column: str, problem: str) -> RowError:
+        """The error of this row's ``column`` (its message names the row by id)."""
+        return RowError(problem, column, getattr(self, column, None), self.id)
+
+    def _check_ranges(self) -> None:
+        """Every number in its range: a value no mining writes is a damaged or foreign row.
+
+        Risks lie in (0, 1) (a posterior mean of 7.5 is no risk), errors, times, widths and
+        divergences are finite and >= 0, iterations a whole number >= 0, θ finite.
+        """
+        for column in RISK_COLUMNS:
+            p = getattr(self, column)
+            if p is not None and not (isinstance(p, int | float) and 0 < p < 1):
+                raise self._bad(column, f"{column} {p!r} is not a risk in (0, 1)")
+        for column in NONNEGATIVE_COLUMNS:
+            x = getattr(self, column)
+            if x is not None and not (isinstance(x, int | float) and math.isfinite(x) and x >= 0):
+                raise self._bad(column, f"{column} {x!r} is not a finite number >= 0")
+        n = self.iterations
+        if n is not None and not (isinstance(n, int) and n >= 0):
+            raise self._bad("iterations", f"iterations {n!r} is not a whole number >= 0")
+        theta = self.theta_normalised
+        if theta is not None and not all(math.isfinite(v) for v in theta):
+            raise self._bad("theta_normalised", f"theta_normalised {list(theta)} is not finite")
 
     @property
     def label(self) -> str | None:
@@ -306,45 +378,60 @@ class MinedRow:
         local engine wrote no others).
 
         Raises:
-            ValueError: a torn or malformed row (cells missing or extra, a value that does
-                not parse, an inconsistent row).
+            RowError: a torn or malformed row (cells missing or extra, a value that does
+                not parse or lies outside its range, an inconsistent row), naming the column.
         """
         columns = next((h for h in READABLE_HEADERS if h[-1] in record), COLUMNS)
-        if None in record or any(record.get(c) is None for c in columns):
-            raise ValueError("torn row (wrong number of cells)")
+        missing = [c for c in columns if record.get(c) is None]
+        if None in record or missing:
+            have = sum(v is not None for k, v in record.items() if k is not None)
+            extra = len(record.get(None) or ())
+            why = (
+                f"a torn row: no {', '.join(missing[:3])}{' …' if len(missing) > 3 else ''}"
+                if missing
+                else "a cell with an unquoted comma?"
+            )
+            raise RowError(f"{have + extra} cells where the header has {len(columns)} ({why})")
         cell = {c: str(record[c]) for c in columns}
         if columns is LEGACY_COLUMNS:
             cell["failure_kind"] = "data" if cell["status"] == "failed" else ""
         for c in (*VERDICT_COLUMNS, *LABEL_COLUMNS):
             cell.setdefault(c, "")
+
+        def number(c: str) -> float | None:
+            return _opt_float(cell[c], c)
+
+        def flag(c: str) -> bool | None:
+            return _opt_bool(cell[c], c)
+
         return cls(
             id=cell["id"],
             source=cell["source"],
             status=cell["status"],
             error=cell["error"],
-            true_risk=_opt_float(cell["true_risk"]),
-            risk_estimate=_opt_float(cell["risk_estimate"]),
-            risk_lo=_opt_float(cell["risk_lo"]),
-            risk_hi=_opt_float(cell["risk_hi"]),
-            risk_mean=_opt_float(cell["risk_mean"]),
-            informative=_opt_bool(cell["informative"]),
-            trigger_fired=_opt_bool(cell["trigger_fired"]),
+            true_risk=number("true_risk"),
+            risk_estimate=number("risk_estimate"),
+            risk_lo=number("risk_lo"),
+            risk_hi=number("risk_hi"),
+            risk_mean=number("risk_mean"),
+            informative=flag("informative"),
+            trigger_fired=flag("trigger_fired"),
             theta_normalised=_opt_theta(cell["theta_normalised"]),
-            rmse_y_m=_opt_float(cell["rmse_y_m"]),
-            rmse_xy_m=_opt_float(cell["rmse_xy_m"]),
-            iterations=_opt_int(cell["iterations"]),
-            converged=_opt_bool(cell["converged"]),
-            learn_s=_opt_float(cell["learn_s"]),
-            identify_s=_opt_float(cell["identify_s"]),
+            rmse_y_m=number("rmse_y_m"),
+            rmse_xy_m=number("rmse_xy_m"),
+            iterations=_opt_int(cell["iterations"], "iterations"),
+            converged=flag("converged"),
+            learn_s=number("learn_s"),
+            identify_s=number("identify_s"),
             failure_kind=cell["failure_kind"],
-            residual_rms=_opt_float(cell["residual_rms"]),
-            noise_floor=_opt_float(cell["noise_floor"]),
-            out_of_class=_opt_bool(cell["out_of_class"]),
-            kl_nats=_opt_float(cell["kl_nats"]),
-            interval_width_ratio=_opt_float(cell["interval_width_ratio"]),
+            residual_rms=number("residual_rms"),
+            noise_floor=number("noise_floor"),
+            out_of_class=flag("out_of_class"),
+            kl_nats=number("kl_nats"),
+            interval_width_ratio=number("interval_width_ratio"),
             reason=cell["reason"],
-            constraint_binds=_opt_bool(cell["constraint_binds"]),
-            enters_region=_opt_bool(cell["enters_region"]),
+            constraint_binds=flag("constraint_binds"),
+            enters_region=flag("enters_region"),
             verdict=cell["verdict"],
         )
 

@@ -43,7 +43,7 @@ from typing import Any
 
 from drivestyle.common.io import OutputInUseError, output_lock, write_text
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.mining import COLUMNS, READABLE_HEADERS, MinedRow
+from drivestyle.irl.mining import COLUMNS, READABLE_HEADERS, MinedRow, RowError
 
 __all__ = [
     "FINGERPRINT",
@@ -55,6 +55,7 @@ __all__ = [
     "RunFingerprint",
     "library_digest",
     "read_rows",
+    "read_table",
 ]
 
 TABLE = "styles.csv"
@@ -185,6 +186,77 @@ def read_rows(path: str | Path) -> list[MinedRow]:
     raw = path.read_bytes()
     text = raw[: raw.rfind(b"\n") + 1].decode("utf-8", errors="replace")
     return _parse_table(text, str(path))[0]
+
+
+def read_table(path: str | Path) -> list[MinedRow]:
+    """Every row of a mining run's ``styles.csv``, each validated: what its readers read.
+
+    A resumed run drops a damaged row and mines it again (:class:`MiningOutput`); a reader
+    of the results has no such remedy, so here a damaged row is an error that names it:
+    a last row without its line end (the run was interrupted while writing it: resume the
+    run), a row with cells missing or extra, a value that does not parse or lies outside
+    its range (:meth:`MinedRow.from_csv`), an id twice.
+
+    Args:
+        path: the ``styles.csv``.
+
+    Returns:
+        The rows, in file order (an empty list for a table of a header only).
+
+    Raises:
+        FileNotFoundError: no such file.
+        MiningOutputError: not a text file, not a ``styles.csv`` of any version
+            (:data:`READABLE_HEADERS`), or a row as above (the message names the file,
+            the row and its line, the column and the value).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise MiningOutputError(f"{path} is a folder, not a styles.csv")
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise MiningOutputError(
+            f"{path} is not a text file (byte {exc.start} is not UTF-8): not a styles.csv"
+        ) from None
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    if reader.fieldnames is None:
+        raise MiningOutputError(f"{path} is empty: not a styles.csv written by mine-styles")
+    if tuple(reader.fieldnames) not in READABLE_HEADERS:
+        raise MiningOutputError(
+            f"{path} is not a styles.csv of mine-styles (its columns: "
+            f"{', '.join(reader.fieldnames[:6])}{' …' if len(reader.fieldnames) > 6 else ''})"
+        )
+    records = [(record, reader.line_num) for record in reader]
+    # a last line without its line end is what a kill leaves (MiningOutput drops it too)
+    torn_last = not raw.endswith(b"\n")
+    rows: list[MinedRow] = []
+    first: dict[str, int] = {}
+    for n, (record, line) in enumerate(records, start=1):
+        where = f"{path}, row {n} (line {line})"
+        if torn_last and n == len(records):
+            raise MiningOutputError(
+                f"{where} is incomplete (no line end): the mining run was interrupted while "
+                "writing it; resume the run (drivestyle mine-styles with the same input, "
+                "library and --out mines that row again) before reading its results"
+            )
+        try:
+            row = MinedRow.from_csv(record)
+        except RowError as exc:
+            row_id = record.get("id") or ""
+            named = f" (id {row_id})" if row_id and exc.column != "id" else ""
+            # a range error names its column already ("risk_mean 7.5 is not a risk …")
+            said = exc.column is None or exc.problem.startswith(exc.column)
+            column = "" if said else f", column {exc.column}"
+            raise MiningOutputError(f"{where}{named}{column}: {exc.problem}") from None
+        if row.id in first:
+            raise MiningOutputError(
+                f"{where}: id {row.id} again (first in row {first[row.id]}): one row per "
+                "demonstration"
+            )
+        first[row.id] = n
+        rows.append(row)
+    return rows
 
 
 class MiningOutput:

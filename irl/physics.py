@@ -40,6 +40,7 @@ modelled: a change that has not started by t_obs is predicted as lane keeping.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
@@ -363,14 +364,54 @@ def save_params(calibration: PhysicsCalibration, path: str | Path) -> None:
 
 
 def load_params(path: str | Path) -> PhysicsParams:
-    """The parameters of a file :func:`save_params` wrote (its ``params`` entry).
+    """The parameters of a file :func:`save_params` wrote (its ``params`` entry), checked.
+
+    Every parameter of :class:`PhysicsParams` must be there, and no other; each a number,
+    finite and > 0, a calibrated one within :data:`BOUNDS` (what calibration keeps to: a
+    time gap of 30 s is no calibration's).
 
     Raises:
         FileNotFoundError: no such file.
-        ValueError: not such a file.
+        ValueError: a folder, not UTF-8 JSON, no ``params`` object, a parameter missing,
+            unknown, not a number or out of its range; one line naming the file and the
+            problem.
     """
-    raw = json.loads(Path(path).read_text())
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not a physics parameters file")
     try:
-        return PhysicsParams(**raw["params"])
-    except (KeyError, TypeError) as exc:
-        raise ValueError(f"{path} holds no physics parameters ({exc})") from None
+        raw = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such file") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not a text file (byte {exc.start} is not UTF-8)") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(
+            f"{path}: not JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})"
+        ) from None
+    params = raw.get("params") if isinstance(raw, dict) else None
+    if not isinstance(params, dict):
+        raise ValueError(
+            f'{path}: no "params" object: not a physics parameters file (drivestyle '
+            "evaluate-prediction --calibrate-physics --physics FILE writes one)"
+        )
+    names = [f.name for f in fields(PhysicsParams)]
+    unknown = [k for k in params if k not in names]
+    missing = [k for k in names if k not in params]
+    if unknown or missing:
+        what = [f"unknown {', '.join(unknown)}"] if unknown else []
+        what += [f"no {', '.join(missing)}"] if missing else []
+        raise ValueError(f"{path}: params: {'; '.join(what)} (expected {', '.join(names)})")
+    for name in names:
+        value = params[name]
+        ok = isinstance(value, int | float) and not isinstance(value, bool)
+        if not (ok and math.isfinite(value) and value > 0):
+            raise ValueError(f"{path}: params.{name} {value!r} is not a finite number > 0")
+        lo, hi = BOUNDS.get(name, (0.0, math.inf))
+        slack = 1e-6 * (hi - lo if math.isfinite(hi) else 1.0)  # the optimiser's last digits
+        if not lo - slack <= value <= hi + slack:
+            raise ValueError(
+                f"{path}: params.{name} {value:g} lies outside [{lo:g}, {hi:g}], the range "
+                "calibration keeps to"
+            )
+    return PhysicsParams(**params)

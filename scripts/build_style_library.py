@@ -36,7 +36,7 @@ from drivestyle.agents.demo_generation import (
     generate_demonstrations,
 )
 from drivestyle.agents.studies.figures import plot_theta_vs_risk
-from drivestyle.common.cli import HelpFormatter, count, risk_grid, run_cli, seed, workers
+from drivestyle.common.cli import HelpFormatter, count, risk_list, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.envs.tracking import observe
@@ -50,7 +50,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--risks",
-        type=risk_grid,
+        type=risk_list,
         default=[0.5, 0.6, 0.7, 0.8, 0.9, 0.95],
         help="comma-separated SMPC risk levels p in (0, 1), at least two (the driver model: "
         "in [0.5, 0.99])",
@@ -95,12 +95,18 @@ def main(argv: list[str] | None = None) -> dict:
     if args.scenarios is None:
         args.scenarios = 3 if args.model == "driver" else 30
     check_output_dir(args.out)
+    # each risk's range first, then how many: a risk of 0.995 is out of range, not too few
     lo, hi = RISK_RANGE
     outside = [p for p in args.risks if not lo <= p <= hi]
     if args.model == "driver" and outside:
         raise LibraryError(
-            f"--risks {outside} outside [{lo}, {hi}], the driver model's risk range "
-            "(the risks it infers); use --model paper for other risks"
+            f"--risks {', '.join(f'{p:g}' for p in outside)} outside [{lo}, {hi}], the driver "
+            "model's risk range (the risks it infers); use --model paper for other risks"
+        )
+    if len(args.risks) < 2:
+        raise ValueError(
+            f"--risks: need at least two risks to tell styles apart, got "
+            f"{', '.join(f'{p:g}' for p in args.risks)} (e.g. 0.5,0.7,0.9)"
         )
     if args.model == "driver":
         return _build_driver(args, argv)

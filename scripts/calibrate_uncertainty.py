@@ -19,7 +19,7 @@ from tqdm import tqdm
 
 from drivestyle.agents.studies.calibration import uncertainty_scan
 from drivestyle.agents.studies.figures import plot_risk_sweep
-from drivestyle.common.cli import HelpFormatter, float_list, risk_list, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, positive_list, risk_list, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
@@ -28,7 +28,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument(
         "--scales",
-        type=float_list,
+        type=positive_list,
         default=[0.8, 0.9, 1.0, 1.1, 1.2],
         help="comma-separated factors (> 0) on the calibrated TV uncertainty",
     )
@@ -50,8 +50,6 @@ def main(argv: list[str] | None = None) -> dict:
     """Run the scan; returns the JSON payload."""
     args = parse_args(argv)
     check_output_dir(args.out)
-    if any(not s > 0 for s in args.scales):
-        raise ValueError(f"--scales must be > 0, got {args.scales}")
     bar = tqdm(total=len(args.scales) * len(args.risks), desc="scale x risk")
     scan = uncertainty_scan(args.scales, args.risks, args.seed, lambda: bar.update(1))
     bar.close()

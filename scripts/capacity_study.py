@@ -19,7 +19,7 @@ from pathlib import Path
 
 from drivestyle.agents.studies.capacity import RiskCapacity, capacity_study
 from drivestyle.agents.studies.reports import capacity_markdown, seconds
-from drivestyle.common.cli import HelpFormatter, positive_int, risk_list, run_cli, workers
+from drivestyle.common.cli import HelpFormatter, count, risk_list, run_cli, workers
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -40,19 +40,19 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--train",
-        type=positive_int,
+        type=count(1000, 90.0, "training scenarios"),
         default=5,
         help="K training scenarios (interactive draws, seed 0)",
     )
     p.add_argument(
         "--test",
-        type=positive_int,
+        type=count(10_000, 5.0, "held-out scenarios"),
         default=4,
         help="held-out scenarios (interactive draws, seed 500)",
     )
     p.add_argument(
         "--budget",
-        type=positive_int,
+        type=count(100_000, 2.0, "objective evaluations"),
         default=300,
         help="objective evaluations per Nelder–Mead fit (each one reproduces every "
         "training demonstration)",

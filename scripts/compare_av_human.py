@@ -23,11 +23,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.av_vs_human import compare_av_human, read_mined
+from drivestyle.agents.studies.av_vs_human import compare_av_human, read_mined, unmined
 from drivestyle.agents.studies.figures import plot_av_human
 from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.agents.studies.reports import av_human_markdown
-from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
+from drivestyle.common.cli import HelpFormatter, count, run_cli
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -35,6 +35,11 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+
+SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)
+"""``--samples``: a replicate holds the resampled indices of a group's lane changes for every
+quantity and group at once (≈ 1.5 kB, ≈ 20 µs on the CATS sample: 10⁵ took 1.4 s and
+125 MB); 10⁵ already pin the 95 % intervals' ends far below their width (default 2000)."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -46,7 +51,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--mined", type=Path, default=None,
         help="a mine-styles --dataset cats output folder (the identified risks)",
     )  # fmt: skip
-    p.add_argument("--samples", type=positive_int, default=2000, help="bootstrap replicates")
+    p.add_argument("--samples", type=SAMPLES, default=2000, help="bootstrap replicates")
     p.add_argument("--out", type=Path, default=Path("runs/av_vs_human"), help="output folder")
     return p.parse_args(argv)
 
@@ -58,6 +63,18 @@ def main(argv: list[str] | None = None) -> dict:
     check_output_dir(args.out, inputs=[args.data_dir] + ([args.mined] if args.mined else []))
     mined = read_mined(args.mined) if args.mined is not None else None
     episodes = recorded_episodes(str(args.data_dir), "cats")
+    if mined is not None:
+        try:
+            missing = unmined(episodes, mined)
+        except ValueError as exc:
+            raise ValueError(f"--mined {args.mined}: {exc}") from None
+        if missing:  # legal (a run still going, failed rows), but it shapes every number
+            print(
+                f"note: {len(missing)} of the {len(episodes)} CATS lane changes have no ok row "
+                f"in {args.mined / 'styles.csv'} (failed, or not mined yet): they are reported "
+                "as not mined",
+                file=sys.stderr,
+            )
     comparison = compare_av_human(episodes, mined, samples=args.samples)
     payload = comparison.to_json()
     markdown = av_human_markdown(comparison, command_line(argv_used))

@@ -31,7 +31,7 @@ from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.studies.compare import LABELS, compare_methods, heldout_comparison
 from drivestyle.agents.studies.figures import plot_comparison, plot_heldout
 from drivestyle.agents.studies.reports import comparison_markdown
-from drivestyle.common.cli import HelpFormatter, positive_int, risk_value, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, count, risk_value, run_cli, seed
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -66,7 +66,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--heldout",
-        type=positive_int,
+        type=count(10_000, 10.0, "held-out scenarios"),
         metavar="K",
         help="instead: compare on K held-out random scenarios (heldout.json, heldout.png)",
     )

@@ -62,7 +62,7 @@ from drivestyle.agents.studies.reports import (
 from drivestyle.common.cli import (
     HelpFormatter,
     count,
-    float_list,
+    nonnegative_list,
     risk_list,
     run_cli,
     seed,
@@ -105,7 +105,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--continuous",
-        type=int,
+        type=count(1000, 20.0, "continuous-risk demonstrations per scenario", least=0),
         default=0,
         help="per scenario, this many more demonstrations with true risks drawn from "
         "U[0.5, 0.95] (continuous-risk MAE and coverage)",
@@ -116,7 +116,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--workers", type=workers, default=2, help="worker processes")
     p.add_argument(
         "--noise",
-        type=float_list,
+        type=nonnegative_list,
         default=[0.0],
         help="comma-separated position noise levels sigma [m] (0: true states)",
     )
@@ -135,8 +135,6 @@ def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns evaluation.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out)
-    if args.continuous < 0:
-        raise ValueError(f"--continuous must be >= 0, got {args.continuous}")
     if args.references and args.draw == "traffic":
         raise ValueError(
             "--references simulates single-TV scenarios (the ceiling re-simulation); with "
@@ -154,8 +152,6 @@ def main(argv: list[str] | None = None) -> dict:
                 f"--seed {args.seed} is the library's own training seed; "
                 "use a disjoint seed for held-out scenarios"
             )
-    if any(not (np.isfinite(s) and s >= 0) for s in args.noise):
-        raise ValueError(f"--noise levels must be finite and >= 0, got {args.noise}")
     grid = list(next(iter(libraries.values())).risks)
     if any(list(lib.risks) != grid for lib in libraries.values()):
         raise LibraryError("the libraries have different risk grids; compare like with like")

@@ -24,10 +24,18 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.out_of_class import StudyConfig, run_study
-from drivestyle.agents.studies.prediction import PHYSICS_FILE
+from drivestyle.agents.studies.out_of_class import StudyConfig, run_study, vehicle_spans
+from drivestyle.agents.studies.prediction import PHYSICS_FILE, check_observed_times
 from drivestyle.agents.studies.reports import out_of_class_markdown
-from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed
+from drivestyle.common.cli import (
+    HelpFormatter,
+    count,
+    distinct,
+    float_list,
+    for_option,
+    run_cli,
+    seed,
+)
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -39,6 +47,20 @@ from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import load_params
 
 _D = StudyConfig()
+SMPC_RISKS = (0.5, 1.0)
+"""The SMPC variants' risks lie in [0.5, 1): the style class's range (its library's)."""
+
+
+def smpc_risks(text: str) -> list[float]:
+    """An argparse type: comma-separated SMPC risks p in [0.5, 1) (repeats kept: main says)."""
+    values = float_list(text)
+    lo, hi = SMPC_RISKS
+    bad = [p for p in values if not lo <= p < hi]
+    if bad:
+        raise argparse.ArgumentTypeError(
+            f"SMPC risks must lie in [{lo:g}, {hi:g}), got {', '.join(f'{p:g}' for p in bad)}"
+        )
+    return values
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -58,32 +80,48 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="highway-env lane changes kept per driver class (≈ 12 s each)")  # fmt: skip
     p.add_argument("--max-runs", type=count(500, 8.0, "traffic runs"), default=_D.max_runs,
                    help="most 60 s traffic runs to find them (≈ 8 s each)")  # fmt: skip
-    p.add_argument("--risks", type=float_list, default=list(_D.smpc_risks),
-                   help="comma-separated risks p of the SMPC variants, in [0.5, 1)")  # fmt: skip
-    p.add_argument("--scenarios", type=int, default=_D.smpc_scenarios,
-                   help="interactive scenarios per SMPC variant and risk (0: none)")  # fmt: skip
+    p.add_argument("--risks", type=smpc_risks, default=list(_D.smpc_risks),
+                   help="comma-separated risks p of the SMPC variants, in [0.5, 1), at least "
+                   "two distinct (a repeated risk counts once)")  # fmt: skip
+    p.add_argument("--scenarios", type=count(1000, 30.0, "scenarios", least=0),
+                   default=_D.smpc_scenarios,
+                   help="interactive scenarios per SMPC variant and risk (0: none; ≈ 30 s "
+                   "each with the default risks)")  # fmt: skip
     p.add_argument("--no-highway", action="store_true", help="no highway-env drivers")
     p.add_argument("--no-prediction", action="store_true", help="identification only")
     p.add_argument("--observe", type=float_list, default=list(_D.t_obs),
-                   help="comma-separated observed times t_obs [s] to predict after")  # fmt: skip
+                   help="comma-separated observed times t_obs [s] to predict after: whole "
+                   "numbers of T_s = 0.2 s, shorter than the lane changes (highway-env at most "
+                   "8 s, SMPC 6 s); a repeated time counts once")  # fmt: skip
     p.add_argument(
         "--physics", type=Path, default=PHYSICS_FILE, help="the physics baseline's parameters"
     )
     return p.parse_args(argv)
 
 
-def main(argv: list[str] | None = None) -> dict:
-    """Run the study; returns out_of_class.json's payload."""
-    args = parse_args(argv)
-    argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
-    if args.scenarios < 0:
-        raise ValueError(f"--scenarios must be >= 0, got {args.scenarios}")
+def _config(args: argparse.Namespace) -> StudyConfig:
+    """The study's configuration, every option checked (before any output or simulation).
+
+    The observed times by the prediction study's one rule
+    (:func:`~drivestyle.agents.studies.prediction.check_observed_times`) against this run's
+    lane changes; a repeated risk or time counts once, and a note says so.
+    """
     if args.no_highway and args.scenarios == 0:
         raise ValueError("--no-highway and --scenarios 0 leave no driver to study")
-    risks, _ = distinct(args.risks)
-    observe, _ = distinct(args.observe)
-    if any(t <= 0 for t in observe):
-        raise ValueError(f"--observe: observed times must be > 0 s, got {observe}")
+    risks, risks_twice = distinct(args.risks)
+    observe, observe_twice = distinct(args.observe)
+    for option, twice in (("--risks", risks_twice), ("--observe", observe_twice)):
+        if twice:
+            print(
+                f"note: {option} lists {', '.join(f'{v:g}' for v in twice)} more than once; "
+                "each counts once",
+                file=sys.stderr,
+            )
+    if args.scenarios and len(risks) < 2:
+        raise ValueError(
+            f"--risks: the SMPC variants need at least two distinct risks to order, got "
+            f"{', '.join(f'{p:g}' for p in risks)} (or --scenarios 0: no SMPC variants)"
+        )
     config = StudyConfig(
         seed=args.seed,
         per_class=0 if args.no_highway else args.per_class,
@@ -93,9 +131,23 @@ def main(argv: list[str] | None = None) -> dict:
         t_obs=tuple(observe),
         predict=not args.no_prediction,
     )
+    if config.predict:
+        try:
+            check_observed_times(config.t_obs, simulated=False, others=vehicle_spans(config))
+        except ValueError as exc:
+            raise ValueError(f"--observe: {exc}") from None
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the study; returns out_of_class.json's payload."""
+    args = parse_args(argv)
+    argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
+    config = _config(args)
     check_output_dir(args.out, inputs=[args.library])
+    with for_option("--physics"):
+        physics = load_params(args.physics)
     library = load_driver_library(args.library, "identification")
-    physics = load_params(args.physics)
     bars: dict[str, tqdm] = {}
 
     def on_plan(stage: str, n: int) -> None:

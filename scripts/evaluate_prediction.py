@@ -41,7 +41,9 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from tqdm import tqdm
 
@@ -61,16 +63,28 @@ from drivestyle.agents.studies.prediction import (
     SplitRow,
     benchmark_split,
     calibrate_on_split,
+    calibration_records,
     check_observed_times,
+    check_split_selects,
     episodes_split,
     evaluate_prediction,
     example_record,
+    read_prediction_run,
     read_split,
     spanning_tracks,
     write_split,
 )
 from drivestyle.agents.studies.reports import prediction_markdown
-from drivestyle.common.cli import HelpFormatter, count, distinct, float_list, run_cli, seed, workers
+from drivestyle.common.cli import (
+    HelpFormatter,
+    count,
+    distinct,
+    float_list,
+    for_option,
+    run_cli,
+    seed,
+    workers,
+)
 from drivestyle.common.io import (
     atomic_output_dir,
     check_output_dir,
@@ -169,57 +183,57 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-def _split_rows(args: argparse.Namespace) -> list[SplitRow]:
-    """``--split-file`` (default: the shipped split), read; a missing file named by its option."""
+def _split_rows(args: argparse.Namespace, split: str) -> list[SplitRow]:
+    """``--split-file`` (default: the shipped split), read and checked to select ``split``.
+
+    Every problem is named by the option: a missing, unreadable or malformed file (the row,
+    column and value), and a file with no episode of ``split`` (of each shipped dataset,
+    unless ``--episodes``: what it holds is said).
+    """
     path = SPLIT_FILE if args.split_file is None else args.split_file
     try:
-        return read_split(path)
+        rows = read_split(path)
     except FileNotFoundError:
         raise FileNotFoundError(f"--split-file {path}: no such file") from None
+    except OSError as exc:  # a folder, no permission
+        raise OSError(f"--split-file {path}: {exc.strerror or exc}") from None
     except ValueError as exc:
         raise ValueError(f"--split-file {exc}") from None
+    try:
+        check_split_selects(rows, split, None if args.episodes is not None else tuple(DATASETS))
+    except ValueError as exc:
+        raise ValueError(f"--split-file {path}: {exc}") from None
+    return rows
 
 
 def _physics(args: argparse.Namespace) -> PhysicsParams:
     """``--physics`` (default: the shipped calibration), read; errors named by the option."""
-    path = PHYSICS_FILE if args.physics is None else args.physics
-    try:
-        return load_params(path)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"--physics {path}: no such file") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ValueError(f"--physics {path}: not a physics parameters file ({exc})") from None
+    with for_option("--physics"):
+        return load_params(PHYSICS_FILE if args.physics is None else args.physics)
 
 
-def _calibration(args: argparse.Namespace) -> list[dict]:
-    """The records of ``--regions-from`` (another split's run), checked."""
-    import json
+def _calibration(args: argparse.Namespace) -> list[Mapping[str, Any]]:
+    """The records of ``--regions-from`` (another split's run) that calibrate the regions.
 
-    path = args.regions_from
-    if Path(path).is_dir():
-        path = Path(path) / "prediction_eval.json"
+    Read and checked (:func:`read_prediction_run`, :func:`calibration_records`) before any
+    work, every problem named by the option.
+    """
     if args.no_recorded:
         raise ValueError(
             "--regions-from calibrates regions for recorded episodes; drop --no-recorded"
         )
     try:
-        raw = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise FileNotFoundError(f"--regions-from {path}: no such file") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"--regions-from {path}: not JSON ({exc})") from None
-    records = raw.get("records") if isinstance(raw, dict) else None
-    if not isinstance(records, list) or not all(
-        isinstance(r, dict) and {"set", "fde_m", "horizon_s", "t_obs_s"} <= r.keys()
-        for r in records
-    ):
-        raise ValueError(f"--regions-from {path}: not a prediction_eval.json (no records)")
-    if raw.get("split") == args.split:
-        raise ValueError(
-            f"--regions-from {path} is a run of the {args.split} split itself: calibrate on "
-            "another split (its coverage would not be a test)"
-        )
-    return records
+        run = read_prediction_run(args.regions_from)
+        if run.split == args.split:
+            raise ValueError(
+                f"{run.path} is a run of the {args.split} split itself: calibrate on another "
+                "split (its coverage would not be a test)"
+            )
+        return calibration_records(run, args.observe)
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"--regions-from {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"--regions-from {exc}") from None
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -247,7 +261,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.calibrate_physics:
         if own and args.physics is None:  # never over the shipped benchmark's calibration
             raise ValueError("--episodes --calibrate-physics needs --physics (the file to write)")
-        chosen = None if args.split_file is None and own else _split_rows(args)
+        chosen = None if args.split_file is None and own else _split_rows(args, "train")
         cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
         physics_file = PHYSICS_FILE if args.physics is None else args.physics
         save_params(cal, physics_file)
@@ -273,6 +287,7 @@ def main(argv: list[str] | None = None) -> dict:
             check_observed_times(args.observe)
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
+    physics = _physics(args)
     library = load_driver_library(args.library, "prediction")
     calibration = None if args.regions_from is None else _calibration(args)
     if not args.no_recorded and not own:
@@ -287,7 +302,7 @@ def main(argv: list[str] | None = None) -> dict:
         if own and args.split_file is None:
             rows = None if args.split == "all" else episodes_split(args.episodes)
         else:
-            rows = _split_rows(args)
+            rows = _split_rows(args, args.split)
     bars: dict[str, tqdm] = {}
 
     def on_plan(stage: str, n: int) -> None:
@@ -306,7 +321,7 @@ def main(argv: list[str] | None = None) -> dict:
             on_plan=on_plan,
             split=None if args.no_recorded else args.split,
             split_rows=rows,
-            physics=_physics(args),
+            physics=physics,
             calibration=calibration,
             episodes_dir=args.episodes,
         )

@@ -25,6 +25,12 @@ interval, and the library's style driven in closed loop at the identified risk o
 recorded path (driver libraries). Several
 demonstrations of one vehicle pool into one posterior; a file given twice, or two files of
 the same content, count once (one would weigh as two), and a line on stderr says which.
+Demonstrations of several recorded vehicles pool too, but a note on stderr names the
+vehicles and ``identify.json`` says so (``vehicles``: each demonstration's,
+``pools_several_vehicles``). A recorded vehicle is ``<carriageway>:<vehicle id>`` of its
+recording, from the episode's metadata (``meta["vehicle_id"]``, ``meta["source"]``, the
+carriageway in the extraction's ``episode_id``; envs/real_data.py ``recorded_vehicle``); a
+generated demonstration names no vehicle and is taken to be the vehicle of the others.
 
 Example:
     python scripts/identify_style.py runs/demo/demo.npz --library runs/library_reactive \\
@@ -34,15 +40,16 @@ Example:
 from __future__ import annotations
 
 import argparse
-import hashlib
 import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
 from drivestyle.common.cli import HelpFormatter, run_cli
+from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.envs.real_data import recorded_vehicle
 from drivestyle.irl.driver_style import DriverStyleError, Reproduction, reproduce
 from drivestyle.irl.identification import (
     DEFAULT_SCORER,
@@ -85,14 +92,23 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out)
     library = load_any_library(args.library)
-    paths = _distinct_files(args.demos)
+    files = distinct_files(args.demos)
+    if files.note:
+        print(files.note, file=sys.stderr)
+    paths = list(files.kept)
     demos = [load_demonstration(p) for p in paths]
+    vehicles = vehicle_names(demos)
+    pooled = pooling_note(vehicles, paths)
+    if pooled:  # legal, but the posterior is then of no one vehicle
+        print(pooled, file=sys.stderr)
     t0 = time.perf_counter()
     ident = identify(demos, library, scorer=args.scorer)
     payload = ident.to_json() | {
         "identify_s": time.perf_counter() - t0,
         "library": str(args.library),
         "demos": [str(p) for p in paths],
+        "vehicles": vehicles,
+        "pools_several_vehicles": pooled is not None,
     }
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "identify.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
@@ -108,6 +124,42 @@ def main(argv: list[str] | None = None) -> dict:
     wrote = "identify.json" + (" and identify.png" if args.plot else "")
     print(f"  {payload['identify_s']:.2f} s; wrote {wrote} in {args.out}")
     return payload
+
+
+def vehicle_names(demos: list[Demonstration]) -> list[str | None]:
+    """Each demonstration's vehicle as ``<carriageway>:<vehicle id>`` (None: none known).
+
+    The rule is :func:`~drivestyle.envs.real_data.recorded_vehicle`'s (a generated
+    demonstration is of no known vehicle); two recordings that share a carriageway's name
+    are told apart by their files.
+    """
+    keys = [recorded_vehicle(d) for d in demos]
+    named = {k: str(k) for k in keys if k is not None}
+    if len(set(named.values())) < len(named):  # one name, two recordings
+        named = {k: f"{k} of {k.source}" for k in named}
+    return [None if k is None else named[k] for k in keys]
+
+
+def pooling_note(vehicles: list[str | None], paths: list[Path]) -> str | None:
+    """The note that a pooled identification is of several vehicles (None: of one).
+
+    Several vehicles: two or more known ones, or a known one with a demonstration of no
+    known vehicle. Demonstrations of no known vehicle alone are the one vehicle the user
+    says they are (nothing in their metadata says otherwise).
+    """
+    known = list(dict.fromkeys(v for v in vehicles if v is not None))
+    unknown = [p for v, p in zip(vehicles, paths, strict=True) if v is None]
+    if len(known) + (1 if unknown and known else 0) < 2:
+        return None
+    files = {v: [p.name for w, p in zip(vehicles, paths, strict=True) if w == v] for v in known}
+    said = [f"{v} ({', '.join(files[v])})" for v in known]
+    if unknown:
+        said.append(f"{len(unknown)} of no known vehicle ({', '.join(p.name for p in unknown)})")
+    n = len(known) + (1 if unknown else 0)
+    return (
+        f"note: pooling {'at least ' if unknown else ''}{n} vehicles into one posterior: "
+        f"{'; '.join(said)}; identify each vehicle on its own to tell their risks apart"
+    )
 
 
 def summary_lines(ident: Identification, n_demos: int) -> list[str]:
@@ -165,36 +217,6 @@ def _plot(
                 print(f"  note: no reproduction drawn: {exc}", file=sys.stderr)
         reproductions.append(rep)
     plot_identification(ident, demos, reproductions, path)
-
-
-def _distinct_files(paths: list[Path]) -> list[Path]:
-    """``paths`` without repeats — the same file (resolved) or the same bytes — said on stderr.
-
-    The first of each is kept; a missing file too (loading it names it).
-    """
-    kept: list[Path] = []
-    spelled: dict[Path, Path] = {}  # a resolved file → how it was first given
-    given: dict[Path, int] = {}  # … → how often it was given
-    by_content: dict[str, Path] = {}
-    copies: list[tuple[Path, Path]] = []  # (a file, the kept one of the same bytes)
-    for path in paths:
-        real = path.resolve()
-        if real in spelled:
-            given[real] += 1
-            continue
-        spelled[real], given[real] = path, 1
-        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
-        if digest is not None and digest in by_content:
-            copies.append((path, by_content[digest]))
-            continue
-        if digest is not None:
-            by_content[digest] = path
-        kept.append(path)
-    said = [f"{spelled[r]} given {n} times" for r, n in given.items() if n > 1]
-    said += [f"{p} has the content of {first}" for p, first in copies]
-    if said:
-        print(f"note: each demonstration counts once: {'; '.join(said)}", file=sys.stderr)
-    return kept
 
 
 if __name__ == "__main__":

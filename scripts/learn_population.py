@@ -34,8 +34,14 @@ from drivestyle.agents.studies.population_style import (
     population_library,
     split_demos,
 )
-from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, SPLIT_FILE, SPLITS, read_split
-from drivestyle.common.cli import HelpFormatter, positive_int, run_cli
+from drivestyle.agents.studies.prediction import (
+    DEFAULT_DATA_DIR,
+    SPLIT_FILE,
+    SPLITS,
+    check_split_selects,
+    read_split,
+)
+from drivestyle.common.cli import HelpFormatter, for_option, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.irl.driver_learning import DriverFit
 from drivestyle.irl.library import load_driver_library
@@ -75,7 +81,12 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     check_output_dir(args.out, inputs=[args.library, args.data_dir])
     library = load_driver_library(args.library, "learn-population")
-    rows = read_split(args.split_file)
+    with for_option("--split-file"):  # every row checked, the problem named by the option
+        rows = read_split(args.split_file)
+    try:
+        check_split_selects(rows, args.split)
+    except ValueError as exc:
+        raise ValueError(f"--split-file {args.split_file}: {exc}") from None
     demos, skipped = split_demos(args.data_dir, rows, args.split)
     if not demos:
         raise ValueError(f"the {args.split} split of {args.split_file} has no usable episode")

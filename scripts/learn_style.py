@@ -45,6 +45,7 @@ from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import plot_lateral, plot_reproductions
 from drivestyle.common.cli import HelpFormatter, positive_float, positive_int, run_cli
+from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
@@ -214,6 +215,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     """
     args = parse_args(argv)
     check_output_dir(args.out, replace=False)  # a style may sit beside its demonstration
+    files = distinct_files(args.demos)  # a file or copy given twice would weigh twice
+    if files.note:
+        print(files.note, file=sys.stderr)
+    args.demos = list(files.kept)
     demos = [load_demonstration(p) for p in args.demos]
     if args.model == "driver":
         return _learn_driver(args, demos, argv)

@@ -39,7 +39,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents.studies.figures import plot_population
-from drivestyle.common.cli import HelpFormatter, positive_float, run_cli, workers
+from drivestyle.common.cli import HelpFormatter, Interrupted, positive_float, run_cli, workers
+from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import check_output_dir, write_json
 from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
 from drivestyle.envs.readers import read_sample
@@ -105,7 +106,10 @@ def _tasks(args: argparse.Namespace) -> tuple[list[MiningTask], str]:
         raise ValueError("give an INPUT folder of demonstrations or --dataset with --data")
     if not args.input.is_dir():
         raise FileNotFoundError(f"INPUT {args.input} is not a folder")
-    files = sorted(args.input.rglob("*.npz"))
+    found = distinct_files(sorted(args.input.rglob("*.npz")))
+    if found.note:  # a copy mined twice would count twice in the population's summary
+        print(found.note, file=sys.stderr)
+    files = list(found.kept)
     if not files:
         raise ValueError(f"no demonstrations (*.npz) under {args.input}")
     root = str(args.input)
@@ -168,9 +172,18 @@ def main(argv: list[str] | None = None) -> dict:
                 bar.update(1)
                 bar.set_postfix(failed=failed)
 
-            mine(
-                todo, library, args.engine, args.workers, on_row, args.address, args.connect_timeout
-            )
+            try:
+                mine(todo, library, args.engine, args.workers, on_row, args.address,
+                     args.connect_timeout)  # fmt: skip
+            except KeyboardInterrupt:
+                # the rows on disk are kept (the resume skips them): say so, not "discarded"
+                kept = len(store.rows)
+                raise Interrupted(
+                    f"{kept} finished row(s) kept in {store.table} ({kept - len(done)} of this "
+                    f"run); rerun the same command to resume: it mines the other "
+                    f"{len(tasks) - kept} demonstration(s) (summary.json and population.png are "
+                    "written when a run completes)"
+                ) from None
         wall = time.perf_counter() - t0
         rows = store.rows
         payload = {

@@ -37,7 +37,7 @@ from drivestyle.agents.studies.prediction import (
     oracle_style,
     predict_demo,
 )
-from drivestyle.common.cli import HelpFormatter, positive_float, run_cli
+from drivestyle.common.cli import HelpFormatter, for_option, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.envs.real_data import is_recorded
@@ -74,8 +74,9 @@ def main(argv: list[str] | None = None) -> dict:
     """Predict; returns prediction.json's payload."""
     args = parse_args(argv)
     check_output_dir(args.out, inputs=[args.demo])
+    with for_option("--physics"):
+        physics = load_params(args.physics)
     library = load_driver_library(args.library, "prediction")
-    physics = load_params(args.physics)
     raw = load_demonstration(args.demo)
     check_plausible(raw)  # every step, the future the prediction is scored on included
     pred = predict_demo(raw, library, args.observe, oracle_style(raw.meta), physics)

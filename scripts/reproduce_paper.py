@@ -30,8 +30,8 @@ from drivestyle.agents.studies.paper import (
 from drivestyle.agents.studies.reports import paper_console
 from drivestyle.common.cli import (
     HelpFormatter,
+    count,
     positive_float,
-    positive_int,
     risk_value,
     run_cli,
     seed,
@@ -56,7 +56,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--baseline-algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm")
     p.add_argument(
         "--baseline-timesteps",
-        type=positive_int,
+        type=count(100_000_000, 4e-3, "training env steps"),
         default=60_000,
         help="SB3 budget (60 000 PPO steps take about 4 min on 2 cores)",
     )

@@ -25,7 +25,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.common.cli import HelpFormatter, positive_float, positive_int, run_cli, seed
+from drivestyle.common.cli import HelpFormatter, count, positive_float, positive_int, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 
 
@@ -34,7 +34,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--style", type=Path, required=True, help="style.json (or its folder)")
     p.add_argument("--algo", default="ppo", choices=("ppo", "sac"), help="SB3 algorithm")
-    p.add_argument("--timesteps", type=positive_int, default=60_000, help="training env steps")
+    p.add_argument(
+        "--timesteps",
+        type=count(100_000_000, 4e-3, "training env steps"),
+        default=60_000,
+        help="training env steps",
+    )
     p.add_argument(
         "--out", type=Path, default=Path("runs/baseline"), help="output folder (replaced whole)"
     )

@@ -35,6 +35,8 @@ from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lanes import leaders
 from drivestyle.irl.identification import ENTERS_REGION, OUT_OF_CLASS, recorded_verdict_label
+from drivestyle.irl.mining import MinedRow as MiningRow
+from drivestyle.irl.mining_output import TABLE, read_table
 
 AV_VEHICLE = "cats:AV:3"
 """The computer-driven car (CATS vehicle 3 on its AV days)."""
@@ -132,49 +134,88 @@ class MinedRow:
         )
 
 
-def _flag(row: Mapping[str, str], column: str) -> bool | None:
-    """A True/False cell, None where the table has no such column or the cell is empty."""
-    value = row.get(column) or ""
-    return None if value == "" else value == "True"
-
-
-def _cell(value: str) -> float | None:
-    try:
-        x = float(value)
-    except ValueError:
-        return None
-    return x if math.isfinite(x) else None
+NEEDED_COLUMNS = ("id", "status", "risk_mean", "risk_lo", "risk_hi", "informative", "out_of_class")
+"""The columns of ``styles.csv`` the comparison reads."""
 
 
 def read_mined(folder: str | Path) -> dict[str, MinedRow]:
     """The ``ok`` rows of a mine-styles output folder, by episode id.
 
+    Every row is validated as it is read
+    (:func:`drivestyle.irl.mining_output.read_table`): a torn row (an interrupted run,
+    to be resumed), a value that does not parse or lies outside its range (a risk outside
+    (0, 1), a negative width, an unknown status) is an error naming the file, the row, the
+    column and the value, never a lane change quietly counted as not mined.
+
     Raises:
         FileNotFoundError: no ``styles.csv`` in ``folder``.
-        ValueError: the file lacks the identification's columns.
+        ValueError: the file lacks the identification's columns, is not a mine-styles table,
+            has a damaged row, no row at all or no ``ok`` row.
     """
-    path = Path(folder) / "styles.csv"
+    path = Path(folder) / TABLE
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found; run drivestyle mine-styles --dataset cats")
-    with path.open(newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    need = {"id", "status", "risk_mean", "risk_lo", "risk_hi", "informative", "out_of_class"}
-    missing = need - set(rows[0] if rows else need)
+    with path.open(newline="", encoding="utf-8", errors="replace") as fh:
+        header = next(csv.reader(fh), [])
+    missing = sorted(c for c in NEEDED_COLUMNS if c not in header)
     if missing:
-        raise ValueError(f"{path}: no column {', '.join(sorted(missing))} (a mine-styles table?)")
-    return {
-        r["id"]: MinedRow(
-            _cell(r["risk_mean"]),
-            _cell(r["risk_lo"]),
-            _cell(r["risk_hi"]),
-            r["informative"] == "True",
-            r["out_of_class"] == "True",
-            _flag(r, "constraint_binds"),
-            _flag(r, "enters_region"),
+        raise ValueError(f"{path}: no column {', '.join(missing)} (a mine-styles table?)")
+    rows = read_table(path)
+    if not rows:
+        raise ValueError(
+            f"{path} has no row: the mining run mined nothing yet (resume it, or mine the "
+            "CATS sample: drivestyle mine-styles --dataset cats)"
         )
-        for r in rows
-        if r["status"] == "ok"
-    }
+    ok = {r.id: _mined(r) for r in rows if r.status == "ok"}
+    if not ok:
+        failed = next(r for r in rows if r.status == "failed")
+        raise ValueError(
+            f"{path}: all {len(rows)} rows failed, none identified a risk (row {failed.id}: "
+            f"{failed.error})"
+        )
+    return ok
+
+
+def _mined(row: MiningRow) -> MinedRow:
+    """What the comparison takes of a mined row."""
+    return MinedRow(
+        row.risk_mean,
+        row.risk_lo,
+        row.risk_hi,
+        bool(row.informative),
+        bool(row.out_of_class),
+        row.constraint_binds,
+        row.enters_region,
+    )
+
+
+def unmined(
+    episodes: Sequence[tuple[str, str, Demonstration]], mined: Mapping[str, MinedRow]
+) -> list[str]:
+    """The episodes without an ``ok`` row in ``mined``, refusing rows of none of them.
+
+    A run of another dataset (or of nothing CATS) would leave every lane change "not
+    mined": a table of nothing, read as a finding.
+
+    Args:
+        episodes: (episode id, vehicle id, demonstration) of the CATS lane changes.
+        mined: a mine-styles run's ok rows by id (:func:`read_mined`).
+
+    Returns:
+        The ids of the episodes ``mined`` has no row of, in episode order.
+
+    Raises:
+        ValueError: ``mined`` has a row of none of the episodes.
+    """
+    ids = [eid for eid, _, _ in episodes]
+    if not mined.keys() & set(ids):
+        theirs = sorted(mined)[:3]
+        raise ValueError(
+            f"the mined rows are of none of the {len(ids)} CATS lane changes (their ids: "
+            f"{', '.join(theirs)}{' …' if len(mined) > 3 else ''}); mine the CATS sample: "
+            "drivestyle mine-styles --dataset cats"
+        )
+    return [eid for eid in ids if eid not in mined]
 
 
 @dataclass(frozen=True)
@@ -301,8 +342,11 @@ def compare_av_human(
         The comparison.
 
     Raises:
-        ValueError: no episode of the AV, or none of a human.
+        ValueError: no episode of the AV, or none of a human; ``mined`` rows of none of
+            the episodes (a run of another dataset).
     """
+    if mined is not None:
+        unmined(episodes, mined)
     rows = tuple(
         episode_caution(eid, vid, demo, (mined or {}).get(eid)) for eid, vid, demo in episodes
     )

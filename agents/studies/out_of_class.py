@@ -49,11 +49,14 @@ from drivestyle.agents.studies.prediction import (
     MethodSummary,
     PredictionRecord,
     SkippedPrediction,
+    VehicleSpan,
+    check_observed_times,
     predict_vehicle,
     summarise_records,
 )
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.envs.tracks import Carriageway, Recording, Track
 from drivestyle.irl.identification import Identification, identify_driver, recorded_verdict_label
 from drivestyle.irl.library import DriverLibrary, LibraryError
@@ -64,6 +67,7 @@ from drivestyle.planning.smpc_problem import SMPCConfig
 __all__ = [
     "FDE_GOAL",
     "HIGHWAY_CLASSES",
+    "HIGHWAY_EXTRACTION",
     "LANE_WIDTH",
     "RECORD_HZ",
     "SIM_HZ",
@@ -95,6 +99,7 @@ __all__ = [
     "simulate_highway",
     "smpc_episodes",
     "spearman",
+    "vehicle_spans",
 ]
 
 SIM_HZ = 15
@@ -113,6 +118,9 @@ STYLE_METHODS = ("mode", "mixture")
 """The identified-style prediction methods the FDE goal is checked for."""
 PREDICT_METHODS = ("cv", "ca", "physics", "population", "mode", "mixture")
 """Methods run (no oracle: the truth is not a member of the style class)."""
+HIGHWAY_EXTRACTION = ExtractionConfig(dt=0.2, l_a=None)
+"""How the highway-env lane changes are extracted: the recorded-traffic loaders' settings
+(``envs/real_data.py``)."""
 
 
 # ------------------------------------------------------------------------- highway-env drivers
@@ -401,8 +409,7 @@ def highway_episodes(
 
     Runs until each class has ``per_class`` (the first ``per_class`` of a class are kept)
     or ``max_runs`` runs. Each run is :func:`draw_traffic` + :func:`simulate_highway`,
-    then the project's extraction with ``ExtractionConfig(dt=0.2, l_a=None)`` (the
-    recorded-traffic loaders' settings, ``envs/real_data.py``).
+    then the project's extraction with :data:`HIGHWAY_EXTRACTION`.
 
     Returns:
         (the episodes, facts: runs, lane changes found, usable, unusable reasons counted).
@@ -421,7 +428,7 @@ def highway_episodes(
         run_seed = int(np.random.default_rng([seed, r]).integers(0, 2**31 - 1))
         spawns = draw_traffic(config, run_seed, classes)
         rec, classes_of = simulate_highway(spawns, config, classes, name=f"run{r}")
-        for e in extract_episodes(rec, ExtractionConfig(dt=0.2, l_a=None)):
+        for e in extract_episodes(rec, HIGHWAY_EXTRACTION):
             found += 1
             if not e.usable or e.demo is None:
                 for why in e.reasons:
@@ -801,6 +808,24 @@ class StudyConfig:
         }  # fmt: skip
 
 
+def vehicle_spans(config: StudyConfig) -> list[VehicleSpan]:
+    """How long the study's lane changes last and their T_s (what an observed time needs).
+
+    highway-env lane changes are windows of :data:`HIGHWAY_EXTRACTION` (at most its
+    ``before_s + after_s``); SMPC drivers are whole demonstrations of the random family's
+    scenarios.
+    """
+    spans = []
+    if config.per_class and config.max_runs:
+        ext = HIGHWAY_EXTRACTION
+        spans.append(VehicleSpan("highway-env lane changes", ext.dt, ext.before_s + ext.after_s,
+                                 at_most=True))  # fmt: skip
+    if config.smpc_scenarios and config.variants:
+        base = ScenarioRanges().base
+        spans.append(VehicleSpan("SMPC drivers", base.dt, base.horizon_s))
+    return spans
+
+
 @dataclass(frozen=True)
 class OutOfClassStudy:
     """Everything the study measured."""
@@ -854,10 +879,14 @@ def run_study(
         The study.
 
     Raises:
-        ValueError: the study's seed is the library's training seed.
+        ValueError: the study's seed is the library's training seed; an observed time no
+            lane change of the study serves
+            (:func:`~drivestyle.agents.studies.prediction.check_observed_times`).
     """
     if library.meta.get("seed") == config.seed:
         raise ValueError(f"seed {config.seed} is the library's own training seed; use another")
+    if config.predict:  # before any simulation: a time no lane change serves skips every one
+        check_observed_times(config.t_obs, simulated=False, others=vehicle_spans(config))
 
     def stage(name: str, n: int) -> Callable[[int], Any] | None:
         if on_plan is not None:

@@ -71,6 +71,8 @@ Results are typed: one :class:`PredictionRecord` per (vehicle, t_obs), a
 from __future__ import annotations
 
 import functools
+import itertools
+import json
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -118,6 +120,7 @@ __all__ = [
     "RISK_RANGE",
     "SPLITS",
     "SPLIT_FILE",
+    "SPLIT_HEADER",
     "SPLIT_SEED",
     "STYLE_METHODS",
     "TEST_SEED",
@@ -127,16 +130,20 @@ __all__ = [
     "GoalCheck",
     "MethodSummary",
     "PredictionRecord",
+    "PredictionRun",
     "PredictionStudy",
     "SimulatedVehicle",
     "SkippedPrediction",
     "SplitRow",
     "TrackingRecord",
     "TrackingSummary",
+    "VehicleSpan",
     "benchmark_split",
     "bootstrap_stats",
     "calibrate_on_split",
+    "calibration_records",
     "check_observed_times",
+    "check_split_selects",
     "draw_simulated",
     "episodes_split",
     "evaluate_prediction",
@@ -148,10 +155,13 @@ __all__ = [
     "observer_view",
     "oracle_style",
     "predict_demo",
+    "read_prediction_run",
     "read_split",
     "recorded_episodes",
+    "recorded_spans",
     "spanning_tracks",
     "split_by_vehicle",
+    "split_contents",
     "summarise_records",
     "summarise_tracking",
     "track_vehicle",
@@ -318,30 +328,95 @@ def write_split(rows: Sequence[SplitRow], path: str | Path = SPLIT_FILE) -> None
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+SPLIT_HEADER = ("dataset", "episode_id", "vehicle_id", "split")
+"""The columns of a split file (:func:`write_split`)."""
+
+
 def read_split(path: str | Path = SPLIT_FILE) -> list[SplitRow]:
-    """The split :func:`write_split` wrote.
+    """The split :func:`write_split` wrote, every row checked.
 
     The dataset column names the set a row's records are summarised under: ``ngsim`` and
     ``cats`` for the shipped samples, :data:`EPISODES_SET` (or any label) for a folder of
-    extracted episodes.
+    extracted episodes. Blank lines and a byte-order mark (a spreadsheet's UTF-8) are
+    skipped.
 
     Raises:
         FileNotFoundError: no such file.
-        ValueError: a malformed row or an unknown split.
+        OSError: not readable (a folder, no permission).
+        ValueError: not UTF-8 text, another header, or a row with cells missing or extra,
+            an empty cell, a split none of :data:`SPLITS`, or an episode listed twice (the
+            message names the file, the row and its line, the column and the value).
     """
     try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text file (a split CSV)") from None
-    if not lines or lines[0] != "dataset,episode_id,vehicle_id,split":
-        raise ValueError(f"{path}: expected the header dataset,episode_id,vehicle_id,split")
-    rows = []
-    for n, line in enumerate(lines[1:], start=2):
+        lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{path}: not a text file (byte {exc.start} is not UTF-8): not a split CSV"
+        ) from None
+    if not lines or tuple(lines[0].split(",")) != SPLIT_HEADER:
+        raise ValueError(
+            f"{path}: expected the header {','.join(SPLIT_HEADER)}, got "
+            f"{lines[0][:80] if lines else 'an empty file'!r}"
+        )
+    rows: list[SplitRow] = []
+    first: dict[str, int] = {}
+    for line_no, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        where = f"{path}, row {len(rows) + 1} (line {line_no}) is malformed"
         parts = line.split(",")
-        if len(parts) != 4 or parts[3] not in SPLITS or not all(parts[:3]):
-            raise ValueError(f"{path}:{n}: malformed row {line!r}")
+        if len(parts) != len(SPLIT_HEADER):
+            raise ValueError(
+                f"{where}: {len(parts)} cells where the header has {len(SPLIT_HEADER)} "
+                f"({line[:80]!r})"
+            )
+        for column, value in zip(SPLIT_HEADER, parts, strict=True):
+            if not value.strip():
+                raise ValueError(f"{where}: column {column} is empty")
+        if parts[3] not in SPLITS:
+            raise ValueError(f"{where}: column split {parts[3]!r} is none of {', '.join(SPLITS)}")
+        if parts[1] in first:
+            raise ValueError(
+                f"{where}: column episode_id {parts[1]} again (first in row {first[parts[1]]}): "
+                "an episode is in one split"
+            )
+        first[parts[1]] = len(rows) + 1
         rows.append(SplitRow(*parts))
     return rows
+
+
+def split_contents(rows: Sequence[SplitRow]) -> str:
+    """What a split holds, per dataset: ``cats: train 60, test 24; ngsim: …`` (for messages)."""
+    counts: dict[str, dict[str, int]] = {}
+    for r in rows:
+        counts.setdefault(r.dataset, dict.fromkeys(SPLITS, 0))[r.split] += 1
+    if not counts:
+        return "no episode"
+    return "; ".join(
+        f"{ds}: " + ", ".join(f"{s} {n}" for s, n in per.items() if n)
+        for ds, per in sorted(counts.items())
+    )
+
+
+def check_split_selects(
+    rows: Sequence[SplitRow], split: str, datasets: Sequence[str] | None = None
+) -> None:
+    """Refuse a split that selects no episode: a benchmark of nothing is no result.
+
+    Args:
+        rows: the split.
+        split: the chosen split (``all``: every row; it selects something if there is one).
+        datasets: datasets that must each have an episode in it (None: any will do).
+
+    Raises:
+        ValueError: no episode of ``split`` (of one of ``datasets``); the message says what
+            the split holds.
+    """
+    chosen = [r for r in rows if split in ("all", r.split)]
+    short = [ds for ds in datasets or () if not any(r.dataset == ds for r in chosen)]
+    if not chosen or short:
+        of = f" of {' or '.join(short)}" if short else ""
+        raise ValueError(f"no {split} episode{of} (the split holds {split_contents(rows)})")
 
 
 # ---------------------------------------------------------------------------- vehicles
@@ -574,7 +649,11 @@ def load_episodes_folder(
         )
     chosen = [r for r in rows if r.episode_id in found and split in ("all", r.split)]
     if not chosen:
-        raise ValueError(f"the split has no {split} episode of {folder}")
+        theirs = [r for r in rows if r.episode_id in found]
+        raise ValueError(
+            f"the split has no {split} episode of {folder} (of its episodes the split holds "
+            f"{split_contents(theirs)})"
+        )
     return [(r.dataset, r.episode_id, found[r.episode_id][1], r.vehicle_id) for r in chosen]
 
 
@@ -1216,6 +1295,104 @@ def region_coverage(
 
 
 @dataclass(frozen=True)
+class PredictionRun:
+    """The records of a ``prediction_eval.json`` (:func:`read_prediction_run`)."""
+
+    path: Path
+    split: str | None
+    """The split its recorded episodes were of (None: not said)."""
+    records: tuple[Mapping[str, Any], ...]
+    """Its records, each checked (``set``, ``t_obs_s``, ``horizon_s``, ``fde_m``)."""
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def read_prediction_run(path: str | Path) -> PredictionRun:
+    """A ``prediction_eval.json`` (or the run folder holding one), every record checked.
+
+    Only what another run reads of it is checked (the region's calibration,
+    :func:`region_rates`): each record's ``set`` (a name), ``t_obs_s`` and ``horizon_s``
+    (finite, > 0) and ``fde_m`` (method → a distance >= 0, or null / NaN where the method
+    gave none).
+
+    Raises:
+        FileNotFoundError: no such file (or no ``prediction_eval.json`` in the folder).
+        ValueError: not UTF-8 JSON, no list of records, or a record as above (the message
+            names the file, the record and the field with its value).
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / "prediction_eval.json"
+    try:
+        raw = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such file") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not JSON ({exc})") from None
+    records = raw.get("records") if isinstance(raw, dict) else None
+    if not isinstance(records, list):
+        raise ValueError(f"{path}: not a prediction_eval.json (no records)")
+    for i, r in enumerate(records):
+        where = f"{path}: record {i}"
+        if not isinstance(r, dict):
+            raise ValueError(f"{where} is not an object: not a prediction_eval.json")
+        missing = [k for k in ("set", "t_obs_s", "horizon_s", "fde_m") if k not in r]
+        if missing:
+            raise ValueError(f"{where} has no {', '.join(missing)}: not a prediction_eval.json")
+        if not (isinstance(r["set"], str) and r["set"]):
+            raise ValueError(f"{where}, set: {r['set']!r} is not a set's name")
+        for key in ("t_obs_s", "horizon_s"):
+            if not (_finite(r[key]) and r[key] > 0):
+                raise ValueError(f"{where}, {key}: {r[key]!r} is not a time > 0 s")
+        if not isinstance(r["fde_m"], dict):
+            raise ValueError(f"{where}, fde_m: {r['fde_m']!r} is not method → distance")
+        for method, fde in r["fde_m"].items():
+            given = fde is not None and not (isinstance(fde, float) and math.isnan(fde))
+            if given and not (_finite(fde) and fde >= 0):
+                raise ValueError(f"{where}, fde_m.{method}: {fde!r} is not a distance >= 0 m")
+    split = raw.get("split")
+    return PredictionRun(path, split if isinstance(split, str) else None, tuple(records))
+
+
+def calibration_records(
+    run: PredictionRun, t_obs: Sequence[float], level: float = REGION_LEVEL
+) -> list[Mapping[str, Any]]:
+    """The recorded records of ``run`` that calibrate regions at every ``t_obs``.
+
+    A region needs records of recorded episodes (simulated ones are not calibrated on),
+    at least ⌈(n + 1)·level⌉ ≤ n of them at each observed time (:func:`region_rates`):
+    otherwise the run would report no region, without a word.
+
+    Raises:
+        ValueError: no recorded record, or too few at an observed time (the message says
+            what the run has).
+    """
+    recorded = [r for r in run.records if r["set"] != SIMULATED]
+    if not recorded:
+        had = f"its {len(run.records)} records are all simulated" if run.records else "no record"
+        raise ValueError(
+            f"{run.path} has no record of a recorded episode ({had}): calibrate on a run that "
+            "predicted recorded episodes"
+        )
+    rates = region_rates(recorded, level)
+    per_time: dict[float, int] = {}
+    for r in recorded:
+        per_time[float(r["t_obs_s"])] = per_time.get(float(r["t_obs_s"]), 0) + 1
+    missing = [t for t in t_obs if not any(key[1] == float(t) for key in rates)]
+    if missing:
+        has = ", ".join(f"{n} at {t:g} s" for t, n in sorted(per_time.items()))
+        need = next(n for n in itertools.count(1) if math.ceil((n + 1) * level) <= n)
+        raise ValueError(
+            f"{run.path} calibrates no {level * 100:g} % region at t_obs "
+            f"{', '.join(f'{t:g}' for t in missing)} s: a region needs at least {need} recorded "
+            f"records of its t_obs, the run has {has}"
+        )
+    return recorded
+
+
+@dataclass(frozen=True)
 class PredictionStudy:
     """The whole comparison (:func:`evaluate_prediction`)."""
 
@@ -1371,6 +1548,7 @@ def calibrate_on_split(
         chosen = load_episodes_folder(episodes_dir, rows, "train")
         return calibrate_physics(physics_cases([(e, d) for _, e, d, _ in chosen], t_obs))
     rows = read_split() if rows is None else rows
+    check_split_selects(rows, "train", tuple(DATASETS))
     recorded = []
     for ds in DATASETS:
         ids = [r.episode_id for r in rows if r.dataset == ds and r.split == "train"]
@@ -1384,24 +1562,55 @@ def _geometry(demo: Demonstration) -> tuple:
     return (round(sc.l_f, 6), round(sc.l_r, 6), round(sc.l_a, 6), round(sc.l_b, 6), slots)
 
 
-def _simulated_spans() -> list[tuple[float, float]]:
-    """(T_s, length) [s] of the simulated vehicles' demonstrations (both families)."""
+@dataclass(frozen=True)
+class VehicleSpan:
+    """How long the vehicles of one kind last, and their T_s: what an observed time needs."""
+
+    kind: str
+    """What they are, plural ("simulated ones", "highway-env lane changes"), for messages."""
+    dt: float
+    """Their T_s [s]: an observed time is a whole number of it."""
+    length_s: float
+    """The longest one's length [s]: an observed time is shorter."""
+    at_most: bool = False
+    """Whether their lengths vary (the message says "at most")."""
+
+    def __str__(self) -> str:
+        return f"{self.kind} {'at most ' if self.at_most else ''}{self.length_s:g} s"
+
+
+def _simulated_spans() -> list[VehicleSpan]:
+    """The simulated vehicles' demonstrations (both families)."""
     bases = (ScenarioRanges().base, TrafficRanges().single.base)
-    return [(b.dt, b.horizon_s) for b in bases]
+    return [VehicleSpan("simulated ones", b.dt, b.horizon_s) for b in bases]
+
+
+def recorded_spans(recorded: Sequence[Demonstration]) -> list[VehicleSpan]:
+    """The recorded episodes' spans: one per T_s among them (none without episodes)."""
+    by_dt: dict[float, float] = {}
+    for d in recorded:
+        dt = round(float(d.t[1] - d.t[0]), 9)
+        by_dt[dt] = max(by_dt.get(dt, 0.0), float(d.t[-1] - d.t[0]))
+    return [VehicleSpan("recorded ones", dt, n, at_most=True) for dt, n in by_dt.items()]
 
 
 def check_observed_times(
     t_obs: Sequence[float],
     recorded: Sequence[Demonstration] = (),
     simulated: bool = True,
+    others: Sequence[VehicleSpan] = (),
 ) -> tuple[float, ...]:
-    """The observed times as the study uses them, refusing times no vehicle can be observed.
+    """The observed times as a study uses them, refusing times no vehicle can be observed.
+
+    The one rule of every command that predicts after observed times (evaluate-prediction,
+    evaluate-out-of-class), checked before any vehicle is simulated.
 
     Args:
         t_obs: observed times [s] (repeats are dropped: a time counted twice would count
             every vehicle twice in its summary; the caller says so).
         recorded: the run's recorded episodes (raw demonstrations).
-        simulated: whether the run has simulated vehicles.
+        simulated: whether the run has this study's simulated vehicles.
+        others: the spans of the run's other vehicles (another study's).
 
     Returns:
         The distinct times, in the given order.
@@ -1420,25 +1629,23 @@ def check_observed_times(
     bad = [t for t in times if not (np.isfinite(t) and t > 0)]
     if bad:
         raise ValueError(f"observed times must be finite and > 0 s, got {bad}")
-    spans = (_simulated_spans() if simulated else []) + [
-        (float(d.t[1] - d.t[0]), float(d.t[-1] - d.t[0])) for d in recorded
-    ]
+    spans = [*(_simulated_spans() if simulated else []), *recorded_spans(recorded), *others]
     if not spans:
         return tuple(times)
-    longest = max(length for _, length in spans)
+    longest = max(s.length_s for s in spans)
     beyond = [t for t in times if t >= longest - 1e-9]
     if beyond:
-        lasting = []
-        if simulated:
-            lasting.append(f"simulated ones {max(h for _, h in _simulated_spans()):g} s")
-        if recorded:
-            lasting.append(f"recorded ones at most {max(d.t[-1] - d.t[0] for d in recorded):g} s")
+        lasting: dict[tuple[str, bool], VehicleSpan] = {}  # the longest of each kind
+        for span in spans:
+            key = (span.kind, span.at_most)
+            if key not in lasting or span.length_s > lasting[key].length_s:
+                lasting[key] = span
         raise ValueError(
             f"observed time(s) {', '.join(f'{t:g}' for t in beyond)} s: no vehicle of this run "
             "lasts that long, nothing would be left to predict (the "
-            f"{' and '.join(lasting)}); observe less than {longest:g} s"
+            f"{' and '.join(map(str, lasting.values()))}); observe less than {longest:g} s"
         )
-    for dt in sorted({round(dt, 9) for dt, _ in spans}):
+    for dt in sorted({round(s.dt, 9) for s in spans}):
         for t in times:
             k = t / dt
             if abs(k - round(k)) > 1e-6:
@@ -1524,6 +1731,8 @@ def evaluate_prediction(
         recorded_sets = tuple(dict.fromkeys(r[0] for r in recorded))
     elif data_dir is not None:
         rows = (split_rows if split_rows is not None else read_split()) if split else []
+        if split:
+            check_split_selects(rows, split, tuple(DATASETS))
         unit_of = {r.episode_id: r.vehicle_id for r in rows}
         for ds in DATASETS:
             ids = None if split is None else [r.episode_id for r in rows

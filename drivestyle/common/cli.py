@@ -4,10 +4,11 @@
 invalid value, a solver that cannot start, an output another run is writing) ends with one
 line ``error: …`` naming the problem and exit status 2; Ctrl-C ends with exit status 130
 and SIGTERM with 143 after the script's atomic writes (:mod:`drivestyle.common.io`) have
-discarded the unfinished output; anything unexpected ends with one line and exit status 1
-(``DRIVESTYLE_TRACEBACK=1`` shows the traceback). The outputs the script checks stay
-locked while it runs (:func:`~drivestyle.common.io.command_outputs`): a second run into
-them is refused.
+discarded the unfinished output (a script that keeps some, e.g. a resumable run's finished
+rows, says what with :class:`Interrupted`); anything unexpected ends with one line and exit
+status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the traceback). The outputs the script checks
+stay locked while it runs (:func:`~drivestyle.common.io.command_outputs`): a second run
+into them is refused.
 
 The ``argparse`` types below reject out-of-range values at parse time, so a script never
 starts long work on an argument it would ignore or misread: every ``--seed`` is a
@@ -22,7 +23,8 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable, Hashable, Sequence
+from collections.abc import Callable, Hashable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any, TypeVar
 
 from drivestyle.common.io import command_outputs
@@ -33,18 +35,22 @@ __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_UNEXPECTED",
     "EXIT_USER_ERROR",
+    "INTERRUPTED",
     "SEED_MAX",
     "USER_ERRORS",
     "HelpFormatter",
+    "Interrupted",
     "count",
     "distinct",
     "finite_float",
     "float_list",
+    "for_option",
     "fraction",
     "nonnegative_int",
+    "nonnegative_list",
     "positive_float",
     "positive_int",
-    "risk_grid",
+    "positive_list",
     "risk_list",
     "risk_value",
     "run_cli",
@@ -71,6 +77,18 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     RuntimeError,  # solver failures that the library reports with a message
 )
 """Exceptions that mean "bad input or environment" and carry a message for the user."""
+
+
+INTERRUPTED = "unfinished output was discarded"
+"""What Ctrl-C leaves of a command that writes its output atomically (most of them)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, with what a command keeps of its work (:func:`run_cli` says it).
+
+    A command whose output is not discarded on Ctrl-C (mine-styles keeps its finished rows
+    for the resume) raises this from the ``KeyboardInterrupt`` with the true words.
+    """
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -106,8 +124,9 @@ def run_cli(main: Callable[[list[str] | None], Any], argv: list[str] | None = No
             if isinstance(exc.__cause__, (KeyboardInterrupt, SystemExit)):
                 raise exc.__cause__ from None
             raise
-    except KeyboardInterrupt:
-        print("\ninterrupted: unfinished output was discarded", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        said = str(exc) if isinstance(exc, Interrupted) and str(exc) else INTERRUPTED
+        print(f"\ninterrupted: {said}", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
     except SystemExit:
         raise
@@ -191,25 +210,43 @@ def float_list(text: str) -> list[float]:
     return values
 
 
+def _said(values: Sequence[float]) -> str:
+    """Numbers as a user writes them (``1``, ``0.95``), comma-separated."""
+    return ", ".join(f"{v:g}" for v in values)
+
+
+def positive_list(text: str) -> list[float]:
+    """Comma-separated finite numbers > 0 (factors, scales)."""
+    values = float_list(text)
+    bad = [v for v in values if not (math.isfinite(v) and v > 0)]
+    if bad:
+        raise argparse.ArgumentTypeError(f"must be finite numbers > 0, got {_said(bad)}")
+    return values
+
+
+def nonnegative_list(text: str) -> list[float]:
+    """Comma-separated finite numbers >= 0 (noise levels: 0 is none)."""
+    values = float_list(text)
+    bad = [v for v in values if not (math.isfinite(v) and v >= 0)]
+    if bad:
+        raise argparse.ArgumentTypeError(f"must be finite numbers >= 0, got {_said(bad)}")
+    return values
+
+
 def risk_list(text: str) -> list[float]:
-    """Comma-separated distinct risks in (0, 1), returned sorted."""
+    """Comma-separated distinct risks in (0, 1), returned sorted.
+
+    Each value's range is checked before the list's (repeats here; how many a command needs
+    in its ``main``, where a narrower range of its own comes first too): a risk of 1 is
+    said to be out of range, never to be too few.
+    """
     values = float_list(text)
     bad = [p for p in values if not 0 < p < 1]
     if bad:
-        raise argparse.ArgumentTypeError(f"risks must lie in (0, 1), got {bad}")
+        raise argparse.ArgumentTypeError(f"risks must lie in (0, 1), got {_said(bad)}")
     if len(set(values)) != len(values):
-        raise argparse.ArgumentTypeError(f"risks must be distinct, got {values}")
+        raise argparse.ArgumentTypeError(f"risks must be distinct, got {_said(values)}")
     return sorted(values)
-
-
-def risk_grid(text: str) -> list[float]:
-    """:func:`risk_list` of at least two risks (a library compares risks: one tells nothing)."""
-    values = risk_list(text)
-    if len(values) < 2:
-        raise argparse.ArgumentTypeError(
-            f"need at least two risks to tell styles apart, got {text!r} (e.g. 0.5,0.7,0.9)"
-        )
-    return values
 
 
 def seed(text: str) -> int:
@@ -243,29 +280,67 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 1e-6:.3g} µs"
 
 
-def count(limit: int, seconds_each: float, what: str) -> Callable[[str], int]:
-    """An argparse type: how many of something, an integer in [1, ``limit``].
+def _bytes(n: float) -> str:
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.3g} bytes"
+
+
+def count(
+    limit: int, seconds_each: float, what: str, bytes_each: float = 0.0, least: int = 1
+) -> Callable[[str], int]:
+    """An argparse type: how many of something, an integer in [``least``, ``limit``].
 
     Args:
-        limit: the largest number a run may ask for (where the work takes days or more).
+        limit: the largest number a run may ask for (where the work takes days or more, or
+            the memory runs out).
         seconds_each: the rough cost of one on one core [s], said in the error.
         what: what is counted, plural ("scenes"), said in the error.
+        bytes_each: the rough memory one holds at once with all the others [bytes] (0:
+            the count costs time, not memory), said in the error.
+        least: the smallest number (0 where none of it is a choice, e.g. no scenarios).
 
     Returns:
-        The type function (its error names the bound and the time the bound already takes).
+        The type function (its error names the bound and the time, and memory, the bound
+        already takes).
     """
 
     def parse(text: str) -> int:
-        value = positive_int(text)
+        value = _number(text, int, "an integer")
+        if value < least:
+            raise argparse.ArgumentTypeError(f"must be >= {least}, got {value}")
         if value > limit:
+            memory = f" and ≈ {_bytes(limit * bytes_each)} of memory" if bytes_each > 0 else ""
+            each = f"{_duration(seconds_each)}" + (
+                f" and {_bytes(bytes_each)}" if bytes_each > 0 else ""
+            )
             raise argparse.ArgumentTypeError(
-                f"at most {limit:,} {what} (≈ {_duration(seconds_each)} each: the bound alone is "
-                f"≈ {_duration(limit * seconds_each)} of work on one core), got {value:,}"
+                f"at most {limit:,} {what} (≈ {each} each: the bound alone is "
+                f"≈ {_duration(limit * seconds_each)} of work on one core{memory}), got {value:,}"
             )
         return value
 
     parse.__name__ = f"count of {what}"  # argparse names the type in some messages
     return parse
+
+
+@contextmanager
+def for_option(option: str) -> Iterator[None]:
+    """Errors of reading an option's file, said as the option's: ``--physics FILE: …``.
+
+    The readers name the file first (``FILE: no such file``); the option in front tells the
+    user which of their words it was. A missing file stays a ``FileNotFoundError``, other
+    ``OSError`` and ``ValueError`` keep their kind (:data:`USER_ERRORS`: one line, exit 2).
+    """
+    try:
+        yield
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"{option} {exc}") from None
+    except OSError as exc:
+        raise OSError(f"{option} {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"{option} {exc}") from None
 
 
 def distinct(values: Sequence[_T]) -> tuple[list[_T], list[_T]]:

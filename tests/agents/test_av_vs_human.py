@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+
 import numpy as np
 import pytest
 
@@ -16,6 +18,7 @@ from drivestyle.agents.studies.av_vs_human import (
 from drivestyle.agents.studies.reports import av_human_markdown
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import PAPER
+from drivestyle.irl import mining
 
 W = PAPER.lane_width
 
@@ -112,18 +115,36 @@ def test_without_the_av_or_without_humans_it_refuses():
         compare_av_human(_episodes()[:6])
 
 
+def _styles_csv(folder, *rows) -> None:
+    """``folder/styles.csv`` as mine-styles writes it."""
+    with (folder / "styles.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=mining.COLUMNS)
+        writer.writeheader()
+        writer.writerows(r.to_csv() for r in rows)
+
+
+def _mined_row(i, mean, lo, hi, informative, out_of_class, binds=None, enters=None):
+    """An ok row of a mining run (the columns the comparison reads as given)."""
+    return mining.MinedRow(
+        i, "cats", "ok", risk_estimate=mean, risk_lo=lo, risk_hi=hi, risk_mean=mean,
+        informative=informative, out_of_class=out_of_class, theta_normalised=(1.0,),
+        constraint_binds=binds, enters_region=enters,
+    )  # fmt: skip
+
+
 def test_the_mined_table_is_read_and_a_foreign_table_refused(tmp_path):
-    (tmp_path / "styles.csv").write_text(
-        "id,status,risk_mean,risk_lo,risk_hi,informative,out_of_class\n"
-        "x,ok,0.7,0.6,0.8,True,False\ny,failed,,,,False,False\n"
+    _styles_csv(
+        tmp_path,
+        _mined_row("x", 0.7, 0.6, 0.8, True, False),
+        mining.MinedRow.failed("y", "cats", "DemonstrationError: y: no lane change"),
     )
     assert read_mined(tmp_path) == {"x": MinedRow(0.7, 0.6, 0.8, True, False)}
     assert read_mined(tmp_path)["x"].verdict == "informative"
     # a table with the label's flags: the same function labels its rows
-    (tmp_path / "styles.csv").write_text(
-        "id,status,risk_mean,risk_lo,risk_hi,informative,out_of_class,constraint_binds,"
-        "enters_region\nx,ok,0.7,0.6,0.8,False,True,True,True\n"
-        "z,ok,0.745,0.5,0.99,False,False,False,False\n"
+    _styles_csv(
+        tmp_path,
+        _mined_row("x", 0.7, 0.6, 0.8, False, True, True, True),
+        _mined_row("z", 0.745, 0.5, 0.99, False, False, False, False),
     )
     read = read_mined(tmp_path)
     assert read["x"] == MinedRow(0.7, 0.6, 0.8, False, True, True, True)

@@ -126,3 +126,21 @@ def test_the_command_writes_its_report(tmp_path):
     assert {e["family"] for e in payload["episodes"]} >= {"smpc"}
     with pytest.raises(ValueError, match="no driver to study"):
         main(["--library", str(lib), "--out", str(out), "--no-highway", "--scenarios", "0"])
+
+
+def test_the_study_refuses_an_observed_time_before_simulating(monkeypatch):
+    from drivestyle.agents.studies import out_of_class
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    def simulated(*args, **kwargs):
+        raise AssertionError("simulated before checking the observed times")
+
+    monkeypatch.setattr(out_of_class, "highway_episodes", simulated)
+    monkeypatch.setattr(out_of_class, "smpc_episodes", simulated)
+    library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))
+    for t_obs, said in (((50.0,), "observe less than 8 s"), ((0.3,), "use 0.2 or 0.4 s")):
+        with pytest.raises(ValueError, match=said):
+            out_of_class.run_study(library, out_of_class.StudyConfig(t_obs=t_obs))
+    spans = out_of_class.vehicle_spans(out_of_class.StudyConfig(per_class=0))
+    assert [str(s) for s in spans] == ["SMPC drivers 6 s"]  # no highway-env without drivers

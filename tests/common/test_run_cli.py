@@ -76,3 +76,20 @@ def test_traceback_on_request(monkeypatch):
     monkeypatch.setenv("DRIVESTYLE_TRACEBACK", "1")
     with pytest.raises(ValueError, match="shown"):
         run_cli(_raises(ValueError("shown")), [])
+
+
+def test_ctrl_c_says_what_a_command_kept():
+    import io
+    from contextlib import redirect_stderr
+
+    from drivestyle.common.cli import Interrupted
+
+    err = io.StringIO()
+    with redirect_stderr(err), pytest.raises(SystemExit) as info:
+        run_cli(_raises(Interrupted("3 finished row(s) kept in out/styles.csv")), [])
+    assert info.value.code == 130
+    assert err.getvalue() == "\ninterrupted: 3 finished row(s) kept in out/styles.csv\n"
+    err = io.StringIO()
+    with redirect_stderr(err), pytest.raises(SystemExit):
+        run_cli(_raises(KeyboardInterrupt()), [])
+    assert err.getvalue() == "\ninterrupted: unfinished output was discarded\n"

@@ -1,5 +1,6 @@
 """The output folder of a mining run: repair on entering, one row per id, fingerprint, lock."""
 
+import dataclasses
 import json
 import os
 import signal
@@ -19,6 +20,7 @@ from drivestyle.irl.mining_output import (
     MiningOutputError,
     RunFingerprint,
     read_rows,
+    read_table,
 )
 
 
@@ -54,6 +56,35 @@ def test_a_torn_last_row_and_repeated_rows_are_dropped_on_entering(tmp_path):
         assert out.append(_row("v3")) and not out.append(_row("v1"))
     assert [r.id for r in read_rows(tmp_path / TABLE)] == ["v1", "v2", "v3"]
     assert (tmp_path / TABLE).read_text().count("\n") == 4  # header + 3 rows, none glued
+
+
+def _ok(i: str) -> MinedRow:
+    return MinedRow(i, "pop", "ok", risk_estimate=0.7, risk_lo=0.6, risk_hi=0.8, risk_mean=0.7,
+                    theta_normalised=(1.0,))  # fmt: skip
+
+
+def test_a_row_out_of_range_is_mined_again_on_resume_and_refused_by_a_reader(tmp_path):
+    # a posterior mean of 7.5 is no risk: a damaged row, however it got there
+    (tmp_path / FINGERPRINT).write_text(json.dumps(FP.to_json()))
+    cells = _ok("v1").to_csv() | {"risk_mean": "7.5"}
+    header, v2 = _csv(_ok("v2")).splitlines(keepends=True)
+    (tmp_path / TABLE).write_text(header + ",".join(f'"{cells[c]}"' for c in COLUMNS) + "\r\n" + v2)
+    with pytest.raises(MiningOutputError, match=r"row 1 \(line 2\) \(id v1\): risk_mean 7\.5 "
+                       r"is not a risk in \(0, 1\)"):  # fmt: skip
+        read_table(tmp_path / TABLE)
+    with MiningOutput(tmp_path, FP) as out:  # the resumed run drops it: v1 is mined again
+        assert out.repaired == 1 and [r.id for r in out.rows] == ["v2"]
+    assert [r.id for r in read_table(tmp_path / TABLE)] == ["v2"]
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("risk_lo", 0.0), ("risk_hi", 1.0), ("true_risk", 1.5), ("rmse_y_m", -0.1),
+     ("kl_nats", float("nan")), ("iterations", -1), ("interval_width_ratio", float("inf"))],
+)  # fmt: skip
+def test_a_mined_row_refuses_a_number_outside_its_range(field, value):
+    with pytest.raises(ValueError, match=f"row v1: {field} "):
+        dataclasses.replace(_ok("v1"), **{field: value})
 
 
 def test_read_rows_skips_a_torn_last_row_without_repairing(tmp_path):

@@ -1,5 +1,8 @@
 """The physics baseline (irl/physics.py): IDM, the quintic lane change, calibration."""
 
+import json
+import re
+
 import numpy as np
 import pytest
 
@@ -76,3 +79,39 @@ def test_calibration_recovers_the_parameters_that_made_the_data(tmp_path):
 def test_parameters_must_be_positive():
     with pytest.raises(ValueError, match="time_gap_s"):
         PhysicsParams(time_gap_s=0.0)
+
+
+FULL = PhysicsParams().to_json()
+
+
+@pytest.mark.parametrize(
+    ("content", "said"),
+    [
+        ('{"params": {"v0_factor": 1.1', r": not JSON \(Expecting ',' delimiter at line 1, "
+                                         r"column 29\)$"),
+        ({"rmse_m": 1.0}, r': no "params" object: not a physics parameters file'),
+        ({"params": {"v0_factor": 1.1}}, r": params: no time_gap_s, min_gap_m, .*trigger_mps "
+                                         r"\(expected v0_factor, "),
+        ({"params": {**FULL, "headway_s": 1.0}}, r": params: unknown headway_s \(expected "),
+        ({"params": {**FULL, "time_gap_s": "1.2"}},
+         r": params\.time_gap_s '1.2' is not a finite number > 0$"),
+        ({"params": {**FULL, "time_gap_s": True}},
+         r": params\.time_gap_s True is not a finite number > 0$"),
+        ({"params": {**FULL, "time_gap_s": 30.0}},
+         r": params\.time_gap_s 30 lies outside \[0\.3, 3\], the range calibration keeps to$"),
+    ],
+    ids=["torn-json", "no-params", "missing", "unknown", "text-number", "bool", "out-of-range"],
+)  # fmt: skip
+def test_a_bad_parameters_file_is_one_line_naming_it_and_the_problem(tmp_path, content, said):
+    path = tmp_path / "physics.json"
+    path.write_text(content if isinstance(content, str) else json.dumps(content))
+    with pytest.raises(ValueError, match=re.escape(str(path)) + said) as info:
+        load_params(path)
+    assert "\n" not in str(info.value)
+
+
+def test_a_missing_or_folder_parameters_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match=f"^{re.escape(str(tmp_path))}/no.json: no such"):
+        load_params(tmp_path / "no.json")
+    with pytest.raises(ValueError, match="is a folder, not a physics parameters file"):
+        load_params(tmp_path)

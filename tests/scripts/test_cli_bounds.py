@@ -75,6 +75,15 @@ def test_a_negative_or_huge_seed_ends_in_one_error_line(script, value, capsys):
         ("build_style_library", "--scenarios", "at most 10,000 scenarios"),
         ("evaluate_identification", "--scenarios", "at most 10,000 scenarios"),
         ("bench_env", "--steps", "at most 1,000,000,000 env steps"),
+        ("compare_av_human", "--samples", "at most 100,000 bootstrap replicates"),
+        ("evaluate_out_of_class", "--scenarios", "at most 1,000 scenarios"),
+        ("evaluate_identification", "--continuous", "at most 1,000 continuous-risk"),
+        ("capacity_study", "--train", "at most 1,000 training scenarios"),
+        ("capacity_study", "--test", "at most 10,000 held-out scenarios"),
+        ("capacity_study", "--budget", "at most 100,000 objective evaluations"),
+        ("compare_baseline", "--heldout", "at most 10,000 held-out scenarios"),
+        ("train_baseline", "--timesteps", "at most 100,000,000 training env steps"),
+        ("reproduce_paper", "--baseline-timesteps", "at most 100,000,000 training env steps"),
     ],
 )
 def test_a_size_beyond_its_bound_is_refused_with_the_bound(script, option, message, capsys):
@@ -105,6 +114,9 @@ def test_the_types():
         scenes("101")
     with pytest.raises(argparse.ArgumentTypeError, match=">= 1"):
         scenes("0")
+    held = count(1000, 1e-3, "replicates", bytes_each=2e6)  # a size that costs memory
+    with pytest.raises(argparse.ArgumentTypeError, match=r"1 ms and 2 MB each: .* 2 GB of memory"):
+        held("1001")
     with pytest.raises(argparse.ArgumentTypeError, match="worker processes on this machine"):
         workers("100000")
     assert workers("1") == 1

@@ -3,12 +3,13 @@ import runpy
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from drivestyle.envs import save_demonstration
+from drivestyle.envs import load_demonstration, save_demonstration
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC_KEYS = (
@@ -243,8 +244,9 @@ def test_learn_style_exits_3_on_a_poor_fit_and_names_the_demonstration(tmp_path,
 
     script = runpy.run_path(str(ROOT / "scripts" / "learn_style.py"), run_name="not_main")
     script["main"].__globals__["learn_driver"] = poor_fit  # run_path returns a copy
-    other = tmp_path / "other.npz"
-    shutil.copy(demo_file, other)
+    other = tmp_path / "other.npz"  # another driver's: other bytes (a copy counts once)
+    demo = load_demonstration(demo_file)
+    save_demonstration(replace(demo, meta={**demo.meta, "driver": "other"}), other)
     out = tmp_path / "style"
     with pytest.raises(SystemExit) as info:
         run_cli(script["main"], [str(demo_file), str(other), "--out", str(out)])

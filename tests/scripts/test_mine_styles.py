@@ -11,6 +11,7 @@ import os
 import socket
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -51,10 +52,11 @@ def lib(tmp_path) -> Path:
 
 
 def _unminable(folder: Path, names) -> Path:
-    """Files that load_demonstration rejects cleanly (a failed row each)."""
+    """Files that load_demonstration rejects cleanly (a failed row each), each its own bytes
+    (a byte copy would be mined once)."""
     folder.mkdir(parents=True, exist_ok=True)
     for n in names:
-        (folder / f"{n}.npz").write_bytes(b"not a demonstration " + n.encode())
+        (folder / f"{n}.npz").write_bytes(b"not a demonstration " + str(folder / n).encode())
     return folder
 
 
@@ -312,3 +314,69 @@ def test_a_recorded_sample_is_mined_through_the_extraction(dataset):
     wrong = mine_styles.parse_args(["--dataset", other, "--data", str(folder), "--library", "x"])
     with pytest.raises(ValueError, match=f"holds the {dataset} sample"):
         mine_styles._tasks(wrong)
+
+
+def test_a_byte_copy_is_mined_once_and_said(lib, tmp_path):
+    # before: a copy under another name was a second row, counted twice in the summary
+    from cli_runner import run_command
+
+    inp = _unminable(tmp_path / "in", ["a", "c"])
+    (inp / "sub").mkdir()
+    (inp / "sub" / "b.npz").write_bytes((inp / "a.npz").read_bytes())  # the same content
+    run = run_command(tmp_path, "mine-styles", inp, "--library", lib, "--out", "mined",
+                      "--workers", "1")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    notes = [line for line in run.stderr.splitlines() if line.startswith("note: ")]
+    assert notes == [
+        f"note: each demonstration counts once: {inp / 'sub' / 'b.npz'} has the content of "
+        f"{inp / 'a.npz'}"
+    ]
+    assert sorted(r["id"] for r in _table(tmp_path / "mined")) == ["a", "c"]
+    summary = json.loads((tmp_path / "mined" / "summary.json").read_text())
+    assert summary["n"] == 2
+
+
+def test_ctrl_c_keeps_the_finished_rows_and_says_how_to_resume(tmp_path, paper_demo):
+    # before: "interrupted: unfinished output was discarded", while the rows were kept
+    import signal
+    import time
+
+    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.library import DriverLibrary
+
+    lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
+    write_json(tmp_path / "lib" / "library.json", lib.to_json())
+    inp = _unminable(tmp_path / "in", ["a"])  # a failed row in milliseconds
+    for i in range(6):  # then demonstrations of ≈ 1 s each (each its own bytes)
+        save_demonstration(replace(paper_demo, meta={**paper_demo.meta, "copy": i}),
+                           inp / f"b{i}.npz")  # fmt: skip
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    job = subprocess.Popen(
+        [sys.executable, "-m", "drivestyle", "mine-styles", str(inp), "--library",
+         str(tmp_path / "lib"), "--out", str(tmp_path / "mined")],  # two worker processes
+        stderr=subprocess.PIPE, text=True, env=env, start_new_session=True,
+        # as from a terminal's shell: a test runner's worker (xdist) or a background job
+        # ignores SIGINT, and its children inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    table = tmp_path / "mined" / "styles.csv"
+    try:
+        deadline = time.monotonic() + 120
+        while not (table.is_file() and len(table.read_text().splitlines()) >= 2):
+            assert job.poll() is None and time.monotonic() < deadline, "no first row"
+            time.sleep(0.05)
+        os.killpg(job.pid, signal.SIGINT)  # Ctrl-C at a terminal: the whole group
+        _, err = job.communicate(timeout=60)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+            job.wait()
+    assert job.returncode == 130, err
+    kept = len(_table(tmp_path / "mined"))
+    assert 1 <= kept < 7
+    assert err.strip().splitlines()[-1] == (
+        f"interrupted: {kept} finished row(s) kept in {table} ({kept} of this run); rerun the "
+        f"same command to resume: it mines the other {7 - kept} demonstration(s) (summary.json "
+        "and population.png are written when a run completes)"
+    )
+    assert "discarded" not in err
