@@ -15,7 +15,7 @@ from drivestyle.agents.studies.reports import (
 )
 from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS
 
-RECORD_KEYS = {"risk", "scenario", "grid", "identify_s", "informative", "min_s_e"}
+RECORD_KEYS = {"risk", "scenario", "grid", "identify_s", "constraint_binds", "min_s_e"}
 RECORD_KEYS |= {"trigger_fired", "scores", "posterior"}
 RECORD_KEYS |= {f"{s}_{k}" for s in SCORERS for k in ("estimate", "interpolated", "interval")}
 RECORD_KEYS |= {f"{s}_covered" for s in SCORERS}
