@@ -82,6 +82,7 @@ def p09_demo():
     return generate_demonstration(0.9, scenario, SMPCConfig(risk=0.9))[0]
 
 
+@pytest.mark.slow  # one learning from a local minimum's start (≈ 4 s)
 def test_the_cauchy_descent_leaves_least_squares_local_minimum(p09_demo):
     # least squares alone (before the Cauchy descent) stopped at w_δ 57 against the
     # driver's 10, 4.4 noise floors: poor_fit (the default search: w_δ 81630, 5.6 floors)
@@ -184,6 +185,7 @@ def test_a_fit_whose_closed_loop_reproduces_the_demonstration_is_not_poor(paper_
     assert fit.to_json()["notes"] == list(fit.notes)
 
 
+@pytest.mark.slow  # a learning of two drivers' demonstrations (≈ 3 s)
 def test_a_fit_whose_closed_loop_misses_the_demonstration_stays_poor(paper_demo):
     # p = 0.5 and p = 0.95 drivers with the expert's weights given, one shared risk learned:
     # one of them is neither fitted nor reproduced

@@ -16,6 +16,10 @@ from cli_runner import DATA, run_command
 
 from drivestyle.irl.mining import COLUMNS, MinedRow
 
+# each test runs a command in its own process, as a user meets the problem (1-6 s each):
+# CI runs them with the slow set, the default run stays within its time
+pytestmark = pytest.mark.slow
+
 needs_cats = pytest.mark.skipif(
     not (DATA / "cats-av-lanechange" / "tracks.csv.gz").is_file(),
     reason="the CATS sample is absent",

@@ -18,9 +18,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name, extract_episodes
 from drivestyle.envs.readers import read_table
+
+# each test runs a command in its own process, as a user meets the problem (1-6 s each):
+# CI runs them with the slow set, the default run stays within its time
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 W = 3.75

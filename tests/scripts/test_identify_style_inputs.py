@@ -73,6 +73,7 @@ def test_plot_writes_a_figure_and_the_summary_says_the_verdict(tmp_path, paper_d
     assert png.std() > 10  # not blank: lines and text on white
 
 
+@pytest.mark.slow  # two learnings (≈ 3 s)
 def test_learn_style_counts_a_repeated_or_copied_demonstration_once(tmp_path, paper_demo):
     # one rule with identify-style and mine-styles (drivestyle.common.inputs)
     from cli_runner import run_command
@@ -98,6 +99,7 @@ def _recorded(demo, vehicle: str, carriageway: str = "i80_1600", source: str = "
     return replace(demo, meta=meta)
 
 
+@pytest.mark.slow  # extracts NGSIM and identifies in a fresh process (≈ 6 s)
 @pytest.mark.skipif(not (DATA / "ngsim").is_dir(), reason="../shared/data not beside the checkout")
 def test_pooling_several_recorded_vehicles_is_said_and_recorded(tmp_path):
     # before: three vehicles' lane changes pooled into one posterior without a word

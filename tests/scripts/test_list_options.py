@@ -3,6 +3,10 @@ out of range, never "too few risks". Each command is run as a user runs it."""
 
 import pytest
 
+# each test runs a command in its own process, as a user meets the problem (1-6 s each):
+# CI runs them with the slow set, the default run stays within its time
+pytestmark = pytest.mark.slow
+
 
 @pytest.mark.parametrize(
     ("args", "said"),

@@ -13,6 +13,10 @@ from drivestyle.agents.studies.prediction import SPLIT_FILE, read_split, write_s
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.library import DriverLibrary
 
+# each test runs a command in its own process, as a user meets the problem (1-6 s each):
+# CI runs them with the slow set, the default run stays within its time
+pytestmark = pytest.mark.slow
+
 needs_data = pytest.mark.skipif(
     not (DATA / "ngsim").is_dir() or not (DATA / "cats-av-lanechange").is_dir(),
     reason="../shared/data not beside the checkout",
