@@ -348,8 +348,13 @@ def calibrate_physics(
     starts = [x0, lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo)]
     runs = [
         least_squares(
-            lambda z: _residuals(make(z), cases), start, bounds=(lo, hi), method="trf",
-            diff_step=1e-3, x_scale=hi - lo, max_nfev=200,
+            lambda z: _residuals(make(z), cases),
+            start,
+            bounds=(lo, hi),
+            method="trf",
+            diff_step=1e-3,
+            x_scale=hi - lo,
+            max_nfev=200,
         )  # fmt: skip
         for start in starts
     ]
