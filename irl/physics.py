@@ -346,18 +346,14 @@ def calibrate_physics(
     # predicted path crosses a lane line), so trust-region descents can stop at a kink: the
     # start and two more, a quarter and three quarters into the bounds, and the lowest wins
     starts = [x0, lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo)]
-    runs = [
-        least_squares(
-            lambda z: _residuals(make(z), cases),
-            start,
-            bounds=(lo, hi),
-            method="trf",
-            diff_step=1e-3,
-            x_scale=hi - lo,
-            max_nfev=200,
+
+    def descend(start: np.ndarray) -> Any:
+        return least_squares(
+            lambda z: _residuals(make(z), cases), start, bounds=(lo, hi), method="trf",
+            diff_step=1e-3, x_scale=hi - lo, max_nfev=200,
         )  # fmt: skip
-        for start in starts
-    ]
+
+    runs = [descend(start) for start in starts]
     res = runs[int(np.argmin([float(r.cost) for r in runs]))]  # the first of equal costs
     n = len(cases)
     best = make(res.x)
