@@ -7,9 +7,10 @@ to ``target_lane`` while a scripted target vehicle (TV) drives at constant speed
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
-from typing import TYPE_CHECKING, Any, Protocol, SupportsFloat
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -304,6 +305,12 @@ class LaneChangeEnv(gym.Env):
     nominal ellipse), ``collision``, ``off_road``, ``lane_index`` (lane of the EV centre)
     and ``action_clipped``; at reset also ``scenario`` (the :class:`ScenarioConfig`).
 
+    Subclasses change the other vehicles, the episode's start, the task reward's reference
+    and the drawing through the hooks :meth:`_advance_others`, :meth:`_collision`,
+    :meth:`_start_episode`, :meth:`_initial_states`, :meth:`_task_reference`,
+    :meth:`_step_info` and :meth:`_draw`; the step itself (the controlled vehicle's RK4
+    step, the clipping, the episode end) stays the base class's.
+
     Args:
         scenario: a name from :data:`drivestyle.envs.scenario.SCENARIOS` or a config.
         randomize: ``True`` or a :class:`ScenarioRanges` to draw a new scenario at each
@@ -331,6 +338,10 @@ class LaneChangeEnv(gym.Env):
         "render_modes": ["human", "rgb_array"],
         "render_fps": 5,
     }
+    _reset_options: ClassVar[tuple[str, ...]] = ("scenario",)
+    """The keys ``reset(options=...)`` accepts (:meth:`_start_episode` reads a subclass's)."""
+    _reset_options_example: ClassVar[str] = "{'scenario': 'paper'}"
+    """A valid ``options`` dict, shown when ``options`` is not a dict."""
 
     def __init__(
         self,
@@ -372,8 +383,7 @@ class LaneChangeEnv(gym.Env):
 
         action_space, self.observation_space = two_vehicle_spaces(base, np.inf)
         self.action_space: spaces.Box = action_space
-        self.ev = base.ev_initial_state
-        self.tv = base.tv_initial_state
+        self.ev, self.tv = self._initial_states()
         self.k = 0
         self._done = False
         self._renderer: HighwayRenderer | None = None
@@ -408,14 +418,33 @@ class LaneChangeEnv(gym.Env):
         }
 
     def _collision(self) -> bool:
+        """Hook: whether the controlled vehicle collides with another (here: the TV)."""
+        # one pair, without _overlaps_any's generator: the step's hot path
         ev = self.ev.tolist()
         phi = ev[2]
         return _vehicles_overlap(
             self._constants(), ev, math.cos(phi), math.sin(phi), self.tv.tolist()
         )
 
+    def _overlaps_any(self, others: Iterable[list[float]]) -> bool:
+        """Whether the controlled vehicle's rectangle overlaps any of ``others``' rectangles.
+
+        Args:
+            others: states [x, y, φ, v] as lists of floats (the step works on floats).
+        """
+        c = self._constants()
+        ev = self.ev.tolist()
+        cos_phi, sin_phi = math.cos(ev[2]), math.sin(ev[2])
+        return any(_vehicles_overlap(c, ev, cos_phi, sin_phi, other) for other in others)
+
     def _advance_others(self) -> None:
-        """Move the TV one step: constant velocity (the paper's scripted TV) or deviating."""
+        """Hook: move the other vehicles one step (here the TV).
+
+        :meth:`step` calls it after computing the controlled vehicle's new state and before
+        storing it: ``self.ev`` (and ``self.k``) are still those of t_k, so that a driver of
+        another vehicle reacts to the state at t_k, as the controlled vehicle's input does.
+        The TV keeps its velocity (the paper's scripted TV) or deviates (``tv_deviation``).
+        """
         x, y, phi, v = self.tv.tolist()
         dt = self.scenario.dt
         a = 0.0 if self.tv_deviation is None else self.tv_deviation.accel_at(self.k * dt)
@@ -426,6 +455,58 @@ class LaneChangeEnv(gym.Env):
     def _reward_context(self) -> dict[str, Any]:
         """Extra keyword arguments of the reward model's ``step`` (traffic: the others)."""
         return {}
+
+    def _start_episode(self, options: dict[str, Any]) -> None:
+        """Hook of :meth:`reset`: prepare the episode once its scenario is chosen.
+
+        Called after ``self.scenario`` is set and before the initial states; a subclass
+        checks the scenario, reads its own reset options (:attr:`_reset_options`) and
+        restarts its other vehicles' drivers here. The base class has nothing to prepare.
+
+        Args:
+            options: the reset's options, their keys already checked.
+        """
+
+    def _initial_states(self) -> tuple[np.ndarray, np.ndarray]:
+        """Hook: the controlled vehicle's and the other vehicle's states at t = 0.
+
+        The base class controls the scenario's EV; a subclass may control another vehicle.
+        """
+        return self.scenario.ev_initial_state, self.scenario.tv_initial_state
+
+    def _task_reference(self) -> tuple[float, float]:
+        """Hook: the lane centre [m] and the speed [m/s] of the task reward's errors.
+
+        The base class holds the controlled vehicle to the target lane's centre y_ref and
+        to v_ref (:func:`task_reward`).
+        """
+        c = self._constants()
+        return c.y_ref, c.v_ref
+
+    def _step_info(self, action: np.ndarray, clipped: bool) -> dict[str, Any]:
+        """Hook: a step's ``info``, built once the step's states are stored.
+
+        Args:
+            action: the controlled vehicle's applied (clipped) input [a, δ].
+            clipped: whether the action was clipped.
+
+        Returns:
+            :meth:`_info` with ``action_clipped`` and ``action``; a subclass adds what its
+            other vehicles did over the step.
+        """
+        return self._info(action_clipped=clipped, action=action)
+
+    def _bicycle_step(self, state: list[float], a: float, delta: float) -> list[float]:
+        """A vehicle's state [x, y, φ, v] one sampling period later under the input [a, δ].
+
+        One RK4 step of the kinematic bicycle (:func:`rk4_step_scalar`, the SMPC's map),
+        the speed then kept in [0, v_max]; for the controlled vehicle and for any other
+        vehicle a subclass drives with physical inputs.
+        """
+        c = self._constants()
+        x, y, phi, v = state
+        x, y, phi, v = rk4_step_scalar(x, y, phi, v, a, delta, c.dt, c.l_f, c.l_r)
+        return [x, y, phi, min(max(v, 0.0), c.v_max)]
 
     def _off_road(self) -> bool:
         return not (0.0 <= float(self.ev[1]) <= self._constants().road_width)
@@ -477,10 +558,10 @@ class LaneChangeEnv(gym.Env):
             KeyError: ``options["scenario"]`` names no known scenario.
         """
         super().reset(seed=seed)
-        options = checked_options(options, ("scenario",), "{'scenario': 'paper'}")
+        options = checked_options(options, self._reset_options, self._reset_options_example)
         self.scenario = episode_scenario(options, self.ranges, self.base_scenario, self.np_random)
-        self.ev = self.scenario.ev_initial_state
-        self.tv = self.scenario.tv_initial_state
+        self._start_episode(options)
+        self.ev, self.tv = self._initial_states()
         self.k = 0
         self._done = False
         if self._reward_model is not None:
@@ -514,20 +595,19 @@ class LaneChangeEnv(gym.Env):
         # np.clip's answer for finite numbers
         a_clip = c.a_lo if a < c.a_lo else (c.a_hi if a > c.a_hi else a)
         d_clip = c.d_lo if delta < c.d_lo else (c.d_hi if delta > c.d_hi else delta)
-        x, y, phi, v = self.ev.tolist()
-        x, y, phi, v = rk4_step_scalar(x, y, phi, v, a_clip, d_clip, c.dt, c.l_f, c.l_r)
-        v = min(max(v, 0.0), c.v_max)
+        x, y, phi, v = self._bicycle_step(self.ev.tolist(), a_clip, d_clip)
         self._advance_others()
         self.ev = np.array([x, y, phi, v])
         self.k += 1
         u_clip = np.array([a_clip, d_clip])
-        info = self._info(action_clipped=a_clip != a or d_clip != delta, action=u_clip)
+        info = self._step_info(u_clip, a_clip != a or d_clip != delta)
         terminated = info["collision"] or info["off_road"]
         truncated = (not terminated) and self.k >= c.n_steps
         self._done = terminated or truncated
         # task_reward, on the floats at hand
-        lane_err = (y - c.y_ref) / c.lane_width
-        speed_err = (v - c.v_ref) / 10.0
+        y_ref, v_ref = self._task_reference()
+        lane_err = (y - y_ref) / c.lane_width
+        speed_err = (v - v_ref) / 10.0
         reward = float(-(lane_err**2 + speed_err**2) - COLLISION_PENALTY * terminated)
         if self._reward_model is not None:
             info["original_env_rew"] = reward
@@ -549,9 +629,17 @@ class LaneChangeEnv(gym.Env):
             from drivestyle.envs.rendering import HighwayRenderer
 
             self._renderer = HighwayRenderer(self.render_mode)
+        return self._draw(self._renderer)
+
+    def _draw(self, renderer: HighwayRenderer) -> np.ndarray | None:
+        """Hook of :meth:`render`: draw the scene with its caption.
+
+        The renderer follows its EV (here the controlled vehicle) and draws the safety
+        ellipse around its TV.
+        """
         info = self._info()
         caption = f"t = {info['t']:4.1f} s   v = {self.ev[3]:5.2f} m/s   s_e = {info['s_e']:5.2f}"
-        return self._renderer.draw(self.scenario, self.ev, self.tv, caption, self.show_ellipse)
+        return renderer.draw(self.scenario, self.ev, self.tv, caption, self.show_ellipse)
 
     def close(self) -> None:
         """Release the viewer."""

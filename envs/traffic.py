@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from drivestyle.envs.lane_change import LaneChangeEnv, _vehicles_overlap, checked_options
+from drivestyle.envs.lane_change import LaneChangeEnv, checked_options
 from drivestyle.envs.lanes import leaders
 from drivestyle.envs.safety import elliptical_index, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import PAPER, ScenarioConfig, ScenarioRanges
@@ -378,10 +378,8 @@ class TrafficEnv(LaneChangeEnv):
         return info
 
     def _collision(self) -> bool:
-        c = self._constants()
-        ev = self.ev.tolist()
-        cos_phi, sin_phi = math.cos(ev[2]), math.sin(ev[2])
-        return any(_vehicles_overlap(c, ev, cos_phi, sin_phi, s) for s in self.vehicles.tolist())
+        """Whether the EV collides with any other vehicle, the TV included."""
+        return self._overlaps_any(self.vehicles.tolist())
 
     def _advance_others(self) -> None:
         """Move every other vehicle one step (constant velocity or IDM)."""
