@@ -19,24 +19,12 @@ finds the learned reward.
 
 from __future__ import annotations
 
-import math
 from importlib.metadata import entry_points
-from typing import TYPE_CHECKING, Any, Protocol, SupportsFloat
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
-import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
-from drivestyle.envs.dynamics import rk4_step_scalar
-from drivestyle.envs.lane_change import (
-    COLLISION_PENALTY,
-    LaneChangeEnv,
-    _StepConstants,
-    _vehicles_overlap,
-    checked_options,
-    episode_scenario,
-    two_vehicle_spaces,
-)
+from drivestyle.envs.lane_change import LaneChangeEnv, two_vehicle_spaces
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
 if TYPE_CHECKING:
@@ -61,8 +49,6 @@ DRIVER_PLUGINS = "drivestyle.drivers"
 RISK_BOUNDS = (0.5, 0.99)
 """Admissible cutter risks p: from p = 0.5 (κ = Φ⁻¹(p) = 0, the nominal ellipse only) to the
 most cautious driver of the project's risk range."""
-
-_OPTIONS = ("risk", "scenario")
 
 
 class CutInDriver(Protocol):
@@ -138,7 +124,7 @@ def _check_scenario(sc: ScenarioConfig, where: str) -> ScenarioConfig:
     return sc
 
 
-class CutInEnv(gym.Env):
+class CutInEnv(LaneChangeEnv):
     """Gymnasium environment of a cut-in in front of an agent-controlled ego (module docstring).
 
     Observation (``Box(8,)``, float64, SI units): ``[x, y, φ, v]`` of the ego, then of the
@@ -150,6 +136,11 @@ class CutInEnv(gym.Env):
     sees (cutter, ego) at t_k), then both move one RK4 step of the kinematic bicycle
     (:mod:`drivestyle.envs.dynamics`), speeds kept in [0, v_max]; the cutter's input is
     clipped to the same bounds.
+
+    The step, the clipping, the collision test and the episode end are
+    :class:`LaneChangeEnv`'s; its controlled vehicle (``ev``) is the ego, its other vehicle
+    (``tv``) the cutter (:attr:`ego` and :attr:`cutter` name them), and the hooks add the
+    cutter's driver, the ego's reward reference and the info entries.
 
     Reward (the ego's task): −((y_e − y_lane)/w_lane)² − ((v_e − v_des)/10 m/s)² −
     10·terminated, with y_lane the ego's lane centre and v_des its initial speed.
@@ -192,11 +183,8 @@ class CutInEnv(gym.Env):
         RuntimeError: no ``driver`` and no driver plug-in installed.
     """
 
-    # gymnasium types Env.metadata as an instance variable: __init__ sets the env's render_fps
-    metadata: dict[str, Any] = {  # noqa: RUF012 (never mutated; __init__ assigns a copy)
-        "render_modes": ["human", "rgb_array"],
-        "render_fps": 5,
-    }
+    _reset_options: ClassVar[tuple[str, ...]] = ("risk", "scenario")
+    _reset_options_example: ClassVar[str] = "{'risk': 0.7}"
 
     def __init__(
         self,
@@ -241,47 +229,66 @@ class CutInEnv(gym.Env):
         else:
             _check_driver(driver)
         self.driver: CutInDriver = driver
-
-        self.base_scenario = base
-        self.ranges: ScenarioRanges | None = randomize or None
-        self.render_mode = render_mode
-        self.show_ellipse = bool(show_ellipse)
-        self.scenario = base
-        self.metadata = dict(self.metadata, render_fps=round(1 / base.dt))
-        action_space, self.observation_space = two_vehicle_spaces(base, base.v_max)
-        self.action_space: spaces.Box = action_space
-        self.ego = base.tv_initial_state
-        self.cutter = base.ev_initial_state
         self.risk = (
             self.fixed_risk if self.fixed_risk is not None else float(np.mean(self.risk_range))
         )
         """The current episode's cutter risk p."""
-        self.k = 0
-        self._done = False
-        self._renderer: HighwayRenderer | None = None
-        self._constants = _StepConstants(base, self.action_space)
         self._v_des = float(base.tv_speed)
         self._y_lane = float(base.lane_centres[base.tv_lane])
+        self._cutter_u = np.zeros(2)
+        """The cutter's input over the last step (``info["cutter_input"]``)."""
+        # the arguments are checked: the base class sets the spaces, the states and the viewer
+        super().__init__(base, randomize, render_mode, bool(show_ellipse))
+        # the cutter's speed is bounded by v_max too (the base class's TV keeps any speed)
+        _, self.observation_space = two_vehicle_spaces(base, base.v_max)
 
-    # ------------------------------------------------------------------ helpers
-    def _obs(self) -> np.ndarray:
-        return np.concatenate([self.ego, self.cutter])
+    # ------------------------------------------------------------------ the two vehicles
+    @property
+    def ego(self) -> np.ndarray:
+        """The ego's state [x, y, φ, v] (the base class's controlled vehicle, ``ev``)."""
+        return self.ev
 
-    def _info(self, **extra: Any) -> dict[str, Any]:
-        c = self._constants
-        e, cu = self.ego.tolist(), self.cutter.tolist()
-        s_e = ((cu[0] - e[0]) / c.l_a) ** 2 + ((cu[1] - e[1]) / c.l_b) ** 2
-        return {
-            "t": self.k * c.dt,
-            "s_e": s_e,
-            "d_k": s_e - 1.0,
-            "collision": _vehicles_overlap(c, e, math.cos(e[2]), math.sin(e[2]), cu),
-            "off_road": not (0.0 <= e[1] <= c.road_width),
-            "ego_lane_index": min(max(int(e[1] // c.lane_width), 0), c.top_lane),
-            "cutter": self.cutter.copy(),
-            "cutter_risk": self.risk,
-            **extra,
-        }
+    @ego.setter
+    def ego(self, state: np.ndarray) -> None:
+        self.ev = state
+
+    @property
+    def cutter(self) -> np.ndarray:
+        """The cutter's state [x, y, φ, v] (the base class's other vehicle, ``tv``)."""
+        return self.tv
+
+    @cutter.setter
+    def cutter(self, state: np.ndarray) -> None:
+        self.tv = state
+
+    # ------------------------------------------------------------------ hooks
+    def _initial_states(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ego starts as the scenario's TV, the cutter as its EV (module docstring)."""
+        return self.scenario.tv_initial_state, self.scenario.ev_initial_state
+
+    def _start_episode(self, options: dict[str, Any]) -> None:
+        """Check the episode's scenario, draw or take the risk, restart the driver.
+
+        Raises:
+            TypeError: a non-numeric ``options["risk"]``.
+            ValueError: a risk outside :data:`RISK_BOUNDS`, a scenario whose ego is not in
+                the target lane.
+        """
+        sc = self.scenario
+        if "scenario" in options:
+            _check_scenario(sc, "reset options['scenario']")
+        drawn = float(self.np_random.uniform(*self.risk_range))  # always: module docstring
+        if "risk" in options:
+            self.risk = _check_risk("reset options['risk']", options["risk"])
+        else:
+            self.risk = drawn if self.fixed_risk is None else self.fixed_risk
+        self._v_des = float(sc.tv_speed)
+        self._y_lane = float(sc.lane_centres[sc.tv_lane])
+        self.driver.reset(sc, self.risk)
+
+    def _task_reference(self) -> tuple[float, float]:
+        """The ego keeps its own lane and its initial speed."""
+        return self._y_lane, self._v_des
 
     def _cutter_input(self) -> tuple[float, float]:
         """The driver's input at t_k, clipped to the scenario's bounds.
@@ -302,120 +309,36 @@ class CutInEnv(gym.Env):
         a, delta = u.tolist()
         return min(max(a, sc.a_min), sc.a_max), min(max(delta, -sc.delta_max), sc.delta_max)
 
-    # ------------------------------------------------------------------ gym API
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start an episode: draw (or take) the scenario and the cutter's risk.
-
-        Args:
-            seed: seeds ``np_random`` (scenario and risk draws).
-            options: ``{"scenario": ScenarioConfig | name}`` fixes this episode's scenario,
-                ``{"risk": p}`` the cutter's risk.
-
-        Returns:
-            Observation and info.
+    def _advance_others(self) -> None:
+        """Move the cutter one RK4 step with its driver's input from the states at t_k.
 
         Raises:
-            TypeError: ``options`` is not a dict, or a non-numeric risk.
-            ValueError: an unknown option, a risk outside :data:`RISK_BOUNDS`, a scenario
-                whose ego is not in the target lane.
-            KeyError: ``options["scenario"]`` names no known scenario.
+            ValueError: the driver returned no valid input (no state has changed).
         """
-        super().reset(seed=seed)
-        options = checked_options(options, _OPTIONS, "{'risk': 0.7}")
-        self.scenario = episode_scenario(options, self.ranges, self.base_scenario, self.np_random)
-        if "scenario" in options:
-            _check_scenario(self.scenario, "reset options['scenario']")
-        drawn = float(self.np_random.uniform(*self.risk_range))  # always: module docstring
-        if "risk" in options:
-            self.risk = _check_risk("reset options['risk']", options["risk"])
-        else:
-            self.risk = drawn if self.fixed_risk is None else self.fixed_risk
-        sc = self.scenario
-        self._constants = _StepConstants(sc, self.action_space)
-        self._v_des = float(sc.tv_speed)
-        self._y_lane = float(sc.lane_centres[sc.tv_lane])
-        self.ego = sc.tv_initial_state
-        self.cutter = sc.ev_initial_state
-        self.k = 0
-        self._done = False
-        self.driver.reset(sc, self.risk)
-        if self.render_mode == "human":
-            self.render()
-        return self._obs(), self._info(scenario=sc, action_clipped=False)
-
-    def step(
-        self, action: np.ndarray
-    ) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
-        """Advance both vehicles one sampling period T_s.
-
-        Args:
-            action: the ego's [a, δ] [m/s², rad].
-
-        Returns:
-            observation, reward, terminated, truncated, info.
-
-        Raises:
-            ValueError: the action is not numeric, has the wrong shape or is not finite, or
-                the cutter's driver returned no valid input.
-            RuntimeError: the episode has ended (terminated or truncated): call reset().
-        """
-        if self._done:
-            raise RuntimeError(
-                "step() called after the episode ended (terminated or truncated); call reset()"
-            )
-        a, delta = LaneChangeEnv._checked_action(action)
-        c = self._constants
-        a_clip = c.a_lo if a < c.a_lo else (c.a_hi if a > c.a_hi else a)
-        d_clip = c.d_lo if delta < c.d_lo else (c.d_hi if delta > c.d_hi else delta)
-        # both inputs from the states at t_k, then both vehicles move
         a_c, d_c = self._cutter_input()
-        x, y, phi, v = self.ego.tolist()
-        x, y, phi, v = rk4_step_scalar(x, y, phi, v, a_clip, d_clip, c.dt, c.l_f, c.l_r)
-        v = min(max(v, 0.0), c.v_max)
-        xc, yc, phic, vc = self.cutter.tolist()
-        xc, yc, phic, vc = rk4_step_scalar(xc, yc, phic, vc, a_c, d_c, c.dt, c.l_f, c.l_r)
-        vc = min(max(vc, 0.0), c.v_max)
-        self.ego = np.array([x, y, phi, v])
-        self.cutter = np.array([xc, yc, phic, vc])
-        self.k += 1
-        info = self._info(
-            action=np.array([a_clip, d_clip]),
-            action_clipped=a_clip != a or d_clip != delta,
-            cutter_input=np.array([a_c, d_c]),
-        )
-        terminated = bool(info["collision"] or info["off_road"])
-        truncated = (not terminated) and self.k >= c.n_steps
-        self._done = terminated or truncated
-        lane_err = (y - self._y_lane) / c.lane_width
-        speed_err = (v - self._v_des) / 10.0
-        reward = float(-(lane_err**2 + speed_err**2) - COLLISION_PENALTY * terminated)
-        if self.render_mode == "human":
-            self.render()
-        return self._obs(), reward, terminated, truncated, info
+        self.cutter = np.array(self._bicycle_step(self.cutter.tolist(), a_c, d_c))
+        self._cutter_u = np.array([a_c, d_c])
 
-    def render(self) -> np.ndarray | None:
-        """Draw the scene with highway-env's viewer (RGB array in ``rgb_array`` mode).
+    def _info(self, **extra: Any) -> dict[str, Any]:
+        """The base class's info, its lane index named the ego's, and the cutter's."""
+        info = super()._info()
+        info["ego_lane_index"] = info.pop("lane_index")
+        info["cutter"] = self.cutter.copy()
+        info["cutter_risk"] = self.risk
+        info.update(extra)
+        return info
 
-        The cutter is drawn as the renderer's EV (red, followed by the camera), the ego as
-        its TV (blue, with the safety ellipse).
+    def _step_info(self, action: np.ndarray, clipped: bool) -> dict[str, Any]:
+        """The step's info with the cutter's applied input."""
+        return self._info(action=action, action_clipped=clipped, cutter_input=self._cutter_u)
+
+    def _draw(self, renderer: HighwayRenderer) -> np.ndarray | None:
+        """Draw the cutter as the renderer's EV, the ego as its TV.
+
+        The EV is red and followed by the camera, the TV blue with the safety ellipse.
         """
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode=...")
-            return None
-        if self._renderer is None:
-            from drivestyle.envs.rendering import HighwayRenderer
-
-            self._renderer = HighwayRenderer(self.render_mode)
         caption = (
             f"t = {self.k * self.scenario.dt:4.1f} s   ego v = {self.ego[3]:5.2f} m/s   "
             f"cutter p = {self.risk:.2f}"
         )
-        return self._renderer.draw(self.scenario, self.cutter, self.ego, caption, self.show_ellipse)
-
-    def close(self) -> None:
-        """Release the viewer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        return renderer.draw(self.scenario, self.cutter, self.ego, caption, self.show_ellipse)
