@@ -13,9 +13,10 @@ positions: ``meta["heading"] = "course"`` says so, as for recorded traffic) and 
 kinematic control-point rule reproduces the tracked velocities exactly. The inputs are
 estimated from the tracked states by :func:`~drivestyle.envs.episodes.recover_inputs`
 (the bounded inverse RK4 step every recorded path uses): the steering too, from the
-tracked path's curvature. Until issue 27 the tracker recorded δ = 0 and a = dv/dt, so a
-teacher-forced fit's steering residual said nothing about the driver (0.1 m noise cost 21
-points of identification accuracy); ``recover=False`` keeps that model.
+tracked path's curvature. Before the style class for real traffic (DESIGN §18) the
+tracker recorded δ = 0 and a = dv/dt, so a teacher-forced fit's steering residual said
+nothing about the driver (0.1 m noise cost 21 points of identification accuracy);
+``recover=False`` keeps that model.
 """
 
 from __future__ import annotations
@@ -107,7 +108,7 @@ def observe(
         rng: random generator of the noise.
         q: the tracker's white-jerk spectral density [m²/s⁵].
         recover: estimate both inputs from the tracked states (module docstring); False:
-            a = dv/dt and δ = 0 (the tracker before issue 27).
+            a = dv/dt and δ = 0 (the tracker before DESIGN §18).
 
     Returns:
         A new demonstration (``meta["observation"]`` records σ and q); the first EV state

@@ -53,7 +53,7 @@ PAPER_THETA = (0.8, 2.0, 0.05, 0.6, 0.3, 1.5, 0.2, 4.0, 3.0, 0.7)
 DRIVER_STYLE = DriverStyle(weights=(0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7)
 """The benchmark's driver style."""
 GOALS = {"lane_change": 20_000, "traffic": 8_000, "style_paper": 5_000, "style_driver": 5_000}
-"""Goal per case [steps/s] (issue 18 §5)."""
+"""Goal per case [steps/s] (RESULTS §11, the env as a training loop's hot path)."""
 
 
 def paper_style() -> Style:

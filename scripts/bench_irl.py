@@ -9,7 +9,7 @@ With ``--library DIR`` (a driver library, build-style-library's default, or a pa
 one) it also times identification (``identify_s_median`` over ``--identify N`` fresh
 random-family demonstrations of random grid risks, seeded).
 
-``driver`` (the default style model, issue 18): on every step of the paper demonstration
+``driver`` (the default style model, DESIGN §15): on every step of the paper demonstration
 the planner's NLP is solved by the product solver (fatrop generated as C, cached on disk)
 and by IPOPT from the identical guess (``ipopt_over_product``); ``newton_step_floor_ms``
 is one compiled Newton step of the same NLP alone (evaluation, Riccati factorisation and
@@ -160,8 +160,9 @@ def bench_driver(demo, n_identify: int, seed: int, learn: bool) -> dict:
         fit = learn_driver([demo])
         out["learn_one_demo_s"] = time.perf_counter() - t0
         out["learned_risk"] = fit.style.risk
-        # issue 28's unit: one driver's own parameter (its risk) with the population's cost
-        # given, on SMPC drivers of continuous risk (off the profile grid)
+        # the unit of the learning goal (RESULTS §15, ≤ 30 ms): one driver's own parameter
+        # (its risk) with the population's cost given, on SMPC drivers of continuous risk
+        # (off the profile grid)
         personal, errors = [], []
         for _ in tqdm(range(3), desc="learn risk (cost given)", leave=False):
             true = float(rng.uniform(0.55, 0.95))

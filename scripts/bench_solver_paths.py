@@ -1,6 +1,6 @@
 """Benchmark faster solver paths against the product: their time and how far S(p) moves.
 
-Issue 28 asked for a solver at the floor's scale whose results equal the product's (fatrop
+The goal (DESIGN §16) is a solver at the floor's scale whose results equal the product's (fatrop
 from the previous step's shifted plan): inputs to 1e-6, posteriors to 1e-6. This measures
 candidate paths on the risk profile S(p) identification is built from (13 risks,
 :func:`drivestyle.irl.risk_profile.risk_profile`) of random-family SMPC demonstrations
@@ -79,7 +79,7 @@ OPTION_PATHS: dict[str, dict[str, Any]] = {
 }
 """Interpreted fatrop with these options merged into the product's."""
 EQUAL = 1e-6
-"""Issue 28's equality tolerance (relative, on S)."""
+"""The equality tolerance of that goal (relative, on S; module docstring)."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

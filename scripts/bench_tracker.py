@@ -32,7 +32,7 @@ from drivestyle.irl.online import StyleTracker
 from drivestyle.planning.smpc_problem import SMPCConfig
 
 GOAL_MS = 20.0
-"""Goal of the median update latency [ms] (issue 19)."""
+"""Goal of the median update latency [ms] (RESULTS §12, online identification)."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -4,7 +4,7 @@ For each driver SMPC(p), the paper's whole-horizon model and the receding-horizo
 model are fitted directly to the reproductions of K training demonstrations (Nelder–Mead)
 and learned by their learners (ME-IRL, ``learn_driver``), then scored in-sample and on
 held-out scenarios (median rmse_y and rmse_xy). Writes ``OUT/capacity.json`` and
-``OUT/capacity.md`` and prints the table (issue 17, deliverable 1;
+``OUT/capacity.md`` and prints the table (RESULTS §10;
 ``drivestyle.agents.studies.capacity``).
 
 Example:

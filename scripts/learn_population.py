@@ -1,4 +1,4 @@
-"""Learn the population's style from the recorded benchmark's train split (issue 27).
+"""Learn the population's style from the recorded benchmark's train split (DESIGN §18).
 
 One style — cost weights, risk and the speed-scaled safety region l_a = s_0 + T·v (DESIGN
 §18) — over every lane change of the split (drivestyle/data/benchmark_split.csv), starting from a

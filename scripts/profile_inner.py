@@ -1,4 +1,4 @@
-"""Profile the inner solvers: where the time of an inner solve goes today (issue 18).
+"""Profile the inner solvers: where the time of an inner solve goes today (DESIGN §16).
 
 Three measurements, each as shares of its wall time (the machine is shared: shares are
 steadier than absolute times, and the load average is recorded with them):

@@ -1,4 +1,4 @@
-"""The automated car against human drivers in the CATS field test (issue 27, DESIGN §18).
+"""The automated car against human drivers in the CATS field test (DESIGN §18).
 
 CATS drove the same car (vehicle 3) on some days by computer (``cats:AV:3``) and on others
 by a human (``cats:HV:3``), among human-driven vehicles. Each extracted lane change

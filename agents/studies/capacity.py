@@ -1,11 +1,11 @@
 """The capacity of a style model class: how well can its *best* parameters reproduce one driver?
 
-Issue 17, deliverable 1. For one driver, SMPC(p), and K training scenarios of the random
-family, each reproduction class gets its best parameters by fitting the reproductions of
-the K training demonstrations *directly* (derivative-free: :func:`nelder_mead`), and is then
-scored in-sample and on held-out scenarios of the same family. The learners of the two
-models (ME-IRL for the paper's, teacher forcing for the receding-horizon style) are scored
-beside them. The classes (:data:`CLASSES`):
+The study behind RESULTS §10's capacity table. For one driver, SMPC(p), and K training
+scenarios of the random family, each reproduction class gets its best parameters by fitting
+the reproductions of the K training demonstrations *directly* (derivative-free:
+:func:`nelder_mead`), and is then scored in-sample and on held-out scenarios of the same
+family. The learners of the two models (ME-IRL for the paper's, teacher forcing for the
+receding-horizon style) are scored beside them. The classes (:data:`CLASSES`):
 
 ``paper_nm``
     The paper model: argmin θᵀf over the whole horizon (the ME-IRL inner problem, ten

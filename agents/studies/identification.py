@@ -76,8 +76,9 @@ __all__ = [
 IDENTIFIABLE_GAP_M = 0.05
 """A grid demonstration is identifiable when the closed-loop SMPC paths of its true risk's
 neighbouring grid risks lie at least this far (RMS position distance) from SMPC(true)'s
-(issue 17: the ceiling tells the neighbours apart by ≥ 5 cm). RMS, not max, because it is
-the ceiling's own distance: two paths that part for one step only are not told apart."""
+(the capacity study's ceiling tells the neighbours apart by ≥ 5 cm, RESULTS §10). RMS, not
+max, because it is the ceiling's own distance: two paths that part for one step only are
+not told apart."""
 CONTINUOUS_RANGE = (0.5, 0.95)
 """Continuous true risks are drawn from U[0.5, 0.95] (the library's grid span), as the
 driver library's calibration draws them."""

@@ -1,4 +1,6 @@
-r"""Drivers outside the style class: do identification and prediction still order them? (issue 27).
+r"""Drivers outside the style class: do identification and prediction still order them?
+
+DESIGN §18 (the style class for real traffic).
 
 Every driver the library was built from is a member of the style class (SMPC(p) with the
 paper's horizon, weights and TV uncertainty); this study asks what the identified risk p

@@ -1,4 +1,4 @@
-"""The population's style learned from recorded drivers (issue 27, DESIGN §18).
+"""The population's style learned from recorded drivers (DESIGN §18).
 
 The driver library of :mod:`drivestyle.irl.library` carries the SMPC expert's cost: built
 from simulated SMPC(p) lane changes, it was never fitted to people. Here one style — the

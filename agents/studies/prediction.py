@@ -1,4 +1,6 @@
-"""Style-aware prediction against constant velocity, on simulated and recorded vehicles (issue 19).
+"""Style-aware prediction against constant velocity, on simulated and recorded vehicles.
+
+DESIGN §17 (using a style: online identification, prediction and planning).
 
 :func:`evaluate_prediction` observes each held-out vehicle for t_obs ∈ :data:`T_OBS` seconds
 and predicts the rest of its demonstration with every method of
@@ -25,7 +27,7 @@ The vehicles:
   t_obs, or whose prediction fails, are skipped and counted with the reason
   (:class:`SkippedPrediction`).
 
-**The recorded benchmark** (issue 26). Every lane change the extraction finds in the shipped
+**The recorded benchmark** (RESULTS §13). Every lane change the extraction finds in the shipped
 NGSIM and CATS samples (:func:`recorded_episodes`: every vehicle's, not only the converters'
 curated ones) is assigned once, by *vehicle* (all of a vehicle's episodes in one split), to
 train / validation / test (:func:`benchmark_split`, seed :data:`SPLIT_SEED`, stratified by
@@ -200,7 +202,8 @@ EPISODES_SET = "episodes"
 SPLIT_FRACTIONS = {"test": 0.2, "validation": 0.2}
 """Share of each dataset's vehicles held out per split (train: the rest)."""
 SPLIT_SEED = 26
-"""The seed of the benchmark's split (issue 26)."""
+"""The seed of the benchmark's split; fixed since the split was committed (:data:`SPLIT_FILE`):
+another seed would re-split every study's train, validation and test vehicles."""
 _PACKAGE_DATA = Path(str(resources.files("drivestyle") / "data"))  # shipped with the wheel
 SPLIT_FILE = _PACKAGE_DATA / "benchmark_split.csv"
 """The committed split (:func:`write_split` of :func:`benchmark_split`)."""

@@ -328,7 +328,7 @@ def capacity_markdown(study: CapacityStudy, command: str) -> str:
     """
     n_train, n_test = len(study.train_scenarios), len(study.test_scenarios)
     lines = [
-        "# Capacity of the reproduction classes (issue 17)",
+        "# Capacity of the reproduction classes",
         "",
         f"Command: `{command}`",
         "",
@@ -723,7 +723,7 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
 
     cfg = study.config
     lines = [
-        "# Drivers outside the style class (issue 27)",
+        "# Drivers outside the style class",
         "",
         f"`{command}`",
         "",
