@@ -1,4 +1,4 @@
-"""The capacity study (issue 17): its Nelder–Mead, its objective and a tiny run."""
+"""The capacity study (RESULTS §10): its Nelder–Mead, its objective and a tiny run."""
 
 import json
 import math

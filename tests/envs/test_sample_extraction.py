@@ -1,4 +1,4 @@
-"""Issue 26: the shipped NGSIM and CATS samples through the one extraction.
+"""The shipped NGSIM and CATS samples through the one extraction (RESULTS §13).
 
 ``read_sample`` reads each sample's ``tracks.csv.gz`` (every vehicle of every recording) and
 :func:`extract_episodes` finds every lane change in it; the converters' curated

@@ -35,7 +35,7 @@ def test_the_stream_equals_the_offline_identification_of_its_prefix(paper_demo, 
     assert online.risk_interval == offline.risk_interval
     assert online.risk_estimate == offline.risk_estimate
     assert online.per_demo[0].min_s_e == pytest.approx(offline.per_demo[0].min_s_e)
-    # the verdict (issue 26) too: the same residual sums give the same flags and numbers
+    # the verdict (DESIGN §15) too: the same residual sums give the same flags and numbers
     on, off = online.verdict, offline.verdict
     assert (on.informative, on.out_of_class, on.constraint_binds) == (
         off.informative, off.out_of_class, off.constraint_binds,

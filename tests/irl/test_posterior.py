@@ -77,7 +77,7 @@ def test_identify_reports_a_posterior_and_interval(style_library, paper_demo):
     assert min(style_library.risks) <= res.risk_interpolated <= max(style_library.risks)
 
 
-# ---------------------------------------------------------------- the verdict (issue 26)
+# ---------------------------------------------------------------- the verdict (DESIGN §15)
 def _driver_library(temperature=1.0):
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.library import DriverLibrary

@@ -1,5 +1,5 @@
 """The speed-scaled safety region of the style class (DESIGN §18) and the refined risk
-profile (issue 27)."""
+profile (DESIGN §18)."""
 
 from dataclasses import replace
 

@@ -1,4 +1,4 @@
-"""learn-population: one style from a benchmark split's recorded episodes (issue 27)."""
+"""learn-population: one style from a benchmark split's recorded episodes (DESIGN §18)."""
 
 import json
 

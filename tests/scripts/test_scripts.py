@@ -180,7 +180,7 @@ def test_help(name):
 
 @pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_bench_population_mines_with_a_driver_library(tmp_path):
-    # the default model's library: mining throughput is measured on it (issue 18)
+    # the default model's library: mining throughput is measured on it (DESIGN §16)
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.library import DriverLibrary
 
