@@ -1,4 +1,3 @@
-# mypy: ignore-errors
 """A compiled, structure-exploiting interior-point solver for the planner's NLP (DESIGN §16).
 
 The style planner's NLP (:mod:`drivestyle.planning.smpc_problem`) is tiny — N = 10 stages of a
@@ -240,18 +239,79 @@ def _fraction_to_boundary(v: ca.SX, dv: ca.SX, tau: float | ca.SX) -> ca.SX:
     return ca.fmin(1.0, ca.mmin(ratios))
 
 
-def _stage_inequalities(k, N, M, x, u, s, vehicles, kappa, bnd, sigma, sc, l_a=None) -> list[ca.SX]:
-    """h_k ≥ 0 of stage k in :class:`IPMLayout` order."""
+def _stage_inequalities(
+    k: int,
+    x: ca.SX,
+    u: ca.SX | None,
+    s: ca.SX | None,
+    vehicles: list[ca.SX],
+    kappa: ca.SX,
+    bnd: ca.SX,
+    sigma: np.ndarray,
+    sc: ScenarioConfig,
+    l_a: ca.SX | None = None,
+) -> list[ca.SX]:
+    """h_k ≥ 0 of stage k in :class:`IPMLayout` order.
+
+    ``u`` is None at the terminal stage k = N (no input) and ``s`` at k = 0 (no state
+    bounds, no vehicle rows: ξ_0 is the parameter).
+    """
     rows: list[ca.SX] = []
-    if k < N:
+    if u is not None:
         rows += [u[0] - bnd[4], bnd[5] - u[0], u[1] + bnd[6], bnd[6] - u[1]]
-    if k >= 1:
+    if s is not None:
         rows += [x[1] - bnd[0], bnd[1] - x[1], x[2] + bnd[2], bnd[2] - x[2], x[3],
                  bnd[3] - x[3]]  # fmt: skip
-        for j in range(M):
-            chance, nominal = smpc_ellipse_margins(x, vehicles[j], k, sigma, sc, kappa, l_a=l_a)
+        for j, vehicle in enumerate(vehicles):
+            chance, nominal = smpc_ellipse_margins(x, vehicle, k, sigma, sc, kappa, l_a=l_a)
             rows += [s[j], chance + s[j], nominal]
     return rows
+
+
+@dataclass(frozen=True)
+class _ChancePair:
+    """A vehicle's rows s ≥ 0 and g + s ≥ 0 at one stage, their slack eliminated in closed form."""
+
+    rs: int
+    """Row of s ≥ 0 in h."""
+    rc: int
+    """Row of g + s ≥ 0 in h."""
+    s: ca.SX
+    """The slack."""
+    gg: ca.SX
+    """∇g with respect to the stage's [ξ_k, u_k]."""
+    sig_s: ca.SX
+    """Σ_s = z/t of the row s ≥ 0."""
+    sig_c: ca.SX
+    """Σ_c = z/t of the row g + s ≥ 0."""
+    hss: ca.SX
+    """2ρ₂ + Σ_s + Σ_c, the slack's reduced curvature."""
+    r_s: ca.SX
+    """Residual s − t of the row s ≥ 0."""
+    r_c: ca.SX
+    """Residual g + s − t of the row g + s ≥ 0."""
+
+
+@dataclass(frozen=True)
+class _Stage:
+    """What the two Newton solves of a step need of one stage k (the Riccati recursion's data)."""
+
+    y: ca.SX
+    """The stage's variables [ξ_k, u_k] (ξ_N at k = N)."""
+    W: ca.SX
+    """Hessian of the Lagrangian in y with the general rows' Σ and the pairs' reduced curvature."""
+    grad: ca.SX
+    """Gradient of the stage cost in y."""
+    J: ca.SX
+    """Jacobian of the general rows in y."""
+    Sig: ca.SX
+    """Σ = z/t of the general rows."""
+    r: ca.SX
+    """Residuals h − t of the general rows."""
+    rows: list[int]
+    """The general rows (bounds, nominal ellipse) in h."""
+    pairs: list[_ChancePair]
+    """The (s, chance) row pairs, one per vehicle (none at k = 0)."""
 
 
 def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout) -> ca.Function:
@@ -282,7 +342,8 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
     z = state[nl.n_w + lay.n_lam + lay.n_h :]
     xs = [w[nl.ix[k]] for k in range(N + 1)]
     us = [w[nl.iu[k]] for k in range(N)]
-    ss = [None] + [w[nl.i_s[k - 1]] for k in range(1, N + 1)]
+    # ξ_0 has no slack: stage 0's entry is empty and never indexed (it has no chance rows)
+    ss = [ca.SX(0, 1)] + [w[nl.i_s[k - 1]] for k in range(1, N + 1)]
     xs[0] = sym.xi0  # ξ_0 is the parameter: the step keeps w's copy equal to it
 
     Q: np.ndarray | ca.SX = np.diag(config.Q)
@@ -294,19 +355,21 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
         R = ca.diag(wt[3:5])
 
     # rows of stage k: general ones (bounds, nominal ellipse) and the (s, chance) pairs
-    stage_rows = []
+    stage_rows: list[tuple[list[int], list[int], list[int]]] = []
     for k in range(N + 1):
         rows = lay.h_stage[k]
         if k == 0:
-            stage_rows.append((rows, [], []))
+            stage_rows.append(([int(r) for r in rows], [], []))
             continue
         s_rows = [int(r) for r in lay.h_chance[k - 1] - 1]
         c_rows = [int(r) for r in lay.h_chance[k - 1]]
         general = [int(r) for r in rows if int(r) not in s_rows and int(r) not in c_rows]
         stage_rows.append((general, s_rows, c_rows))
 
-    stat_parts, prim_parts = [], []
-    stages = []  # per stage: dict of the quantities the two solves need
+    stat_parts: list[ca.SX] = []
+    prim_parts: list[ca.SX] = []
+    stages: list[_Stage] = []
+    dyn: list[tuple[ca.SX, ca.SX, ca.SX]] = []  # stage k < N: (A, B, d) of ξ_{k+1} − F(ξ_k, u_k)
     for k in range(N + 1):
         x = xs[k]
         y = ca.vertcat(x, us[k]) if k < N else x
@@ -317,7 +380,7 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
             if k < N
             else ca.mtimes([e.T, QN, e])
         )
-        h_all = _stage_inequalities(k, N, M, x, us[k] if k < N else None, ss[k],
+        h_all = _stage_inequalities(k, x, us[k] if k < N else None, ss[k] if k >= 1 else None,
                                     sym.vehicles, sym.kappa, bnd, sigma, scenario,
                                     sym.l_a)  # fmt: skip
         base = int(lay.h_stage[k][0]) if len(lay.h_stage[k]) else 0
@@ -340,7 +403,7 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
         Sig = z_gen / t_gen
         Wk = ca.hessian(lag, y)[0] + ca.mtimes([J.T, ca.diag(Sig), J])
         Wk += delta * ca.SX.eye(y.shape[0])
-        pair = []
+        pair: list[_ChancePair] = []
         for j in range(len(c_rows)):
             rs, rc = s_rows[j], c_rows[j]
             s = ss[k][j]
@@ -349,29 +412,29 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
             hss = 2 * rho2 + sig_s + sig_c
             Wk += ca.mtimes(grad_g, grad_g.T) * (sig_c * (2 * rho2 + sig_s) / hss)
             stat_parts.append(rho1 + 2 * rho2 * s - z[rs] - z[rc])
-            pair.append(dict(rs=rs, rc=rc, s=s, gg=grad_g, sig_s=sig_s, sig_c=sig_c, hss=hss,
-                             r_s=s - t[rs], r_c=g_c[j] + s - t[rc]))  # fmt: skip
-        st = dict(y=y, W=Wk, grad=ca.gradient(cost, y), J=J, Sig=Sig, r=h_gen - t_gen,
-                  rows=general, pairs=pair)  # fmt: skip
+            pair.append(_ChancePair(rs=rs, rc=rc, s=s, gg=grad_g, sig_s=sig_s, sig_c=sig_c,
+                                    hss=hss, r_s=s - t[rs], r_c=g_c[j] + s - t[rc]))  # fmt: skip
+        st = _Stage(y=y, W=Wk, grad=ca.gradient(cost, y), J=J, Sig=Sig, r=h_gen - t_gen,
+                    rows=general, pairs=pair)  # fmt: skip
         prim_parts.append(h_gen - t_gen)
-        prim_parts += [p["r_s"] for p in pair] + [p["r_c"] for p in pair]
+        prim_parts += [p.r_s for p in pair] + [p.r_c for p in pair]
         if k < N:
-            st["A"] = ca.jacobian(xn, x)
-            st["B"] = ca.jacobian(xn, us[k])
-            st["d"] = xn - xs[k + 1]
-            prim_parts.append(st["d"])
+            d = xn - xs[k + 1]
+            dyn.append((ca.jacobian(xn, x), ca.jacobian(xn, us[k]), d))
+            prim_parts.append(d)
         stages.append(st)
 
     # ---- Riccati factorisation (matrix part, shared by predictor and corrector)
     pivots: list[ca.SX] = []
-    Pm: list = [None] * (N + 1)
-    K: list = [None] * N
-    fac: list = [None] * N
-    St_: list = [None] * N
-    Pm[N] = stages[N]["W"]
+    # filled by stage index backwards; K and St_ stay empty at k = 0 (ξ_0 is fixed)
+    Pm: list[ca.SX] = [ca.SX()] * (N + 1)
+    K: list[ca.SX] = [ca.SX()] * N
+    fac: list[tuple[list[list[ca.SX]], list[ca.SX]]] = [([], [])] * N
+    St_: list[ca.SX] = [ca.SX()] * N
+    Pm[N] = stages[N].W
     for k in reversed(range(N)):
-        s_, Pn = stages[k], Pm[k + 1]
-        A, B, Wk = s_["A"], s_["B"], s_["W"]
+        Pn = Pm[k + 1]
+        (A, B, _), Wk = dyn[k], stages[k].W
         Rt = Wk[NX:, NX:] + ca.mtimes([B.T, Pn, B])
         Lk, Dk = _ldl(Rt)
         pivots += Dk
@@ -383,41 +446,42 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
             Pk = Wk[:NX, :NX] + ca.mtimes([A.T, Pn, A]) + ca.mtimes(St.T, K[k])
             Pm[k] = 0.5 * (Pk + Pk.T)
 
-    def solve(c: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX]:
+    def solve(c: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
         """Newton direction for complementarity targets c (n_h): dw, λ⁺, dt, dz."""
-        g, pair_terms = [], []
+        g: list[ca.SX] = []
+        pair_terms: list[list[ca.SX]] = []
         for k in range(N + 1):
             s_ = stages[k]
-            rows = s_["rows"]
-            a_gen = s_["Sig"] * s_["r"] - c[rows] / t[rows]
-            gk = s_["grad"] + ca.mtimes(s_["J"].T, a_gen)
+            rows = s_.rows
+            a_gen = s_.Sig * s_.r - c[rows] / t[rows]
+            gk = s_.grad + ca.mtimes(s_.J.T, a_gen)
             terms = []
-            for p in s_["pairs"]:
-                rs, rc = p["rs"], p["rc"]
-                b_s = rho1 + 2 * rho2 * p["s"] + p["sig_s"] * p["r_s"] - c[rs] / t[rs]
-                a_c = p["sig_c"] * p["r_c"] - c[rc] / t[rc]
-                gk += p["gg"] * ((a_c * (2 * rho2 + p["sig_s"]) - p["sig_c"] * b_s) / p["hss"])
+            for p in s_.pairs:
+                rs, rc = p.rs, p.rc
+                b_s = rho1 + 2 * rho2 * p.s + p.sig_s * p.r_s - c[rs] / t[rs]
+                a_c = p.sig_c * p.r_c - c[rc] / t[rc]
+                gk += p.gg * ((a_c * (2 * rho2 + p.sig_s) - p.sig_c * b_s) / p.hss)
                 terms.append(b_s + a_c)
             pair_terms.append(terms)
             g.append(gk)
-        kk: list = [None] * N
-        pv: list = [None] * (N + 1)
+        kk: list[ca.SX] = [ca.SX()] * N
+        pv: list[ca.SX] = [ca.SX()] * (N + 1)  # pv[0] stays empty (ξ_0 is fixed)
         pv[N] = g[N]
         for k in reversed(range(N)):
-            s_ = stages[k]
-            Pb = ca.mtimes(Pm[k + 1], s_["d"]) + pv[k + 1]
-            rt = g[k][NX:] + ca.mtimes(s_["B"].T, Pb)
+            A, B, d = dyn[k]
+            Pb = ca.mtimes(Pm[k + 1], d) + pv[k + 1]
+            rt = g[k][NX:] + ca.mtimes(B.T, Pb)
             L_, D_ = fac[k]
             kk[k] = -_ldl_solve(L_, D_, rt)
             if k >= 1:
-                pv[k] = g[k][:NX] + ca.mtimes(s_["A"].T, Pb) + ca.mtimes(St_[k].T, kk[k])
+                pv[k] = g[k][:NX] + ca.mtimes(A.T, Pb) + ca.mtimes(St_[k].T, kk[k])
         dx = [ca.SX.zeros(NX)]
         du, lam_new = [], []
         for k in range(N):
-            s_ = stages[k]
+            A, B, d = dyn[k]
             duk = kk[k] if k == 0 else ca.mtimes(K[k], dx[k]) + kk[k]
             du.append(duk)
-            dxn = ca.mtimes(s_["A"], dx[k]) + ca.mtimes(s_["B"], duk) + s_["d"]
+            dxn = ca.mtimes(A, dx[k]) + ca.mtimes(B, duk) + d
             dx.append(dxn)
             lam_new.append(ca.mtimes(Pm[k + 1], dxn) + pv[k + 1])
         dw = ca.SX.zeros(nl.n_w)
@@ -429,14 +493,14 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
                 dw[nl.ix[k]] = dx[k]
             if k < N:
                 dw[nl.iu[k]] = du[k]
-            rows = s_["rows"]
-            dt[rows] = ca.mtimes(s_["J"], dy) + s_["r"]
-            for j, p in enumerate(s_["pairs"]):
-                ggdx = ca.dot(p["gg"], dy)
-                ds = -(pair_terms[k][j] + p["sig_c"] * ggdx) / p["hss"]
+            rows = s_.rows
+            dt[rows] = ca.mtimes(s_.J, dy) + s_.r
+            for j, p in enumerate(s_.pairs):
+                ggdx = ca.dot(p.gg, dy)
+                ds = -(pair_terms[k][j] + p.sig_c * ggdx) / p.hss
                 dw[int(nl.i_s[k - 1, j])] = ds
-                dt[p["rs"]] = ds + p["r_s"]
-                dt[p["rc"]] = ggdx + ds + p["r_c"]
+                dt[p.rs] = ds + p.r_s
+                dt[p.rc] = ggdx + ds + p.r_c
         dz = -(z / t) * dt - z + c / t
         return dw, ca.vertcat(*lam_new), dt, dz
 
@@ -485,7 +549,7 @@ def _ineq_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
     rows = []
     for k in range(N + 1):
         rows += _stage_inequalities(
-            k, N, M, w[nl.ix[k]], w[nl.iu[k]] if k < N else None,
+            k, w[nl.ix[k]], w[nl.iu[k]] if k < N else None,
             w[nl.i_s[k - 1]] if k >= 1 else None, sym.vehicles, sym.kappa, bnd, sigma, scenario,
             sym.l_a,
         )  # fmt: skip
@@ -714,8 +778,8 @@ def compiled_solver(
     options = options or IPMOptions()
     key = _key(config, scenario)
     if key in _SOLVERS:
-        solver = _SOLVERS[key]
-        return None if solver is None else _with_options(solver, options)
+        cached = _SOLVERS[key]
+        return None if cached is None else _with_options(cached, options)
     lay = ipm_layout(config.horizon, config.max_vehicles)
     solver: PlanSolver | None = None
     try:
