@@ -1,6 +1,6 @@
 """A compiled, structure-exploiting interior-point solver for the planner's NLP (DESIGN §16).
 
-The style planner's NLP (:mod:`drivestyle.planning.smpc_problem`) is tiny — N = 10 stages of a
+The style planner's NLP (:mod:`drivestyle.planning.description`) is tiny — N = 10 stages of a
 4-state, 2-input bicycle, one slack per constrained vehicle — and solved hundreds of times
 per identification. fatrop spends a median of 8–9 interior-point iterations of ≈ 60 µs
 each on it (p95 32; DESIGN §16); this module solves the *same* NLP (same cost, constraints
@@ -52,8 +52,7 @@ import numpy as np
 
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.compiled import cache_dir, cached_library, source_digest
-from drivestyle.planning.prediction import tv_covariance
-from drivestyle.planning.smpc_problem import (
+from drivestyle.planning.description import (
     NU,
     NX,
     NLPLayout,
@@ -61,15 +60,8 @@ from drivestyle.planning.smpc_problem import (
     SMPCConfig,
     nlp_layout,
 )
-from drivestyle.planning.smpc_problem import (
-    _dynamics as smpc_dynamics,
-)
-from drivestyle.planning.smpc_problem import (
-    _ellipse_margins as smpc_ellipse_margins,
-)
-from drivestyle.planning.smpc_problem import (
-    _symbols as smpc_symbols,
-)
+from drivestyle.planning.prediction import tv_covariance
+from drivestyle.planning.transcription import discrete_dynamics, ellipse_margins, nlp_symbols
 
 __all__ = [
     "IPMLayout",
@@ -263,7 +255,7 @@ def _stage_inequalities(
         rows += [x[1] - bnd[0], bnd[1] - x[1], x[2] + bnd[2], bnd[2] - x[2], x[3],
                  bnd[3] - x[3]]  # fmt: skip
         for j, vehicle in enumerate(vehicles):
-            chance, nominal = smpc_ellipse_margins(x, vehicle, k, sigma, sc, kappa, l_a=l_a)
+            chance, nominal = ellipse_margins(x, vehicle, k, sigma, sc, kappa, l_a=l_a)
             rows += [s[j], chance + s[j], nominal]
     return rows
 
@@ -330,8 +322,8 @@ def _step_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
     N, M = config.horizon, config.max_vehicles
     rho1, rho2 = config.slack_l1, config.slack_l2
     nl = lay.nlp
-    sym = smpc_symbols(N, M, config.weights_as_parameters)
-    F = smpc_dynamics(scenario)
+    sym = nlp_symbols(N, M, config.weights_as_parameters)
+    F = discrete_dynamics(scenario)
     sigma = tv_covariance(config.uncertainty, scenario.dt, N)
     state = ca.SX.sym("state", lay.n_state)
     bnd = ca.SX.sym("bnd", N_BOUNDS)
@@ -542,7 +534,7 @@ def _ineq_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
     """h(w) ≥ 0 of the whole problem (warm starts set t = max(h, t_floor))."""
     N, M = config.horizon, config.max_vehicles
     nl = lay.nlp
-    sym = smpc_symbols(N, M, config.weights_as_parameters)
+    sym = nlp_symbols(N, M, config.weights_as_parameters)
     sigma = tv_covariance(config.uncertainty, scenario.dt, N)
     w = ca.SX.sym("w", nl.n_w)
     bnd = ca.SX.sym("bnd", N_BOUNDS)
@@ -558,7 +550,7 @@ def _ineq_function(config: SMPCConfig, scenario: ScenarioConfig, lay: IPMLayout)
 
 def _dyn_function(scenario: ScenarioConfig) -> ca.Function:
     """F(ξ, u) under a C name of its own (the shifted warm start extends the plan by it)."""
-    F = smpc_dynamics(scenario)
+    F = discrete_dynamics(scenario)
     x, u = ca.SX.sym("x", NX), ca.SX.sym("u", NU)
     return ca.Function("ds_ipm_dyn", [x, u], [F(x, u)])
 
@@ -580,7 +572,7 @@ def _driver_c() -> str:
 def _shift_maps(lay: IPMLayout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Source index of every entry of w, λ and z in a guess shifted by one stage.
 
-    As :func:`drivestyle.planning.smpc_problem.shifted_primal` / ``shifted_duals``: stage k takes
+    As :func:`drivestyle.planning.warm_starts.shifted_primal` / ``shifted_duals``: stage k takes
     stage k + 1's values, the last input, slack and multipliers are repeated (ξ_0 and ξ_N
     are set by the driver: ξ0 and F(ξ_N, u_{N−1})).
     """
@@ -619,8 +611,8 @@ def _key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
               sc.dt, sc.l_f, sc.l_r, None if config.weights_as_parameters else sc.l_a,
               sc.l_b)  # fmt: skip
     digest = source_digest([__name__, "drivestyle.planning.compiled",
-                            "drivestyle.planning.smpc_problem", "drivestyle.planning.chance",
-                            "drivestyle.planning.prediction",
+                            "drivestyle.planning.description", "drivestyle.planning.transcription",
+                            "drivestyle.planning.chance", "drivestyle.planning.prediction",
                             "drivestyle.envs.dynamics"])  # fmt: skip
     # the driver's C is not a module: its text enters the key itself (an edit rebuilds)
     return hashlib.sha256((repr(fields) + digest + _driver_c()).encode()).hexdigest()[:20]
@@ -696,7 +688,7 @@ class PlanSolver:
 
         Args:
             states: (n, n_state) guesses (mode 0) / solutions on return.
-            P: (n, n_p) parameters (:func:`drivestyle.planning.smpc_problem.nlp_parameters`).
+            P: (n, n_p) parameters (:func:`drivestyle.planning.description.nlp_parameters`).
             bnd: (n, 7) bounds (:func:`bounds_vector`).
             src: (n,) source problem of modes 1 and 2 (an earlier index).
             mode: (n,) 0 guess given, 1 shifted source, 2 copied source, 3 skip (solved).
