@@ -4,7 +4,7 @@ Today's SMPC predicts every other vehicle at constant velocity inside its NLP. H
 ego of ``drivestyle/CutIn-v0`` (:mod:`drivestyle.envs.cut_in`) plans with the same cost,
 chance constraint and covariance, but the other vehicle's *mean* path over the horizon
 comes from a :class:`Predictor` (the NLP built with
-:attr:`~drivestyle.planning.smpc_problem.SMPCConfig.predicted_paths`):
+:attr:`~drivestyle.planning.description.SMPCConfig.predicted_paths`):
 
 - :class:`ConstantVelocityPredictor` — what the SMPC assumes today (the ego then plans
   exactly as :class:`~drivestyle.agents.smpc.SMPCExpert` does, tested);
@@ -33,7 +33,7 @@ from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.forecast import constant_velocity, rollout_from
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
-from drivestyle.planning.smpc_problem import PrimalDual
+from drivestyle.planning.description import PrimalDual
 
 __all__ = [
     "EGO_RISK",

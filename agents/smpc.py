@@ -28,18 +28,17 @@ from numpy.typing import ArrayLike
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import PAPER, ScenarioConfig
 from drivestyle.envs.traffic import parse_traffic_observation
-from drivestyle.planning.smpc_problem import (
+from drivestyle.planning.description import (
     NU,
     NLPBounds,
-    NLPSolution,
     PrimalDual,
     SMPCConfig,
-    SMPCProblem,
     constrained_vehicles,
     constraint_violation,
     nlp_parameters,
-    warm_start,
 )
+from drivestyle.planning.smpc_problem import NLPSolution, SMPCProblem
+from drivestyle.planning.warm_starts import warm_start
 
 __all__ = [
     "InfeasibleStartError",

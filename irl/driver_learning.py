@@ -45,9 +45,7 @@ from drivestyle.irl.driver_style import (
     planner_for,
     reproduce,
 )
-from drivestyle.planning.smpc_problem import (
-    N_WEIGHTS,
-)
+from drivestyle.planning.description import N_WEIGHTS
 
 __all__ = [
     "POOR_FIT_RATIO",

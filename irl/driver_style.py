@@ -10,7 +10,7 @@ constant velocity under the uncertainty of :mod:`drivestyle.planning.prediction`
            Pr(outside every nearby vehicle's safety ellipse) ≥ p   (chance constraint),
            the nominal ellipse (hard),
 
-and applies the first input (the transcription is :mod:`drivestyle.planning.smpc_problem`'s,
+and applies the first input (the transcription is :mod:`drivestyle.planning.transcription`'s,
 with the weights as parameters). The five terms are the horizon versions of the paper's
 classic features — lane deviation (f_il/f_el), lateral speed (v·φ, the heading term),
 speed deviation (f_v), longitudinal acceleration (f_a) and lateral acceleration (∝ δ); the
@@ -40,6 +40,16 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.chance import risk_quantile
+from drivestyle.planning.description import (
+    N_WEIGHTS,
+    NX,
+    NLPBounds,
+    PrimalDual,
+    SMPCConfig,
+    constrained_vehicles,
+    constraint_violation,
+    nlp_parameters,
+)
 from drivestyle.planning.plan_solver import PlanSolver, SolveStatus, bounds_vector, compiled_solver
 from drivestyle.planning.reachability import (
     box_blocked,
@@ -48,18 +58,8 @@ from drivestyle.planning.reachability import (
     stage_one_blocked,
     stage_one_box,
 )
-from drivestyle.planning.smpc_problem import (
-    N_WEIGHTS,
-    NX,
-    NLPBounds,
-    PrimalDual,
-    SMPCConfig,
-    SMPCProblem,
-    constrained_vehicles,
-    constraint_violation,
-    nlp_parameters,
-    warm_start,
-)
+from drivestyle.planning.smpc_problem import SMPCProblem
+from drivestyle.planning.warm_starts import warm_start
 
 __all__ = [
     "DRIVER_STYLE_KIND",

@@ -41,7 +41,7 @@ from drivestyle.irl.identification import Identification
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.online import StyleTracker
 from drivestyle.irl.physics import PhysicsParams, physics_forecast
-from drivestyle.planning.smpc_problem import PrimalDual
+from drivestyle.planning.description import PrimalDual
 
 __all__ = [
     "METHODS",

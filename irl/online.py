@@ -49,7 +49,7 @@ from drivestyle.irl.driver_style import (
 from drivestyle.irl.identification import Identification, driver_posterior
 from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
-from drivestyle.planning.smpc_problem import PrimalDual
+from drivestyle.planning.description import PrimalDual
 
 __all__ = ["StyleTracker", "TrackerError", "track_demo"]
 

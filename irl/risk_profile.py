@@ -25,9 +25,7 @@ from drivestyle.irl.driver_style import (
     n_vehicles,
     planner_for,
 )
-from drivestyle.planning.smpc_problem import (
-    PrimalDual,
-)
+from drivestyle.planning.description import PrimalDual
 
 __all__ = ["REFINE_PER_SIDE", "RISK_EVAL", "RiskProfile", "refined_profile", "risk_profile"]
 

@@ -1,7 +1,7 @@
 """Where the EV can be one step ahead, and plans that cannot exist (DESIGN §16).
 
 Every plan of the style's NLP must keep the EV outside each constrained vehicle's nominal
-ellipse from stage 1 on (‖z̄_1‖ − 1 ≥ 0, :mod:`drivestyle.planning.smpc_problem`; a hard
+ellipse from stage 1 on (‖z̄_1‖ − 1 ≥ 0, :mod:`drivestyle.planning.description`; a hard
 constraint with no slack, independent of the risk p). Stage 1 is one RK4 step of the
 kinematic bicycle from the fixed ξ0 under an input inside its bounds, so the EV's
 position there lies in a small set known before any solve. When that whole set lies
@@ -24,7 +24,7 @@ the position, so its largest value on the set is at most its largest at the rect
 four corners.
 
 Soundness margins. The planner accepts a solver's point when every constraint holds to
-1e-4 (:func:`~drivestyle.planning.smpc_problem.constraint_violation`): the input may
+1e-4 (:func:`~drivestyle.planning.description.constraint_violation`): the input may
 exceed its bounds, the stage-1 state its RK4 image and the margin zero by that much.
 :data:`INPUT_SLACK`, :data:`POSITION_SLACK` and :data:`MARGIN_SLACK` cover each with a
 factor of ten, so a row certified here is one the planner could never accept.
@@ -114,7 +114,7 @@ def stage_one_blocked(
     """Whether every stage-1 position lies inside the nominal ellipses (:func:`covered`).
 
     The vehicles are predicted at constant velocity, as the NLP predicts them
-    (:func:`~drivestyle.planning.smpc_problem._ellipse_margins`): the centre at stage 1 is
+    (:func:`~drivestyle.planning.transcription.ellipse_margins`): the centre at stage 1 is
     (x + v·cos φ·T_s, y + v·sin φ·T_s), the ellipse axis-aligned with semi-axes l_a, l_b.
 
     Args:

@@ -61,6 +61,7 @@ from drivestyle.irl.driver_style import (
 )
 from drivestyle.irl.risk_profile import RISK_EVAL, risk_profile
 from drivestyle.planning import smpc_problem as sp
+from drivestyle.planning.description import SMPCConfig
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The profiled style: the SMPC expert's weights (its drivers are members of the class)."""
@@ -103,7 +104,7 @@ def _fatrop_options(extra: dict[str, Any]) -> Iterator[None]:
     """Solvers built inside get ``extra`` merged into fatrop's options."""
     original = sp.solver_options
 
-    def options(name: str, config: sp.SMPCConfig, equality: np.ndarray) -> dict:
+    def options(name: str, config: SMPCConfig, equality: np.ndarray) -> dict:
         out = original(name, config, equality)
         if name == "fatrop":
             out["fatrop"] = {**out["fatrop"], **extra}

@@ -29,7 +29,7 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.online import StyleTracker
-from drivestyle.planning.smpc_problem import SMPCConfig
+from drivestyle.planning.description import SMPCConfig
 
 GOAL_MS = 20.0
 """Goal of the median update latency [ms] (RESULTS §12, online identification)."""

@@ -63,8 +63,8 @@ from drivestyle.envs.tracks import Carriageway, Recording, Track
 from drivestyle.irl.identification import Identification, identify_driver, recorded_verdict_label
 from drivestyle.irl.library import DriverLibrary, LibraryError
 from drivestyle.irl.physics import PhysicsParams
+from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
-from drivestyle.planning.smpc_problem import SMPCConfig
 
 __all__ = [
     "FDE_GOAL",

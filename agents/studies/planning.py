@@ -32,7 +32,7 @@ from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.irl.driver_style import expert_style
 from drivestyle.irl.library import DriverLibrary
-from drivestyle.planning.smpc_problem import SMPCConfig
+from drivestyle.planning.description import SMPCConfig
 
 __all__ = [
     "CUT_IN_RANGES",

@@ -108,7 +108,7 @@ from drivestyle.irl.physics import (
     PhysicsParams,
     calibrate_physics,
 )
-from drivestyle.planning.smpc_problem import SMPCConfig
+from drivestyle.planning.description import SMPCConfig
 
 __all__ = [
     "BOOTSTRAP_SEED",

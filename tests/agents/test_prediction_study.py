@@ -35,7 +35,7 @@ from drivestyle.agents.studies.prediction import (
 from drivestyle.irl.driver_style import DriverStyle, expert_style
 from drivestyle.irl.forecast import METHODS
 from drivestyle.irl.library import DriverLibrary
-from drivestyle.planning.smpc_problem import SMPCConfig
+from drivestyle.planning.description import SMPCConfig
 
 LIBRARY = DriverLibrary(
     DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95)

@@ -14,7 +14,7 @@ from drivestyle.irl.forecast import (
     predict,
 )
 from drivestyle.irl.library import DriverLibrary
-from drivestyle.planning.smpc_problem import SMPCConfig
+from drivestyle.planning.description import SMPCConfig
 
 LIBRARY = DriverLibrary(
     DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95)

@@ -14,7 +14,7 @@ from drivestyle.irl.driver_style import (
     planner_for,
 )
 from drivestyle.irl.risk_profile import REFINE_PER_SIDE, refined_profile, risk_profile
-from drivestyle.planning.smpc_problem import nlp_parameters
+from drivestyle.planning.description import nlp_parameters
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 

@@ -87,7 +87,8 @@ def test_the_buffered_stationarity_check_is_the_plain_calls(paper_demo, planners
 
 def _probe(cache: str, path: str) -> str:
     code = (
-        "from drivestyle.planning.smpc_problem import SMPCConfig, SMPCProblem;"
+        "from drivestyle.planning.description import SMPCConfig;"
+        "from drivestyle.planning.smpc_problem import SMPCProblem;"
         "from drivestyle.envs.scenario import PAPER;"
         "p = SMPCProblem(SMPCConfig(weights_as_parameters=True, compiled=True), PAPER);"
         "print(sorted(p._external))"

@@ -9,17 +9,17 @@ from drivestyle.envs import PAPER
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.planning import smpc_problem
 from drivestyle.planning.chance import chance_margin
-from drivestyle.planning.prediction import tv_covariance
-from drivestyle.planning.smpc_problem import (
+from drivestyle.planning.description import (
     NU,
     NX,
     PrimalDual,
     SMPCConfig,
-    SMPCProblem,
     nlp_bounds,
     nlp_layout,
     nlp_parameters,
 )
+from drivestyle.planning.prediction import tv_covariance
+from drivestyle.planning.smpc_problem import SMPCProblem
 
 
 @pytest.fixture(scope="module")
