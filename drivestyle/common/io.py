@@ -52,7 +52,6 @@ import shlex
 import shutil
 import socket
 import sys
-import tempfile
 import time
 from collections.abc import Iterable, Iterator
 from datetime import datetime, timezone
@@ -171,22 +170,6 @@ def _default(obj: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
 
 
-def _umask() -> int:
-    """The process's umask (read without changing it where the OS allows)."""
-    with contextlib.suppress(OSError, ValueError):
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    mask = os.umask(0o022)  # the only portable way to read it: set and restore at once
-    os.umask(mask)
-    return mask
-
-
-def _ordinary_mode(path: Path, folder: bool) -> None:
-    """Give a file made by ``mkstemp``/``mkdtemp`` (private: 0600/0700) the mode ``open`` gives."""
-    os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
-
-
 def _reason(exc: OSError) -> str:
     return (exc.strerror or str(exc)).lower()
 
@@ -202,12 +185,47 @@ def _probe(folder: Path, user: Path, option: str) -> None:
         existing = existing.parent
     if not existing.is_dir():
         raise OutputPathError(f"{option} {user}: {existing} is not a folder")
+    with _scratch(existing, ".drivestyle-probe.", "", f"{option} {user}", folder=True):
+        pass
+
+
+@contextlib.contextmanager
+def _scratch(parent: Path, prefix: str, suffix: str, what: str, folder: bool) -> Iterator[Path]:
+    """A new, empty file or folder under a fresh name in ``parent``; gone after the block.
+
+    The name (``prefix``, this process's pid, random hex, ``suffix``) is chosen before the
+    file is made, so an interrupt between making it and the block still finds it to remove:
+    ``mkstemp``/``mkdtemp`` return the name only after making it, and a SIGTERM between the
+    two left the file behind. Made with ``open``'s ordinary modes (the umask applies).
+
+    Args:
+        parent: the folder to make it in (must exist).
+        prefix: the name's start (a dot: hidden).
+        suffix: the name's end (a file keeps its output's suffix: writers pick the format).
+        what: the option and path to name in the error.
+        folder: make a folder (else a file).
+
+    Raises:
+        OutputPathError: it cannot be made in ``parent``.
+    """
+    tmp = parent / f"{prefix}{os.getpid()}-{secrets.token_hex(4)}{suffix}"
     try:
-        os.rmdir(tempfile.mkdtemp(prefix=".drivestyle-probe.", dir=existing))
-    except OSError as exc:
-        raise OutputPathError(
-            f"{option} {user}: cannot create files in {existing} ({_reason(exc)})"
-        ) from None
+        try:
+            if folder:
+                os.mkdir(tmp)
+            else:
+                os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+        except OSError as exc:
+            raise OutputPathError(
+                f"{what}: cannot create files in {parent} ({_reason(exc)})"
+            ) from None
+        yield tmp
+    finally:
+        if folder:
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
 
 
 # ------------------------------------------------------------ one writer per output
@@ -700,23 +718,21 @@ def atomic_output_file(path: str | Path, option: str = "--out") -> Iterator[Path
         raise OutputPathError(f"{option} {path} is a folder (expected a file name)")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, name = tempfile.mkstemp(
-            prefix=f".{path.stem}.", suffix=f".partial{path.suffix}", dir=path.parent
-        )
     except OSError as exc:
         raise OutputPathError(f"cannot write {path}: {_reason(exc)}") from None
-    os.close(fd)
-    tmp = Path(name)
-    try:
+    # removed on leaving: only still there when something failed
+    with _scratch(
+        path.absolute().parent,
+        f".{path.stem}.",
+        f".partial{path.suffix}",
+        f"{option} {path}",
+        folder=False,
+    ) as tmp:
         yield tmp
-        _ordinary_mode(tmp, folder=False)
         try:
             os.replace(tmp, path)
         except OSError as exc:
             raise OutputPathError(f"cannot write {path}: {_reason(exc)}") from None
-    finally:
-        with contextlib.suppress(OSError):
-            tmp.unlink()  # only still there when something failed
 
 
 def write_text(path: str | Path, text: str) -> Path:
@@ -811,22 +827,18 @@ def atomic_output_dir(
         final = path.resolve()
         try:
             final.parent.mkdir(parents=True, exist_ok=True)
-            tmp = Path(
-                tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".partial", dir=final.parent)
-            )
         except OSError as exc:
             raise OutputPathError(
                 f"{option} {path}: cannot create files in {final.parent} ({_reason(exc)})"
             ) from None
-        try:
-            _ordinary_mode(tmp, folder=True)
+        # removed on leaving: only still there when something failed
+        with _scratch(final.parent, f".{final.name}.", ".partial", f"{option} {path}", True) as tmp:
             yield tmp
             merge = not replace and final.exists()
             if not merge:
                 (tmp / OUTPUT_MARKER).write_text(
                     "written by drivestyle; a new run replaces this folder as a whole\n"
                 )
-                _ordinary_mode(tmp / OUTPUT_MARKER, folder=False)
             try:
                 if merge:
                     _merge(tmp, final)
@@ -838,5 +850,3 @@ def atomic_output_dir(
                     f"({_reason(exc)})"
                     + ("; some files may be the previous run's" if merge else "")
                 ) from None
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)  # only still there when something failed

@@ -131,15 +131,45 @@ def sigterm_stops_the_job(replace: bool = False) -> Iterator[SigtermState]:
             signal.signal(signum, signal.SIG_DFL)
             os.kill(os.getpid(), signum)
             return
-        state.received = True
-        print("terminated: stopping the job", file=sys.stderr, flush=True)
+        if not state.received:
+            state.received = True
+            print("terminated: stopping the job", file=sys.stderr, flush=True)
+        if _drops_exceptions(frame):
+            signal.setitimer(signal.ITIMER_REAL, _RETRY_S)  # raise it where it is kept
+            return
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
         raise SystemExit(EXIT_TERMINATED)
 
+    def on_retry(signum: int, frame: Any) -> None:
+        if os.getpid() == owner and state.received:
+            on_sigterm(signal.SIGTERM, frame)
+
+    retry = signal.getsignal(signal.SIGALRM) is signal.SIG_DFL
     previous = signal.signal(signal.SIGTERM, on_sigterm)
+    if retry:
+        signal.signal(signal.SIGALRM, on_retry)
     try:
         yield state
     finally:
         signal.signal(signal.SIGTERM, previous)
+        if retry:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+
+
+_RETRY_S = 0.02
+"""Delay [s] before a stop deferred out of a frame that drops exceptions is raised again."""
+
+_DROPPING_PACKAGES = (f"{os.sep}casadi{os.sep}",)
+"""Packages whose Python code C calls and whose exceptions C discards: CasADi's SWIG
+wrappers call type checks such as ``DM_from_csc`` while choosing an overload and take any
+exception there for "not this type" — a SystemExit raised in them is lost and the job runs
+on to its end (seen: SIGTERM while an expert was being built, exit 0)."""
+
+
+def _drops_exceptions(frame: Any) -> bool:
+    """Whether an exception raised in ``frame`` (a signal handler's) may be discarded."""
+    return frame is not None and any(p in frame.f_code.co_filename for p in _DROPPING_PACKAGES)
 
 
 def _how_it_died(exitcode: int | None) -> str:

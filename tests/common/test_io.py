@@ -211,12 +211,14 @@ def test_checks_leave_nothing_behind(tmp_path):
 
 
 def test_an_unwritable_parent_at_the_end_names_the_users_path(tmp_path, monkeypatch):
-    import tempfile
+    mkdir = os.mkdir
 
-    def refuse(*args, **kwargs):
-        raise PermissionError(13, "Permission denied", str(tmp_path / ".out.x.partial"))
+    def refuse(path, *args, **kwargs):
+        if str(path).endswith(".partial"):  # the temporary folder beside the output
+            raise PermissionError(13, "Permission denied", str(path))
+        return mkdir(path, *args, **kwargs)
 
-    monkeypatch.setattr(tempfile, "mkdtemp", refuse)
+    monkeypatch.setattr(os, "mkdir", refuse)
     with pytest.raises(OutputPathError) as info:
         with atomic_output_dir(tmp_path / "out"):
             pass

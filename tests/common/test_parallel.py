@@ -1,10 +1,12 @@
 """parallel_map: results in task order, errors propagate, an interrupt stops running work."""
 
+import os
+import signal
 import time
 
 import pytest
 
-from drivestyle.common.parallel import parallel_map
+from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_stops_the_job
 
 
 def _square_after(x: int, delay: float) -> int:
@@ -39,3 +41,32 @@ def test_an_interrupt_does_not_wait_for_running_tasks():
     with pytest.raises(KeyboardInterrupt):
         parallel_map(_square_after, [(1, 0.0), (2, 30.0), (3, 30.0)], 2, interrupt)
     assert time.perf_counter() - t0 < 10  # the 30 s tasks were terminated, not awaited
+
+
+# CasADi's SWIG wrappers run Python type checks from C and drop any exception raised there:
+# a SIGTERM landing in one was lost and the job ran on to exit 0. A stand-in with a CasADi
+# file name that drops every exception, as SWIG does; the signal arrives inside it.
+_DROPPING = """
+def build(busy):
+    try:
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(busy):
+            pass
+    except BaseException:
+        return "dropped"
+    return "kept"
+"""
+
+
+def test_a_stop_that_lands_where_exceptions_are_dropped_is_raised_after_it(capsys):
+    code = compile(_DROPPING, os.path.join(os.sep, "site", "casadi", "casadi.py"), "exec")
+    namespace = {"os": os, "signal": signal}
+    exec(code, namespace)
+    with pytest.raises(SystemExit) as stop, sigterm_stops_the_job():
+        assert namespace["build"](10**5) == "kept"  # nothing raised inside it
+        time.sleep(5)  # the deferred stop lands here
+        pytest.fail("SIGTERM did not stop the job")
+    assert stop.value.code == EXIT_TERMINATED
+    assert capsys.readouterr().err.count("terminated: stopping the job") == 1
+    assert signal.getsignal(signal.SIGALRM) is signal.SIG_DFL
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
