@@ -601,18 +601,34 @@ def read_table(
         from tqdm import tqdm
 
         bar = tqdm(total=len(starts), desc="reading", unit="vehicle")
-    carriageways = []
-    for k, name in enumerate(recordings):
-        mine = rec_codes[starts] == k
-        vehicles = list(zip(starts[mine], stops[mine], strict=True))
-        carriageways += _table_carriageways(
-            name if has_recordings else None, vehicles, ids, frames, data, given.get(name),
-            path, default_length, default_width, lines_from or str(path),
-        )  # fmt: skip
+    carriageways: list[Carriageway] = []
+    named: dict[str, str] = {}  # carriageway → the recording (and direction) it holds
+    try:
+        for k, name in enumerate(recordings):
+            mine = rec_codes[starts] == k
+            vehicles = list(zip(starts[mine], stops[mine], strict=True))
+            roads = _table_carriageways(
+                name if has_recordings else None, vehicles, ids, frames, data, given.get(name),
+                path, default_length, default_width, lines_from or str(path),
+            )  # fmt: skip
+            for road in roads:
+                said = f"recording {name!r}" + (
+                    "" if road.name == name else f" (its traffic to {road.name[len(name) :]})"
+                )
+                if road.name in named:
+                    raise TrackError(
+                        f"{path}: {named[road.name]} and {said} would both be carriageway "
+                        f"{road.name!r} (a two-way recording's traffic is '<recording>+x' and "
+                        "'<recording>-x'): their vehicles and episode ids would mix; rename one "
+                        "recording"
+                    )
+                named[road.name] = said
+            carriageways += roads
+            if bar is not None:
+                bar.update(len(vehicles))
+    finally:
         if bar is not None:
-            bar.update(len(vehicles))
-    if bar is not None:
-        bar.close()
+            bar.close()  # before any error: the message gets a line of its own
     meta: dict[str, object] = {
         "format": "csv",
         "frame_dt_s": _median_step(t),
@@ -653,18 +669,14 @@ def write_table(
         (csv_path, lanes_path).
 
     Raises:
-        ValueError: two carriageways of one name, a track that some tracks' columns lack
-            (e.g. a speed), or one that ends behind its start (read back, it would drive to
-            −x: another carriageway); one line naming the carriageway and vehicle.
+        ValueError: a track that some tracks' columns lack (e.g. a speed), or one that ends
+            behind its start (read back, it would drive to −x: another carriageway); one line
+            naming the carriageway and vehicle.
     """
     import json
 
     import pandas as pd
 
-    names = [road.name for road in recording.carriageways]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise ValueError(f"{recording.source}: two carriageways named {twice[0]!r}")
     tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
     optional = {}
     for column in ("v", "heading", "lane"):

@@ -174,3 +174,14 @@ class Recording:
     """Its driving directions."""
     meta: dict[str, object] = field(default_factory=dict)
     """Reader facts (format, frame rate, units converted, …)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "carriageways", tuple(self.carriageways))
+        names = [road.name for road in self.carriageways]
+        twice = next((n for k, n in enumerate(names) if n in names[:k]), None)
+        if twice is not None:
+            raise TrackError(
+                f"{self.source}: two carriageways named {twice!r}: a carriageway's name is "
+                "unique in a recording (an episode id begins with it, and a vehicle id is "
+                "unique only within its carriageway)"
+            )

@@ -38,7 +38,12 @@ from typing import Any
 
 from drivestyle.common.cli import HelpFormatter, float_list, fraction, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.episodes import ExtractionConfig, extract_episodes, write_episodes
+from drivestyle.envs.episodes import (
+    ExtractionConfig,
+    episode_file_names,
+    extract_episodes,
+    write_episodes,
+)
 from drivestyle.envs.readers import READERS
 
 FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
@@ -221,6 +226,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "n_no_interaction": sum(e.no_interaction for e in usable),
         "wall_s": time.perf_counter() - t0,
     }
+    episode_file_names(episodes, args.out)  # two files of one name: said with the final path
     with atomic_output_dir(args.out) as tmp:
         write_episodes(episodes, tmp)
         write_json(tmp / "extract.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])

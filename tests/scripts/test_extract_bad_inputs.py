@@ -20,7 +20,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name, extract_episodes
+from drivestyle.envs.episodes import (
+    FILE_NAME_MAX,
+    episode_file_name,
+    episode_file_names,
+    extract_episodes,
+)
 from drivestyle.envs.readers import read_table
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):
@@ -412,3 +417,84 @@ def test_a_text_file_named_npz_and_an_off_grid_observe_time_are_said_plainly(tmp
     assert predict(episode, "0.3") == (
         "error: the observed time 0.3 s is not a whole number of T_s = 0.2 s; use 0.2 or 0.4 s"
     )
+
+
+# ---------------------------------------------- a second probe (the readers): 1 names
+def test_two_recordings_that_would_share_a_carriageway_are_refused_naming_both(tmp_path):
+    # recording "day" has traffic both ways (carriageways "day+x", "day-x"); a recording
+    # literally named "day+x" would be merged into the first's +x traffic
+    both = pd.concat(
+        [
+            _vehicles().assign(recording="day"),
+            pd.DataFrame({"id": "9", "t": T, "x": -SPEED * T, "y": -1.5 * W, "recording": "day"}),
+            _vehicles().assign(recording="day+x"),  # the same clock: the same episode ids
+        ],
+        ignore_index=True,
+    )
+    proc = _run(tmp_path, both)
+    assert _error(proc) == (
+        f"error: {tmp_path / 'tracks.csv'}: recording 'day' (its traffic to +x) and recording "
+        "'day+x' would both be carriageway 'day+x' (a two-way recording's traffic is "
+        "'<recording>+x' and '<recording>-x'): their vehicles and episode ids would mix; rename "
+        "one recording"
+    )
+    assert "partial" not in proc.stderr and not (tmp_path / "out").exists()
+    # renamed, both are read: the two-way recording's +x and -x, and the other
+    rows = _episodes(tmp_path, _run(tmp_path, both.replace({"recording": {"day+x": "night"}})))
+    assert rows.episode_id.tolist() == ["day+x_1_6000", "night_1_6000"]
+
+
+def test_two_episodes_of_one_file_are_said_with_the_final_path(tmp_path):
+    path = tmp_path / "tracks.csv"
+    _vehicles().to_csv(path, index=False)
+    (episode,) = extract_episodes(read_table(path, lane_width=W))
+    with pytest.raises(ValueError) as info:
+        episode_file_names([episode, episode], tmp_path / "out")
+    assert str(info.value) == (
+        f"two episodes would be written to {tmp_path / 'out' / '+x_1_6000.npz'} (episode "
+        "'+x_1_6000' twice): an episode id is unique in a folder"
+    )
+
+
+# ------------------------------------------------- 2: --observe off the T_s grid
+def test_an_observed_part_off_the_dt_grid_is_refused_up_front(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    line = _error(_run(tmp_path, table, "--observe", "0.3"))
+    assert line == (
+        "error: observe_s (--observe) = 0.3 s is not a whole number of T_s = dt (--dt) = 0.2 s; "
+        "use 0.2 or 0.4 s"
+    )
+    line = _error(_run(tmp_path, table, "--dt", "0.15"))  # the default --observe 2
+    assert line == (
+        "error: observe_s (--observe) = 2 s is not a whole number of T_s = dt (--dt) = 0.15 s; "
+        "use 1.95 or 2.1 s"
+    )
+    assert not (tmp_path / "out").exists()
+    rows = _episodes(tmp_path, _run(tmp_path, table, "--dt", "0.15", "--observe", "1.95"))
+    assert rows.observed_until_s.tolist() == [1.95]
+
+
+# --------------------------------------------- 3: --dt against its cost and the data
+def test_a_dt_beyond_the_sample_bound_is_refused_and_a_fine_one_noted(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    line = _error(_run(tmp_path, table, "--dt", "1e-9", "--observe", "2"))
+    assert line == (
+        "error: dt (--dt) = 1e-09 s gives a window of 8 s (--before 4 + --after 4) 8e+09 "
+        "samples, more than 2,000 (≈ 0.6 ms of work each: the bound alone is ≈ 1.2 s per lane "
+        "change); T_s is a fraction of a second (the model's is 0.2 s): give --dt 0.004 s or "
+        "more"
+    )
+    line = _error(_run(tmp_path, table, "--dt", "0.001"))
+    assert line.startswith("error: dt (--dt) = 0.001 s gives a window of 8 s (--before 4 + ")
+    assert not (tmp_path / "out").exists()
+    # 10x finer than the data's 0.1 s: legal, said
+    proc = _run(tmp_path, table, "--dt", "0.01")
+    assert _episodes(tmp_path, proc).usable.tolist() == [True]
+    assert _said(proc) == [
+        f"note: {table}: dt (--dt) = 0.01 s is 10× finer than the data's median time step 0.1 s: "
+        "90% of a demonstration's samples lie between recorded ones (the splines', not the "
+        "data's; so are the inputs recovered there); the demonstrations are written as asked"
+    ]
+    assert not [line for line in _said(_run(tmp_path, table, "--dt", "0.05")) if "note" in line]
