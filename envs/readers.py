@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
-from drivestyle.envs.track_checks import check_recording
+from drivestyle.envs.track_checks import SINGLE_SAMPLE, check_recording
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.envs.units import FOOT
 
@@ -603,10 +603,18 @@ def read_table(
         bar = tqdm(total=len(starts), desc="reading", unit="vehicle")
     carriageways: list[Carriageway] = []
     named: dict[str, str] = {}  # carriageway → the recording (and direction) it holds
+    dropped: list[str] = []  # vehicles of a single sample
     try:
         for k, name in enumerate(recordings):
             mine = rec_codes[starts] == k
-            vehicles = list(zip(starts[mine], stops[mine], strict=True))
+            every = list(zip(starts[mine], stops[mine], strict=True))
+            # a vehicle of one sample has no motion, no lane change: skipped, noted
+            vehicles = [(a, b) for a, b in every if b - a >= 2]
+            dropped += [
+                f"{ids[a]} (recording {name})" if has_recordings else str(ids[a])
+                for a, b in every
+                if b - a < 2
+            ]
             roads = _table_carriageways(
                 name if has_recordings else None, vehicles, ids, frames, data, given.get(name),
                 path, default_length, default_width, lines_from or str(path),
@@ -625,7 +633,7 @@ def read_table(
                 named[road.name] = said
             carriageways += roads
             if bar is not None:
-                bar.update(len(vehicles))
+                bar.update(len(every))
     finally:
         if bar is not None:
             bar.close()  # before any error: the message gets a line of its own
@@ -633,6 +641,7 @@ def read_table(
         "format": "csv",
         "frame_dt_s": _median_step(t),
         "vehicles": len(starts),
+        SINGLE_SAMPLE: dropped,
     }
     if has_recordings:
         meta["recordings"] = recordings
@@ -960,13 +969,15 @@ def _published_numbers(
 
 def _published_tracks(
     path: Path, ids: np.ndarray, t: np.ndarray, frames: np.ndarray, max_gap_s: float | None = None
-) -> tuple[list[tuple[str, np.ndarray]], int]:
-    """Split rows into tracks: (vehicle id, row indices in time order) and the dropped count.
+) -> tuple[list[tuple[str, np.ndarray]], list[str]]:
+    """Split rows into tracks: (vehicle id, row indices in time order) and the dropped ones.
 
     Rows may come in any order; a track is a vehicle's rows sorted by time, cut where the
     time jumps by more than ``max_gap_s`` (a reused id: the later parts are named
     ``'<id>@<first frame>'``; a gap in one vehicle's track is the extraction's rule,
-    ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (counted).
+    ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (their names
+    returned: the readers' :data:`~drivestyle.envs.track_checks.SINGLE_SAMPLE` meta, which
+    :func:`~drivestyle.envs.track_checks.check_recording` notes).
 
     Raises:
         TrackError: a vehicle has two rows at one time or one frame, or frames that do not
@@ -995,13 +1006,15 @@ def _published_tracks(
             problem = f"comes after frame {before} in time (frames must increase with time)"
         raise TrackError(f"{path}: vehicle {names[c[k]]}, frame {here}: {problem}")
     bounds = np.concatenate([[0], np.flatnonzero(cut) + 1, [len(order)]])
-    out, dropped, seen = [], 0, set()
+    out: list[tuple[str, np.ndarray]] = []
+    dropped: list[str] = []
+    seen: set[str] = set()
     for a, b in pairwise(bounds):
         name = str(names[c[a]])
         key = name if name not in seen else f"{name}@{_label(ff[a])}"
         seen.add(name)
         if b - a < 2:
-            dropped += 1
+            dropped.append(key)
             continue
         out.append((key, order[a:b]))
     return out, dropped
@@ -1081,7 +1094,7 @@ def _left_numbered_lanes(
 
 def _ngsim_carriageway(
     path: Path, name: str, df: Any, markings: str
-) -> tuple[Carriageway, float, int]:
+) -> tuple[Carriageway, float, list[str]]:
     """One NGSIM freeway's rows: its carriageway, Global_Time origin [ms], dropped tracks."""
     ids, frame = ["Vehicle_ID"], "Frame_ID"
     cols = ["Vehicle_ID", "Frame_ID", "Global_Time", "Local_X", "Local_Y"]
@@ -1219,19 +1232,19 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
         parts = [(loc, df[location == loc]) for loc in NGSIM_FREEWAYS if (location == loc).any()]
     else:
         parts = [("ngsim", df)]
-    carriageways, origins, widths, dropped = [], {}, {}, 0
+    carriageways, origins, widths, dropped = [], {}, {}, []
     for name, rows in parts:
-        cw, t0, n_dropped = _ngsim_carriageway(path, name, rows.reset_index(drop=True), markings)
+        cw, t0, skipped = _ngsim_carriageway(path, name, rows.reset_index(drop=True), markings)
         carriageways.append(cw)
         origins[name] = t0
         widths[name] = float(np.median(cw.lane_widths))
-        dropped += n_dropped
+        dropped += [f"{v} ({name})" if len(parts) > 1 else v for v in skipped]
     meta.update(
         global_time_origin_ms=origins,
         lane_width_m=widths,
         markings=markings,
-        single_sample_tracks_dropped=dropped,
     )
+    meta[SINGLE_SAMPLE] = dropped
     return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
@@ -1387,7 +1400,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
         "format": "highd",
         "rate_hz": float(rate),
         "files": [str(path), str(meta_path), str(rec_path)],
-        "single_sample_tracks_dropped": dropped,
+        SINGLE_SAMPLE: dropped,
     }
     return check_recording(Recording(str(path), tuple(carriageways), meta))
 
@@ -1540,7 +1553,7 @@ def read_interaction(
         "direction_rad": angle,
         "agents_dropped": not_vehicles,
         "tracks_against_direction_dropped": against,
-        "single_sample_tracks_dropped": dropped,
+        SINGLE_SAMPLE: dropped,
         "outside_road": _warn_outside_road(carriageways, "lane_markings (--lane-markings)"),
     }
     return check_recording(Recording(str(path), carriageways, meta))
@@ -1584,7 +1597,7 @@ def read_sample(folder: str | Path) -> Recording:
     )
     if cats:
         w = _cats_lane_width(Path(folder) / "summary.json")
-    carriageways = []
+    carriageways, dropped = [], []
     for name, g in df.groupby(key, sort=True):
         g = g.reset_index(drop=True)
         num = _published_numbers(
@@ -1602,7 +1615,8 @@ def read_sample(folder: str | Path) -> Recording:
             size = g["length_m"].to_numpy(float), g["width_m"].to_numpy(float)
             frames, x, y = g["frame"].to_numpy(), num["x_m"] - size[0] / 2, -num["y_m"]
         lines = _check_markings(lines, path, f"{key} {name}")
-        groups, _ = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
+        groups, skipped = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
+        dropped += [f"{v} ({name})" for v in skipped]
         tracks = [
             Track(
                 vid,
@@ -1623,6 +1637,7 @@ def read_sample(folder: str | Path) -> Recording:
         "format": "sample",
         "dataset": "cats" if cats else "ngsim",
         "units": "metres",
+        SINGLE_SAMPLE: dropped,
     }
     return check_recording(Recording(str(path), tuple(carriageways), meta))
 

@@ -22,6 +22,9 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
 - **heading**: a recorded heading agrees with the course of the positions (their direction
   over :data:`COURSE_BASE_M` along the road) within :data:`HEADING_COURSE_TOL_RAD` at all but
   :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not);
+- **samples**: a vehicle of a single sample shows no motion and no lane change: a reader
+  skips it and lists it in ``meta[SINGLE_SAMPLE]``, and a note on stderr counts them (most
+  of a file's vehicles so: refused, the ids are not per vehicle);
 - **overlap**: no two vehicles of a carriageway overlap at any time (their rectangles,
   shrunk to :data:`~drivestyle.envs.demonstration.OVERLAP_SHRINK` as the demonstration's
   check shrinks them, on a common time grid; :func:`overlaps`): both are kept unusable,
@@ -51,12 +54,14 @@ __all__ = [
     "COURSE_BASE_M",
     "HEADING_COURSE_TOL_RAD",
     "HEADING_DISAGREE_SHARE",
+    "SINGLE_SAMPLE",
     "WARN_VEHICLES",
     "check_recording",
     "course",
     "course_disagreement",
     "implied_speeds",
     "overlaps",
+    "single_sample_note",
     "track_problems_warning",
 ]
 
@@ -201,6 +206,49 @@ def overlaps(
     if not found_i:
         return np.zeros(0, int), np.zeros(0, int)
     return np.concatenate(found_i), np.concatenate(found_j)
+
+
+SINGLE_SAMPLE = "single_sample_tracks_dropped"
+"""The key of a recording's ``meta`` where its reader lists the vehicles it skipped for
+having a single sample (each as the messages name it: the id, and its recording or road)."""
+
+
+def _single_samples(recording: Recording, kept: int) -> list[str]:
+    """The vehicles the reader skipped for a single sample.
+
+    Raises:
+        TrackError: most of the file's vehicles have one (an id per row, not per vehicle).
+    """
+    skipped = [str(v) for v in recording.meta.get(SINGLE_SAMPLE, None) or ()]
+    if skipped and _majority([True] * len(skipped) + [False] * kept):
+        named = ", ".join(skipped[:WARN_VEHICLES]) + (", …" if len(skipped) > WARN_VEHICLES else "")
+        raise TrackError(
+            f"{recording.source}: {len(skipped)} of {len(skipped) + kept} vehicles have a single "
+            f"sample (vehicle {named}): a track needs 2 or more to show motion; is the vehicle "
+            "id the same on every row of one vehicle (not a row number)?"
+        )
+    return skipped
+
+
+def single_sample_note(recording: Recording) -> str | None:
+    """A one-line note counting the vehicles skipped for a single sample, or None.
+
+    Args:
+        recording: a reader's recording (``meta[SINGLE_SAMPLE]``).
+
+    Returns:
+        ``note: …`` naming up to :data:`WARN_VEHICLES` of them.
+    """
+    skipped = [str(v) for v in recording.meta.get(SINGLE_SAMPLE, None) or ()]
+    if not skipped:
+        return None
+    named = ", ".join(skipped[:WARN_VEHICLES])
+    rest = len(skipped) - WARN_VEHICLES
+    more = f" and {rest} more" if rest > 0 else ""
+    return (
+        f"note: {recording.source}: {len(skipped)} vehicle(s) of a single sample skipped (one "
+        f"position shows no motion and no lane change): vehicle {named}{more}"
+    )
 
 
 def _where(road: Carriageway, track: Track) -> str:
@@ -401,7 +449,8 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
 
     Args:
         recording: as a reader built it (tracks without problems).
-        warn: print :func:`track_problems_warning` on stderr.
+        warn: print :func:`track_problems_warning` and :func:`single_sample_note` on
+            stderr.
 
     Returns:
         The recording with each track's :attr:`~drivestyle.envs.tracks.Track.problems` set
@@ -409,9 +458,14 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
 
     Raises:
         TrackError: a rule that most of the file's vehicles break (a unit or convention of
-            the file); one line naming the file, the value and the likely unit.
+            the file, or most vehicles of a single sample); one line naming the file, the
+            value and the likely unit.
     """
     tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
+    _single_samples(recording, len(tracks))
+    note = single_sample_note(recording) if warn else None
+    if note:
+        print(note, file=sys.stderr, flush=True)
     if not tracks:
         return recording
     # the sampling first: a time in the wrong unit makes every speed wrong too

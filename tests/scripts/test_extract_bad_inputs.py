@@ -498,3 +498,23 @@ def test_a_dt_beyond_the_sample_bound_is_refused_and_a_fine_one_noted(tmp_path):
         "data's; so are the inputs recovered there); the demonstrations are written as asked"
     ]
     assert not [line for line in _said(_run(tmp_path, table, "--dt", "0.05")) if "note" in line]
+
+
+# ------------------------------------------------ 4: a vehicle of one sample
+def test_a_vehicle_of_one_sample_is_skipped_with_a_note(tmp_path):
+    lone = pd.DataFrame({"id": ["77"], "t": [3.0], "x": [500.0], "y": [1.5 * W]})
+    proc = _run(tmp_path, pd.concat([_vehicles(), lone], ignore_index=True))
+    rows = _episodes(tmp_path, proc)
+    assert rows.episode_id.tolist() == ["+x_1_6000"] and rows.usable.tolist() == [True]
+    assert _said(proc) == [
+        f"note: {tmp_path / 'tracks.csv'}: 1 vehicle(s) of a single sample skipped (one position "
+        "shows no motion and no lane change): vehicle 77"
+    ]
+    # every row its own vehicle: the ids are not vehicles', refused
+    rows_as_ids = _vehicles().assign(id=lambda d: d.index.astype(str))
+    line = _error(_run(tmp_path, rows_as_ids))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: 242 of 242 vehicles have a single sample (vehicle 0, "
+        "1, 10, 100, 101, …): a track needs 2 or more to show motion; is the vehicle id the "
+        "same on every row of one vehicle (not a row number)?"
+    )
