@@ -56,6 +56,9 @@ TABLE_TEXT = ("recording", "id")
 """Columns read as text: names, not numbers (``007`` stays ``007``)."""
 PARQUET_SUFFIXES = (".parquet", ".pq")
 """File endings read as Parquet (every other ending is read as CSV, gzip included)."""
+ROAD_LANES_MAX = 50
+"""The most lanes the lines every ``lane_width`` may span across a recording's y: a road has
+at most a few dozen (both directions); more is a y in another unit or a wrong row."""
 OUTSIDE_WARN_VEHICLES = 5
 """Vehicles the outside-the-road warning names (the most affected first; the rest counted)."""
 
@@ -212,13 +215,29 @@ def _check_markings(markings: np.ndarray, path: Path | str, what: str) -> np.nda
     lo, hi = LANE_WIDTH_RANGE_M
     widths = np.diff(markings)
     if widths.min() < lo or widths.max() > hi:
-        w = float(widths.max() if widths.max() > hi else widths.min())
-        unit = "positions in feet? convert to metres (× 0.3048)" if w > hi else "metres?"
-        raise TrackError(
-            f"{path}: lanes {w:.3g} m wide ({what}), but a road's lanes are {lo:g}–{hi:g} m "
-            f"wide: {unit}"
-        )
+        _check_lane_width(float(widths.max() if widths.max() > hi else widths.min()), path, what)
     return markings
+
+
+def _check_lane_width(w: float, path: Path | str, what: str) -> float:
+    """A lane width a road has (:data:`LANE_WIDTH_RANGE_M`, metres), or a one-line error.
+
+    The one range of every lane width, given or between given lines: checked before any
+    line is computed from it (``lane_width=1e308`` would overflow).
+    """
+    lo, hi = LANE_WIDTH_RANGE_M
+    if lo <= w <= hi:
+        return w
+    if lo <= w * FOOT <= hi:
+        unit = "positions in feet? convert to metres (× 0.3048)"
+    elif w < lo:
+        unit = "metres?"
+    else:
+        unit = "lane widths are in metres"
+    raise TrackError(
+        f"{path}: lanes {w:.3g} m wide ({what}), but a road's lanes are {lo:g}–{hi:g} m wide: "
+        f"{unit}"
+    )
 
 
 def load_lanes(path: str | Path) -> list[float] | dict[str, list[float] | dict[str, list[float]]]:
@@ -566,12 +585,21 @@ def read_table(
     elif lane_width is not None:
         if not (math.isfinite(lane_width) and lane_width > 0):
             raise TrackError(f"{path}: lane_width must be a positive number [m], got {lane_width}")
+        _check_lane_width(lane_width, path, f"lane_width (--lane-width) {lane_width:g}")
         given = {}
         for k, name in enumerate(recordings):
             y = data["y"][rec_codes == k]
             lo, hi = math.floor(y.min() / lane_width), math.ceil(y.max() / lane_width)
+            if hi - lo > ROAD_LANES_MAX:  # before the lines are allocated
+                i = int(np.flatnonzero(rec_codes == k)[np.argmax(np.abs(y - np.median(y)))])
+                raise TrackError(
+                    f"{path}: the vehicles' y spans {y.min():.4g} to {y.max():.4g} m, "
+                    f"{hi - lo} lanes of lane_width (--lane-width) {lane_width:g} m, more than "
+                    f"a road's {ROAD_LANES_MAX} ({_row_vehicle(df, i)}, data row {i + 1}: y = "
+                    f"{data['y'][i]:.4g}): y in another unit, or a wrong row?"
+                )
             lines = np.arange(lo, max(hi, lo + 2) + 1) * lane_width
-            lines = _check_markings(lines, path, f"lane_width {lane_width:g}")
+            lines = _check_markings(lines, path, f"lane_width (--lane-width) {lane_width:g}")
             given[name] = dict.fromkeys(DIRECTIONS, lines)
     elif "lane" in data:
         given = {}  # per carriageway, from its own lanes

@@ -518,3 +518,25 @@ def test_a_vehicle_of_one_sample_is_skipped_with_a_note(tmp_path):
         "1, 10, 100, 101, …): a track needs 2 or more to show motion; is the vehicle id the "
         "same on every row of one vehicle (not a row number)?"
     )
+
+
+# ------------------------------------------------ 5: a lane width beyond a road's
+def test_a_lane_width_beyond_a_road_is_refused_before_any_line_is_computed(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    proc = _run(tmp_path, table, "--lane-width", "1e308")  # the lines would overflow
+    assert _error(proc) == (
+        f"error: {table}: lanes 1e+308 m wide (lane_width (--lane-width) 1e+308), but a road's "
+        "lanes are 2–7 m wide: lane widths are in metres"
+    )
+    assert "Warning" not in proc.stderr
+    line = _error(_run(tmp_path, table, "--lane-width", "12"))
+    assert line.endswith("lanes are 2–7 m wide: positions in feet? convert to metres (× 0.3048)")
+    # one wrong y: 2.7e11 lanes of lines, refused before they are allocated
+    wrong = _vehicles()
+    wrong.loc[30, "y"] = 1e12
+    assert _error(_run(tmp_path, wrong)) == (
+        f"error: {table}: the vehicles' y spans 1.875 to 1e+12 m, 266666666667 lanes of "
+        "lane_width (--lane-width) 3.75 m, more than a road's 50 (vehicle 1, data row 31: y = "
+        "1e+12): y in another unit, or a wrong row?"
+    )
