@@ -71,21 +71,35 @@ LaneLines = Sequence[float] | Mapping[str, RoadLines]
 """Lane lines of a table: one list for every recording, or per recording."""
 
 
-def _not_text(path: Path) -> str:
-    """What a file that is not UTF-8 is: binary (NUL bytes) or text in another encoding.
+def _utf16_without_bom(head: bytes) -> bool:
+    """Whether bytes are mostly ASCII text in UTF-16 without a byte-order mark.
 
-    Said with the first byte that is not UTF-8, its offset and line in the file.
+    Every other byte is NUL then, the NULs all at even or all at odd offsets.
+    """
+    pairs = len(head) // 2
+    if pairs < 4:
+        return False
+    even, odd = head[0 : 2 * pairs : 2], head[1 : 2 * pairs : 2]
+    return max(even.count(0), odd.count(0)) >= 0.9 * pairs > min(even.count(0), odd.count(0))
+
+
+def _not_text(path: Path) -> str:
+    """What a file that is not UTF-8 is: UTF-16/32, binary (NUL bytes) or another encoding.
+
+    Said with the first byte that is not UTF-8, its offset and line in the file (binary,
+    another 8-bit encoding).
     """
     import codecs
     import gzip
 
     opener = gzip.open if path.suffix.lower() == ".gz" else open
     decoder = codecs.getincrementaldecoder("utf-8")()
-    seen, lines, binary = 0, 1, False
+    seen, lines, binary, head = 0, 1, False, b""
     where = "a byte that is not UTF-8"
     try:
         with opener(path, "rb") as f:
             while chunk := f.read(1 << 20):
+                head = head or chunk[:8192]
                 binary |= seen == 0 and b"\x00" in chunk[:8192]
                 try:
                     decoder.decode(chunk)
@@ -97,12 +111,36 @@ def _not_text(path: Path) -> str:
                 seen, lines = seen + len(chunk), lines + chunk.count(b"\n")
     except OSError:
         pass
+    if head.startswith((codecs.BOM_UTF32_LE, codecs.BOM_UTF32_BE)):
+        return "is UTF-32 text, not UTF-8: save it as UTF-8"
+    if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)) or _utf16_without_bom(head):
+        return (
+            "is UTF-16 text (as Excel's 'Unicode text' and Windows tools save it), not UTF-8: "
+            "save it as UTF-8"
+        )
     if binary:
         return f"is a binary file, not text ({where})"
     return (
         f"is not UTF-8 text ({where}): text in another encoding (latin-1, Windows-1252?); "
         "save it as UTF-8"
     )
+
+
+def _need_file(path: Path, what: str) -> None:
+    """Refuse a missing file, or a folder where a file is expected (one line naming it).
+
+    Args:
+        path: the file.
+        what: what it should be, for the message (e.g. "a CSV or Parquet table of tracks").
+
+    Raises:
+        IsADirectoryError: a folder.
+        FileNotFoundError: nothing there.
+    """
+    if path.is_dir():
+        raise IsADirectoryError(f"{path} is a folder, not a file ({what}): pass the file itself")
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file ({what})")
 
 
 def _read_csv(path: Path, what: str, **options: Any) -> Any:
@@ -150,8 +188,12 @@ def _read_frame(
     """
     import pandas as pd
 
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (a CSV or Parquet table of tracks)")
+    if path.is_dir() and (path / "tracks.csv.gz").is_file():
+        raise IsADirectoryError(
+            f"{path} is a folder, not a file (a CSV or Parquet table of tracks): a shipped "
+            "sample's folder? --format sample reads it"
+        )
+    _need_file(path, "a CSV or Parquet table of tracks")
     if path.suffix.lower() in PARQUET_SUFFIXES:
         try:
             return pd.read_parquet(path)
@@ -240,6 +282,10 @@ def _check_lane_width(w: float, path: Path | str, what: str) -> float:
     )
 
 
+LANES_FILE = "a JSON lanes file: each recording's lane lines' y [m]"
+"""What :func:`load_lanes` reads, for messages."""
+
+
 def load_lanes(path: str | Path) -> list[float] | dict[str, list[float] | dict[str, list[float]]]:
     """A lanes file: every recording's lane lines, road edges included.
 
@@ -261,21 +307,41 @@ def load_lanes(path: str | Path) -> list[float] | dict[str, list[float] | dict[s
 
     Raises:
         FileNotFoundError: no such file.
-        TrackError: not JSON, neither an object nor a list, or a value that is neither a
-            list of numbers nor an object of directions; one line naming the file (and the
-            recording).
+        TrackError: not UTF-8 text, not JSON, a key twice, neither an object nor a list, or
+            a value that is neither a list of numbers nor an object of directions; one line
+            naming the file (and the recording or key).
     """
     import json
 
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"{path}: no such file (a JSON lanes file: each recording's lane lines' y [m])"
-        )
+    _need_file(path, LANES_FILE)
     try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise TrackError(f"{path} is not valid JSON ({exc})") from None
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise TrackError(f"{path} {_not_text(path)}; expected {LANES_FILE}") from None
+
+    def once(pairs: list[tuple[str, object]]) -> dict[str, object]:
+        # JSON keeps the last of two equal keys: a recording's lines given twice would be
+        # read silently as its second
+        seen: dict[str, object] = {}
+        for key, value in pairs:
+            if key in seen:
+                raise TrackError(
+                    f"{path}: the key {key!r} appears twice (JSON would keep the second, "
+                    f"{json.dumps(value)[:60]}, silently): give each recording's lines once"
+                )
+            seen[key] = value
+        return seen
+
+    if not text.strip():
+        raise TrackError(f"{path} is empty: expected {LANES_FILE}")
+    try:
+        data = json.loads(text, object_pairs_hook=once)
+    except json.JSONDecodeError as exc:
+        raise TrackError(
+            f"{path} is not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno}); "
+            f"expected {LANES_FILE}"
+        ) from None
 
     def lines(value: object, where: str) -> list[float]:
         if not isinstance(value, list):
@@ -1059,8 +1125,7 @@ def _ngsim_table(path: Path) -> Any:
     """The rows of an NGSIM trajectory file with the standard column names."""
     import gzip
 
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (an NGSIM trajectory file)")
+    _need_file(path, NGSIM_FILE)
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rt", errors="replace") as f:
         first = f.readline().strip()
@@ -1284,11 +1349,10 @@ LEVELX_TRACK_COLUMNS = ("frame", "id", "x", "y", "width", "height", "xVelocity",
 
 def _levelx_csv(path: Path, required: Sequence[str]) -> Any:
 
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"{path} not found: read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and "
-            "NN_recordingMeta.csv side by side"
-        )
+    _need_file(
+        path,
+        "read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and NN_recordingMeta.csv side by side",
+    )
     df = _read_csv(path, f"a levelX {path.name.split('_')[-1]} (highD)")
     _published_columns(df, path, required, "levelX (highD)")
     return df
@@ -1355,8 +1419,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
     prefix = path.name[: -len("tracks.csv")]
     rec_path = path.with_name(prefix + "recordingMeta.csv")
     meta_path = path.with_name(prefix + "tracksMeta.csv")
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (a levelX NN_tracks.csv)")
+    _need_file(path, "a levelX NN_tracks.csv")
     df = _read_csv(path, "a levelX NN_tracks.csv (highD)")
     if "trackId" in df.columns and "xCenter" in df.columns:
         raise TrackError(
@@ -1528,8 +1591,7 @@ def read_interaction(
     angle = _interaction_direction(direction)
     lines = _interaction_lines(lane_markings, direction, angle)
     _check_markings(lines, path, f"lane_markings along {direction!r}, in the road frame")
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (an INTERACTION vehicle_tracks_NNN.csv)")
+    _need_file(path, "an INTERACTION vehicle_tracks_NNN.csv")
     df = _read_csv(path, "an INTERACTION vehicle_tracks_NNN.csv")
     _published_columns(df, path, INTERACTION_COLUMNS, "INTERACTION")
     agent = df["agent_type"].astype(str).str.strip().str.lower()

@@ -540,3 +540,49 @@ def test_a_lane_width_beyond_a_road_is_refused_before_any_line_is_computed(tmp_p
         "lane_width (--lane-width) 3.75 m, more than a road's 50 (vehicle 1, data row 31: y = "
         "1e+12): y in another unit, or a wrong row?"
     )
+
+
+# ----------------------------------------- 6: a folder, UTF-16, a binary lanes file
+def test_a_folder_utf16_and_a_binary_lanes_file_are_said_to_be_what_they_are(tmp_path):
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    assert _error(_run(tmp_path, folder)) == (
+        f"error: {folder} is a folder, not a file (a CSV or Parquet table of tracks): pass the "
+        "file itself"
+    )
+    utf16 = tmp_path / "tracks16.csv"
+    _vehicles().to_csv(utf16, index=False, encoding="utf-16")
+    assert _error(_run(tmp_path, utf16)) == (
+        f"error: {utf16} is UTF-16 text (as Excel's 'Unicode text' and Windows tools save it), "
+        "not UTF-8: save it as UTF-8; expected a CSV table of tracks (columns id, t, x, y, …)"
+    )
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    lanes = tmp_path / "lanes.json"
+    lanes.write_bytes(b"PK\x03\x04\x14\x00\x06\x00\xb5U\x80")
+    assert _error(_run(tmp_path, table, "--lanes", str(lanes))) == (
+        f"error: --lanes {lanes} is a binary file, not text (byte 0xb5 at offset 8, line 1); "
+        "expected a JSON lanes file: each recording's lane lines' y [m]"
+    )
+    lanes.write_text("[0, 3.75, 7.5]", encoding="utf-16")
+    line = _error(_run(tmp_path, table, "--lanes", str(lanes)))
+    assert line.startswith(f"error: --lanes {lanes} is UTF-16 text (")
+
+
+# ------------------------------------------------- 7: input dropped silently
+def test_an_empty_lane_marking_and_a_repeated_lanes_key_are_refused(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    proc = _run(tmp_path, table, "--lane-markings", "0,,7.5")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == (
+        "drivestyle extract-episodes: error: argument --lane-markings: '0,,7.5' has an empty "
+        "field (number 2 of 3): give the numbers separated by single commas, e.g. 0,3.75,7.5"
+    )
+    two = _vehicles().assign(recording="dayA")
+    lanes = tmp_path / "lanes.json"
+    lanes.write_text('{"dayA": [0, 3.75, 7.5, 11.25], "dayA": [0, 3.5, 7, 10.5]}')
+    assert _error(_run(tmp_path, two, "--lanes", str(lanes))) == (
+        f"error: --lanes {lanes}: the key 'dayA' appears twice (JSON would keep the second, "
+        "[0, 3.5, 7, 10.5], silently): give each recording's lines once"
+    )
