@@ -935,7 +935,14 @@ def _table_carriageways(
                     source=str(path),
                 )
             )
-        out.append(Carriageway(name, tuple(float(m) for m in lines), tuple(tracks)))
+        out.append(
+            Carriageway(
+                name,
+                tuple(float(m) for m in lines),
+                tuple(tracks),
+                heading_offset=0.0 if s > 0 else math.pi,
+            )
+        )
     return out
 
 
@@ -1636,7 +1643,10 @@ def read_interaction(
             )
         )
     cases = sorted(per_case, key=lambda k: (len(k), k))
-    carriageways = tuple(Carriageway(f"case {k}", tuple(lines), tuple(per_case[k])) for k in cases)
+    carriageways = tuple(
+        Carriageway(f"case {k}", tuple(lines), tuple(per_case[k]), heading_offset=angle)
+        for k in cases
+    )
     meta = {
         "format": "interaction",
         "rate_hz": 10.0,

@@ -330,17 +330,25 @@ def _speed_problems(
     return out
 
 
+def _wrapped(angle: np.ndarray) -> np.ndarray:
+    """Angles in (−π, π] [rad] (π stays π: a heading against +x is said as 3.14, not −3.14)."""
+    return np.pi - np.mod(np.pi - angle, 2 * np.pi)
+
+
 def _heading_problems(
     recording: Recording, tracks: list[tuple[Carriageway, Track]]
 ) -> list[tuple[TrackProblem, ...]]:
     """Recorded headings that disagree with the course of the positions, per track.
+
+    Said in the source's frame (:attr:`~drivestyle.envs.tracks.Carriageway.heading_offset`):
+    the heading the file holds and the course of its positions as the file has them.
 
     Raises:
         TrackError: most vehicles with a heading disagree (the file's unit or convention).
     """
     tol, share = HEADING_COURSE_TOL_RAD, HEADING_DISAGREE_SHARE
     said: list[str | None] = []
-    for _, tr in tracks:
+    for road, tr in tracks:
         if tr.heading is None:
             said.append(None)
             continue
@@ -349,6 +357,11 @@ def _heading_problems(
             said.append("")
             continue
         k = int(np.argmax(off))
+        if road.heading_offset:
+            # the source's frame, the values its file holds (a table's −x traffic was turned
+            # by π): said in (−π, π], as read
+            heading = _wrapped(heading + road.heading_offset)
+            moving = _wrapped(moving + road.heading_offset)
         # the usual slips: the opposite direction's heading, degrees read as radians
         backwards = np.abs(np.angle(np.exp(1j * (heading - moving - np.pi))))
         in_degrees = np.abs(np.angle(np.exp(1j * (np.radians(heading) - moving))))

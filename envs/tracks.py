@@ -141,6 +141,11 @@ class Carriageway:
     between ``markings[k]`` and ``markings[k + 1]`` (lane 0 rightmost)."""
     tracks: tuple[Track, ...]
     """The vehicles on it."""
+    heading_offset: float = 0.0
+    """A recorded heading in the source's frame is the road frame's plus this [rad]: π for
+    a table's traffic to −x (turned by 180°), the direction's angle for INTERACTION; 0 where
+    the frame is the source's. Messages quote the source's values
+    (:mod:`drivestyle.envs.track_checks`)."""
 
     def __post_init__(self) -> None:
         m = tuple(float(v) for v in self.markings)

@@ -586,3 +586,20 @@ def test_an_empty_lane_marking_and_a_repeated_lanes_key_are_refused(tmp_path):
         f"error: --lanes {lanes}: the key 'dayA' appears twice (JSON would keep the second, "
         "[0, 3.5, 7, 10.5], silently): give each recording's lines once"
     )
+
+
+# ------------------------------------ 8: a heading message quotes the file's values
+def test_a_heading_of_traffic_to_minus_x_is_quoted_as_the_file_holds_it(tmp_path):
+    table = _vehicles()
+    table[["x", "y"]] *= -1  # every vehicle drives to −x …
+    table["heading"] = 0.0  # … with the heading of +x traffic
+    line = _error(_run(tmp_path, table))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles' recorded headings disagree with "
+        "the course of their positions; vehicle 1 (-x) has a recorded heading of 0 rad where "
+        "its positions' course is 3.14 rad (100% of its samples differ by more than 0.35 rad): "
+        "it points against its motion: the heading of the other driving direction?"
+    )
+    table["heading"] = np.pi  # the right heading: the turned frame's lane change
+    rows = _episodes(tmp_path, _run(tmp_path, table))
+    assert rows.episode_id.tolist() == ["-x_1_6000"] and rows.usable.tolist() == [True]
