@@ -357,14 +357,14 @@ def _heading_problems(
             said.append("")
             continue
         k = int(np.argmax(off))
-        if road.heading_offset:
-            # the source's frame, the values its file holds (a table's −x traffic was turned
-            # by π): said in (−π, π], as read
-            heading = _wrapped(heading + road.heading_offset)
-            moving = _wrapped(moving + road.heading_offset)
         # the usual slips: the opposite direction's heading, degrees read as radians
         backwards = np.abs(np.angle(np.exp(1j * (heading - moving - np.pi))))
         in_degrees = np.abs(np.angle(np.exp(1j * (np.radians(heading) - moving))))
+        # said in the source's frame, the values its file holds (a table's −x traffic was
+        # turned by π), in (−π, π] as read
+        if road.heading_offset:
+            heading = _wrapped(heading + road.heading_offset)
+            moving = _wrapped(moving + road.heading_offset)
         if np.mean(backwards > tol) <= share:
             hint = "it points against its motion: the heading of the other driving direction?"
         elif np.mean(in_degrees > tol) <= share:
