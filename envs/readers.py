@@ -739,9 +739,10 @@ def read_table(
     }
     if has_recordings:
         meta["recordings"] = recordings
-    if lines_from is not None:
-        meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
-    return check_recording(Recording(str(path), tuple(carriageways), meta))
+    checked = check_recording(Recording(str(path), tuple(carriageways), meta))
+    if lines_from is not None:  # after the checks: a file they refuse gets its error alone
+        checked.meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
+    return checked
 
 
 READERS["csv"] = read_table
@@ -1654,9 +1655,12 @@ def read_interaction(
         "agents_dropped": not_vehicles,
         "tracks_against_direction_dropped": against,
         SINGLE_SAMPLE: dropped,
-        "outside_road": _warn_outside_road(carriageways, "lane_markings (--lane-markings)"),
     }
-    return check_recording(Recording(str(path), carriageways, meta))
+    checked = check_recording(Recording(str(path), carriageways, meta))
+    # after the checks: a file they refuse gets its error alone
+    lines_from = "lane_markings (--lane-markings)"
+    checked.meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
+    return checked
 
 
 READERS["ngsim"] = read_ngsim

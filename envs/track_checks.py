@@ -22,6 +22,11 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
 - **heading**: a recorded heading agrees with the course of the positions (their direction
   over :data:`COURSE_BASE_M` along the road) within :data:`HEADING_COURSE_TOL_RAD` at all but
   :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not);
+- **lateral unit**: vehicles keep to their lanes: where the vehicles' median y lies a
+  median :data:`LANE_OFF_CENTRE` lane widths or more from a lane's centre (off the road
+  counts as a line) while × 0.3048 it lies within :data:`LANE_ON_CENTRE`, the positions are
+  in feet and the file is refused (slow traffic in feet passes the speed rule: 14 m/s is
+  46 ft/s). A rule of the file only: one vehicle between lanes is a lane change;
 - **samples**: a vehicle of a single sample shows no motion and no lane change: a reader
   skips it and lists it in ``meta[SINGLE_SAMPLE]``, and a note on stderr counts them (most
   of a file's vehicles so: refused, the ids are not per vehicle);
@@ -43,6 +48,7 @@ from drivestyle.envs.demonstration import OVERLAP_SHRINK
 from drivestyle.envs.safety import vehicles_overlap
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError, TrackProblem
 from drivestyle.envs.units import (
+    FOOT,
     ROAD_SPEED_MAX_MPS,
     SAMPLE_PERIOD_MAX_S,
     degrees_hint,
@@ -54,6 +60,9 @@ __all__ = [
     "COURSE_BASE_M",
     "HEADING_COURSE_TOL_RAD",
     "HEADING_DISAGREE_SHARE",
+    "LANE_OFF_CENTRE",
+    "LANE_ON_CENTRE",
+    "LATERAL_MIN_VEHICLES",
     "SINGLE_SAMPLE",
     "WARN_VEHICLES",
     "check_recording",
@@ -208,9 +217,26 @@ def overlaps(
     return np.concatenate(found_i), np.concatenate(found_j)
 
 
+LANE_OFF_CENTRE = 0.25
+"""The median distance of the vehicles' median y from a lane's centre [lane widths] from
+which they keep to no lane (half a lane is a line; uniformly spread positions give 0.25;
+the shipped samples' vehicles lie 0.05 (NGSIM) and 0.09 (CATS) from a centre)."""
+LANE_ON_CENTRE = 0.1
+"""The median distance [lane widths] within which the positions × 0.3048 keep to the lanes
+(the shipped samples' read so lie 0.23 and 0.25 away: no lane)."""
+LATERAL_MIN_VEHICLES = 5
+"""The fewest vehicles that tell the unit of the positions by their lanes (two vehicles,
+one of them changing lane, are no evidence)."""
+
 SINGLE_SAMPLE = "single_sample_tracks_dropped"
 """The key of a recording's ``meta`` where its reader lists the vehicles it skipped for
 having a single sample (each as the messages name it: the id, and its recording or road)."""
+
+
+def _skipped(recording: Recording) -> list[str]:
+    """The vehicles its reader skipped for a single sample (``meta[SINGLE_SAMPLE]``)."""
+    value = recording.meta.get(SINGLE_SAMPLE)
+    return [str(v) for v in value] if isinstance(value, list | tuple) else []
 
 
 def _single_samples(recording: Recording, kept: int) -> list[str]:
@@ -219,7 +245,7 @@ def _single_samples(recording: Recording, kept: int) -> list[str]:
     Raises:
         TrackError: most of the file's vehicles have one (an id per row, not per vehicle).
     """
-    skipped = [str(v) for v in recording.meta.get(SINGLE_SAMPLE, None) or ()]
+    skipped = _skipped(recording)
     if skipped and _majority([True] * len(skipped) + [False] * kept):
         named = ", ".join(skipped[:WARN_VEHICLES]) + (", …" if len(skipped) > WARN_VEHICLES else "")
         raise TrackError(
@@ -239,7 +265,7 @@ def single_sample_note(recording: Recording) -> str | None:
     Returns:
         ``note: …`` naming up to :data:`WARN_VEHICLES` of them.
     """
-    skipped = [str(v) for v in recording.meta.get(SINGLE_SAMPLE, None) or ()]
+    skipped = _skipped(recording)
     if not skipped:
         return None
     named = ", ".join(skipped[:WARN_VEHICLES])
@@ -328,6 +354,40 @@ def _speed_problems(
         # the speed column's first: the positions' would repeat it
         out.append(tuple(TrackProblem(text) for text in found[:1]))
     return out
+
+
+def _off_centre(tracks: list[tuple[Carriageway, Track]], scale: float) -> float:
+    """The median distance of the vehicles' median y (× ``scale``) from their lane's centre.
+
+    In lane widths: 0 at a centre, 0.5 on a line; a median y off the road counts 0.5.
+    """
+    off = []
+    for road, tr in tracks:
+        lines = np.asarray(road.markings)
+        y = float(np.median(tr.y)) * scale
+        k = int(np.searchsorted(lines, y)) - 1
+        if 0 <= k < lines.size - 1:
+            off.append(abs((y - lines[k]) / (lines[k + 1] - lines[k]) - 0.5))
+        else:
+            off.append(0.5)
+    return float(np.median(off))
+
+
+def _lateral_unit(recording: Recording, tracks: list[tuple[Carriageway, Track]]) -> None:
+    """Refuse positions in feet that the lanes reveal (the lateral unit rule).
+
+    Raises:
+        TrackError: the vehicles keep to no lane as read, but to the lanes × 0.3048.
+    """
+    if len(tracks) < LATERAL_MIN_VEHICLES:
+        return
+    read, feet = _off_centre(tracks, 1.0), _off_centre(tracks, FOOT)
+    if read >= LANE_OFF_CENTRE and feet <= LANE_ON_CENTRE:
+        raise TrackError(
+            f"{recording.source}: the vehicles keep to no lane: their median y lies a median "
+            f"{read:.2f} lane widths from a lane's centre (0.5: on a line or off the road), "
+            f"but × {FOOT:g} {feet:.2f}: positions in feet (× {FOOT:g})?"
+        )
 
 
 def _wrapped(angle: np.ndarray) -> np.ndarray:
@@ -482,9 +542,11 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
     if not tracks:
         return recording
     # the sampling first: a time in the wrong unit makes every speed wrong too
+    sampling, speeds = _sampling_problems(recording, tracks), _speed_problems(recording, tracks)
+    _lateral_unit(recording, tracks)  # a rule of the file only: it refuses or says nothing
     rules = [
-        _sampling_problems(recording, tracks),
-        _speed_problems(recording, tracks),
+        sampling,
+        speeds,
         _heading_problems(recording, tracks),
         _overlap_problems(recording, tracks),
     ]

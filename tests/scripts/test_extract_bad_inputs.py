@@ -603,3 +603,30 @@ def test_a_heading_of_traffic_to_minus_x_is_quoted_as_the_file_holds_it(tmp_path
     table["heading"] = np.pi  # the right heading: the turned frame's lane change
     rows = _episodes(tmp_path, _run(tmp_path, table))
     assert rows.episode_id.tolist() == ["-x_1_6000"] and rows.usable.tolist() == [True]
+
+
+# ------------------------------------------- 9: slow traffic with positions in feet
+def test_slow_traffic_in_feet_is_refused_by_its_lanes(tmp_path):
+    # six vehicles in three lanes at 14 m/s (46 ft/s: within the speed bound), one changing
+    # lane; the lanes given in metres
+    lanes = [_lane_change() if k == 0 else np.full(T.size, (k % 3 + 0.5) * W) for k in range(6)]
+    slow = pd.concat(
+        [
+            pd.DataFrame({"id": str(k + 1), "t": T, "x": 14.0 * T + 35.0 * k, "y": y})
+            for k, y in enumerate(lanes)
+        ],
+        ignore_index=True,
+    )
+    assert _episodes(tmp_path, _run(tmp_path, slow)).usable.tolist() == [True]  # in metres
+    feet = slow.assign(x=slow.x / 0.3048, y=slow.y / 0.3048)
+    line = _error(proc := _run(tmp_path, feet))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: the vehicles keep to no lane: their median y lies a "
+        "median 0.30 lane widths from a lane's centre (0.5: on a line or off the road), but "
+        "× 0.3048 0.00: positions in feet (× 0.3048)?"
+    )
+    assert _said(proc) == [line]
+    # the road's lines given: the vehicles outside them, refused alone (no warning first)
+    proc = _run(tmp_path, feet, "--lane-markings", "0,3.75,7.5,11.25")
+    assert _error(proc).endswith("but × 0.3048 0.00: positions in feet (× 0.3048)?")
+    assert len(_said(proc)) == 1
