@@ -51,6 +51,7 @@ import csv
 import hashlib
 import math
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,17 +66,21 @@ from drivestyle.envs.demonstration import (
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracks import Carriageway, Recording, Track
-from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS
+from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS, off_grid
 
 __all__ = [
     "EPISODE_COLUMNS",
+    "FINE_DT_RATIO",
     "LATERAL_MOVE_SPAN_S",
     "PHANTOM_GAP_M",
+    "SECONDS_PER_SAMPLE",
+    "WINDOW_SAMPLES_MAX",
     "Episode",
     "ExtractionConfig",
     "LaneChange",
     "check_sampling",
     "episode_file_name",
+    "episode_file_names",
     "extract_episodes",
     "find_lane_changes",
     "interacting_vehicles",
@@ -84,6 +89,7 @@ __all__ = [
     "read_episodes",
     "recover_inputs",
     "resample_states",
+    "sampling_note",
     "speed_constants",
     "time_grid",
     "write_episodes",
@@ -93,6 +99,17 @@ PHANTOM_GAP_M = -1000.0
 """Gap x_TV − x_EV of the phantom TV of an episode without a target vehicle [m]."""
 ROLES = ("target_follower", "target_leader", "own_leader")
 """Interacting vehicles' roles, in the order the TV is chosen from."""
+WINDOW_SAMPLES_MAX = 2000
+"""The most samples an episode's window may hold (``(before_s + after_s) / dt``): each costs
+≈ :data:`SECONDS_PER_SAMPLE` of input recovery, so the bound is ≈ 1.2 s per lane change
+(the model's T_s of 0.2 s gives 40 samples over 8 s; 25 Hz data at its own rate 200)."""
+SECONDS_PER_SAMPLE = 6e-4
+"""Rough time one demonstration sample costs on one core [s] (:func:`recover_inputs`'s step
+inversion dominates), said with :data:`WINDOW_SAMPLES_MAX`."""
+FINE_DT_RATIO = 2.0
+"""A T_s finer than the data's median time step by more than this factor is said in a note
+(:func:`sampling_note`): most samples of a demonstration are then the splines', not the
+data's."""
 LATERAL_MOVE_SPAN_S = 0.5
 """The window's first and last this many seconds give its lateral positions (their median,
 :func:`lateral_move`) [s]: 5 samples at 10 Hz, so one noisy fix does not decide; short
@@ -205,7 +222,8 @@ class ExtractionConfig:
     lane changer's track, a crossing inside one is unusable, and so is an episode whose
     interacting vehicle has one in the window (the spline would invent its motion)."""
     observe_s: float = 2.0
-    """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``)."""
+    """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``), a whole
+    number of ``dt`` (:func:`~drivestyle.envs.units.off_grid`)."""
     interaction_range_m: float = 100.0
     """Leaders and followers farther along x at the window's start do not interact [m]."""
     v_ref: float | None = None
@@ -253,6 +271,29 @@ class ExtractionConfig:
                 f"observed part observe_s (--observe) = {self.observe_s:g} s, which would hold "
                 f"a single sample: T_s is a fraction of a second (the model's is 0.2 s)"
             )
+        # the window's samples bounded before any is allocated (--dt 1e-9: 8e9 samples)
+        most = (self.before_s + self.after_s) / self.dt
+        if most > WINDOW_SAMPLES_MAX:
+            each = SECONDS_PER_SAMPLE
+            least = (self.before_s + self.after_s) / WINDOW_SAMPLES_MAX
+            advice = (
+                f"T_s is a fraction of a second (the model's is 0.2 s): give --dt {least:.2g} s "
+                "or more"
+                if least <= 0.2
+                else "a lane change's window is a few seconds (a change takes 3–6 s)"
+            )
+            said = f"{most:,.0f}" if most < 1e6 else f"{most:.3g}"
+            raise ValueError(
+                f"dt (--dt) = {self.dt:g} s gives a window of {self.before_s + self.after_s:g} s "
+                f"(--before {self.before_s:g} + --after {self.after_s:g}) {said} samples, more "
+                f"than {WINDOW_SAMPLES_MAX:,} (≈ {each * 1e3:.2g} ms of work each: the bound "
+                f"alone is ≈ {WINDOW_SAMPLES_MAX * each:.2g} s per lane change); {advice}"
+            )
+        # the observed part ends on a sample: never rounded silently (--observe 0.3 at
+        # T_s 0.2 would observe 0.2 s), the rule every observed time of the project keeps
+        miss = off_grid(self.observe_s, self.dt, "T_s = dt (--dt)")
+        if miss:
+            raise ValueError(f"observe_s (--observe) = {self.observe_s:g} s {miss}")
         shortest = self.min_before_s + self.min_after_s
         if 2 * self.dt > shortest:
             raise ValueError(
@@ -803,6 +844,35 @@ def check_sampling(recording: Recording, config: ExtractionConfig) -> None:
         )
 
 
+def sampling_note(recording: Recording, config: ExtractionConfig) -> str | None:
+    """A note when T_s is much finer than the recording's own sampling, or None.
+
+    Legal (cubic splines pass through the samples), but surprising: with ``dt`` more than
+    :data:`FINE_DT_RATIO` times finer than the data's median time step, most of a
+    demonstration's samples, and the inputs recovered between them, are the splines'.
+
+    Args:
+        recording: the tracks (any reader).
+        config: the extraction's numbers.
+
+    Returns:
+        ``note: …`` naming ``--dt``, the step and the share of interpolated samples.
+    """
+    steps = [np.diff(tr.t) for road in recording.carriageways for tr in road.tracks]
+    if not steps:
+        return None
+    step = float(np.median(np.concatenate(steps)))
+    ratio = step / config.dt
+    if ratio <= FINE_DT_RATIO:
+        return None
+    return (
+        f"note: {recording.source}: dt (--dt) = {config.dt:g} s is {ratio:.3g}× finer than the "
+        f"data's median time step {step:.3g} s: {1 - 1 / ratio:.0%} of a demonstration's "
+        "samples lie between recorded ones (the splines', not the data's; so are the inputs "
+        "recovered there); the demonstrations are written as asked"
+    )
+
+
 def extract_episodes(
     recording: Recording, config: ExtractionConfig | None = None, progress: bool = False
 ) -> list[Episode]:
@@ -817,11 +887,17 @@ def extract_episodes(
         The episodes in carriageway, vehicle and time order; unusable ones carry their
         reasons (too little track around the crossing, an implausible demonstration).
 
+    A T_s much finer than the data's sampling is said in a note on stderr
+    (:func:`sampling_note`).
+
     Raises:
         ValueError: settings the recording's sampling cannot meet (:func:`check_sampling`).
     """
     config = config or ExtractionConfig()
     check_sampling(recording, config)
+    note = sampling_note(recording, config)
+    if note:
+        print(note, file=sys.stderr, flush=True)
     items = [(road, track) for road in recording.carriageways for track in road.tracks]
     if progress:
         from tqdm import tqdm
@@ -913,6 +989,38 @@ def episode_file_name(episode_id: str, taken: set[str] | None = None) -> str:
     return f"{name}.npz"
 
 
+def episode_file_names(episodes: list[Episode], out_dir: str | Path) -> dict[str, str]:
+    """The demonstration file's name of every usable episode (:func:`episode_file_name`).
+
+    Call it with the folder the user named before writing into a temporary one (as
+    ``extract-episodes`` does): its error then names the final path, never the temporary.
+
+    Args:
+        episodes: from :func:`extract_episodes`.
+        out_dir: the output folder, for the message.
+
+    Returns:
+        Episode id → file name, for the usable episodes.
+
+    Raises:
+        ValueError: two usable episodes of one id (their files would be one); the message
+            names the id and the file.
+    """
+    names: dict[str, str] = {}  # episode id → file name
+    taken: set[str] = set()
+    for ep in episodes:
+        if ep.usable and ep.demo is not None:
+            name = names.get(ep.episode_id) or episode_file_name(ep.episode_id, taken)
+            if ep.episode_id in names or name.casefold() in taken:
+                raise ValueError(
+                    f"two episodes would be written to {Path(out_dir) / name} (episode "
+                    f"{ep.episode_id!r} twice): an episode id is unique in a folder"
+                )
+            names[ep.episode_id] = name
+            taken.add(name.casefold())
+    return names
+
+
 def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
     """Each usable episode's demonstration in ``out_dir`` and every episode in ``episodes.csv``.
 
@@ -933,20 +1041,9 @@ def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
             names the id.
     """
     out_dir = Path(out_dir)
+    names = episode_file_names(episodes, out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "episodes.csv"
-    names: dict[str, str] = {}  # episode id → file name
-    taken: set[str] = set()
-    for ep in episodes:
-        if ep.usable and ep.demo is not None:
-            name = episode_file_name(ep.episode_id, taken)
-            if ep.episode_id in names or name.casefold() in taken:
-                raise ValueError(
-                    f"two episodes would be written to {out_dir / name} (episode "
-                    f"{ep.episode_id!r} twice): an episode id is unique in a folder"
-                )
-            names[ep.episode_id] = name
-            taken.add(name.casefold())
     with path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(EPISODE_COLUMNS)

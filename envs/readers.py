@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
-from drivestyle.envs.track_checks import check_recording
+from drivestyle.envs.track_checks import SINGLE_SAMPLE, check_recording
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.envs.units import FOOT
 
@@ -56,6 +56,9 @@ TABLE_TEXT = ("recording", "id")
 """Columns read as text: names, not numbers (``007`` stays ``007``)."""
 PARQUET_SUFFIXES = (".parquet", ".pq")
 """File endings read as Parquet (every other ending is read as CSV, gzip included)."""
+ROAD_LANES_MAX = 50
+"""The most lanes the lines every ``lane_width`` may span across a recording's y: a road has
+at most a few dozen (both directions); more is a y in another unit or a wrong row."""
 OUTSIDE_WARN_VEHICLES = 5
 """Vehicles the outside-the-road warning names (the most affected first; the rest counted)."""
 
@@ -68,21 +71,35 @@ LaneLines = Sequence[float] | Mapping[str, RoadLines]
 """Lane lines of a table: one list for every recording, or per recording."""
 
 
-def _not_text(path: Path) -> str:
-    """What a file that is not UTF-8 is: binary (NUL bytes) or text in another encoding.
+def _utf16_without_bom(head: bytes) -> bool:
+    """Whether bytes are mostly ASCII text in UTF-16 without a byte-order mark.
 
-    Said with the first byte that is not UTF-8, its offset and line in the file.
+    Every other byte is NUL then, the NULs all at even or all at odd offsets.
+    """
+    pairs = len(head) // 2
+    if pairs < 4:
+        return False
+    even, odd = head[0 : 2 * pairs : 2], head[1 : 2 * pairs : 2]
+    return max(even.count(0), odd.count(0)) >= 0.9 * pairs > min(even.count(0), odd.count(0))
+
+
+def _not_text(path: Path) -> str:
+    """What a file that is not UTF-8 is: UTF-16/32, binary (NUL bytes) or another encoding.
+
+    Said with the first byte that is not UTF-8, its offset and line in the file (binary,
+    another 8-bit encoding).
     """
     import codecs
     import gzip
 
     opener = gzip.open if path.suffix.lower() == ".gz" else open
     decoder = codecs.getincrementaldecoder("utf-8")()
-    seen, lines, binary = 0, 1, False
+    seen, lines, binary, head = 0, 1, False, b""
     where = "a byte that is not UTF-8"
     try:
         with opener(path, "rb") as f:
             while chunk := f.read(1 << 20):
+                head = head or chunk[:8192]
                 binary |= seen == 0 and b"\x00" in chunk[:8192]
                 try:
                     decoder.decode(chunk)
@@ -94,12 +111,36 @@ def _not_text(path: Path) -> str:
                 seen, lines = seen + len(chunk), lines + chunk.count(b"\n")
     except OSError:
         pass
+    if head.startswith((codecs.BOM_UTF32_LE, codecs.BOM_UTF32_BE)):
+        return "is UTF-32 text, not UTF-8: save it as UTF-8"
+    if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)) or _utf16_without_bom(head):
+        return (
+            "is UTF-16 text (as Excel's 'Unicode text' and Windows tools save it), not UTF-8: "
+            "save it as UTF-8"
+        )
     if binary:
         return f"is a binary file, not text ({where})"
     return (
         f"is not UTF-8 text ({where}): text in another encoding (latin-1, Windows-1252?); "
         "save it as UTF-8"
     )
+
+
+def _need_file(path: Path, what: str) -> None:
+    """Refuse a missing file, or a folder where a file is expected (one line naming it).
+
+    Args:
+        path: the file.
+        what: what it should be, for the message (e.g. "a CSV or Parquet table of tracks").
+
+    Raises:
+        IsADirectoryError: a folder.
+        FileNotFoundError: nothing there.
+    """
+    if path.is_dir():
+        raise IsADirectoryError(f"{path} is a folder, not a file ({what}): pass the file itself")
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file ({what})")
 
 
 def _read_csv(path: Path, what: str, **options: Any) -> Any:
@@ -147,8 +188,12 @@ def _read_frame(
     """
     import pandas as pd
 
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (a CSV or Parquet table of tracks)")
+    if path.is_dir() and (path / "tracks.csv.gz").is_file():
+        raise IsADirectoryError(
+            f"{path} is a folder, not a file (a CSV or Parquet table of tracks): a shipped "
+            "sample's folder? --format sample reads it"
+        )
+    _need_file(path, "a CSV or Parquet table of tracks")
     if path.suffix.lower() in PARQUET_SUFFIXES:
         try:
             return pd.read_parquet(path)
@@ -212,13 +257,33 @@ def _check_markings(markings: np.ndarray, path: Path | str, what: str) -> np.nda
     lo, hi = LANE_WIDTH_RANGE_M
     widths = np.diff(markings)
     if widths.min() < lo or widths.max() > hi:
-        w = float(widths.max() if widths.max() > hi else widths.min())
-        unit = "positions in feet? convert to metres (× 0.3048)" if w > hi else "metres?"
-        raise TrackError(
-            f"{path}: lanes {w:.3g} m wide ({what}), but a road's lanes are {lo:g}–{hi:g} m "
-            f"wide: {unit}"
-        )
+        _check_lane_width(float(widths.max() if widths.max() > hi else widths.min()), path, what)
     return markings
+
+
+def _check_lane_width(w: float, path: Path | str, what: str) -> float:
+    """A lane width a road has (:data:`LANE_WIDTH_RANGE_M`, metres), or a one-line error.
+
+    The one range of every lane width, given or between given lines: checked before any
+    line is computed from it (``lane_width=1e308`` would overflow).
+    """
+    lo, hi = LANE_WIDTH_RANGE_M
+    if lo <= w <= hi:
+        return w
+    if lo <= w * FOOT <= hi:
+        unit = "positions in feet? convert to metres (× 0.3048)"
+    elif w < lo:
+        unit = "metres?"
+    else:
+        unit = "lane widths are in metres"
+    raise TrackError(
+        f"{path}: lanes {w:.3g} m wide ({what}), but a road's lanes are {lo:g}–{hi:g} m wide: "
+        f"{unit}"
+    )
+
+
+LANES_FILE = "a JSON lanes file: each recording's lane lines' y [m]"
+"""What :func:`load_lanes` reads, for messages."""
 
 
 def load_lanes(path: str | Path) -> list[float] | dict[str, list[float] | dict[str, list[float]]]:
@@ -242,21 +307,41 @@ def load_lanes(path: str | Path) -> list[float] | dict[str, list[float] | dict[s
 
     Raises:
         FileNotFoundError: no such file.
-        TrackError: not JSON, neither an object nor a list, or a value that is neither a
-            list of numbers nor an object of directions; one line naming the file (and the
-            recording).
+        TrackError: not UTF-8 text, not JSON, a key twice, neither an object nor a list, or
+            a value that is neither a list of numbers nor an object of directions; one line
+            naming the file (and the recording or key).
     """
     import json
 
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"{path}: no such file (a JSON lanes file: each recording's lane lines' y [m])"
-        )
+    _need_file(path, LANES_FILE)
     try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise TrackError(f"{path} is not valid JSON ({exc})") from None
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise TrackError(f"{path} {_not_text(path)}; expected {LANES_FILE}") from None
+
+    def once(pairs: list[tuple[str, object]]) -> dict[str, object]:
+        # JSON keeps the last of two equal keys: a recording's lines given twice would be
+        # read silently as its second
+        seen: dict[str, object] = {}
+        for key, value in pairs:
+            if key in seen:
+                raise TrackError(
+                    f"{path}: the key {key!r} appears twice (JSON would keep the second, "
+                    f"{json.dumps(value)[:60]}, silently): give each recording's lines once"
+                )
+            seen[key] = value
+        return seen
+
+    if not text.strip():
+        raise TrackError(f"{path} is empty: expected {LANES_FILE}")
+    try:
+        data = json.loads(text, object_pairs_hook=once)
+    except json.JSONDecodeError as exc:
+        raise TrackError(
+            f"{path} is not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno}); "
+            f"expected {LANES_FILE}"
+        ) from None
 
     def lines(value: object, where: str) -> list[float]:
         if not isinstance(value, list):
@@ -566,12 +651,21 @@ def read_table(
     elif lane_width is not None:
         if not (math.isfinite(lane_width) and lane_width > 0):
             raise TrackError(f"{path}: lane_width must be a positive number [m], got {lane_width}")
+        _check_lane_width(lane_width, path, f"lane_width (--lane-width) {lane_width:g}")
         given = {}
         for k, name in enumerate(recordings):
             y = data["y"][rec_codes == k]
             lo, hi = math.floor(y.min() / lane_width), math.ceil(y.max() / lane_width)
+            if hi - lo > ROAD_LANES_MAX:  # before the lines are allocated
+                i = int(np.flatnonzero(rec_codes == k)[np.argmax(np.abs(y - np.median(y)))])
+                raise TrackError(
+                    f"{path}: the vehicles' y spans {y.min():.4g} to {y.max():.4g} m, "
+                    f"{hi - lo} lanes of lane_width (--lane-width) {lane_width:g} m, more than "
+                    f"a road's {ROAD_LANES_MAX} ({_row_vehicle(df, i)}, data row {i + 1}: y = "
+                    f"{data['y'][i]:.4g}): y in another unit, or a wrong row?"
+                )
             lines = np.arange(lo, max(hi, lo + 2) + 1) * lane_width
-            lines = _check_markings(lines, path, f"lane_width {lane_width:g}")
+            lines = _check_markings(lines, path, f"lane_width (--lane-width) {lane_width:g}")
             given[name] = dict.fromkeys(DIRECTIONS, lines)
     elif "lane" in data:
         given = {}  # per carriageway, from its own lanes
@@ -601,28 +695,54 @@ def read_table(
         from tqdm import tqdm
 
         bar = tqdm(total=len(starts), desc="reading", unit="vehicle")
-    carriageways = []
-    for k, name in enumerate(recordings):
-        mine = rec_codes[starts] == k
-        vehicles = list(zip(starts[mine], stops[mine], strict=True))
-        carriageways += _table_carriageways(
-            name if has_recordings else None, vehicles, ids, frames, data, given.get(name),
-            path, default_length, default_width, lines_from or str(path),
-        )  # fmt: skip
+    carriageways: list[Carriageway] = []
+    named: dict[str, str] = {}  # carriageway → the recording (and direction) it holds
+    dropped: list[str] = []  # vehicles of a single sample
+    try:
+        for k, name in enumerate(recordings):
+            mine = rec_codes[starts] == k
+            every = list(zip(starts[mine], stops[mine], strict=True))
+            # a vehicle of one sample has no motion, no lane change: skipped, noted
+            vehicles = [(a, b) for a, b in every if b - a >= 2]
+            dropped += [
+                f"{ids[a]} (recording {name})" if has_recordings else str(ids[a])
+                for a, b in every
+                if b - a < 2
+            ]
+            roads = _table_carriageways(
+                name if has_recordings else None, vehicles, ids, frames, data, given.get(name),
+                path, default_length, default_width, lines_from or str(path),
+            )  # fmt: skip
+            for road in roads:
+                said = f"recording {name!r}" + (
+                    "" if road.name == name else f" (its traffic to {road.name[len(name) :]})"
+                )
+                if road.name in named:
+                    raise TrackError(
+                        f"{path}: {named[road.name]} and {said} would both be carriageway "
+                        f"{road.name!r} (a two-way recording's traffic is '<recording>+x' and "
+                        "'<recording>-x'): their vehicles and episode ids would mix; rename one "
+                        "recording"
+                    )
+                named[road.name] = said
+            carriageways += roads
+            if bar is not None:
+                bar.update(len(every))
+    finally:
         if bar is not None:
-            bar.update(len(vehicles))
-    if bar is not None:
-        bar.close()
+            bar.close()  # before any error: the message gets a line of its own
     meta: dict[str, object] = {
         "format": "csv",
         "frame_dt_s": _median_step(t),
         "vehicles": len(starts),
+        SINGLE_SAMPLE: dropped,
     }
     if has_recordings:
         meta["recordings"] = recordings
-    if lines_from is not None:
-        meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
-    return check_recording(Recording(str(path), tuple(carriageways), meta))
+    checked = check_recording(Recording(str(path), tuple(carriageways), meta))
+    if lines_from is not None:  # after the checks: a file they refuse gets its error alone
+        checked.meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
+    return checked
 
 
 READERS["csv"] = read_table
@@ -653,18 +773,14 @@ def write_table(
         (csv_path, lanes_path).
 
     Raises:
-        ValueError: two carriageways of one name, a track that some tracks' columns lack
-            (e.g. a speed), or one that ends behind its start (read back, it would drive to
-            −x: another carriageway); one line naming the carriageway and vehicle.
+        ValueError: a track that some tracks' columns lack (e.g. a speed), or one that ends
+            behind its start (read back, it would drive to −x: another carriageway); one line
+            naming the carriageway and vehicle.
     """
     import json
 
     import pandas as pd
 
-    names = [road.name for road in recording.carriageways]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise ValueError(f"{recording.source}: two carriageways named {twice[0]!r}")
     tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
     optional = {}
     for column in ("v", "heading", "lane"):
@@ -820,7 +936,14 @@ def _table_carriageways(
                     source=str(path),
                 )
             )
-        out.append(Carriageway(name, tuple(float(m) for m in lines), tuple(tracks)))
+        out.append(
+            Carriageway(
+                name,
+                tuple(float(m) for m in lines),
+                tuple(tracks),
+                heading_offset=0.0 if s > 0 else math.pi,
+            )
+        )
     return out
 
 
@@ -948,13 +1071,15 @@ def _published_numbers(
 
 def _published_tracks(
     path: Path, ids: np.ndarray, t: np.ndarray, frames: np.ndarray, max_gap_s: float | None = None
-) -> tuple[list[tuple[str, np.ndarray]], int]:
-    """Split rows into tracks: (vehicle id, row indices in time order) and the dropped count.
+) -> tuple[list[tuple[str, np.ndarray]], list[str]]:
+    """Split rows into tracks: (vehicle id, row indices in time order) and the dropped ones.
 
     Rows may come in any order; a track is a vehicle's rows sorted by time, cut where the
     time jumps by more than ``max_gap_s`` (a reused id: the later parts are named
     ``'<id>@<first frame>'``; a gap in one vehicle's track is the extraction's rule,
-    ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (counted).
+    ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (their names
+    returned: the readers' :data:`~drivestyle.envs.track_checks.SINGLE_SAMPLE` meta, which
+    :func:`~drivestyle.envs.track_checks.check_recording` notes).
 
     Raises:
         TrackError: a vehicle has two rows at one time or one frame, or frames that do not
@@ -983,13 +1108,15 @@ def _published_tracks(
             problem = f"comes after frame {before} in time (frames must increase with time)"
         raise TrackError(f"{path}: vehicle {names[c[k]]}, frame {here}: {problem}")
     bounds = np.concatenate([[0], np.flatnonzero(cut) + 1, [len(order)]])
-    out, dropped, seen = [], 0, set()
+    out: list[tuple[str, np.ndarray]] = []
+    dropped: list[str] = []
+    seen: set[str] = set()
     for a, b in pairwise(bounds):
         name = str(names[c[a]])
         key = name if name not in seen else f"{name}@{_label(ff[a])}"
         seen.add(name)
         if b - a < 2:
-            dropped += 1
+            dropped.append(key)
             continue
         out.append((key, order[a:b]))
     return out, dropped
@@ -1006,8 +1133,7 @@ def _ngsim_table(path: Path) -> Any:
     """The rows of an NGSIM trajectory file with the standard column names."""
     import gzip
 
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (an NGSIM trajectory file)")
+    _need_file(path, NGSIM_FILE)
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rt", errors="replace") as f:
         first = f.readline().strip()
@@ -1069,7 +1195,7 @@ def _left_numbered_lanes(
 
 def _ngsim_carriageway(
     path: Path, name: str, df: Any, markings: str
-) -> tuple[Carriageway, float, int]:
+) -> tuple[Carriageway, float, list[str]]:
     """One NGSIM freeway's rows: its carriageway, Global_Time origin [ms], dropped tracks."""
     ids, frame = ["Vehicle_ID"], "Frame_ID"
     cols = ["Vehicle_ID", "Frame_ID", "Global_Time", "Local_X", "Local_Y"]
@@ -1207,19 +1333,19 @@ def read_ngsim(path: str | Path, markings: str = "data") -> Recording:
         parts = [(loc, df[location == loc]) for loc in NGSIM_FREEWAYS if (location == loc).any()]
     else:
         parts = [("ngsim", df)]
-    carriageways, origins, widths, dropped = [], {}, {}, 0
+    carriageways, origins, widths, dropped = [], {}, {}, []
     for name, rows in parts:
-        cw, t0, n_dropped = _ngsim_carriageway(path, name, rows.reset_index(drop=True), markings)
+        cw, t0, skipped = _ngsim_carriageway(path, name, rows.reset_index(drop=True), markings)
         carriageways.append(cw)
         origins[name] = t0
         widths[name] = float(np.median(cw.lane_widths))
-        dropped += n_dropped
+        dropped += [f"{v} ({name})" if len(parts) > 1 else v for v in skipped]
     meta.update(
         global_time_origin_ms=origins,
         lane_width_m=widths,
         markings=markings,
-        single_sample_tracks_dropped=dropped,
     )
+    meta[SINGLE_SAMPLE] = dropped
     return check_recording(Recording(str(path), tuple(carriageways), meta))
 
 
@@ -1231,11 +1357,10 @@ LEVELX_TRACK_COLUMNS = ("frame", "id", "x", "y", "width", "height", "xVelocity",
 
 def _levelx_csv(path: Path, required: Sequence[str]) -> Any:
 
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"{path} not found: read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and "
-            "NN_recordingMeta.csv side by side"
-        )
+    _need_file(
+        path,
+        "read_levelx needs NN_tracks.csv, NN_tracksMeta.csv and NN_recordingMeta.csv side by side",
+    )
     df = _read_csv(path, f"a levelX {path.name.split('_')[-1]} (highD)")
     _published_columns(df, path, required, "levelX (highD)")
     return df
@@ -1302,8 +1427,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
     prefix = path.name[: -len("tracks.csv")]
     rec_path = path.with_name(prefix + "recordingMeta.csv")
     meta_path = path.with_name(prefix + "tracksMeta.csv")
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (a levelX NN_tracks.csv)")
+    _need_file(path, "a levelX NN_tracks.csv")
     df = _read_csv(path, "a levelX NN_tracks.csv (highD)")
     if "trackId" in df.columns and "xCenter" in df.columns:
         raise TrackError(
@@ -1375,7 +1499,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
         "format": "highd",
         "rate_hz": float(rate),
         "files": [str(path), str(meta_path), str(rec_path)],
-        "single_sample_tracks_dropped": dropped,
+        SINGLE_SAMPLE: dropped,
     }
     return check_recording(Recording(str(path), tuple(carriageways), meta))
 
@@ -1475,8 +1599,7 @@ def read_interaction(
     angle = _interaction_direction(direction)
     lines = _interaction_lines(lane_markings, direction, angle)
     _check_markings(lines, path, f"lane_markings along {direction!r}, in the road frame")
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found (an INTERACTION vehicle_tracks_NNN.csv)")
+    _need_file(path, "an INTERACTION vehicle_tracks_NNN.csv")
     df = _read_csv(path, "an INTERACTION vehicle_tracks_NNN.csv")
     _published_columns(df, path, INTERACTION_COLUMNS, "INTERACTION")
     agent = df["agent_type"].astype(str).str.strip().str.lower()
@@ -1521,17 +1644,23 @@ def read_interaction(
             )
         )
     cases = sorted(per_case, key=lambda k: (len(k), k))
-    carriageways = tuple(Carriageway(f"case {k}", tuple(lines), tuple(per_case[k])) for k in cases)
+    carriageways = tuple(
+        Carriageway(f"case {k}", tuple(lines), tuple(per_case[k]), heading_offset=angle)
+        for k in cases
+    )
     meta = {
         "format": "interaction",
         "rate_hz": 10.0,
         "direction_rad": angle,
         "agents_dropped": not_vehicles,
         "tracks_against_direction_dropped": against,
-        "single_sample_tracks_dropped": dropped,
-        "outside_road": _warn_outside_road(carriageways, "lane_markings (--lane-markings)"),
+        SINGLE_SAMPLE: dropped,
     }
-    return check_recording(Recording(str(path), carriageways, meta))
+    checked = check_recording(Recording(str(path), carriageways, meta))
+    # after the checks: a file they refuse gets its error alone
+    lines_from = "lane_markings (--lane-markings)"
+    checked.meta["outside_road"] = _warn_outside_road(carriageways, lines_from)
+    return checked
 
 
 READERS["ngsim"] = read_ngsim
@@ -1572,7 +1701,7 @@ def read_sample(folder: str | Path) -> Recording:
     )
     if cats:
         w = _cats_lane_width(Path(folder) / "summary.json")
-    carriageways = []
+    carriageways, dropped = [], []
     for name, g in df.groupby(key, sort=True):
         g = g.reset_index(drop=True)
         num = _published_numbers(
@@ -1590,7 +1719,8 @@ def read_sample(folder: str | Path) -> Recording:
             size = g["length_m"].to_numpy(float), g["width_m"].to_numpy(float)
             frames, x, y = g["frame"].to_numpy(), num["x_m"] - size[0] / 2, -num["y_m"]
         lines = _check_markings(lines, path, f"{key} {name}")
-        groups, _ = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
+        groups, skipped = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
+        dropped += [f"{v} ({name})" for v in skipped]
         tracks = [
             Track(
                 vid,
@@ -1611,6 +1741,7 @@ def read_sample(folder: str | Path) -> Recording:
         "format": "sample",
         "dataset": "cats" if cats else "ngsim",
         "units": "metres",
+        SINGLE_SAMPLE: dropped,
     }
     return check_recording(Recording(str(path), tuple(carriageways), meta))
 

@@ -22,6 +22,14 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
 - **heading**: a recorded heading agrees with the course of the positions (their direction
   over :data:`COURSE_BASE_M` along the road) within :data:`HEADING_COURSE_TOL_RAD` at all but
   :data:`HEADING_DISAGREE_SHARE` of the samples (degrees read as radians do not);
+- **lateral unit**: vehicles keep to their lanes: where the vehicles' median y lies a
+  median :data:`LANE_OFF_CENTRE` lane widths or more from a lane's centre (off the road
+  counts as a line) while × 0.3048 it lies within :data:`LANE_ON_CENTRE`, the positions are
+  in feet and the file is refused (slow traffic in feet passes the speed rule: 14 m/s is
+  46 ft/s). A rule of the file only: one vehicle between lanes is a lane change;
+- **samples**: a vehicle of a single sample shows no motion and no lane change: a reader
+  skips it and lists it in ``meta[SINGLE_SAMPLE]``, and a note on stderr counts them (most
+  of a file's vehicles so: refused, the ids are not per vehicle);
 - **overlap**: no two vehicles of a carriageway overlap at any time (their rectangles,
   shrunk to :data:`~drivestyle.envs.demonstration.OVERLAP_SHRINK` as the demonstration's
   check shrinks them, on a common time grid; :func:`overlaps`): both are kept unusable,
@@ -40,6 +48,7 @@ from drivestyle.envs.demonstration import OVERLAP_SHRINK
 from drivestyle.envs.safety import vehicles_overlap
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError, TrackProblem
 from drivestyle.envs.units import (
+    FOOT,
     ROAD_SPEED_MAX_MPS,
     SAMPLE_PERIOD_MAX_S,
     degrees_hint,
@@ -51,12 +60,17 @@ __all__ = [
     "COURSE_BASE_M",
     "HEADING_COURSE_TOL_RAD",
     "HEADING_DISAGREE_SHARE",
+    "LANE_OFF_CENTRE",
+    "LANE_ON_CENTRE",
+    "LATERAL_MIN_VEHICLES",
+    "SINGLE_SAMPLE",
     "WARN_VEHICLES",
     "check_recording",
     "course",
     "course_disagreement",
     "implied_speeds",
     "overlaps",
+    "single_sample_note",
     "track_problems_warning",
 ]
 
@@ -203,6 +217,66 @@ def overlaps(
     return np.concatenate(found_i), np.concatenate(found_j)
 
 
+LANE_OFF_CENTRE = 0.25
+"""The median distance of the vehicles' median y from a lane's centre [lane widths] from
+which they keep to no lane (half a lane is a line; uniformly spread positions give 0.25;
+the shipped samples' vehicles lie 0.05 (NGSIM) and 0.09 (CATS) from a centre)."""
+LANE_ON_CENTRE = 0.1
+"""The median distance [lane widths] within which the positions × 0.3048 keep to the lanes
+(the shipped samples' read so lie 0.23 and 0.25 away: no lane)."""
+LATERAL_MIN_VEHICLES = 5
+"""The fewest vehicles that tell the unit of the positions by their lanes (two vehicles,
+one of them changing lane, are no evidence)."""
+
+SINGLE_SAMPLE = "single_sample_tracks_dropped"
+"""The key of a recording's ``meta`` where its reader lists the vehicles it skipped for
+having a single sample (each as the messages name it: the id, and its recording or road)."""
+
+
+def _skipped(recording: Recording) -> list[str]:
+    """The vehicles its reader skipped for a single sample (``meta[SINGLE_SAMPLE]``)."""
+    value = recording.meta.get(SINGLE_SAMPLE)
+    return [str(v) for v in value] if isinstance(value, list | tuple) else []
+
+
+def _single_samples(recording: Recording, kept: int) -> list[str]:
+    """The vehicles the reader skipped for a single sample.
+
+    Raises:
+        TrackError: most of the file's vehicles have one (an id per row, not per vehicle).
+    """
+    skipped = _skipped(recording)
+    if skipped and _majority([True] * len(skipped) + [False] * kept):
+        named = ", ".join(skipped[:WARN_VEHICLES]) + (", …" if len(skipped) > WARN_VEHICLES else "")
+        raise TrackError(
+            f"{recording.source}: {len(skipped)} of {len(skipped) + kept} vehicles have a single "
+            f"sample (vehicle {named}): a track needs 2 or more to show motion; is the vehicle "
+            "id the same on every row of one vehicle (not a row number)?"
+        )
+    return skipped
+
+
+def single_sample_note(recording: Recording) -> str | None:
+    """A one-line note counting the vehicles skipped for a single sample, or None.
+
+    Args:
+        recording: a reader's recording (``meta[SINGLE_SAMPLE]``).
+
+    Returns:
+        ``note: …`` naming up to :data:`WARN_VEHICLES` of them.
+    """
+    skipped = _skipped(recording)
+    if not skipped:
+        return None
+    named = ", ".join(skipped[:WARN_VEHICLES])
+    rest = len(skipped) - WARN_VEHICLES
+    more = f" and {rest} more" if rest > 0 else ""
+    return (
+        f"note: {recording.source}: {len(skipped)} vehicle(s) of a single sample skipped (one "
+        f"position shows no motion and no lane change): vehicle {named}{more}"
+    )
+
+
 def _where(road: Carriageway, track: Track) -> str:
     return f"vehicle {track.vehicle_id} ({road.name})"
 
@@ -282,17 +356,59 @@ def _speed_problems(
     return out
 
 
+def _off_centre(tracks: list[tuple[Carriageway, Track]], scale: float) -> float:
+    """The median distance of the vehicles' median y (× ``scale``) from their lane's centre.
+
+    In lane widths: 0 at a centre, 0.5 on a line; a median y off the road counts 0.5.
+    """
+    off = []
+    for road, tr in tracks:
+        lines = np.asarray(road.markings)
+        y = float(np.median(tr.y)) * scale
+        k = int(np.searchsorted(lines, y)) - 1
+        if 0 <= k < lines.size - 1:
+            off.append(abs((y - lines[k]) / (lines[k + 1] - lines[k]) - 0.5))
+        else:
+            off.append(0.5)
+    return float(np.median(off))
+
+
+def _lateral_unit(recording: Recording, tracks: list[tuple[Carriageway, Track]]) -> None:
+    """Refuse positions in feet that the lanes reveal (the lateral unit rule).
+
+    Raises:
+        TrackError: the vehicles keep to no lane as read, but to the lanes × 0.3048.
+    """
+    if len(tracks) < LATERAL_MIN_VEHICLES:
+        return
+    read, feet = _off_centre(tracks, 1.0), _off_centre(tracks, FOOT)
+    if read >= LANE_OFF_CENTRE and feet <= LANE_ON_CENTRE:
+        raise TrackError(
+            f"{recording.source}: the vehicles keep to no lane: their median y lies a median "
+            f"{read:.2f} lane widths from a lane's centre (0.5: on a line or off the road), "
+            f"but × {FOOT:g} {feet:.2f}: positions in feet (× {FOOT:g})?"
+        )
+
+
+def _wrapped(angle: np.ndarray) -> np.ndarray:
+    """Angles in (−π, π] [rad] (π stays π: a heading against +x is said as 3.14, not −3.14)."""
+    return np.pi - np.mod(np.pi - angle, 2 * np.pi)
+
+
 def _heading_problems(
     recording: Recording, tracks: list[tuple[Carriageway, Track]]
 ) -> list[tuple[TrackProblem, ...]]:
     """Recorded headings that disagree with the course of the positions, per track.
+
+    Said in the source's frame (:attr:`~drivestyle.envs.tracks.Carriageway.heading_offset`):
+    the heading the file holds and the course of its positions as the file has them.
 
     Raises:
         TrackError: most vehicles with a heading disagree (the file's unit or convention).
     """
     tol, share = HEADING_COURSE_TOL_RAD, HEADING_DISAGREE_SHARE
     said: list[str | None] = []
-    for _, tr in tracks:
+    for road, tr in tracks:
         if tr.heading is None:
             said.append(None)
             continue
@@ -304,6 +420,11 @@ def _heading_problems(
         # the usual slips: the opposite direction's heading, degrees read as radians
         backwards = np.abs(np.angle(np.exp(1j * (heading - moving - np.pi))))
         in_degrees = np.abs(np.angle(np.exp(1j * (np.radians(heading) - moving))))
+        # said in the source's frame, the values its file holds (a table's −x traffic was
+        # turned by π), in (−π, π] as read
+        if road.heading_offset:
+            heading = _wrapped(heading + road.heading_offset)
+            moving = _wrapped(moving + road.heading_offset)
         if np.mean(backwards > tol) <= share:
             hint = "it points against its motion: the heading of the other driving direction?"
         elif np.mean(in_degrees > tol) <= share:
@@ -401,7 +522,8 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
 
     Args:
         recording: as a reader built it (tracks without problems).
-        warn: print :func:`track_problems_warning` on stderr.
+        warn: print :func:`track_problems_warning` and :func:`single_sample_note` on
+            stderr.
 
     Returns:
         The recording with each track's :attr:`~drivestyle.envs.tracks.Track.problems` set
@@ -409,15 +531,22 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
 
     Raises:
         TrackError: a rule that most of the file's vehicles break (a unit or convention of
-            the file); one line naming the file, the value and the likely unit.
+            the file, or most vehicles of a single sample); one line naming the file, the
+            value and the likely unit.
     """
     tracks = [(road, tr) for road in recording.carriageways for tr in road.tracks]
+    _single_samples(recording, len(tracks))
+    note = single_sample_note(recording) if warn else None
+    if note:
+        print(note, file=sys.stderr, flush=True)
     if not tracks:
         return recording
     # the sampling first: a time in the wrong unit makes every speed wrong too
+    sampling, speeds = _sampling_problems(recording, tracks), _speed_problems(recording, tracks)
+    _lateral_unit(recording, tracks)  # a rule of the file only: it refuses or says nothing
     rules = [
-        _sampling_problems(recording, tracks),
-        _speed_problems(recording, tracks),
+        sampling,
+        speeds,
         _heading_problems(recording, tracks),
         _overlap_problems(recording, tracks),
     ]

@@ -141,6 +141,11 @@ class Carriageway:
     between ``markings[k]`` and ``markings[k + 1]`` (lane 0 rightmost)."""
     tracks: tuple[Track, ...]
     """The vehicles on it."""
+    heading_offset: float = 0.0
+    """A recorded heading in the source's frame is the road frame's plus this [rad]: π for
+    a table's traffic to −x (turned by 180°), the direction's angle for INTERACTION; 0 where
+    the frame is the source's. Messages quote the source's values
+    (:mod:`drivestyle.envs.track_checks`)."""
 
     def __post_init__(self) -> None:
         m = tuple(float(v) for v in self.markings)
@@ -174,3 +179,14 @@ class Recording:
     """Its driving directions."""
     meta: dict[str, object] = field(default_factory=dict)
     """Reader facts (format, frame rate, units converted, …)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "carriageways", tuple(self.carriageways))
+        names = [road.name for road in self.carriageways]
+        twice = next((n for k, n in enumerate(names) if n in names[:k]), None)
+        if twice is not None:
+            raise TrackError(
+                f"{self.source}: two carriageways named {twice!r}: a carriageway's name is "
+                "unique in a recording (an episode id begins with it, and a vehicle id is "
+                "unique only within its carriageway)"
+            )

@@ -6,7 +6,8 @@ the one statement of what a road vehicle can do; the readers' checks
 (:mod:`drivestyle.envs.track_checks`), the plausibility of a demonstration
 (:mod:`drivestyle.envs.demonstration`) and the scenario's speed bound
 (:class:`~drivestyle.envs.scenario.ScenarioConfig`) use them, and the hints name the
-conversion that would make the value a road vehicle's.
+conversion that would make the value a road vehicle's. :func:`off_grid` is the one rule
+for a time that must be a whole number of time steps (an observed time, ``--observe``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ __all__ = [
     "ROAD_SPEED_MAX_MPS",
     "SAMPLE_PERIOD_MAX_S",
     "degrees_hint",
+    "off_grid",
     "speed_unit_hint",
     "time_unit_hint",
 ]
@@ -113,3 +115,31 @@ def degrees_hint(value: float) -> str:
         E.g. ``"degrees? (3.2° = 0.0559 rad; × π/180)"``.
     """
     return f"degrees? ({value:.3g}° = {math.radians(value):.3g} rad; × π/180)"
+
+
+def off_grid(duration: float, dt: float, step: str = "T_s") -> str | None:
+    """Why a time is not a whole number of time steps, said with the nearest that are.
+
+    The one rule of every time that must fall on a sampling grid (an observed time of
+    predict-trajectory, evaluate-prediction, evaluate-out-of-class and extract-episodes'
+    ``--observe``): never rounded silently.
+
+    Args:
+        duration: the time [s].
+        dt: the step [s] (a difference of sample times may be 0.20000000000000018: said
+            rounded).
+        step: what the step is called in the message (``"T_s"``, ``"dt (--dt)"``).
+
+    Returns:
+        None on the grid (within 1e-6 of a step), else e.g. ``"is not a whole number of
+        T_s = 0.2 s; use 0.2 or 0.4 s"`` (the whole numbers of steps around it, at least
+        one step).
+    """
+    k = duration / dt
+    if abs(k - round(k)) <= 1e-6:
+        return None
+    near = sorted({max(math.floor(k), 1) * dt, math.ceil(k) * dt})
+    return (
+        f"is not a whole number of {step} = {dt:.6g} s; use "
+        f"{' or '.join(f'{n:.6g}' for n in near)} s"
+    )

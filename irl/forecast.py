@@ -27,7 +27,6 @@ their lateral (|Δy|) and longitudinal (|Δx|) parts in the road frame.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -36,6 +35,7 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.units import off_grid
 from drivestyle.irl.driver_style import DriverStyle, StylePlanner, closed_loop, planner_for
 from drivestyle.irl.identification import Identification
 from drivestyle.irl.library import DriverLibrary
@@ -329,14 +329,9 @@ def _observed_samples(demo: Demonstration, t_obs: float) -> int:
     k = round(t_obs / dt)
     if not (np.isfinite(t_obs) and t_obs > 0):
         raise ForecastError(f"the observed time must be > 0 s, got {t_obs:g}")
-    if abs(k * dt - t_obs) > 1e-6:
-        # dt is a difference of sample times (0.20000000000000018): said rounded, with the
-        # whole numbers of samples around t_obs
-        near = sorted({max(math.floor(t_obs / dt), 1) * dt, math.ceil(t_obs / dt) * dt})
-        raise ForecastError(
-            f"the observed time {t_obs:g} s is not a whole number of T_s = {dt:.6g} s; use "
-            f"{' or '.join(f'{n:.6g}' for n in near)} s"
-        )
+    miss = off_grid(t_obs, dt)
+    if miss:
+        raise ForecastError(f"the observed time {t_obs:g} s {miss}")
     if k >= demo.n - 1:
         span = float(demo.t[-1] - demo.t[0])
         raise ForecastError(

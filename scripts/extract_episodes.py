@@ -36,10 +36,22 @@ import time
 from pathlib import Path
 from typing import Any
 
-from drivestyle.common.cli import HelpFormatter, float_list, fraction, positive_float, run_cli
+from drivestyle.common.cli import (
+    HelpFormatter,
+    float_list,
+    for_option,
+    fraction,
+    positive_float,
+    run_cli,
+)
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.episodes import ExtractionConfig, extract_episodes, write_episodes
-from drivestyle.envs.readers import READERS
+from drivestyle.envs.episodes import (
+    ExtractionConfig,
+    episode_file_names,
+    extract_episodes,
+    write_episodes,
+)
+from drivestyle.envs.readers import READERS, load_lanes
 
 FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
 """``--format`` choices (each a key of :data:`drivestyle.envs.readers.READERS`)."""
@@ -189,6 +201,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         )
     if args.format == "interaction" and (args.lane_markings is None or args.direction is None):
         raise ValueError("--format interaction needs --lane-markings and --direction")
+    if args.lanes is not None:
+        with for_option("--lanes"):
+            load_lanes(args.lanes)  # the lanes file checked before the table is read
     t0 = time.perf_counter()
     if args.format == "csv":
         recording = READERS["csv"](
@@ -221,6 +236,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "n_no_interaction": sum(e.no_interaction for e in usable),
         "wall_s": time.perf_counter() - t0,
     }
+    episode_file_names(episodes, args.out)  # two files of one name: said with the final path
     with atomic_output_dir(args.out) as tmp:
         write_episodes(episodes, tmp)
         write_json(tmp / "extract.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])

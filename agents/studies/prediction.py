@@ -98,6 +98,7 @@ from drivestyle.envs.lanes import lane_change_target, lane_index
 from drivestyle.envs.real_data import DATASETS, is_recorded, recorded_view
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
+from drivestyle.envs.units import off_grid
 from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_style
 from drivestyle.irl.forecast import METHODS, ForecastError, Prediction, predict
 from drivestyle.irl.library import DriverLibrary
@@ -1650,13 +1651,9 @@ def check_observed_times(
         )
     for dt in sorted({round(s.dt, 9) for s in spans}):
         for t in times:
-            k = t / dt
-            if abs(k - round(k)) > 1e-6:
-                near = sorted({max(math.floor(k), 1) * dt, math.ceil(k) * dt})
-                raise ValueError(
-                    f"observed time {t:g} s is not a whole number of the vehicles' T_s = "
-                    f"{dt:g} s; use {' or '.join(f'{n:g}' for n in near)} s"
-                )
+            miss = off_grid(t, dt, "the vehicles' T_s")
+            if miss:
+                raise ValueError(f"observed time {t:g} s {miss}")
     return tuple(times)
 
 

@@ -203,11 +203,21 @@ def risk_value(text: str) -> float:
 
 
 def float_list(text: str) -> list[float]:
-    """Comma-separated numbers, e.g. ``0.5,0.6``."""
-    values = [_number(v, float, "a number") for v in text.split(",") if v.strip()]
-    if not values:
+    """Comma-separated numbers, e.g. ``0.5,0.6``; an empty field is refused, never dropped.
+
+    ``0,,7.5`` is a slip (a number left out), and dropping the field silently would read
+    two numbers where three were meant.
+    """
+    fields = text.split(",")
+    if not text.strip():
         raise argparse.ArgumentTypeError("expected comma-separated numbers, got none")
-    return values
+    empty = [k for k, v in enumerate(fields) if not v.strip()]
+    if empty:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} has an empty field (number {empty[0] + 1} of {len(fields)}): give the "
+            "numbers separated by single commas, e.g. 0,3.75,7.5"
+        )
+    return [_number(v, float, "a number") for v in fields]
 
 
 def _said(values: Sequence[float]) -> str:

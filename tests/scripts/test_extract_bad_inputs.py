@@ -20,7 +20,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.episodes import FILE_NAME_MAX, episode_file_name, extract_episodes
+from drivestyle.envs.episodes import (
+    FILE_NAME_MAX,
+    episode_file_name,
+    episode_file_names,
+    extract_episodes,
+)
 from drivestyle.envs.readers import read_table
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):
@@ -412,3 +417,216 @@ def test_a_text_file_named_npz_and_an_off_grid_observe_time_are_said_plainly(tmp
     assert predict(episode, "0.3") == (
         "error: the observed time 0.3 s is not a whole number of T_s = 0.2 s; use 0.2 or 0.4 s"
     )
+
+
+# ---------------------------------------------- a second probe (the readers): 1 names
+def test_two_recordings_that_would_share_a_carriageway_are_refused_naming_both(tmp_path):
+    # recording "day" has traffic both ways (carriageways "day+x", "day-x"); a recording
+    # literally named "day+x" would be merged into the first's +x traffic
+    both = pd.concat(
+        [
+            _vehicles().assign(recording="day"),
+            pd.DataFrame({"id": "9", "t": T, "x": -SPEED * T, "y": -1.5 * W, "recording": "day"}),
+            _vehicles().assign(recording="day+x"),  # the same clock: the same episode ids
+        ],
+        ignore_index=True,
+    )
+    proc = _run(tmp_path, both)
+    assert _error(proc) == (
+        f"error: {tmp_path / 'tracks.csv'}: recording 'day' (its traffic to +x) and recording "
+        "'day+x' would both be carriageway 'day+x' (a two-way recording's traffic is "
+        "'<recording>+x' and '<recording>-x'): their vehicles and episode ids would mix; rename "
+        "one recording"
+    )
+    assert "partial" not in proc.stderr and not (tmp_path / "out").exists()
+    # renamed, both are read: the two-way recording's +x and -x, and the other
+    rows = _episodes(tmp_path, _run(tmp_path, both.replace({"recording": {"day+x": "night"}})))
+    assert rows.episode_id.tolist() == ["day+x_1_6000", "night_1_6000"]
+
+
+def test_two_episodes_of_one_file_are_said_with_the_final_path(tmp_path):
+    path = tmp_path / "tracks.csv"
+    _vehicles().to_csv(path, index=False)
+    (episode,) = extract_episodes(read_table(path, lane_width=W))
+    with pytest.raises(ValueError) as info:
+        episode_file_names([episode, episode], tmp_path / "out")
+    assert str(info.value) == (
+        f"two episodes would be written to {tmp_path / 'out' / '+x_1_6000.npz'} (episode "
+        "'+x_1_6000' twice): an episode id is unique in a folder"
+    )
+
+
+# ------------------------------------------------- 2: --observe off the T_s grid
+def test_an_observed_part_off_the_dt_grid_is_refused_up_front(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    line = _error(_run(tmp_path, table, "--observe", "0.3"))
+    assert line == (
+        "error: observe_s (--observe) = 0.3 s is not a whole number of T_s = dt (--dt) = 0.2 s; "
+        "use 0.2 or 0.4 s"
+    )
+    line = _error(_run(tmp_path, table, "--dt", "0.15"))  # the default --observe 2
+    assert line == (
+        "error: observe_s (--observe) = 2 s is not a whole number of T_s = dt (--dt) = 0.15 s; "
+        "use 1.95 or 2.1 s"
+    )
+    assert not (tmp_path / "out").exists()
+    rows = _episodes(tmp_path, _run(tmp_path, table, "--dt", "0.15", "--observe", "1.95"))
+    assert rows.observed_until_s.tolist() == [1.95]
+
+
+# --------------------------------------------- 3: --dt against its cost and the data
+def test_a_dt_beyond_the_sample_bound_is_refused_and_a_fine_one_noted(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    line = _error(_run(tmp_path, table, "--dt", "1e-9", "--observe", "2"))
+    assert line == (
+        "error: dt (--dt) = 1e-09 s gives a window of 8 s (--before 4 + --after 4) 8e+09 "
+        "samples, more than 2,000 (≈ 0.6 ms of work each: the bound alone is ≈ 1.2 s per lane "
+        "change); T_s is a fraction of a second (the model's is 0.2 s): give --dt 0.004 s or "
+        "more"
+    )
+    line = _error(_run(tmp_path, table, "--dt", "0.001"))
+    assert line.startswith("error: dt (--dt) = 0.001 s gives a window of 8 s (--before 4 + ")
+    assert not (tmp_path / "out").exists()
+    # 10x finer than the data's 0.1 s: legal, said
+    proc = _run(tmp_path, table, "--dt", "0.01")
+    assert _episodes(tmp_path, proc).usable.tolist() == [True]
+    assert _said(proc) == [
+        f"note: {table}: dt (--dt) = 0.01 s is 10× finer than the data's median time step 0.1 s: "
+        "90% of a demonstration's samples lie between recorded ones (the splines', not the "
+        "data's; so are the inputs recovered there); the demonstrations are written as asked"
+    ]
+    assert not [line for line in _said(_run(tmp_path, table, "--dt", "0.05")) if "note" in line]
+
+
+# ------------------------------------------------ 4: a vehicle of one sample
+def test_a_vehicle_of_one_sample_is_skipped_with_a_note(tmp_path):
+    lone = pd.DataFrame({"id": ["77"], "t": [3.0], "x": [500.0], "y": [1.5 * W]})
+    proc = _run(tmp_path, pd.concat([_vehicles(), lone], ignore_index=True))
+    rows = _episodes(tmp_path, proc)
+    assert rows.episode_id.tolist() == ["+x_1_6000"] and rows.usable.tolist() == [True]
+    assert _said(proc) == [
+        f"note: {tmp_path / 'tracks.csv'}: 1 vehicle(s) of a single sample skipped (one position "
+        "shows no motion and no lane change): vehicle 77"
+    ]
+    # every row its own vehicle: the ids are not vehicles', refused
+    rows_as_ids = _vehicles().assign(id=lambda d: d.index.astype(str))
+    line = _error(_run(tmp_path, rows_as_ids))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: 242 of 242 vehicles have a single sample (vehicle 0, "
+        "1, 10, 100, 101, …): a track needs 2 or more to show motion; is the vehicle id the "
+        "same on every row of one vehicle (not a row number)?"
+    )
+
+
+# ------------------------------------------------ 5: a lane width beyond a road's
+def test_a_lane_width_beyond_a_road_is_refused_before_any_line_is_computed(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    proc = _run(tmp_path, table, "--lane-width", "1e308")  # the lines would overflow
+    assert _error(proc) == (
+        f"error: {table}: lanes 1e+308 m wide (lane_width (--lane-width) 1e+308), but a road's "
+        "lanes are 2–7 m wide: lane widths are in metres"
+    )
+    assert "Warning" not in proc.stderr
+    line = _error(_run(tmp_path, table, "--lane-width", "12"))
+    assert line.endswith("lanes are 2–7 m wide: positions in feet? convert to metres (× 0.3048)")
+    # one wrong y: 2.7e11 lanes of lines, refused before they are allocated
+    wrong = _vehicles()
+    wrong.loc[30, "y"] = 1e12
+    assert _error(_run(tmp_path, wrong)) == (
+        f"error: {table}: the vehicles' y spans 1.875 to 1e+12 m, 266666666667 lanes of "
+        "lane_width (--lane-width) 3.75 m, more than a road's 50 (vehicle 1, data row 31: y = "
+        "1e+12): y in another unit, or a wrong row?"
+    )
+
+
+# ----------------------------------------- 6: a folder, UTF-16, a binary lanes file
+def test_a_folder_utf16_and_a_binary_lanes_file_are_said_to_be_what_they_are(tmp_path):
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    assert _error(_run(tmp_path, folder)) == (
+        f"error: {folder} is a folder, not a file (a CSV or Parquet table of tracks): pass the "
+        "file itself"
+    )
+    utf16 = tmp_path / "tracks16.csv"
+    _vehicles().to_csv(utf16, index=False, encoding="utf-16")
+    assert _error(_run(tmp_path, utf16)) == (
+        f"error: {utf16} is UTF-16 text (as Excel's 'Unicode text' and Windows tools save it), "
+        "not UTF-8: save it as UTF-8; expected a CSV table of tracks (columns id, t, x, y, …)"
+    )
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    lanes = tmp_path / "lanes.json"
+    lanes.write_bytes(b"PK\x03\x04\x14\x00\x06\x00\xb5U\x80")
+    assert _error(_run(tmp_path, table, "--lanes", str(lanes))) == (
+        f"error: --lanes {lanes} is a binary file, not text (byte 0xb5 at offset 8, line 1); "
+        "expected a JSON lanes file: each recording's lane lines' y [m]"
+    )
+    lanes.write_text("[0, 3.75, 7.5]", encoding="utf-16")
+    line = _error(_run(tmp_path, table, "--lanes", str(lanes)))
+    assert line.startswith(f"error: --lanes {lanes} is UTF-16 text (")
+
+
+# ------------------------------------------------- 7: input dropped silently
+def test_an_empty_lane_marking_and_a_repeated_lanes_key_are_refused(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    proc = _run(tmp_path, table, "--lane-markings", "0,,7.5")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == (
+        "drivestyle extract-episodes: error: argument --lane-markings: '0,,7.5' has an empty "
+        "field (number 2 of 3): give the numbers separated by single commas, e.g. 0,3.75,7.5"
+    )
+    two = _vehicles().assign(recording="dayA")
+    lanes = tmp_path / "lanes.json"
+    lanes.write_text('{"dayA": [0, 3.75, 7.5, 11.25], "dayA": [0, 3.5, 7, 10.5]}')
+    assert _error(_run(tmp_path, two, "--lanes", str(lanes))) == (
+        f"error: --lanes {lanes}: the key 'dayA' appears twice (JSON would keep the second, "
+        "[0, 3.5, 7, 10.5], silently): give each recording's lines once"
+    )
+
+
+# ------------------------------------ 8: a heading message quotes the file's values
+def test_a_heading_of_traffic_to_minus_x_is_quoted_as_the_file_holds_it(tmp_path):
+    table = _vehicles()
+    table[["x", "y"]] *= -1  # every vehicle drives to −x …
+    table["heading"] = 0.0  # … with the heading of +x traffic
+    line = _error(_run(tmp_path, table))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: 2 of 2 vehicles' recorded headings disagree with "
+        "the course of their positions; vehicle 1 (-x) has a recorded heading of 0 rad where "
+        "its positions' course is 3.14 rad (100% of its samples differ by more than 0.35 rad): "
+        "it points against its motion: the heading of the other driving direction?"
+    )
+    table["heading"] = np.pi  # the right heading: the turned frame's lane change
+    rows = _episodes(tmp_path, _run(tmp_path, table))
+    assert rows.episode_id.tolist() == ["-x_1_6000"] and rows.usable.tolist() == [True]
+
+
+# ------------------------------------------- 9: slow traffic with positions in feet
+def test_slow_traffic_in_feet_is_refused_by_its_lanes(tmp_path):
+    # six vehicles in three lanes at 14 m/s (46 ft/s: within the speed bound), one changing
+    # lane; the lanes given in metres
+    lanes = [_lane_change() if k == 0 else np.full(T.size, (k % 3 + 0.5) * W) for k in range(6)]
+    slow = pd.concat(
+        [
+            pd.DataFrame({"id": str(k + 1), "t": T, "x": 14.0 * T + 35.0 * k, "y": y})
+            for k, y in enumerate(lanes)
+        ],
+        ignore_index=True,
+    )
+    assert _episodes(tmp_path, _run(tmp_path, slow)).usable.tolist() == [True]  # in metres
+    feet = slow.assign(x=slow.x / 0.3048, y=slow.y / 0.3048)
+    line = _error(proc := _run(tmp_path, feet))
+    assert line == (
+        f"error: {tmp_path / 'tracks.csv'}: the vehicles keep to no lane: their median y lies a "
+        "median 0.30 lane widths from a lane's centre (0.5: on a line or off the road), but "
+        "× 0.3048 0.00: positions in feet (× 0.3048)?"
+    )
+    assert _said(proc) == [line]
+    # the road's lines given: the vehicles outside them, refused alone (no warning first)
+    proc = _run(tmp_path, feet, "--lane-markings", "0,3.75,7.5,11.25")
+    assert _error(proc).endswith("but × 0.3048 0.00: positions in feet (× 0.3048)?")
+    assert len(_said(proc)) == 1
