@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     config = _config(args)
-    check_output_dir(args.out, inputs=[args.library])
+    check_output_dir(args.out, inputs=[args.library, args.physics])
     with for_option("--physics"):
         physics = load_params(args.physics)
     library = load_driver_library(args.library, "identification")

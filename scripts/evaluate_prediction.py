@@ -273,7 +273,8 @@ def main(argv: list[str] | None = None) -> dict:
     if args.no_recorded and args.no_simulated:
         raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
     recorded_input = args.episodes if own else args.data_dir
-    inputs = [args.library] + ([] if args.no_recorded else [recorded_input])
+    inputs = [args.library, args.split_file, args.physics, args.regions_from]
+    inputs += [] if args.no_recorded else [recorded_input]
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
     if repeated:

@@ -633,7 +633,7 @@ def _print(result: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> dict:
     """Run the profile; returns the JSON payload."""
     args = parse_args(argv)
-    check_output_file(args.out)
+    check_output_file(args.out, inputs=[args.data_dir if args.recorded > 0 else None])
     cats = args.data_dir / DATASETS["cats"]
     if args.recorded > 0 and not cats.is_dir():  # found before the work, not after it
         raise FileNotFoundError(
