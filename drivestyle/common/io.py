@@ -16,10 +16,11 @@ half-written file, and never a temporary file or folder behind:
 Because a replaced folder is deleted, only folders that drivestyle wrote (they hold the
 marker file :data:`OUTPUT_MARKER`), empty folders and absent ones are replaced; a folder
 with other files is refused with a message, as is the working folder. An output is never
-one of the run's own inputs, nor lies inside an input folder, nor (when replaced whole)
-holds an input: :func:`refuse_inputs`, the one rule every command's output check applies.
-A name the file system cannot hold is refused naming the option. Outputs get ordinary permissions (files 0666, folders 0777, less the
-umask: 0644 and 0755 with the usual umask 022).
+one of the run's own inputs, nor lies inside an input folder drivestyle wrote, nor (when
+replaced whole) holds an input: :func:`refuse_inputs`, the one rule every command's
+output check applies. A name the file system cannot hold is refused naming the option.
+Outputs get ordinary permissions (files 0666, folders 0777, less the umask: 0644 and 0755
+with the usual umask 022).
 
 One writer at a time: two runs into the same output would both report success while one
 run's output silently replaced the other's. So an output has a lock (:class:`OutputLock`:
@@ -776,8 +777,11 @@ def refuse_inputs(
     - the output folder *holds* an input: a run that replaces its folder as a whole
       (``replace``) would delete it (a run that only adds its files, ``replace=False``,
       may write beside its inputs: a style beside its demonstration);
-    - the output *lies inside* an input folder: the run would write into what it reads (and
-      a later run of the folder would read the output as input).
+    - the output *lies inside* an input folder that a drivestyle run wrote (it holds
+      :data:`OUTPUT_MARKER`: episodes, demonstrations, a library, a mining run): the run
+      would write into what it reads, and the run that wrote the folder replaces it whole,
+      output and all. A folder of the user's own (a library folder that also holds the
+      runs made with it, the working folder) may hold outputs.
 
     Paths are compared resolved (symbolic links, ``..``), so no spelling slips past.
 
@@ -805,10 +809,10 @@ def refuse_inputs(
                 f"{option} {path} holds the input {item}, which the run would replace; "
                 f"choose another {option}"
             )
-        if source in final.parents and source.is_dir():
+        if source in final.parents and (source / OUTPUT_MARKER).is_file():
             raise OutputPathError(
-                f"{option} {path} lies inside the input {item}, which the run reads; "
-                f"choose an {option} outside it"
+                f"{option} {path} lies inside the input {item}, which the run reads (and "
+                f"the run that wrote it replaces whole); choose an {option} outside it"
             )
 
 

@@ -206,6 +206,7 @@ def test_an_output_that_is_holds_or_lies_inside_an_input_is_refused(tmp_path):
     with pytest.raises(OutputPathError, match="lies inside the input"):
         check_output_dir(link / "sub", inputs=[data])  # any spelling
     check_output_dir(data, replace=False, inputs=[data / "a.npz"])  # adds files beside it
+    check_output_dir(tmp_path / "x", inputs=[tmp_path])  # the user's folder, not drivestyle's
     check_output_dir(tmp_path / "out", inputs=[data, data / "a.npz", None])
     assert sorted(p.name for p in data.iterdir()) == [OUTPUT_MARKER, "a.npz"]
 

@@ -65,8 +65,8 @@ def test_mine_styles_refuses_an_out_that_is_or_lies_inside_its_input_folder(tmp_
     )
     done = run_command(tmp_path, "mine-styles", "ob", "--library", lib, "--out", "ob/mined")
     assert _one_error(done) == (
-        "error: --out ob/mined lies inside the input ob, which the run reads; choose an --out "
-        "outside it"
+        "error: --out ob/mined lies inside the input ob, which the run reads (and the run that "
+        "wrote it replaces whole); choose an --out outside it"
     )
     assert sorted(p.name for p in ob.iterdir()) == before
 
