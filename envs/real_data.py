@@ -41,6 +41,7 @@ __all__ = [
     "MATCH_S",
     "RecordedEpisode",
     "RecordedVehicle",
+    "check_data_dir",
     "is_recorded",
     "load_cats",
     "load_ngsim",
@@ -78,6 +79,43 @@ class RecordedEpisode:
 DATASETS = {"ngsim": "ngsim", "cats": "cats-av-lanechange"}
 """The shipped samples: dataset key → its folder's name under the data folder
 (``../shared/data`` beside a checkout)."""
+
+
+def check_data_dir(
+    data_dir: str | Path,
+    datasets: tuple[str, ...] = tuple(DATASETS),
+    default: str | Path | None = None,
+    otherwise: str = "",
+) -> None:
+    """Refuse, before any work, a ``--data-dir`` without the shipped samples a command reads.
+
+    The message names the option and, when the folder is the default (a command run away
+    from a checkout, where ``../shared/data`` is not beside it), says so: a missing file deep
+    under a default the user never typed ("../shared/data/cats-av-lanechange/tracks.csv.gz:
+    no such file") does not say which option to give.
+
+    Args:
+        data_dir: the folder given (or the default).
+        datasets: keys of :data:`DATASETS` the command reads.
+        default: the option's default (the message says when ``data_dir`` is it).
+        otherwise: what else the user may do (", or --no-recorded"), appended.
+
+    Raises:
+        FileNotFoundError: a dataset's folder is missing.
+    """
+    for ds in datasets:
+        folder = DATASETS[ds]
+        if not (Path(data_dir) / folder).is_dir():
+            said = (
+                f"--data-dir {data_dir} (the default, relative to the working folder {Path.cwd()})"
+                if default is not None and Path(data_dir) == Path(default)
+                else f"--data-dir {data_dir}"
+            )
+            raise FileNotFoundError(
+                f"{said}: no {folder}/ folder; pass --data-dir with the folder holding "
+                f"{' and '.join(f'{DATASETS[d]}/' for d in datasets)}{otherwise}"
+            )
+
 
 _DATASETS = {
     "ngsim": ("NGSIM", "load_ngsim", f"../shared/data/{DATASETS['ngsim']}", "recording"),

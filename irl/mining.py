@@ -51,6 +51,7 @@ from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.identification import (
     ENTERS_REGION,
     INFORMATIVE,
+    INTERVAL_MASS,
     OUT_OF_CLASS,
     VERDICT_LABELS,
     Identification,
@@ -287,8 +288,21 @@ class MinedRow:
         if missing:
             raise bad(missing[0], f"an ok row needs {', '.join(missing)}")
         assert self.risk_lo is not None and self.risk_hi is not None  # checked above
-        if not self.risk_lo <= self.risk_hi:
-            raise bad("risk_hi", f"interval [{self.risk_lo}, {self.risk_hi}] is empty")
+        lo, hi, mean = self.risk_lo, self.risk_hi, self.risk_mean
+        if not lo <= hi:
+            raise bad("risk_hi", f"interval [{lo}, {hi}] is empty")
+        # the interval holds INTERVAL_MASS of the posterior, so its mean lies in it but for
+        # what the rest (risks in (0, 1)) can pull it by: [m lo, hi + (1 − m)(1 − hi)]
+        outside = 1.0 - INTERVAL_MASS
+        least, most = lo - outside * lo, hi + outside * (1.0 - hi)
+        assert mean is not None  # checked above
+        if not least - 1e-9 <= mean <= most + 1e-9:
+            raise bad(
+                "risk_mean",
+                f"risk_mean {mean} lies outside its own interval [{lo}, {hi}] (risk_lo, "
+                f"risk_hi): the mean of a posterior with {INTERVAL_MASS:.0%} of its mass "
+                f"there lies in [{least:.4g}, {most:.4g}]",
+            )
 
     def _bad(self, column: str, problem: str) -> RowError:
         """The error of this row's ``column`` (its message names the row by id)."""

@@ -53,6 +53,7 @@ __all__ = [
     "MiningOutput",
     "MiningOutputError",
     "RunFingerprint",
+    "header_problem",
     "library_digest",
     "read_rows",
     "read_table",
@@ -137,13 +138,11 @@ def _parse_table(text: str, what: str) -> tuple[list[MinedRow], int, bool]:
     Raises:
         MiningOutputError: the header is none of :data:`READABLE_HEADERS`.
     """
-    reader = csv.DictReader(io.StringIO(text, newline=""))
+    reader = csv.DictReader(io.StringIO(text.removeprefix("\ufeff"), newline=""))
     if reader.fieldnames is None:
         return [], 0, False
     if tuple(reader.fieldnames) not in READABLE_HEADERS:
-        raise MiningOutputError(
-            f"{what} is not a styles.csv of this version (columns {reader.fieldnames})"
-        )
+        raise MiningOutputError(f"{what}: {header_problem(reader.fieldnames)}")
     rows: list[MinedRow] = []
     seen: set[str] = set()
     dropped = 0
@@ -188,13 +187,51 @@ def read_rows(path: str | Path) -> list[MinedRow]:
     return _parse_table(text, str(path))[0]
 
 
+def header_problem(names: Sequence[str]) -> str:
+    """What is wrong with a header that is none of :data:`READABLE_HEADERS`, in words.
+
+    Against the readable header it shares most columns with: a column it does not have
+    (an extra one), a column missing, or a column out of place (the columns reordered, as
+    a spreadsheet may save them). A header sharing fewer than half its columns with every
+    readable one is another table altogether.
+    """
+    names = list(names)
+    closest = max(READABLE_HEADERS, key=lambda h: (len(set(h) & set(names)), -len(h)))
+    if 2 * len(set(closest) & set(names)) < len(names):
+        more = " …" if len(names) > 6 else ""
+        return f"not a styles.csv of mine-styles (its columns: {', '.join(names[:6])}{more})"
+    twice = [c for c in dict.fromkeys(names) if names.count(c) > 1]
+    if twice:
+        return f"column {twice[0]} appears {names.count(twice[0])} times"
+    extra = [c for c in names if c not in closest]
+    if extra:
+        return (
+            f"column {extra[0]!r} (column {names.index(extra[0]) + 1}) is not a column of a "
+            f"styles.csv{f' ({len(extra)} such columns)' if len(extra) > 1 else ''}"
+        )
+    missing = [c for c in closest if c not in names]
+    if missing:
+        return (
+            f"no column {missing[0]} (a styles.csv has it as column "
+            f"{closest.index(missing[0]) + 1})"
+            + (f"; {len(missing)} columns missing" if len(missing) > 1 else "")
+        )
+    i = next(i for i, (a, b) in enumerate(zip(names, closest, strict=True)) if a != b)
+    return (
+        f"column {names[i]} is out of place: column {i + 1} of a styles.csv is {closest[i]} "
+        f"(its columns in order: {', '.join(closest[:3])}, …)"
+    )
+
+
 def read_table(path: str | Path) -> list[MinedRow]:
     """Every row of a mining run's ``styles.csv``, each validated: what its readers read.
 
     A resumed run drops a damaged row and mines it again (:class:`MiningOutput`); a reader
     of the results has no such remedy, so here a damaged row is an error that names it:
     a last row without its line end (the run was interrupted while writing it: resume the
-    run), a row with cells missing or extra, a value that does not parse or lies outside
+    run), a header with a column extra, missing or out of place (:func:`header_problem`;
+    a UTF-8 byte-order mark, as a spreadsheet saves, is read), a row with cells missing or
+    extra, a value that does not parse or lies outside
     its range (:meth:`MinedRow.from_csv`), an id twice.
 
     Args:
@@ -219,14 +256,12 @@ def read_table(path: str | Path) -> list[MinedRow]:
         raise MiningOutputError(
             f"{path} is not a text file (byte {exc.start} is not UTF-8): not a styles.csv"
         ) from None
+    text = text.removeprefix("\ufeff")  # a spreadsheet's UTF-8 byte-order mark
     reader = csv.DictReader(io.StringIO(text, newline=""))
     if reader.fieldnames is None:
         raise MiningOutputError(f"{path} is empty: not a styles.csv written by mine-styles")
     if tuple(reader.fieldnames) not in READABLE_HEADERS:
-        raise MiningOutputError(
-            f"{path} is not a styles.csv of mine-styles (its columns: "
-            f"{', '.join(reader.fieldnames[:6])}{' …' if len(reader.fieldnames) > 6 else ''})"
-        )
+        raise MiningOutputError(f"{path}: {header_problem(reader.fieldnames)}")
     records = [(record, reader.line_num) for record in reader]
     # a last line without its line end is what a kill leaves (MiningOutput drops it too)
     torn_last = not raw.endswith(b"\n")

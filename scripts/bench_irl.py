@@ -200,7 +200,7 @@ def time_identification(library_dir: Path, n: int, seed: int) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark; returns the JSON payload."""
     args = parse_args(argv)
-    check_output_file(args.out)
+    check_output_file(args.out, inputs=[args.demo, args.library])
     demo = load_demonstration(args.demo) if args.demo else generate_demonstration(0.7)[0]
     result = {
         "repeats": args.repeats,

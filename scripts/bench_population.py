@@ -234,7 +234,7 @@ def _timed_mining(tasks: list, library, engine: str, workers: int) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     """Run the benchmark; returns the JSON payload."""
     args = parse_args(argv)
-    check_output_file(args.out)
+    check_output_file(args.out, inputs=[args.library, args.demos])
     library = load_any_library(args.library)
     plan = args.runs or [("local", 1), ("local", 2)] + ([] if args.no_ray else [("ray", 2)])
     with tempfile.TemporaryDirectory() as tmp:

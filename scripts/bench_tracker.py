@@ -52,7 +52,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Benchmark; returns the JSON payload."""
     args = parse_args(argv)
-    check_output_file(args.out)
+    check_output_file(args.out, inputs=[args.library])
     library = load_driver_library(args.library, "online identification")
     rng = np.random.default_rng(args.seed)
     ranges = ScenarioRanges()

@@ -35,6 +35,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.envs.real_data import check_data_dir
 
 SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)
 """``--samples``: a replicate holds the resampled indices of a group's lane changes for every
@@ -62,17 +63,26 @@ def main(argv: list[str] | None = None) -> dict:
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     check_output_dir(args.out, inputs=[args.data_dir] + ([args.mined] if args.mined else []))
     mined = read_mined(args.mined) if args.mined is not None else None
+    check_data_dir(args.data_dir, ("cats",), DEFAULT_DATA_DIR)
     episodes = recorded_episodes(str(args.data_dir), "cats")
     if mined is not None:
         try:
             missing = unmined(episodes, mined)
         except ValueError as exc:
             raise ValueError(f"--mined {args.mined}: {exc}") from None
+        table = args.mined / "styles.csv"
         if missing:  # legal (a run still going, failed rows), but it shapes every number
             print(
                 f"note: {len(missing)} of the {len(episodes)} CATS lane changes have no ok row "
-                f"in {args.mined / 'styles.csv'} (failed, or not mined yet): they are reported "
-                "as not mined",
+                f"in {table} (failed, or not mined yet): they are reported as not mined",
+                file=sys.stderr,
+            )
+        ids = {eid for eid, _, _ in episodes}
+        foreign = [i for i in mined if i not in ids]
+        if foreign:  # rows of another input (unmined refuses a table of nothing but these)
+            print(
+                f"note: {len(foreign)} of the {len(mined)} ok rows of {table} match no CATS "
+                f"lane change (e.g. {', '.join(foreign[:3])}): they are ignored",
                 file=sys.stderr,
             )
     comparison = compare_av_human(episodes, mined, samples=args.samples)

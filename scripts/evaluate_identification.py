@@ -134,7 +134,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns evaluation.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=args.library)
     if args.references and args.draw == "traffic":
         raise ValueError(
             "--references simulates single-TV scenarios (the ceiling re-simulation); with "

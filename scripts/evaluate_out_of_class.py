@@ -89,14 +89,29 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    "each with the default risks)")  # fmt: skip
     p.add_argument("--no-highway", action="store_true", help="no highway-env drivers")
     p.add_argument("--no-prediction", action="store_true", help="identification only")
-    p.add_argument("--observe", type=float_list, default=list(_D.t_obs),
+    p.add_argument("--observe", type=float_list, default=None,
                    help="comma-separated observed times t_obs [s] to predict after: whole "
                    "numbers of T_s = 0.2 s, shorter than the lane changes (highway-env at most "
-                   "8 s, SMPC 6 s); a repeated time counts once")  # fmt: skip
+                   "8 s, SMPC 6 s); a repeated time counts once (default: "
+                   f"{','.join(f'{t:g}' for t in _D.t_obs)})")  # fmt: skip
     p.add_argument(
-        "--physics", type=Path, default=PHYSICS_FILE, help="the physics baseline's parameters"
+        "--physics",
+        type=Path,
+        default=None,
+        help=f"the physics baseline's parameters (default: {PHYSICS_FILE.name} shipped with "
+        "the package)",
     )
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    # options of the prediction, which --no-prediction skips: refused, not silently ignored
+    given = [f"--{name}" for name in ("observe", "physics") if getattr(args, name) is not None]
+    if args.no_prediction and given:
+        raise ValueError(
+            f"{' and '.join(given)} {'apply' if len(given) > 1 else 'applies'} to the "
+            "prediction, which --no-prediction skips; drop one or the other"
+        )
+    args.observe = list(_D.t_obs) if args.observe is None else args.observe
+    args.physics = PHYSICS_FILE if args.physics is None else args.physics
+    return args
 
 
 def _config(args: argparse.Namespace) -> StudyConfig:
@@ -144,7 +159,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     config = _config(args)
-    check_output_dir(args.out, inputs=[args.library])
+    check_output_dir(args.out, inputs=[args.library, args.physics])
     with for_option("--physics"):
         physics = load_params(args.physics)
     library = load_driver_library(args.library, "identification")

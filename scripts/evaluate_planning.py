@@ -80,7 +80,7 @@ def _video_seed(study: PlanningStudy) -> int:
 def main(argv: list[str] | None = None) -> dict:
     """Run the study; returns planning.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=[args.library])
     library = load_driver_library(args.library, "the style-aware ego")
     with tqdm(total=args.scenes, desc="cut-in scenes", unit="scene") as bar:
         study = cut_in_study(

@@ -92,6 +92,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.envs.real_data import check_data_dir
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import PhysicsParams, load_params, save_params
 
@@ -166,8 +167,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--data-dir",
         type=Path,
-        default=DEFAULT_DATA_DIR,
-        help=f"folder holding {' and '.join(f'{v}/' for v in DATASETS.values())}",
+        default=None,
+        help=f"folder holding {' and '.join(f'{v}/' for v in DATASETS.values())} (default: "
+        f"{DEFAULT_DATA_DIR}; not with --episodes or --no-recorded, which read none)",
     )
     p.add_argument(
         "--no-recorded", action="store_true", help="simulated vehicles only (no NGSIM or CATS)"
@@ -248,6 +250,16 @@ def main(argv: list[str] | None = None) -> dict:
         )
     if own and args.no_recorded:
         raise ValueError("--episodes benchmarks recorded episodes; drop --no-recorded")
+    if args.data_dir is not None and (own or args.no_recorded):
+        # read by neither: a silently ignored option reads as a run on that data
+        raise ValueError(
+            f"--data-dir {args.data_dir} and "
+            f"{'--episodes' if own else '--no-recorded'} contradict: "
+            + ("--episodes benchmarks its folder instead of the shipped samples"
+               if own else "--no-recorded reads no recorded data")
+            + "; drop one or the other"
+        )  # fmt: skip
+    args.data_dir = DEFAULT_DATA_DIR if args.data_dir is None else args.data_dir
     if own and not args.episodes.is_dir():
         raise FileNotFoundError(f"--episodes {args.episodes}: no such folder")
     if args.write_split:
@@ -273,7 +285,8 @@ def main(argv: list[str] | None = None) -> dict:
     if args.no_recorded and args.no_simulated:
         raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
     recorded_input = args.episodes if own else args.data_dir
-    inputs = [args.library] + ([] if args.no_recorded else [recorded_input])
+    inputs = [args.library, args.split_file, args.physics, args.regions_from]
+    inputs += [] if args.no_recorded else [recorded_input]
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
     if repeated:
@@ -291,12 +304,7 @@ def main(argv: list[str] | None = None) -> dict:
     library = load_driver_library(args.library, "prediction")
     calibration = None if args.regions_from is None else _calibration(args)
     if not args.no_recorded and not own:
-        for folder in DATASETS.values():
-            if not (args.data_dir / folder).is_dir():
-                raise FileNotFoundError(
-                    f"--data-dir {args.data_dir}: no {folder}/ folder (pass the folder holding "
-                    "the datasets, or --no-recorded)"
-                )
+        check_data_dir(args.data_dir, default=DEFAULT_DATA_DIR, otherwise=", or --no-recorded")
     rows: list[SplitRow] | None = None
     if not args.no_recorded:
         if own and args.split_file is None:
@@ -306,7 +314,8 @@ def main(argv: list[str] | None = None) -> dict:
     bars: dict[str, tqdm] = {}
 
     def on_plan(stage: str, n: int) -> None:
-        bars[stage] = tqdm(total=n, desc=f"prediction: {stage} vehicles", unit="vehicle")
+        if n:  # no bar of no vehicles (--episodes, --no-simulated)
+            bars[stage] = tqdm(total=n, desc=f"prediction: {stage} vehicles", unit="vehicle")
 
     t0 = time.perf_counter()
     try:
@@ -317,7 +326,7 @@ def main(argv: list[str] | None = None) -> dict:
             None if args.no_recorded or own else args.data_dir,
             args.observe,
             args.workers,
-            progress=lambda stage, k: bars[stage].update(k),
+            progress=lambda stage, k: bars[stage].update(k) if stage in bars else None,
             on_plan=on_plan,
             split=None if args.no_recorded else args.split,
             split_rows=rows,

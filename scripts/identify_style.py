@@ -90,7 +90,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Identify; returns identify.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out)
+    check_output_dir(args.out, inputs=[*args.demos, args.library])
     library = load_any_library(args.library)
     files = distinct_files(args.demos)
     if files.note:

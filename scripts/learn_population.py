@@ -79,7 +79,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Learn and write; returns library.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out, inputs=[args.library, args.data_dir])
+    check_output_dir(args.out, inputs=[args.library, args.data_dir, args.split_file])
     library = load_driver_library(args.library, "learn-population")
     with for_option("--split-file"):  # every row checked, the problem named by the option
         rows = read_split(args.split_file)

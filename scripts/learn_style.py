@@ -214,7 +214,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         LearningStalledError: after writing ``style.json``, when learning stalled.
     """
     args = parse_args(argv)
-    check_output_dir(args.out, replace=False)  # a style may sit beside its demonstration
+    # a style may sit beside its demonstration (its files are added, none replaced)
+    check_output_dir(args.out, replace=False, inputs=[*args.demos, args.cost_from])
     files = distinct_files(args.demos)  # a file or copy given twice would weigh twice
     if files.note:
         print(files.note, file=sys.stderr)

@@ -128,7 +128,9 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     if args.address and args.engine != "ray":
         raise ValueError("--address needs --engine ray")
-    check_output_dir(args.out, replace=False)  # rows are appended: the folder is resumed
+    # rows are appended: the folder is resumed
+    inputs = [args.input, args.data, args.library]
+    check_output_dir(args.out, replace=False, inputs=inputs)
     library = load_any_library(args.library)
     tasks, input_id = _tasks(args)
     fingerprint = RunFingerprint.of(input_id, args.library, library)

@@ -73,7 +73,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Predict; returns prediction.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out, inputs=[args.demo])
+    check_output_dir(args.out, inputs=[args.demo, args.library, args.physics])
     with for_option("--physics"):
         physics = load_params(args.physics)
     library = load_driver_library(args.library, "prediction")

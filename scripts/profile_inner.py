@@ -53,7 +53,7 @@ from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR
 from drivestyle.common.cli import HelpFormatter, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import DATASETS
+from drivestyle.envs.real_data import check_data_dir
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl import driver_style as ds
@@ -633,13 +633,9 @@ def _print(result: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> dict:
     """Run the profile; returns the JSON payload."""
     args = parse_args(argv)
-    check_output_file(args.out)
-    cats = args.data_dir / DATASETS["cats"]
-    if args.recorded > 0 and not cats.is_dir():  # found before the work, not after it
-        raise FileNotFoundError(
-            f"--data-dir {args.data_dir}: no {DATASETS['cats']}/ folder (pass the folder "
-            "holding the datasets, or drop --recorded)"
-        )
+    check_output_file(args.out, inputs=[args.data_dir if args.recorded > 0 else None])
+    if args.recorded > 0:  # found before the work, not after it
+        check_data_dir(args.data_dir, ("cats",), DEFAULT_DATA_DIR, ", or drop --recorded")
     load_before = [round(x, 2) for x in os.getloadavg()]
     demo = generate_demonstration(0.7)[0]
     result: dict[str, Any] = {

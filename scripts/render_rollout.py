@@ -59,10 +59,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Render; returns a small summary (also written next to the video as JSON)."""
     args = parse_args(argv)
-    check_output_file(args.video, "--video")
+    inputs = [args.style, args.model, args.demo]
+    check_output_file(args.video, "--video", inputs=inputs)
     if args.video.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"--video must end in .mp4 or .gif, got {args.video.name}")
-    check_output_file(args.video.with_suffix(".json"), "--video")  # its summary beside it
+    # its summary beside it (never over its style.json: --video style.mp4)
+    check_output_file(args.video.with_suffix(".json"), "--video", inputs=inputs)
     style = None
     if args.style is not None:
         style = load_style(args.style)

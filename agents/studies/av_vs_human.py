@@ -155,7 +155,8 @@ def read_mined(folder: str | Path) -> dict[str, MinedRow]:
     path = Path(folder) / TABLE
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found; run drivestyle mine-styles --dataset cats")
-    with path.open(newline="", encoding="utf-8", errors="replace") as fh:
+    # utf-8-sig: a byte-order mark (a spreadsheet's UTF-8) is no part of the first column
+    with path.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
         header = next(csv.reader(fh), [])
     missing = sorted(c for c in NEEDED_COLUMNS if c not in header)
     if missing:

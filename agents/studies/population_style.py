@@ -36,6 +36,7 @@ import numpy as np
 from drivestyle.agents.studies.prediction import (
     DATASETS,
     SplitRow,
+    check_sample_split,
     load_recorded,
 )
 from drivestyle.envs.demonstration import Demonstration
@@ -115,6 +116,7 @@ def split_demos(
     Returns:
         ([(episode id, demonstration)], [(episode id, why skipped)]).
     """
+    check_sample_split(data_dir, rows)  # each row's vehicle its episode's, in one split
     demos, skipped = [], []
     for ds in DATASETS:
         ids = [r.episode_id for r in rows if r.dataset == ds and r.split == split]

@@ -76,6 +76,7 @@ import functools
 import itertools
 import json
 import math
+import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -146,7 +147,9 @@ __all__ = [
     "calibrate_on_split",
     "calibration_records",
     "check_observed_times",
+    "check_sample_split",
     "check_split_selects",
+    "check_split_vehicles",
     "draw_simulated",
     "episodes_split",
     "evaluate_prediction",
@@ -232,6 +235,17 @@ class SplitRow:
     """``ngsim:<site>:<ego id>`` or ``cats:AV`` / ``cats:HV`` (the driver of vehicle 3)."""
     split: str
     """A name of :data:`SPLITS`."""
+    source: str = field(default="", compare=False, repr=False)
+    """The split file it was read from (:func:`read_split`; empty: made here), for messages."""
+    row: int = field(default=0, compare=False, repr=False)
+    """Its row in that file (1 = the first below the header)."""
+
+    @property
+    def where(self) -> str:
+        """The row as a message names it: ``FILE, row N`` (else its episode)."""
+        if self.source:
+            return f"{self.source}, row {self.row}"
+        return f"the split's row of episode {self.episode_id}"
 
 
 @functools.lru_cache(maxsize=4)
@@ -271,6 +285,21 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
         group = e.carriageway.split("_" if dataset == "ngsim" else "-")[0]
         out.append((e.episode_id, f"{dataset}:{group}:{e.vehicle_id}", e.demo))
     return tuple(out)
+
+
+def check_sample_split(data_dir: str | Path, rows: Sequence[SplitRow]) -> None:
+    """:func:`check_split_vehicles` of a split applied to the shipped samples in ``data_dir``.
+
+    Raises:
+        ValueError: a row's vehicle is not its episode's, or a vehicle in two splits.
+    """
+    vehicles = {
+        eid: vid
+        for ds in DATASETS
+        if any(r.dataset == ds for r in rows)
+        for eid, vid, _ in recorded_episodes(str(data_dir), ds)
+    }
+    check_split_vehicles(rows, vehicles)
 
 
 def _episode_vehicles(data_dir: Path, dataset: str) -> list[tuple[str, str]]:
@@ -385,8 +414,62 @@ def read_split(path: str | Path = SPLIT_FILE) -> list[SplitRow]:
                 "an episode is in one split"
             )
         first[parts[1]] = len(rows) + 1
-        rows.append(SplitRow(*parts))
+        dataset, episode_id, vehicle_id, split = parts
+        rows.append(SplitRow(dataset, episode_id, vehicle_id, split, str(path), len(rows) + 1))
     return rows
+
+
+def check_split_vehicles(rows: Sequence[SplitRow], vehicles: Mapping[str, str]) -> list[SplitRow]:
+    """Check a split against the episodes it is applied to; return its rows of no episode.
+
+    The split is by vehicle: a vehicle's episodes all lie in one split, else the benchmark
+    judges a vehicle on what it was tuned on. So a row whose vehicle is not its episode's
+    (a split written for another extraction, or edited by hand) and a vehicle in two
+    splits are refused, in that order (a wrong vehicle id also makes a false leak). A
+    vehicle is compared by its id within its recording (after the last ``:``): the shipped
+    split's ``ngsim:i80:115`` is an extraction's ``i80_1600_first60s:115``.
+
+    Args:
+        rows: the split (:func:`read_split`).
+        vehicles: episode id → its vehicle, of the episodes at hand.
+
+    Returns:
+        The rows of episodes not in ``vehicles`` (legal: a split may cover more episodes
+        than a folder holds; the caller notes how many).
+
+    Raises:
+        ValueError: a row's vehicle is not its episode's (the message names the file, the
+            row and both vehicles), or a vehicle is in more than one split (it names the
+            file, the vehicle and its splits with their rows).
+    """
+    for r in rows:
+        actual = vehicles.get(r.episode_id)
+        # the id within its recording, not its prefix: the shipped split names a sample's
+        # vehicles ngsim:i80:115, an extraction of the same file i80_1600_first60s:115
+        if actual is not None and r.vehicle_id.rpartition(":")[2] != actual.rpartition(":")[2]:
+            raise ValueError(
+                f"{r.where}: column vehicle_id {r.vehicle_id} is not the vehicle of episode "
+                f"{r.episode_id} ({actual}); was the split written for another extraction?"
+            )
+    splits: dict[tuple[str, str], dict[str, list[SplitRow]]] = {}
+    for r in rows:
+        splits.setdefault((r.dataset, r.vehicle_id), {}).setdefault(r.split, []).append(r)
+    leaks = {key: per for key, per in splits.items() if len(per) > 1}
+    if leaks:
+        (_, vehicle), per = next(iter(leaks.items()))
+        source = next(r.source for rs in per.values() for r in rs) or "the split"
+        said = "; ".join(
+            f"{split} (row{'s' if len(rs) > 1 else ''} {', '.join(str(r.row) for r in rs)})"
+            if rs[0].source
+            else f"{split} ({', '.join(r.episode_id for r in rs)})"
+            for split, rs in per.items()
+        )
+        more = f" ({len(leaks) - 1} more vehicle(s) likewise)" if len(leaks) > 1 else ""
+        raise ValueError(
+            f"{source}: vehicle {vehicle} is in more than one split: {said}{more}; a vehicle's "
+            "episodes belong to one split, else the benchmark judges it on what it was tuned on"
+        )
+    return [r for r in rows if r.episode_id not in vehicles]
 
 
 def split_contents(rows: Sequence[SplitRow]) -> str:
@@ -636,14 +719,25 @@ def load_episodes_folder(
         the row's dataset (:data:`EPISODES_SET` without rows), the unit its vehicle.
 
     Raises:
-        ValueError: a usable episode without a row (the message names it), or a split that
-            selects none.
+        ValueError: a usable episode without a row (the message names it), a row whose
+            vehicle is not its episode's or a vehicle in two splits
+            (:func:`check_split_vehicles`), or a split that selects none. Rows of episodes
+            the folder lacks are noted on stderr.
     """
     from drivestyle.envs.episodes import read_episodes
 
     found = {eid: (vehicle, demo) for eid, vehicle, demo in read_episodes(folder)}
     if rows is None:
         rows = [SplitRow(EPISODES_SET, e, v, "all") for e, (v, _) in found.items()]
+    others = check_split_vehicles(rows, {e: v for e, (v, _) in found.items()})
+    if others:  # legal (a split of more than this folder), yet worth saying
+        print(
+            f"note: {others[0].source or 'the split'}: {len(others)} of its {len(rows)} rows "
+            f"name episodes {folder} does not hold (e.g. {others[0].episode_id}); they are "
+            "not used",
+            file=sys.stderr,
+            flush=True,
+        )
     named = {r.episode_id for r in rows}
     missing = [e for e in found if e not in named]
     if missing:
@@ -1553,6 +1647,7 @@ def calibrate_on_split(
         return calibrate_physics(physics_cases([(e, d) for _, e, d, _ in chosen], t_obs))
     rows = read_split() if rows is None else rows
     check_split_selects(rows, "train", tuple(DATASETS))
+    check_sample_split(data_dir, rows)
     recorded = []
     for ds in DATASETS:
         ids = [r.episode_id for r in rows if r.dataset == ds and r.split == "train"]
@@ -1733,6 +1828,7 @@ def evaluate_prediction(
         rows = (split_rows if split_rows is not None else read_split()) if split else []
         if split:
             check_split_selects(rows, split, tuple(DATASETS))
+            check_sample_split(data_dir, rows)
         unit_of = {r.episode_id: r.vehicle_id for r in rows}
         for ds in DATASETS:
             ids = None if split is None else [r.episode_id for r in rows

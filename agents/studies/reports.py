@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from drivestyle.agents.studies.out_of_class import OutOfClassStudy
     from drivestyle.agents.studies.paper import PaperStudy
     from drivestyle.agents.studies.planning import PlanningStudy
-    from drivestyle.agents.studies.prediction import PredictionStudy
+    from drivestyle.agents.studies.prediction import PredictionStudy, TrackingSummary
     from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
@@ -565,7 +565,7 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
         study: the study's result.
         command: the command that produced it.
     """
-    from drivestyle.agents.studies.prediction import NARROW_WIDTH, TEST_SEED, VALIDATION_SEED
+    from drivestyle.agents.studies.prediction import TEST_SEED, VALIDATION_SEED
 
     n_sim = len(study.vehicles)
     n_rand = sum(v.scenario is not None for v in study.vehicles)
@@ -636,21 +636,9 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
             f"{shown} | {'met' if g.met else 'MISSED'} |"
         )
     tr = study.tracking
-    lines += [
-        "",
-        "## Online identification (simulated vehicles, inputs unseen)",
-        "",
-        f"{tr.n} vehicles; the 90 % interval gets narrower than {NARROW_WIDTH:g} for "
-        f"{tr.n_narrow} ({_pct(tr.fraction_narrow)}), first after a median "
-        f"{seconds(tr.t_narrow_median_s)} (10–25–75–90 %: {seconds(tr.t_narrow_q10_s)}, "
-        f"{seconds(tr.t_narrow_q25_s)}, {seconds(tr.t_narrow_q75_s)}, "
-        f"{seconds(tr.t_narrow_q90_s)}); it stays narrow to the end for {tr.n_narrow_stays} "
-        f"(from a median {seconds(tr.t_narrow_stays_median_s)}). Final interval covers the "
-        f"true risk for {_pct(tr.final_coverage)}; final |mean − p| {fmt(tr.final_mae)}. "
-        f"Update: median {fmt(tr.update_ms_median, 1)} ms, p95 {fmt(tr.update_ms_p95, 1)} ms "
-        "(parallel workers on a shared machine).",
-        "",
-    ]
+    lines.append("")
+    if tr.n:  # no simulated vehicle (--episodes, --no-simulated): no section of nothing
+        lines += _tracking_section(tr)
     if study.regions:
         lines += [
             "## 90 % prediction regions (split-conformal, calibrated on another split)",
@@ -674,6 +662,26 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
             reasons[key] = reasons.get(key, 0) + 1
         lines += [f"- {n} × {r}" for r, n in sorted(reasons.items())] + [""]
     return "\n".join(lines)
+
+
+def _tracking_section(tr: TrackingSummary) -> list[str]:
+    """The online identification's section (simulated vehicles only)."""
+    from drivestyle.agents.studies.prediction import NARROW_WIDTH
+
+    return [
+        "## Online identification (simulated vehicles, inputs unseen)",
+        "",
+        f"{tr.n} vehicles; the 90 % interval gets narrower than {NARROW_WIDTH:g} for "
+        f"{tr.n_narrow} ({_pct(tr.fraction_narrow)}), first after a median "
+        f"{seconds(tr.t_narrow_median_s)} (10–25–75–90 %: {seconds(tr.t_narrow_q10_s)}, "
+        f"{seconds(tr.t_narrow_q25_s)}, {seconds(tr.t_narrow_q75_s)}, "
+        f"{seconds(tr.t_narrow_q90_s)}); it stays narrow to the end for {tr.n_narrow_stays} "
+        f"(from a median {seconds(tr.t_narrow_stays_median_s)}). Final interval covers the "
+        f"true risk for {_pct(tr.final_coverage)}; final |mean − p| {fmt(tr.final_mae)}. "
+        f"Update: median {fmt(tr.update_ms_median, 1)} ms, p95 {fmt(tr.update_ms_p95, 1)} ms "
+        "(parallel workers on a shared machine).",
+        "",
+    ]
 
 
 def av_human_markdown(comparison: AVHumanComparison, command: str) -> str:

@@ -10,6 +10,7 @@ and says which it dropped (:attr:`DistinctFiles.note`, for the command to print 
 from __future__ import annotations
 
 import hashlib
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,11 +34,22 @@ class DistinctFiles:
     (under any spelling: resolved paths, symbolic links)."""
     copies: tuple[tuple[Path, Path], ...] = ()
     """(a file, the kept file of the same bytes)."""
+    names: tuple[tuple[Path, ...], ...] = ()
+    """Per entry of :attr:`repeated`, the different names it was given under (a symbolic
+    link ``b.npz → a.npz``: both; ``a.npz`` and ``sub/../a.npz`` are one name)."""
 
     @property
     def note(self) -> str | None:
         """The line a command prints on stderr (None: nothing was dropped)."""
-        said = [f"{path} given {n} times" for path, n in self.repeated]
+        said = []
+        for i, (path, n) in enumerate(self.repeated):
+            names = self.names[i] if i < len(self.names) else (path,)
+            if len(names) > 1:  # a link: name every file that is this one
+                listed = ", ".join(map(str, names[:-1])) + f" and {names[-1]}"
+                more = f", given {n} times" if n > len(names) else ""
+                said.append(f"{listed} are one file (a link){more}")
+            else:
+                said.append(f"{path} given {n} times")
         said += [f"{path} has the content of {first}" for path, first in self.copies]
         if not said:
             return None
@@ -66,10 +78,12 @@ def distinct_files(paths: Sequence[str | Path]) -> DistinctFiles:
         The files to use and what was dropped.
     """
     given: dict[Path, tuple[Path, int]] = {}  # resolved → (as first given, times)
+    spelled: dict[Path, dict[str, Path]] = {}  # resolved → its names (lexically normalised)
     for p in map(Path, paths):
         real = p.resolve()
         first, n = given.get(real, (p, 0))
         given[real] = (first, n + 1)
+        spelled.setdefault(real, {}).setdefault(os.path.normpath(p.absolute()), p)
     sizes: dict[int, int] = {}
     for real in given:
         if real.is_file():
@@ -87,4 +101,5 @@ def distinct_files(paths: Sequence[str | Path]) -> DistinctFiles:
             by_content[digest] = path
         kept.append(path)
     repeated = tuple((path, n) for path, n in given.values() if n > 1)
-    return DistinctFiles(tuple(kept), repeated, tuple(copies))
+    names = tuple(tuple(spelled[real].values()) for real, (_, n) in given.items() if n > 1)
+    return DistinctFiles(tuple(kept), repeated, tuple(copies), names)

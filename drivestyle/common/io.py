@@ -15,9 +15,12 @@ half-written file, and never a temporary file or folder behind:
 
 Because a replaced folder is deleted, only folders that drivestyle wrote (they hold the
 marker file :data:`OUTPUT_MARKER`), empty folders and absent ones are replaced; a folder
-with other files is refused with a message, as are the working folder and a folder holding
-the run's own inputs. Outputs get ordinary permissions (files 0666, folders 0777, less the
-umask: 0644 and 0755 with the usual umask 022).
+with other files is refused with a message, as is the working folder. An output is never
+one of the run's own inputs, nor lies inside an input folder drivestyle wrote, nor (when
+replaced whole) holds an input: :func:`refuse_inputs`, the one rule every command's
+output check applies. A name the file system cannot hold is refused naming the option.
+Outputs get ordinary permissions (files 0666, folders 0777, less the umask: 0644 and 0755
+with the usual umask 022).
 
 One writer at a time: two runs into the same output would both report success while one
 run's output silently replaced the other's. So an output has a lock (:class:`OutputLock`:
@@ -37,6 +40,9 @@ naming the output and the holder's pid:
   start time, host) stays in the file, and the next writer takes over with a one-line
   notice naming the dead pid. A lock still held by a process other than the one recorded,
   whose recorded holder is gone (a leftover child of it), is taken over likewise;
+- nested outputs are one writer's too: a run whose output lies inside a folder another
+  live run is writing (an ancestor's lock file is held), or holds one (a lock file inside
+  it is held), is refused likewise: the outer run replaces its folder whole;
 - forked worker processes drop their copy of the lock's descriptor (a worker outliving a
   killed parent must not keep the output locked) and are no command of their own; Ray's
   workers are started by Ray, never forked from the command, and inherit nothing.
@@ -83,6 +89,7 @@ __all__ = [
     "lock_file",
     "output_lock",
     "read_json",
+    "refuse_inputs",
     "write_json",
     "write_text",
 ]
@@ -172,6 +179,48 @@ def _default(obj: Any) -> Any:
 
 def _reason(exc: OSError) -> str:
     return (exc.strerror or str(exc)).lower()
+
+
+NAME_ROOM = 32
+"""Bytes an output's name leaves for the names drivestyle makes of it: its lock file
+(``.NAME.drivestyle-lock``), its temporary folder or file (``.NAME.xxxxxxxx.partial``) and
+the previous output while it is swapped out (``.NAME.<pid>-<hex>.old``)."""
+
+
+def _short(name: str) -> str:
+    return name if len(name) <= 40 else f"{name[:20]}…{name[-12:]}"
+
+
+def _check_name(path: Path, option: str) -> None:
+    """Refuse an output path the file system cannot hold, before any system call fails on it.
+
+    A name longer than the file system takes failed as a raw ``[Errno 36] File name too
+    long`` on the first ``stat``; the output's own name must also leave :data:`NAME_ROOM`
+    bytes for its lock file and temporary names.
+    """
+    absolute = Path(os.path.abspath(path))
+    limit = 255
+    with contextlib.suppress(OSError, ValueError):
+        existing = absolute
+        while not os.path.isdir(existing) and existing != existing.parent:
+            existing = existing.parent
+        limit = os.pathconf(existing, "PC_NAME_MAX")
+    for part in absolute.parts[1:]:
+        size = len(os.fsencode(part))
+        own = part == absolute.name
+        if size > limit - (NAME_ROOM if own else 0):
+            most = (
+                f"an output's name may be at most {limit - NAME_ROOM} (the file system's "
+                f"{limit} less {NAME_ROOM} for its lock and temporary files)"
+                if own
+                else f"the file system takes at most {limit}"
+            )
+            raise OutputPathError(
+                f"{option} {_short(str(path))}: the name {_short(part)!r} is {size} bytes "
+                f"long; {most}"
+            )
+    if len(os.fsencode(str(absolute))) + NAME_ROOM > 4096:
+        raise OutputPathError(f"{option} {_short(str(path))}: the path is too long")
 
 
 def _probe(folder: Path, user: Path, option: str) -> None:
@@ -340,6 +389,47 @@ def _unlock(fd: int, file: Path) -> None:
     os.close(fd)
 
 
+def _live_holder(file: Path) -> int | None:
+    """The pid of another process holding the lock file ``file``, else None.
+
+    None: no one holds it, or this process does; 0: a holder whose record is unreadable.
+
+    A lock file left by a killed run is not held (the kernel released its ``flock``); this
+    process's own locks (:data:`_HELD`) do not count.
+    """
+    if not os.path.lexists(file):  # the usual case: no guard taken
+        return None
+    with _folder_guard(file.parent):  # never while a run takes it (its flock would fail)
+        try:
+            fd = os.open(file, os.O_RDONLY)
+        except OSError:
+            return None
+        try:
+            return _other_holder(fd)
+        finally:
+            os.close(fd)  # releases a shared flock taken
+
+
+def _other_holder(fd: int) -> int | None:
+    """:func:`_live_holder` of the open lock file ``fd``."""
+    held = os.fstat(fd)
+    for lock in _HELD:
+        if lock._fd is not None:
+            mine = os.fstat(lock._fd)
+            if (mine.st_dev, mine.st_ino) == (held.st_dev, held.st_ino):
+                return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        pid, started, host = _parse_holder(os.pread(fd, 256, 0).decode(errors="replace"))
+        if pid is not None and _holder_gone(pid, started, host):
+            return None
+        return pid if pid is not None else 0
+    except OSError:
+        return None
+    return None
+
+
 def _notice(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
@@ -435,7 +525,13 @@ class OutputLock:
                         _HELD.discard(self)
                         _unlock(fd, self.file)
                         raise
-                    return self
+                # taken first, judged second: of two runs nesting at once one sees the other
+                try:
+                    self._refuse_nested()
+                except BaseException:
+                    self.release()
+                    raise
+                return self
             except FileNotFoundError as exc:
                 if not folder.is_dir():  # removed by a run that had made it: make it again
                     continue
@@ -498,6 +594,45 @@ class OutputLock:
                 "without releasing it (killed?)"
             )
         return True
+
+    def _refuse_nested(self) -> None:
+        """Refuse when another live run writes a folder holding this output, or one inside it.
+
+        A run replaces its output folder as a whole: a run writing inside it would lose its
+        output, or make the outer run fail after its work (its folder then "holds files not
+        written by drivestyle"). The lock files of the output's ancestors, and those anywhere
+        inside an existing output folder, are looked at; one held by another process (not
+        this one's own locks) refuses this run.
+
+        Raises:
+            OutputInUseError: such a run is writing.
+        """
+        final = self.file.parent / self.file.name.removeprefix(".").removesuffix(LOCK_SUFFIX)
+        for ancestor in final.parents:
+            if ancestor == ancestor.parent:
+                break
+            pid = _live_holder(lock_file(ancestor))
+            if pid is not None:
+                raise OutputInUseError(
+                    f"{self.option} {self.path} lies inside {ancestor}, which another run "
+                    f"(pid {pid or 'unknown'}) is writing and will replace; wait for it to "
+                    f"finish or choose another {self.option}",
+                    pid,
+                )
+        if not final.is_dir():
+            return
+        for root, _, names in os.walk(final):
+            for name in names:
+                if name.startswith(".") and name.endswith(LOCK_SUFFIX):
+                    pid = _live_holder(Path(root) / name)
+                    if pid is not None:
+                        inner = Path(root) / name.removeprefix(".").removesuffix(LOCK_SUFFIX)
+                        raise OutputInUseError(
+                            f"{self.option} {self.path} holds {inner}, which another run "
+                            f"(pid {pid or 'unknown'}) is writing; wait for it to finish or "
+                            f"choose another {self.option}",
+                            pid,
+                        )
 
     def _make_folder(self) -> list[Path]:
         """Create the lock file's folder and its missing parents; those made, innermost first.
@@ -611,7 +746,9 @@ def output_lock(path: str | Path, option: str = "--out") -> Iterator[None]:
         yield
 
 
-def check_output_file(path: str | Path, option: str = "--out") -> Path:
+def check_output_file(
+    path: str | Path, option: str = "--out", *, inputs: Iterable[str | Path | None] = ()
+) -> Path:
     """Check, before the work, that a result file can be written at ``path``.
 
     In a command (:func:`command_outputs`), the file is then locked until the command ends
@@ -621,20 +758,88 @@ def check_output_file(path: str | Path, option: str = "--out") -> Path:
     Args:
         path: the output file (its missing parent folders will be created).
         option: the command-line option that named it, for messages.
+        inputs: the run's input files or folders (None entries are skipped): ``path`` must
+            not be one of them nor lie inside one (:func:`refuse_inputs`).
 
     Returns:
         ``path`` as a :class:`~pathlib.Path`.
 
     Raises:
         OutputInUseError: in a command, another run writes ``path``.
-        OutputPathError: ``path`` is a folder, or its folder cannot be written.
+        OutputPathError: ``path`` is a folder, an input or inside one, or its folder cannot
+            be written.
     """
     path = Path(path)
+    _check_name(path, option)
     if path.is_dir():
         raise OutputPathError(f"{option} {path} is a folder (expected a file name)")
     _probe(path.absolute().parent, path, option)
+    refuse_inputs(path, inputs, option)
     _lock_for_command(path, option)
     return path
+
+
+def refuse_inputs(
+    path: str | Path,
+    inputs: Iterable[str | Path | None],
+    option: str = "--out",
+    *,
+    replace: bool = True,
+) -> None:
+    """Refuse an output that is, holds or lies inside one of the run's inputs.
+
+    The one rule of every command that reads files and writes an output (called by
+    :func:`check_output_dir` and :func:`check_output_file`, before any work):
+
+    - the output *is* an input: writing it would overwrite what the run reads;
+    - the output folder *holds* an input: a run that replaces its folder as a whole
+      (``replace``) would delete it (a run that only adds its files, ``replace=False``,
+      may write beside its inputs: a style beside its demonstration);
+    - the output *lies inside* an input folder that a drivestyle run wrote (it holds
+      :data:`OUTPUT_MARKER`: episodes, demonstrations, a library, a mining run): the run
+      would write into what it reads, and the run that wrote the folder replaces it whole,
+      output and all. A folder of the user's own (a library folder that also holds the
+      runs made with it, the working folder) may hold outputs.
+
+    Paths are compared resolved (symbolic links, ``..``), so no spelling slips past.
+
+    Args:
+        path: the output file or folder, as the user gave it.
+        inputs: the run's input files and folders (None entries are skipped).
+        option: the command-line option that named the output, for messages.
+        replace: the run replaces the output folder as a whole.
+
+    Raises:
+        OutputPathError: the output and an input overlap.
+    """
+    final = _resolved(Path(path), option)
+    for item in inputs:
+        if item is None:
+            continue
+        source = _resolved(Path(item), option)
+        if source == final:
+            raise OutputPathError(
+                f"{option} {path} is the input {item}: the run would write over what it "
+                f"reads; choose another {option}"
+            )
+        if final in source.parents and replace:
+            raise OutputPathError(
+                f"{option} {path} holds the input {item}, which the run would replace; "
+                f"choose another {option}"
+            )
+        if source in final.parents and (source / OUTPUT_MARKER).is_file():
+            raise OutputPathError(
+                f"{option} {path} lies inside the input {item}, which the run reads (and "
+                f"the run that wrote it replaces whole); choose an {option} outside it"
+            )
+
+
+def _resolved(path: Path, option: str) -> Path:
+    """``path`` resolved; a path the system cannot resolve (a name too long) is refused."""
+    try:
+        return path.resolve()
+    except OSError as exc:
+        raise OutputPathError(f"{option} {path}: {_reason(exc)}") from None
 
 
 def check_output_dir(
@@ -654,24 +859,28 @@ def check_output_dir(
         option: the command-line option that named it, for messages.
         replace: the run replaces the folder as a whole (:func:`atomic_output_dir`); False:
             it writes files into it and keeps the others.
-        inputs: the run's input files or folders (None entries are skipped): a folder that
-            holds one of them is not replaced.
+        inputs: the run's input files or folders (None entries are skipped): ``path`` must
+            not be one of them, lie inside one, nor (``replace``) hold one
+            (:func:`refuse_inputs`).
 
     Returns:
         ``path`` as a :class:`~pathlib.Path`.
 
     Raises:
         OutputInUseError: in a command, another run writes ``path``.
-        OutputPathError: ``path`` is a file, cannot be written, or (``replace``) holds files
-            not written by drivestyle, the working folder or an input.
+        OutputPathError: ``path`` is a file, cannot be written, is or lies inside an input,
+            or (``replace``) holds files not written by drivestyle, the working folder or an
+            input.
     """
     path = Path(path)
+    _check_name(path, option)
     if path.exists() and not path.is_dir():
         raise OutputPathError(f"{option} {path} exists and is not a folder")
     final = path.resolve()
     _probe(final.parent, path, option)  # the temporary folder is made there
     if final.is_dir():
         _probe(final, path, option)  # its old files are deleted or new ones moved in
+    refuse_inputs(path, inputs, option, replace=replace)
     # before judging the folder's content, which another writer may be about to replace
     _lock_for_command(path, option)
     if not replace or not final.is_dir():
@@ -682,14 +891,6 @@ def check_output_dir(
             f"{option} {path} holds the working folder, which the run would replace; "
             "choose a subfolder"
         )
-    for item in inputs:
-        if item is not None:
-            source = Path(item).resolve()
-            if source == final or final in source.parents:
-                raise OutputPathError(
-                    f"{option} {path} holds the input {item}, which the run would replace; "
-                    "choose another folder"
-                )
     if any(final.iterdir()) and not (final / OUTPUT_MARKER).is_file():
         raise OutputPathError(
             f"{option} {path} holds files not written by drivestyle, which the run would "

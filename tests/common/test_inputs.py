@@ -19,8 +19,8 @@ def test_the_same_file_or_content_counts_once_in_the_given_order(tmp_path):
     assert files.repeated == ((a, 3), (b, 2))
     assert files.copies == ((c, a),)
     assert files.note == (
-        f"note: each demonstration counts once: {a} given 3 times; {b} given 2 times; "
-        f"{c} has the content of {a}"
+        f"note: each demonstration counts once: {a} and {link} are one file (a link), given "
+        f"3 times; {b} given 2 times; {c} has the content of {a}"
     )
     assert distinct_files([a, b]).note is None
 
@@ -34,3 +34,15 @@ def test_a_long_note_names_the_first_few(tmp_path):
     assert files.kept == (first,) and len(files.copies) == 8
     assert files.note.count("has the content of") == NOTE_LISTS
     assert files.note.endswith("; … (8 in all)")
+
+
+def test_a_link_names_every_file_that_is_the_same(tmp_path):
+    a = tmp_path / "a.npz"
+    a.write_bytes(b"a")
+    (tmp_path / "b.npz").symlink_to("a.npz")
+    found = distinct_files([a, tmp_path / "b.npz", tmp_path / "x" / ".." / "a.npz"])
+    assert found.kept == (a,)
+    assert found.note == (
+        f"note: each demonstration counts once: {a} and {tmp_path / 'b.npz'} are one file "
+        "(a link), given 3 times"
+    )

@@ -185,6 +185,42 @@ def test_the_working_folder_and_inputs_are_not_replaced(tmp_path, monkeypatch):
         check_output_dir(Path("."))
 
 
+def test_an_output_that_is_holds_or_lies_inside_an_input_is_refused(tmp_path):
+    # one rule for every command (refuse_inputs, called by check_output_dir and _file)
+    data = tmp_path / "episodes"
+    data.mkdir()
+    (data / "a.npz").write_bytes(b"x")
+    (data / OUTPUT_MARKER).write_text("")  # an earlier run's output: it would be replaced
+    with pytest.raises(OutputPathError, match=r"holds the input .*a\.npz, which the run would"):
+        check_output_dir(data, inputs=[data / "a.npz"])
+    with pytest.raises(OutputPathError, match="is the input"):
+        check_output_dir(data, replace=False, inputs=[data])
+    with pytest.raises(OutputPathError, match="lies inside the input"):
+        check_output_dir(data / "sub", replace=False, inputs=[data])
+    with pytest.raises(OutputPathError, match="lies inside the input"):
+        check_output_file(data / "bench.json", inputs=[data])
+    with pytest.raises(OutputPathError, match=r"--video .* is the input"):
+        check_output_file(data / "a.npz", "--video", inputs=[data / "a.npz"])
+    link = tmp_path / "link"
+    link.symlink_to(data)
+    with pytest.raises(OutputPathError, match="lies inside the input"):
+        check_output_dir(link / "sub", inputs=[data])  # any spelling
+    check_output_dir(data, replace=False, inputs=[data / "a.npz"])  # adds files beside it
+    check_output_dir(tmp_path / "x", inputs=[tmp_path])  # the user's folder, not drivestyle's
+    check_output_dir(tmp_path / "out", inputs=[data, data / "a.npz", None])
+    assert sorted(p.name for p in data.iterdir()) == [OUTPUT_MARKER, "a.npz"]
+
+
+def test_an_output_name_too_long_for_the_file_system_is_named(tmp_path):
+    for check in (check_output_dir, check_output_file):
+        with pytest.raises(OutputPathError, match=r"^--out .*: the name 'a{20}…a{12}' is 300 "):
+            check(tmp_path / ("a" * 300))
+        with pytest.raises(OutputPathError, match="is 250 bytes long; an output's name may be"):
+            check(tmp_path / ("b" * 250))  # no room for its lock file
+        with pytest.raises(OutputPathError, match="is 300 bytes long; the file system takes"):
+            check(tmp_path / ("c" * 300) / "out")
+
+
 # ------------------------------------------------------------ checked before the work
 def test_an_unwritable_output_folder_is_named_before_the_work():
     root = _unwritable()

@@ -88,6 +88,11 @@ ROWS = [_ok("AV-02-E_4_35217018"), _ok("AV-03-W_3_35208176"), _ok("AV-04-W_2_354
         pytest.param(_set("risk_mean", "7.5"),
                      r"row 2 \(line 3\) \(id AV-03-W_3_35208176\): risk_mean 7\.5 is not a risk "
                      r"in \(0, 1\)", id="risk-out-of-range"),
+        # before: accepted; a posterior with 90 % of its mass in [0.55, 0.9] has its mean
+        # in [0.495, 0.91]
+        pytest.param(_set("risk_mean", "0.3"),
+                     r"row 2 \(line 3\) \(id AV-03-W_3_35208176\): risk_mean 0\.3 lies outside "
+                     r"its own interval \[0\.55, 0\.9\] \(risk_lo, risk_hi\)", id="mean-outside"),
         pytest.param(_set("risk_lo", "banana"),
                      r"row 2 \(line 3\) \(id AV-03-W_3_35208176\), column risk_lo: 'banana' is "
                      r"not a number", id="not-a-number"),
@@ -109,6 +114,75 @@ def test_a_damaged_styles_table_is_one_error_naming_row_column_and_value(
     line = _refused(refused, tmp_path, "--mined", mined)
     assert line.startswith(f"error: {mined / 'styles.csv'}, row "), line
     assert re.search(said, line), line
+
+
+def _header(edit):
+    """An edit of the header line and every row alike (a spreadsheet's reshuffle)."""
+
+    def apply(text: str) -> str:
+        rows = list(csv.reader(io.StringIO(text)))
+        out = io.StringIO()
+        csv.writer(out, lineterminator="\n").writerows(edit(r) for r in rows)
+        return out.getvalue()
+
+    return apply
+
+
+@pytest.mark.parametrize(
+    ("edit", "said"),
+    [
+        pytest.param(_header(lambda r: [*r, "extra" if r[0] == "id" else "1"]),
+                     f"column 'extra' (column {len(COLUMNS) + 1}) is not a column of a "
+                     "styles.csv", id="extra-column"),
+        pytest.param(_header(lambda r: r[::-1]),
+                     f"column {COLUMNS[-1]} is out of place: column 1 of a styles.csv is id "
+                     "(its columns in order: id, source, status, …)", id="reordered"),
+        pytest.param(_header(lambda r: r[:5] + r[6:]),
+                     f"no column {COLUMNS[5]} (a styles.csv has it as column 6)",
+                     id="missing-column"),
+    ],
+)  # fmt: skip
+def test_a_styles_header_names_the_column_unexpected_missing_or_out_of_place(
+    tmp_path, refused, edit, said
+):
+    # before: "is not a styles.csv of mine-styles (its columns: …)", the column unnamed
+    mined = _mined(tmp_path / "mined", ROWS, edit)
+    line = _refused(refused, tmp_path, "--mined", mined)
+    assert line == f"error: {mined / 'styles.csv'}: {said}", line
+
+
+@needs_cats
+def test_a_styles_table_saved_with_a_byte_order_mark_is_read(tmp_path):
+    # before: "no column id (a mine-styles table?)": the mark glued to the first column
+    mined = _mined(tmp_path / "mined", ROWS, lambda t: "\ufeff" + t)
+    run = run_command(tmp_path, "compare-av-human", "--mined", mined, "--data-dir", DATA,
+                      "--samples", "50", "--out", tmp_path / "out")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "error" not in run.stderr
+
+
+@needs_cats
+def test_rows_of_no_cats_lane_change_are_counted_in_a_note(tmp_path):
+    # before: only "… CATS lane changes have no ok row": the ignored rows went unsaid
+    mined = _mined(tmp_path / "mined", [*ROWS, _ok("zz_1"), _ok("zz_2")])
+    run = run_command(tmp_path, "compare-av-human", "--mined", mined, "--data-dir", DATA,
+                      "--samples", "50", "--out", tmp_path / "out")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    notes = [line for line in run.stderr.splitlines() if line.startswith("note: ")]
+    assert notes[1:] == [
+        f"note: 2 of the 5 ok rows of {mined / 'styles.csv'} match no CATS lane change (e.g. "
+        "zz_1, zz_2): they are ignored"
+    ], run.stderr
+
+
+def test_a_missing_default_data_dir_names_the_option_and_its_default(tmp_path, refused):
+    # before: "../shared/data/cats-av-lanechange/tracks.csv.gz: no such file"
+    line = refused("compare-av-human", "--out", "out")
+    assert line == (
+        f"--data-dir ../shared/data (the default, relative to the working folder {tmp_path}): "
+        "no cats-av-lanechange/ folder; pass --data-dir with the folder holding "
+        "cats-av-lanechange/"
+    )
 
 
 def test_a_header_only_run_is_an_error_not_a_table_of_not_mined(tmp_path, refused):

@@ -108,3 +108,32 @@ def test_a_killed_writer_leaves_the_output_to_the_next_run(tmp_path, sig):
         ]
     assert (_population(out)["seed"], _population(out)["n"]) == (1, 1)
     assert not lock_file(out).exists()
+
+
+def test_a_run_into_a_folder_inside_or_around_a_running_ones_output_is_refused(tmp_path):
+    # nested outputs: the outer run replaces its folder as a whole, so a run writing inside
+    # it (or around it) would be lost, or make the outer run fail after its work
+    out = tmp_path / "nest"
+    first = _start_holding(out)
+    os.kill(first.pid, signal.SIGSTOP)
+    try:
+        inner = _run(out / "sub", vehicles=1, seed=1)
+        outer = _run(tmp_path, vehicles=1, seed=1)  # the folder holding the running output
+        beside = _run(tmp_path / "other", vehicles=1, seed=1)
+    finally:
+        os.kill(first.pid, signal.SIGCONT)
+    assert inner.returncode == 2, inner.stderr
+    assert inner.stderr.strip().splitlines() == [
+        f"error: --out {out / 'sub'} lies inside {out}, which another run (pid {first.pid}) is "
+        "writing and will replace; wait for it to finish or choose another --out"
+    ]
+    assert outer.returncode == 2, outer.stderr
+    assert outer.stderr.strip().splitlines() == [
+        f"error: --out {tmp_path} holds {out}, which another run (pid {first.pid}) is writing; "
+        "wait for it to finish or choose another --out"
+    ]
+    assert beside.returncode == 0, beside.stderr[-2000:]  # a sibling is no one's
+    _, err = first.communicate(timeout=300)
+    assert first.returncode == 0, err[-2000:]
+    assert _population(out)["n"] == 3 and not (out / "sub").exists()
+    assert not lock_file(out / "sub").exists() and not lock_file(out).exists()

@@ -336,6 +336,24 @@ def test_a_byte_copy_is_mined_once_and_said(lib, tmp_path):
     assert summary["n"] == 2
 
 
+@pytest.mark.slow  # a command in its own process (≈ 2 s)
+def test_a_linked_demonstration_names_both_files(lib, tmp_path):
+    # before: "a.npz given 2 times", b.npz (a link to it) never named
+    from cli_runner import run_command
+
+    inp = _unminable(tmp_path / "in", ["a"])
+    (inp / "b.npz").symlink_to("a.npz")
+    run = run_command(tmp_path, "mine-styles", inp, "--library", lib, "--out", "mined",
+                      "--workers", "1")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    notes = [line for line in run.stderr.splitlines() if line.startswith("note: ")]
+    assert notes == [
+        f"note: each demonstration counts once: {inp / 'a.npz'} and {inp / 'b.npz'} are one "
+        "file (a link)"
+    ]
+    assert [r["id"] for r in _table(tmp_path / "mined")] == ["a"]
+
+
 def test_ctrl_c_keeps_the_finished_rows_and_says_how_to_resume(tmp_path, paper_demo):
     # before: "interrupted: unfinished output was discarded", while the rows were kept
     import signal

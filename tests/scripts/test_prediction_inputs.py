@@ -97,6 +97,98 @@ def test_a_missing_malformed_or_foreign_split_file_is_named_by_its_option(
     assert line == (expected if expected.startswith("--") else f"--split-file {expected}"), line
 
 
+def _episodes(folder: Path, paper_demo, episodes: list[tuple[str, int]]) -> Path:
+    """A folder as extract-episodes writes it: (episode id, vehicle id) per episode."""
+    from dataclasses import replace
+
+    from drivestyle.envs.demonstration import save_demonstration
+
+    folder.mkdir()
+    meta = {k: v for k, v in paper_demo.meta.items() if k not in ("risk", "smpc")}
+    lines = ["episode_id,file,carriageway,vehicle_id,usable"]
+    for i, (episode, vehicle) in enumerate(episodes):
+        others = paper_demo.tv[:, None, :].copy()
+        others[:, 0, 0] += 30.0 + 5 * i  # a leader in the target lane
+        demo = replace(paper_demo, others=others, meta={**meta, "episode_id": episode})
+        save_demonstration(demo, folder / f"{episode}.npz")
+        lines.append(f"{episode},{episode}.npz,r,{vehicle},True")
+    (folder / "episodes.csv").write_text("\n".join(lines) + "\n")
+    return folder
+
+
+def _split(path: Path, rows: list[tuple[str, str, str]]) -> Path:
+    path.write_text("dataset,episode_id,vehicle_id,split\n"
+                    + "".join(f"episodes,{e},{v},{s}\n" for e, v, s in rows))  # fmt: skip
+    return path
+
+
+def test_a_split_file_that_leaks_a_vehicle_across_splits_is_refused(
+    tmp_path, library, refused, paper_demo
+):
+    # before: accepted, the vehicle's second episode judged on a split it was tuned on
+    eps = _episodes(tmp_path / "eps", paper_demo, [("r_0_1000", 0), ("r_0_2000", 0),
+                                                   ("r_1_1000", 1)])  # fmt: skip
+    leak = _split(tmp_path / "leak.csv", [("r_0_1000", "r:0", "train"),
+                                          ("r_0_2000", "r:0", "validation"),
+                                          ("r_1_1000", "r:1", "validation")])  # fmt: skip
+    said = refused("evaluate-prediction", "--library", library, "--episodes", eps,
+                   "--split-file", leak, "--observe", 2, "--out", "out")  # fmt: skip
+    assert said == (
+        f"{leak}: vehicle r:0 is in more than one split: train (row 1); validation (row 2); a "
+        "vehicle's episodes belong to one split, else the benchmark judges it on what it was "
+        "tuned on"
+    )
+
+
+def test_a_split_row_whose_vehicle_is_not_its_episodes_is_refused_naming_the_row(
+    tmp_path, library, refused, paper_demo
+):
+    eps = _episodes(tmp_path / "eps", paper_demo, [("r_0_1000", 0), ("r_1_1000", 1)])
+    wrong = _split(tmp_path / "vehsplit.csv", [("r_0_1000", "r:0", "validation"),
+                                               ("r_1_1000", "r:0", "validation")])  # fmt: skip
+    said = refused("evaluate-prediction", "--library", library, "--episodes", eps,
+                   "--split-file", wrong, "--observe", 2, "--out", "out")  # fmt: skip
+    assert said == (
+        f"{wrong}, row 2: column vehicle_id r:0 is not the vehicle of episode r_1_1000 (r:1); "
+        "was the split written for another extraction?"
+    )
+
+
+def test_split_rows_of_episodes_the_folder_lacks_are_noted_with_their_count(
+    tmp_path, library, paper_demo
+):
+    from cli_runner import run_command
+
+    eps = _episodes(tmp_path / "eps", paper_demo, [("r_0_1000", 0), ("r_1_1000", 1)])
+    more = _split(tmp_path / "unknown.csv", [("nonexistent_1_1000", "x:1", "validation"),
+                                             ("r_0_1000", "r:0", "validation"),
+                                             ("r_1_1000", "r:1", "validation")])  # fmt: skip
+    # --observe 50: refused once the episodes are read, after the note (no rollout needed)
+    done = run_command(tmp_path, "evaluate-prediction", "--library", library, "--episodes", eps,
+                       "--split-file", more, "--observe", 50, "--out", "out")  # fmt: skip
+    assert done.returncode == 2, done.stderr[-3000:]
+    note, error = done.stderr.strip().splitlines()
+    assert note == (
+        f"note: {more}: 1 of its 3 rows name episodes {eps} does not hold (e.g. "
+        "nonexistent_1_1000); they are not used"
+    )
+    assert error.startswith("error: observed time(s) 50 s: no vehicle of this run lasts")
+
+
+def test_contradicting_data_options_are_refused(tmp_path, library, refused, paper_demo):
+    # before: --data-dir was ignored, the run read --episodes (or nothing) instead
+    eps = _episodes(tmp_path / "eps", paper_demo, [("r_0_1000", 0)])
+    said = refused("evaluate-prediction", "--library", library, "--episodes", eps,
+                   "--data-dir", "nonexist", "--out", "out")  # fmt: skip
+    assert said == (
+        "--data-dir nonexist and --episodes contradict: --episodes benchmarks its folder "
+        "instead of the shipped samples; drop one or the other"
+    )
+    said = refused("evaluate-prediction", "--library", library, "--no-recorded",
+                   "--data-dir", "nonexist", "--out", "out")  # fmt: skip
+    assert said.startswith("--data-dir nonexist and --no-recorded contradict")
+
+
 def test_a_split_file_with_a_byte_order_mark_is_read(tmp_path):
     bom = tmp_path / "split.csv"
     bom.write_text(SPLIT_FILE.read_text(), encoding="utf-8-sig")  # as a spreadsheet saves UTF-8
@@ -143,6 +235,15 @@ def test_out_of_class_checks_its_risks_range_first_then_their_number(
         "--risks: the SMPC variants need at least two distinct risks to order, got 0.7 (or "
         "--scenarios 0: no SMPC variants)"
     )
+
+
+def test_out_of_class_refuses_prediction_options_with_no_prediction(library, refused):
+    # before: --observe was ignored and the long run started
+    assert _out_of_class(refused, library, "--no-prediction", "--observe", "2") == (
+        "--observe applies to the prediction, which --no-prediction skips; drop one or the other"
+    )
+    said = _out_of_class(refused, library, "--no-prediction", "--observe", "2", "--physics", "p")
+    assert said.startswith("--observe and --physics apply to the prediction")
 
 
 @pytest.mark.parametrize(
@@ -225,11 +326,11 @@ def test_learn_population_reads_its_split_file_through_the_same_checks(tmp_path,
     path = tmp_path / "split.csv"
     write_split([r for r in read_split(SPLIT_FILE) if r.split == "test"], path)
     said = refused("learn-population", "--library", library, "--split-file", path,
-                   "--data-dir", tmp_path, "--out", "people")  # fmt: skip
+                   "--data-dir", tmp_path / "data", "--out", "people")  # fmt: skip
     assert said.startswith(f"--split-file {path}: no train episode (the split holds cats: test ")
     path.write_text("dataset,episode_id,vehicle_id,split\ncats,e1,cats:AV:3,training\n")
     said = refused("learn-population", "--library", library, "--split-file", path,
-                   "--data-dir", tmp_path, "--out", "people")  # fmt: skip
+                   "--data-dir", tmp_path / "data", "--out", "people")  # fmt: skip
     assert said == (
         f"--split-file {path}, row 1 (line 2) is malformed: column split 'training' is none of "
         "train, validation, test"

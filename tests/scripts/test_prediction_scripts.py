@@ -306,6 +306,10 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
         for m, fde in rec["fde_m"].items():
             assert fde == pytest.approx(pred.methods[m].fde_m, abs=1e-9), m
     assert not (out / "split.csv").exists()  # --split all: no split was made
+    # no simulated vehicles: no empty section of them ("0 vehicles … never") and no bar
+    assert "Online identification" not in (out / "report.md").read_text()
+    assert "Online identification" not in run.stdout
+    assert "simulated vehicles" not in run.stderr and "recorded vehicles" in run.stderr
 
 
 def test_evaluate_prediction_splits_an_episodes_folder_by_vehicle(files, paper_demo, tmp_path):
