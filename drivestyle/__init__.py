@@ -8,7 +8,7 @@ One installable root with four layers, each importing only those before it:
 - :mod:`drivestyle.irl`: learning styles from trajectories (splines, features, ME-IRL,
   style libraries, identification, the learned reward);
 - :mod:`drivestyle.agents`: drivers (the SMPC expert, SB3 policies) and
-  :mod:`drivestyle.agents.studies`, the evaluations that combine them;
+  :mod:`drivestyle.studies`, the evaluations that combine them;
 - :mod:`drivestyle.scripts`: the command-line entry points (``drivestyle --help``).
 
 Importing ``drivestyle`` registers the Gymnasium ids (``drivestyle/LaneChange-v0`` and

@@ -1,6 +1,6 @@
 r"""Benchmark mining a simulated population: throughput, scaling, Ray's overhead, per-demo cost.
 
-Simulates N vehicles (``drivestyle.agents.studies.population``), or takes a folder of
+Simulates N vehicles (``drivestyle.studies.population``), or takes a folder of
 demonstrations (``--demos``), then mines them (with a driver library — the default model — or
 a paper-model one) once per ``--runs`` entry — by default the local engine with 1 worker and
 with 2, and Ray with 2 actors; ``--runs ray:1,ray:2`` is the scale-out check — the workers
@@ -32,13 +32,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from drivestyle.agents.studies.population import simulate_population
 from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import StyleLibrary, load_any_library
 from drivestyle.irl.mining import mine
+from drivestyle.studies.population import simulate_population
 
 TARGET_VEHICLES = 110_000
 """A drone-recorded highway dataset's size (the issue's scale)."""

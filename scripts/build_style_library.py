@@ -35,7 +35,6 @@ from drivestyle.agents.demo_generation import (
     generate_demonstration,
     generate_demonstrations,
 )
-from drivestyle.agents.studies.figures import plot_theta_vs_risk
 from drivestyle.common.cli import HelpFormatter, count, risk_list, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
@@ -43,6 +42,7 @@ from drivestyle.envs.tracking import observe
 from drivestyle.irl.driver_style import RISK_RANGE
 from drivestyle.irl.identification import calibrate_temperature
 from drivestyle.irl.library import LibraryError, learn_driver_library, learn_library
+from drivestyle.studies.figures import plot_theta_vs_risk
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -17,10 +17,10 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.calibration import uncertainty_scan
-from drivestyle.agents.studies.figures import plot_risk_sweep
 from drivestyle.common.cli import HelpFormatter, positive_list, risk_list, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.studies.calibration import uncertainty_scan
+from drivestyle.studies.figures import plot_risk_sweep
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -5,7 +5,7 @@ model are fitted directly to the reproductions of K training demonstrations (Nel
 and learned by their learners (ME-IRL, ``learn_driver``), then scored in-sample and on
 held-out scenarios (median rmse_y and rmse_xy). Writes ``OUT/capacity.json`` and
 ``OUT/capacity.md`` and prints the table (RESULTS §10;
-``drivestyle.agents.studies.capacity``).
+``drivestyle.studies.capacity``).
 
 Example:
     python scripts/capacity_study.py --risks 0.6,0.9 --train 5 --test 4 --out runs/capacity
@@ -17,8 +17,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.capacity import RiskCapacity, capacity_study
-from drivestyle.agents.studies.reports import capacity_markdown, seconds
 from drivestyle.common.cli import HelpFormatter, count, risk_list, run_cli, workers
 from drivestyle.common.io import (
     atomic_output_dir,
@@ -27,6 +25,8 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.studies.capacity import RiskCapacity, capacity_study
+from drivestyle.studies.reports import capacity_markdown, seconds
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -28,9 +28,6 @@ from pathlib import Path
 from tqdm import tqdm
 
 from drivestyle.agents import SMPCConfig, generate_demonstration
-from drivestyle.agents.studies.compare import LABELS, compare_methods, heldout_comparison
-from drivestyle.agents.studies.figures import plot_comparison, plot_heldout
-from drivestyle.agents.studies.reports import comparison_markdown
 from drivestyle.common.cli import HelpFormatter, count, risk_value, run_cli, seed
 from drivestyle.common.io import (
     atomic_output_dir,
@@ -43,6 +40,9 @@ from drivestyle.common.io import (
 from drivestyle.envs import load_demonstration
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.style import Style, StyleError, load_style
+from drivestyle.studies.compare import LABELS, compare_methods, heldout_comparison
+from drivestyle.studies.figures import plot_comparison, plot_heldout
+from drivestyle.studies.reports import comparison_markdown
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -19,7 +19,6 @@ import sys
 from pathlib import Path
 
 from drivestyle.agents.demo_generation import generate_demonstration
-from drivestyle.agents.studies.deviation import deviating_tv_study, write_videos
 from drivestyle.common.cli import (
     HelpFormatter,
     finite_float,
@@ -32,6 +31,7 @@ from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.lane_change import TVDeviation
 from drivestyle.irl.style import load_style
+from drivestyle.studies.deviation import deviating_tv_study, write_videos
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

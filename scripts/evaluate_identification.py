@@ -39,26 +39,6 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
-from drivestyle.agents.studies.ceiling import identification_references
-from drivestyle.agents.studies.figures import (
-    plot_confusion,
-    plot_noise_curve,
-    plot_population,
-    plot_theta_vs_risk,
-)
-from drivestyle.agents.studies.identification import (
-    Evaluation,
-    continuous_demonstrations,
-    draw_continuous_risks,
-    evaluate_identification,
-    noise_curve_json,
-)
-from drivestyle.agents.studies.reports import (
-    driver_evaluation_markdown,
-    evaluation_markdown,
-    noise_markdown,
-    references_markdown,
-)
 from drivestyle.common.cli import (
     HelpFormatter,
     count,
@@ -72,6 +52,26 @@ from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
 from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary, load_any_library
+from drivestyle.studies.ceiling import identification_references
+from drivestyle.studies.figures import (
+    plot_confusion,
+    plot_noise_curve,
+    plot_population,
+    plot_theta_vs_risk,
+)
+from drivestyle.studies.identification import (
+    Evaluation,
+    continuous_demonstrations,
+    draw_continuous_risks,
+    evaluate_identification,
+    noise_curve_json,
+)
+from drivestyle.studies.reports import (
+    driver_evaluation_markdown,
+    evaluation_markdown,
+    noise_markdown,
+    references_markdown,
+)
 
 DRIVER = "driver"
 """The name a driver library is evaluated and reported under."""

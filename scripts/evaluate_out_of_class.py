@@ -1,7 +1,7 @@
 r"""Identify and predict drivers outside the style class whose caution order is known.
 
 Simulates highway-env 1.12 traffic of four IDM + MOBIL driver classes of increasing
-caution (agents/studies/out_of_class.py, ``HIGHWAY_CLASSES``) on a straight three-lane
+caution (studies/out_of_class.py, ``HIGHWAY_CLASSES``) on a straight three-lane
 road, recorded at 10 Hz and extracted like recorded traffic, until each class has
 ``--per-class`` lane changes (at most ``--max-runs`` runs); generates SMPC drivers of
 another horizon, TV uncertainty and weights at the ``--risks`` in ``--scenarios``
@@ -24,9 +24,6 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.out_of_class import StudyConfig, run_study, vehicle_spans
-from drivestyle.agents.studies.prediction import PHYSICS_FILE, check_observed_times
-from drivestyle.agents.studies.reports import out_of_class_markdown
 from drivestyle.common.cli import (
     HelpFormatter,
     count,
@@ -45,6 +42,9 @@ from drivestyle.common.io import (
 )
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import load_params
+from drivestyle.studies.out_of_class import StudyConfig, run_study, vehicle_spans
+from drivestyle.studies.prediction import PHYSICS_FILE, check_observed_times
+from drivestyle.studies.reports import out_of_class_markdown
 
 _D = StudyConfig()
 SMPC_RISKS = (0.5, 1.0)
@@ -118,7 +118,7 @@ def _config(args: argparse.Namespace) -> StudyConfig:
     """The study's configuration, every option checked (before any output or simulation).
 
     The observed times by the prediction study's one rule
-    (:func:`~drivestyle.agents.studies.prediction.check_observed_times`) against this run's
+    (:func:`~drivestyle.studies.prediction.check_observed_times`) against this run's
     lane changes; a repeated risk or time counts once, and a note says so.
     """
     if args.no_highway and args.scenarios == 0:

@@ -10,7 +10,7 @@ simulated vehicle's risk online over its whole demonstration. Writes
 met or missed, the online identification; with the command), ``OUT/report.md``,
 ``OUT/fde_by_method.png``, ``OUT/posterior_over_time.png`` and ``OUT/example_prediction.png``
 (the simulated prediction at t_obs = 2 s with the median gain of the mode over CV).
-The study is agents/studies/prediction.py; its validation seed is 19000 (tests, choices),
+The study is studies/prediction.py; its validation seed is 19000 (tests, choices),
 the reported test seed 19001 (the default).
 
 The recorded episodes are the benchmark's ``--split`` (drivestyle/data/benchmark_split.csv,
@@ -47,12 +47,32 @@ from typing import Any
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.figures import (
+from drivestyle.common.cli import (
+    HelpFormatter,
+    count,
+    distinct,
+    float_list,
+    for_option,
+    run_cli,
+    seed,
+    workers,
+)
+from drivestyle.common.io import (
+    atomic_output_dir,
+    check_output_dir,
+    command_line,
+    write_json,
+    write_text,
+)
+from drivestyle.envs.real_data import check_data_dir
+from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.physics import PhysicsParams, load_params, save_params
+from drivestyle.studies.figures import (
     plot_posterior_over_time,
     plot_prediction,
     plot_prediction_errors,
 )
-from drivestyle.agents.studies.prediction import (
+from drivestyle.studies.prediction import (
     DATASETS,
     DEFAULT_DATA_DIR,
     PHYSICS_FILE,
@@ -74,27 +94,7 @@ from drivestyle.agents.studies.prediction import (
     spanning_tracks,
     write_split,
 )
-from drivestyle.agents.studies.reports import prediction_markdown
-from drivestyle.common.cli import (
-    HelpFormatter,
-    count,
-    distinct,
-    float_list,
-    for_option,
-    run_cli,
-    seed,
-    workers,
-)
-from drivestyle.common.io import (
-    atomic_output_dir,
-    check_output_dir,
-    command_line,
-    write_json,
-    write_text,
-)
-from drivestyle.envs.real_data import check_data_dir
-from drivestyle.irl.library import load_driver_library
-from drivestyle.irl.physics import PhysicsParams, load_params, save_params
+from drivestyle.studies.reports import prediction_markdown
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

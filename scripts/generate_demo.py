@@ -17,8 +17,6 @@ from pathlib import Path
 
 from drivestyle.agents import SMPCConfig, generate_demonstration
 from drivestyle.agents.demo_generation import TRAFFIC_VEHICLES, generate_traffic_demonstration
-from drivestyle.agents.studies.figures import plot_demonstration
-from drivestyle.agents.studies.reports import seconds
 from drivestyle.common.cli import (
     HelpFormatter,
     finite_float,
@@ -31,6 +29,8 @@ from drivestyle.common.cli import (
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC
+from drivestyle.studies.figures import plot_demonstration
+from drivestyle.studies.reports import seconds
 
 TRAFFIC_CHOICES = ("traffic", "traffic-random")
 

@@ -204,7 +204,7 @@ def _plot(
     path: Path,
 ) -> None:
     """identify.png: posterior and prior, and the reproduction at the identified risk."""
-    from drivestyle.agents.studies.figures import plot_identification  # matplotlib: on demand
+    from drivestyle.studies.figures import plot_identification  # matplotlib: on demand
 
     reproductions: list[Reproduction | None] = []
     for demo in demos:

@@ -25,7 +25,11 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.population_style import (
+from drivestyle.common.cli import HelpFormatter, for_option, positive_int, run_cli
+from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.irl.driver_learning import DriverFit
+from drivestyle.irl.library import load_driver_library
+from drivestyle.studies.population_style import (
     OBJECTIVES,
     ClosedLoopFit,
     PopulationSettings,
@@ -34,17 +38,13 @@ from drivestyle.agents.studies.population_style import (
     population_library,
     split_demos,
 )
-from drivestyle.agents.studies.prediction import (
+from drivestyle.studies.prediction import (
     DEFAULT_DATA_DIR,
     SPLIT_FILE,
     SPLITS,
     check_split_selects,
     read_split,
 )
-from drivestyle.common.cli import HelpFormatter, for_option, positive_int, run_cli
-from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.irl.driver_learning import DriverFit
-from drivestyle.irl.library import load_driver_library
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -43,7 +43,6 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from drivestyle.agents.studies.figures import plot_lateral, plot_reproductions
 from drivestyle.common.cli import HelpFormatter, positive_float, positive_int, run_cli
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
@@ -63,6 +62,7 @@ from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnabl
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.style import fit_style, locate_demos
+from drivestyle.studies.figures import plot_lateral, plot_reproductions
 
 EXIT_POOR_FIT = 3
 """Exit status when the driver model's fit is ``poor_fit`` (``style.json`` is written)."""

@@ -38,7 +38,6 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.figures import plot_population
 from drivestyle.common.cli import HelpFormatter, Interrupted, positive_float, run_cli, workers
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import check_output_dir, write_json
@@ -54,6 +53,7 @@ from drivestyle.irl.mining import (
     summary_numbers,
 )
 from drivestyle.irl.mining_output import MiningOutput, RunFingerprint
+from drivestyle.studies.figures import plot_population
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -13,7 +13,7 @@ same episode at the same t_obs, method by method: a recorded episode (``episode_
 its metadata, e.g. from ``extract-episodes``) is seen as an observer knows it then (the one
 recorded view of its observed samples, its frame shifted by whole lanes so that the current
 lane is the middle one, the scenario from the observed samples only;
-agents/studies/prediction.py). Writes ``OUT/prediction.json`` (per method ``ade_m``,
+studies/prediction.py). Writes ``OUT/prediction.json`` (per method ``ade_m``,
 ``fde_m``, their lateral and longitudinal parts, ``risk`` and the predicted ``path``; the
 observed and true paths; the posterior at t_obs; ``lateral_shift_m``: the frame's lateral
 shift from the file's, to add back to compare with the file) and ``OUT/prediction.png``
@@ -30,19 +30,19 @@ import argparse
 import sys
 from pathlib import Path
 
-from drivestyle.agents.studies.figures import plot_prediction
-from drivestyle.agents.studies.prediction import (
-    PHYSICS_FILE,
-    observer_view,
-    oracle_style,
-    predict_demo,
-)
 from drivestyle.common.cli import HelpFormatter, for_option, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.envs.real_data import is_recorded
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import load_params
+from drivestyle.studies.figures import plot_prediction
+from drivestyle.studies.prediction import (
+    PHYSICS_FILE,
+    observer_view,
+    oracle_style,
+    predict_demo,
+)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

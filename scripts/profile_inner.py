@@ -49,7 +49,6 @@ import numpy as np
 from tqdm import tqdm
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR
 from drivestyle.common.cli import HelpFormatter, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
@@ -65,6 +64,7 @@ from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.risk_profile import refined_profile
 from drivestyle.planning import smpc_problem as sp
 from drivestyle.planning.buffered import BufferedFunction
+from drivestyle.studies.prediction import DEFAULT_DATA_DIR
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The driver style profiled: the SMPC expert's own cost weights [w_y, w_φ, w_v, w_a, w_δ]."""
@@ -668,8 +668,8 @@ def main(argv: list[str] | None = None) -> dict:
         bar.update(1)
         result["driver"][key] = entry
     if args.recorded > 0:
-        from drivestyle.agents.studies.prediction import recorded_episodes
         from drivestyle.envs.real_data import recorded_view
+        from drivestyle.studies.prediction import recorded_episodes
 
         episodes = recorded_episodes(str(args.data_dir), "cats")[: args.recorded]
         rec = [recorded_view(d) for _, _, d in episodes]

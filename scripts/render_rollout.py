@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 
-from drivestyle.agents.studies.compare import policy_frames
 from drivestyle.common.cli import HelpFormatter, positive_int, risk_value, run_cli, seed
 from drivestyle.common.io import atomic_output_file, check_output_file, write_json
 from drivestyle.envs import load_demonstration
@@ -25,6 +24,7 @@ from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges, TrafficScene
 from drivestyle.envs.video import write_video
 from drivestyle.irl.style import load_style
+from drivestyle.studies.compare import policy_frames
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -21,13 +21,6 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.paper import (
-    baseline_study,
-    paper_study,
-    write_paper_results,
-    write_paper_study,
-)
-from drivestyle.agents.studies.reports import paper_console
 from drivestyle.common.cli import (
     HelpFormatter,
     count,
@@ -37,6 +30,13 @@ from drivestyle.common.cli import (
     seed,
 )
 from drivestyle.common.io import atomic_output_dir, check_output_dir
+from drivestyle.studies.paper import (
+    baseline_study,
+    paper_study,
+    write_paper_results,
+    write_paper_study,
+)
+from drivestyle.studies.reports import paper_console
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

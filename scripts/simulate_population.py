@@ -18,9 +18,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from drivestyle.agents.studies.population import simulate_population
 from drivestyle.common.cli import HelpFormatter, count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
+from drivestyle.studies.population import simulate_population
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

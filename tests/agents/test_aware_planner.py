@@ -13,17 +13,17 @@ from drivestyle.agents.aware_planner import (
     ego_scenario,
 )
 from drivestyle.agents.smpc import SMPCExpert
-from drivestyle.agents.studies.planning import (
+from drivestyle.envs.cut_in import CutInEnv
+from drivestyle.irl.driver_style import DriverStyle, expert_style
+from drivestyle.irl.library import DriverLibrary
+from drivestyle.planning.description import SMPCConfig, nlp_parameters
+from drivestyle.studies.planning import (
     CUT_IN_RANGES,
     PlanningStudy,
     cut_in_study,
     planning_goals,
     summarise_runs,
 )
-from drivestyle.envs.cut_in import CutInEnv
-from drivestyle.irl.driver_style import DriverStyle, expert_style
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.planning.description import SMPCConfig, nlp_parameters
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 LIBRARY = DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))

@@ -15,13 +15,13 @@ from pathlib import Path
 
 import pytest
 
-from drivestyle.agents.studies.population import draw_vehicle, simulate_population
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl import mining
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.library import StyleLibrary
 from drivestyle.irl.mining import COLUMNS, MinedRow, mine, summary_numbers
 from drivestyle.irl.mining_output import read_rows
+from drivestyle.studies.population import draw_vehicle, simulate_population
 
 ROOT = Path(__file__).resolve().parents[2]
 

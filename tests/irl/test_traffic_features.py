@@ -88,8 +88,8 @@ def test_a_custom_scene_with_a_slow_leader_keeps_the_ev_behind_it():
 
 
 def test_traffic_rollout_video_frames_show_the_expert_driving():
-    from drivestyle.agents.studies.compare import policy_frames
     from drivestyle.envs.traffic import DEFAULT_TRAFFIC
+    from drivestyle.studies.compare import policy_frames
 
     frames = policy_frames("expert", DEFAULT_TRAFFIC, 0.7)
     assert len(frames) == 31 and frames[0].std() > 5

@@ -5,7 +5,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.real_data import RECORDED_DELTA_MAX, recorded_view
 from drivestyle.envs.scenario import PAPER
@@ -23,6 +22,7 @@ from drivestyle.planning.reachability import (
     stage_one_blocked,
     stage_one_box,
 )
+from drivestyle.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 

@@ -4,11 +4,11 @@ import json
 
 import pytest
 
-from drivestyle.agents.studies.population_style import PopulationSettings
-from drivestyle.agents.studies.prediction import DEFAULT_DATA_DIR, SplitRow, write_split
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.library import DriverLibrary, load_any_library
 from drivestyle.scripts import learn_population
+from drivestyle.studies.population_style import PopulationSettings
+from drivestyle.studies.prediction import DEFAULT_DATA_DIR, SplitRow, write_split
 
 DATA = DEFAULT_DATA_DIR
 needs_data = pytest.mark.skipif(
@@ -18,7 +18,7 @@ needs_data = pytest.mark.skipif(
 
 
 def _one_episode_split(tmp_path):
-    from drivestyle.agents.studies.prediction import recorded_episodes
+    from drivestyle.studies.prediction import recorded_episodes
 
     eid, vid, _ = recorded_episodes(str(DATA), "cats")[0]
     split = tmp_path / "split.csv"
@@ -59,8 +59,8 @@ def test_learns_one_style_from_the_train_split_and_writes_a_driver_library(tmp_p
 
 
 def test_the_closed_loop_cost_is_the_mean_capped_reproduction_error(paper_demo):
-    from drivestyle.agents.studies.population_style import CLOSED_LOOP_CAP_M, closed_loop_cost
     from drivestyle.irl.driver_style import reproduce
+    from drivestyle.studies.population_style import CLOSED_LOOP_CAP_M, closed_loop_cost
 
     truth = DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7)  # the SMPC that drove it
     assert closed_loop_cost(truth, [paper_demo]) < 1e-3

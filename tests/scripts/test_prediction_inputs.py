@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from cli_runner import DATA
 
-from drivestyle.agents.studies.prediction import SPLIT_FILE, read_split, write_split
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.library import DriverLibrary
+from drivestyle.studies.prediction import SPLIT_FILE, read_split, write_split
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):
 # CI runs them with the slow set, the default run stays within its time

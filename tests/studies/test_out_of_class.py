@@ -1,11 +1,12 @@
-"""Drivers outside the style class (agents/studies/out_of_class.py): frame, simulation, order."""
+"""Drivers outside the style class (studies/out_of_class.py): frame, simulation, order."""
 
 import json
 
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies.out_of_class import (
+from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+from drivestyle.studies.out_of_class import (
     HIGHWAY_CLASSES,
     LANE_WIDTH,
     EpisodeResult,
@@ -18,7 +19,6 @@ from drivestyle.agents.studies.out_of_class import (
     simulate_highway,
     spearman,
 )
-from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
 
 # a fast vehicle closing on a slow one far ahead on the middle lane, the other lanes empty:
 # MOBIL's gain passes the threshold after ≈ 5 s, so the change has 3 s of track before it
@@ -129,9 +129,9 @@ def test_the_command_writes_its_report(tmp_path):
 
 
 def test_the_study_refuses_an_observed_time_before_simulating(monkeypatch):
-    from drivestyle.agents.studies import out_of_class
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.library import DriverLibrary
+    from drivestyle.studies import out_of_class
 
     def simulated(*args, **kwargs):
         raise AssertionError("simulated before checking the observed times")

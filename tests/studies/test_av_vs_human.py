@@ -1,4 +1,4 @@
-"""The CATS automated car against human drivers (agents/studies/av_vs_human.py)."""
+"""The CATS automated car against human drivers (studies/av_vs_human.py)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ import csv
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies.av_vs_human import (
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import PAPER
+from drivestyle.irl import mining
+from drivestyle.studies.av_vs_human import (
     MinedRow,
     closest_distance,
     compare_av_human,
@@ -15,10 +18,7 @@ from drivestyle.agents.studies.av_vs_human import (
     read_mined,
     time_gaps,
 )
-from drivestyle.agents.studies.reports import av_human_markdown
-from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.scenario import PAPER
-from drivestyle.irl import mining
+from drivestyle.studies.reports import av_human_markdown
 
 W = PAPER.lane_width
 

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
-from drivestyle.agents.studies.ceiling import CeilingSummary, References
-from drivestyle.agents.studies.identification import evaluate_identification, noise_curve_json
-from drivestyle.agents.studies.reports import (
+from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS
+from drivestyle.studies.ceiling import CeilingSummary, References
+from drivestyle.studies.identification import evaluate_identification, noise_curve_json
+from drivestyle.studies.reports import (
     evaluation_markdown,
     noise_markdown,
     references_markdown,
 )
-from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS
 
 RECORD_KEYS = {"risk", "scenario", "grid", "identify_s", "constraint_binds", "min_s_e"}
 RECORD_KEYS |= {"trigger_fired", "scores", "posterior"}
@@ -75,8 +75,11 @@ def test_markdown_is_written_from_the_typed_results(evaluation):
 
 
 # ---------------------------------------------------------------------------- driver libraries
-from drivestyle.agents.studies.ceiling import ceiling_identify  # noqa: E402
-from drivestyle.agents.studies.identification import (  # noqa: E402
+from drivestyle.envs.scenario import get_scenario  # noqa: E402
+from drivestyle.irl.driver_style import DriverStyle  # noqa: E402
+from drivestyle.irl.library import DriverLibrary  # noqa: E402
+from drivestyle.studies.ceiling import ceiling_identify  # noqa: E402
+from drivestyle.studies.identification import (  # noqa: E402
     CONTINUOUS_RANGE,
     IDENTIFIABLE_GAP_M,
     continuous_demonstrations,
@@ -86,10 +89,7 @@ from drivestyle.agents.studies.identification import (  # noqa: E402
     path_distance,
     pooled_accuracy,
 )
-from drivestyle.agents.studies.reports import driver_evaluation_markdown  # noqa: E402
-from drivestyle.envs.scenario import get_scenario  # noqa: E402
-from drivestyle.irl.driver_style import DriverStyle  # noqa: E402
-from drivestyle.irl.library import DriverLibrary  # noqa: E402
+from drivestyle.studies.reports import driver_evaluation_markdown  # noqa: E402
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's own cost: a driver library with it must identify SMPC demonstrations."""

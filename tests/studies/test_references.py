@@ -8,8 +8,8 @@ from drivestyle.agents.demo_generation import (
     generate_demonstrations,
     smpc_robustness,
 )
-from drivestyle.agents.studies.ceiling import ceiling_identify
-from drivestyle.agents.studies.identification import knn_baseline
+from drivestyle.studies.ceiling import ceiling_identify
+from drivestyle.studies.identification import knn_baseline
 
 
 def test_the_ceiling_recovers_the_expert_risk():

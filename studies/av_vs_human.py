@@ -2,7 +2,7 @@
 
 CATS drove the same car (vehicle 3) on some days by computer (``cats:AV:3``) and on others
 by a human (``cats:HV:3``), among human-driven vehicles. Each extracted lane change
-(:func:`~drivestyle.agents.studies.prediction.recorded_episodes`) is described by
+(:func:`~drivestyle.studies.prediction.recorded_episodes`) is described by
 
 * what the style model identifies: the posterior mean and 90 % interval width of the risk p
   (of lane changes within the class: an out-of-class driver has no risk of the class) and
@@ -30,13 +30,13 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.agents.studies.real_traffic import lane_change_stats
 from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lanes import leaders
 from drivestyle.irl.identification import ENTERS_REGION, OUT_OF_CLASS, recorded_verdict_label
 from drivestyle.irl.mining import MinedRow as MiningRow
 from drivestyle.irl.mining_output import TABLE, read_table
+from drivestyle.studies.real_traffic import lane_change_stats
 
 AV_VEHICLE = "cats:AV:3"
 """The computer-driven car (CATS vehicle 3 on its AV days)."""
@@ -334,7 +334,7 @@ def compare_av_human(
 
     Args:
         episodes: (episode id, vehicle id, demonstration) of CATS lane changes, as
-            :func:`~drivestyle.agents.studies.prediction.recorded_episodes` returns them.
+            :func:`~drivestyle.studies.prediction.recorded_episodes` returns them.
         mined: a mine-styles run's rows by episode id (None: no identified quantities).
         samples: bootstrap replicates.
         seed: their seed (deterministic given it).

@@ -4,10 +4,10 @@ import dataclasses
 
 import pytest
 
-from drivestyle.agents.studies import reports
-from drivestyle.agents.studies.calibration import SCAN_KEYS, UncertaintyScan, uncertainty_scan
-from drivestyle.agents.studies.paper import PaperStudy, paper_study
-from drivestyle.agents.studies.population import Population, simulate_population
+from drivestyle.studies import reports
+from drivestyle.studies.calibration import SCAN_KEYS, UncertaintyScan, uncertainty_scan
+from drivestyle.studies.paper import PaperStudy, paper_study
+from drivestyle.studies.population import Population, simulate_population
 
 
 @pytest.fixture(scope="module")
@@ -82,4 +82,4 @@ def test_every_markdown_writer_lives_in_reports():
             for node in ast.walk(ast.parse(path.read_text())):
                 if isinstance(node, ast.FunctionDef) and "markdown" in node.name:
                     writers.append(f"{path.relative_to(root)}:{node.name}")
-    assert writers and all(w.startswith("agents/studies/reports.py:") for w in writers), writers
+    assert writers and all(w.startswith("studies/reports.py:") for w in writers), writers

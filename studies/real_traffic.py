@@ -26,7 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.agents.studies.figures import plot_episode
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.real_data import (
@@ -41,6 +40,7 @@ from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL, normalise_theta
 from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.studies.figures import plot_episode
 
 __all__ = [
     "DRIVER_REPRODUCTIONS",

@@ -5,10 +5,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies import figures
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.spline import demo_control_points
+from drivestyle.studies import figures
 
 
 @pytest.fixture
@@ -103,11 +103,11 @@ def test_only_the_figures_module_imports_matplotlib():
                 if any(n.split(".")[0] == "matplotlib" for n in names):
                     importers.append(str(path.relative_to(root)))
                     break
-    assert importers == ["agents/studies/figures.py"], importers
+    assert importers == ["studies/figures.py"], importers
 
 
 def test_every_prediction_method_has_a_line_style():
-    from drivestyle.agents.studies.figures import METHOD_STYLES
     from drivestyle.irl.forecast import METHODS
+    from drivestyle.studies.figures import METHOD_STYLES
 
     assert set(METHOD_STYLES) == set(METHODS)

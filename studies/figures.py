@@ -19,22 +19,22 @@ import numpy as np
 from matplotlib.patches import Ellipse, Polygon
 from matplotlib.ticker import MaxNLocator
 
-from drivestyle.agents.studies.reports import seconds
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index, trigger_time, vehicle_corners
 from drivestyle.irl.forecast import METHODS, Prediction
 from drivestyle.irl.learner import LearningResult
 from drivestyle.irl.spline import spline_eval
+from drivestyle.studies.reports import seconds
 
 if TYPE_CHECKING:
-    from drivestyle.agents.studies.av_vs_human import AVHumanComparison
-    from drivestyle.agents.studies.compare import HeldoutComparison
-    from drivestyle.agents.studies.identification import EvaluationRecord
-    from drivestyle.agents.studies.planning import PlanningStudy
-    from drivestyle.agents.studies.prediction import PredictionStudy, TrackingRecord
-    from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
     from drivestyle.irl.driver_style import Reproduction
     from drivestyle.irl.identification import Identification
+    from drivestyle.studies.av_vs_human import AVHumanComparison
+    from drivestyle.studies.compare import HeldoutComparison
+    from drivestyle.studies.identification import EvaluationRecord
+    from drivestyle.studies.planning import PlanningStudy
+    from drivestyle.studies.prediction import PredictionStudy, TrackingRecord
+    from drivestyle.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
     "draw_lanes",
@@ -967,7 +967,7 @@ def plot_identification(
 
 def plot_av_human(comparison: AVHumanComparison, path: str | Path) -> Path:
     """Each quantity's lane changes per group (dots), medians and 95 % intervals (bars)."""
-    from drivestyle.agents.studies.av_vs_human import GROUPS, QUANTITIES
+    from drivestyle.studies.av_vs_human import GROUPS, QUANTITIES
 
     shown = [q for q in QUANTITIES if any(s.n for s in comparison.stats if s.quantity == q)]
     cols = 3

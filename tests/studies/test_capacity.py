@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies.capacity import (
+from drivestyle.studies.capacity import (
     CLASSES,
     CapacityError,
     RiskCapacity,
@@ -14,7 +14,7 @@ from drivestyle.agents.studies.capacity import (
     nelder_mead,
     reproduction_score,
 )
-from drivestyle.agents.studies.reports import capacity_markdown
+from drivestyle.studies.reports import capacity_markdown
 
 
 def test_nelder_mead_finds_an_ill_conditioned_quadratics_minimum():
@@ -98,7 +98,7 @@ def test_a_fitted_class_is_never_worse_in_sample_than_its_learner(tiny_capacity)
 
 @pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
 def test_the_capacity_report_has_one_row_per_class(tiny_capacity):
-    from drivestyle.agents.studies.capacity import CapacityStudy
+    from drivestyle.studies.capacity import CapacityStudy
 
     study = CapacityStudy((0.7,), 3, (), (), (tiny_capacity,), 1.0)
     text = capacity_markdown(study, "cmd")

@@ -28,7 +28,7 @@ compares the known caution rank with the identified p by Spearman's ρ, over the
 and over the groups' medians (the issue's goal: ρ ≥ :data:`SPEARMAN_GOAL`).
 :func:`predict_episode` predicts each lane change after t_obs ∈ :data:`T_OBS` with every
 method of :func:`drivestyle.irl.forecast.predict` except the oracle (the recorded-episode
-path, :func:`~drivestyle.agents.studies.prediction.observed_view`, for the highway-env
+path, :func:`~drivestyle.studies.prediction.observed_view`, for the highway-env
 lane changes: nothing of the future enters); :func:`prediction_summaries` compares the
 style methods' FDE with constant velocity's (the goal: ≥ :data:`FDE_GOAL` lower).
 
@@ -46,16 +46,6 @@ from typing import Any
 import numpy as np
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstration
-from drivestyle.agents.studies.prediction import (
-    PREDICTION_ERRORS,
-    MethodSummary,
-    PredictionRecord,
-    SkippedPrediction,
-    VehicleSpan,
-    check_observed_times,
-    predict_vehicle,
-    summarise_records,
-)
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
 from drivestyle.envs.scenario import ScenarioRanges
@@ -65,6 +55,16 @@ from drivestyle.irl.library import DriverLibrary, LibraryError
 from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
+from drivestyle.studies.prediction import (
+    PREDICTION_ERRORS,
+    MethodSummary,
+    PredictionRecord,
+    SkippedPrediction,
+    VehicleSpan,
+    check_observed_times,
+    predict_vehicle,
+    summarise_records,
+)
 
 __all__ = [
     "FDE_GOAL",
@@ -715,7 +715,7 @@ def predict_episode(
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
     """Predict one lane change after each t_obs by every method but the oracle.
 
-    :func:`~drivestyle.agents.studies.prediction.predict_vehicle`: a highway-env lane
+    :func:`~drivestyle.studies.prediction.predict_vehicle`: a highway-env lane
     change is a recorded episode (``meta["episode_id"]``) and is seen through
     ``observed_view`` (the one recorded view of its observed samples); an SMPC
     demonstration is predicted in its own scenario. The record's set is the family
@@ -883,7 +883,7 @@ def run_study(
     Raises:
         ValueError: the study's seed is the library's training seed; an observed time no
             lane change of the study serves
-            (:func:`~drivestyle.agents.studies.prediction.check_observed_times`).
+            (:func:`~drivestyle.studies.prediction.check_observed_times`).
     """
     if library.meta.get("seed") == config.seed:
         raise ValueError(f"seed {config.seed} is the library's own training seed; use another")

@@ -21,19 +21,19 @@ import numpy as np
 
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
-from drivestyle.agents.studies.figures import (
-    plot_comparison,
-    plot_demonstration,
-    plot_lateral,
-    plot_reproductions,
-)
-from drivestyle.agents.studies.reports import comparison_markdown, paper_markdown
 from drivestyle.common.io import command_line, write_json, write_text
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.irl.features import FeatureConfig, feature_basis, feature_values
 from drivestyle.irl.learner import IRLConfig, LearningResult
 from drivestyle.irl.spline import demo_control_points
 from drivestyle.irl.style import fit_style, locate_demos
+from drivestyle.studies.figures import (
+    plot_comparison,
+    plot_demonstration,
+    plot_lateral,
+    plot_reproductions,
+)
+from drivestyle.studies.reports import comparison_markdown, paper_markdown
 
 __all__ = [
     "PAPER_REPORTED",
@@ -313,9 +313,9 @@ def baseline_study(
         The training summary, per-method measures and the videos' paths.
     """
     from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
-    from drivestyle.agents.studies.compare import compare_methods, policy_frames
     from drivestyle.envs.video import write_video
     from drivestyle.irl.style import load_style
+    from drivestyle.studies.compare import compare_methods, policy_frames
 
     out = Path(out)
     style = load_style(style_path)

@@ -1,4 +1,4 @@
-"""The prediction comparison (agents/studies/prediction.py): a tiny run, summaries, goals."""
+"""The prediction comparison (studies/prediction.py): a tiny run, summaries, goals."""
 
 import math
 from dataclasses import replace
@@ -6,7 +6,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies.prediction import (
+from drivestyle.irl.driver_style import DriverStyle, expert_style
+from drivestyle.irl.forecast import METHODS
+from drivestyle.irl.library import DriverLibrary
+from drivestyle.planning.description import SMPCConfig
+from drivestyle.studies.prediction import (
     DEFAULT_DATA_DIR,
     GOALS,
     RISK_RANGE,
@@ -32,10 +36,6 @@ from drivestyle.agents.studies.prediction import (
     summarise_records,
     write_split,
 )
-from drivestyle.irl.driver_style import DriverStyle, expert_style
-from drivestyle.irl.forecast import METHODS
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.planning.description import SMPCConfig
 
 LIBRARY = DriverLibrary(
     DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
@@ -172,7 +172,7 @@ def test_the_librarys_training_seed_is_refused():
 
 
 def test_observed_times_are_checked_before_any_vehicle_is_simulated(monkeypatch):
-    from drivestyle.agents.studies import prediction as study
+    from drivestyle.studies import prediction as study
 
     assert study.check_observed_times([1.0, 1.0, 2.0, 1.0]) == (1.0, 2.0)
 
@@ -302,7 +302,7 @@ def test_no_method_reads_the_future(paper_demo):
 @needs_data
 @pytest.mark.slow  # extracts the whole CATS sample (≈ 7 s): CI runs it (-m slow)
 def test_a_split_naming_an_episode_the_sample_lacks_is_a_clear_error():
-    from drivestyle.agents.studies.prediction import load_recorded
+    from drivestyle.studies.prediction import load_recorded
 
     with pytest.raises(ValueError, match=r"cats: episode\(s\) \['nope'\].*--write-split"):
         load_recorded(DATA, "cats", ["nope"])
@@ -313,7 +313,7 @@ def _region_row(set_name: str, t_obs: float, fde: float, horizon: float = 2.0) -
 
 
 def test_the_region_rate_is_the_split_conformal_quantile_per_second_of_horizon():
-    from drivestyle.agents.studies.prediction import region_coverage, region_rates
+    from drivestyle.studies.prediction import region_coverage, region_rates
 
     cal = [_region_row("ngsim", 1.0, 2.0 * k) for k in range(1, 11)]  # FDE/horizon 1 … 10
     assert region_rates(cal) == {("cv", 1.0): (10.0, 10)}  # ⌈11·0.9⌉ = 10th smallest

@@ -10,21 +10,21 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from drivestyle.agents.studies.compare import LABELS
 from drivestyle.common.io import fmt
 from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS, VERDICT_LABELS
+from drivestyle.studies.compare import LABELS
 
 if TYPE_CHECKING:
-    from drivestyle.agents.studies.av_vs_human import AVHumanComparison
-    from drivestyle.agents.studies.capacity import CapacityStudy
-    from drivestyle.agents.studies.ceiling import References
-    from drivestyle.agents.studies.compare import Comparison
-    from drivestyle.agents.studies.identification import Evaluation
-    from drivestyle.agents.studies.out_of_class import OutOfClassStudy
-    from drivestyle.agents.studies.paper import PaperStudy
-    from drivestyle.agents.studies.planning import PlanningStudy
-    from drivestyle.agents.studies.prediction import PredictionStudy, TrackingSummary
-    from drivestyle.agents.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
+    from drivestyle.studies.av_vs_human import AVHumanComparison
+    from drivestyle.studies.capacity import CapacityStudy
+    from drivestyle.studies.ceiling import References
+    from drivestyle.studies.compare import Comparison
+    from drivestyle.studies.identification import Evaluation
+    from drivestyle.studies.out_of_class import OutOfClassStudy
+    from drivestyle.studies.paper import PaperStudy
+    from drivestyle.studies.planning import PlanningStudy
+    from drivestyle.studies.prediction import PredictionStudy, TrackingSummary
+    from drivestyle.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
     "av_human_markdown",
@@ -490,7 +490,7 @@ def driver_evaluation_markdown(curve: Sequence[Evaluation], refs: References | N
 
 def planning_markdown(study: PlanningStudy) -> str:
     """The cut-in study's table (``planning.md``; docs/RESULTS.md quotes it)."""
-    from drivestyle.agents.studies.planning import HARD_BRAKING
+    from drivestyle.studies.planning import HARD_BRAKING
 
     lines = [
         f"Cut-in scenes: {len(study.seeds)} (seeds {study.seeds[0]}–{study.seeds[-1]}); "
@@ -527,7 +527,7 @@ def _ci(stat: Any, kind: str) -> str:
 
 def _benchmark_tables(study: PredictionStudy) -> list[str]:
     """The recorded benchmark's tables: per set, medians and means with bootstrap intervals."""
-    from drivestyle.agents.studies.prediction import BOOTSTRAP_SAMPLES, ERROR_METRICS
+    from drivestyle.studies.prediction import BOOTSTRAP_SAMPLES, ERROR_METRICS
 
     sets = [s for s in dict.fromkeys(x.set for x in study.summaries) if s != "simulated"]
     if not sets:
@@ -565,7 +565,7 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
         study: the study's result.
         command: the command that produced it.
     """
-    from drivestyle.agents.studies.prediction import TEST_SEED, VALIDATION_SEED
+    from drivestyle.studies.prediction import TEST_SEED, VALIDATION_SEED
 
     n_sim = len(study.vehicles)
     n_rand = sum(v.scenario is not None for v in study.vehicles)
@@ -666,7 +666,7 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
 
 def _tracking_section(tr: TrackingSummary) -> list[str]:
     """The online identification's section (simulated vehicles only)."""
-    from drivestyle.agents.studies.prediction import NARROW_WIDTH
+    from drivestyle.studies.prediction import NARROW_WIDTH
 
     return [
         "## Online identification (simulated vehicles, inputs unseen)",
@@ -686,7 +686,7 @@ def _tracking_section(tr: TrackingSummary) -> list[str]:
 
 def av_human_markdown(comparison: AVHumanComparison, command: str) -> str:
     """``av_vs_human.md``: per quantity the groups' medians and the AV's differences."""
-    from drivestyle.agents.studies.av_vs_human import GROUPS, QUANTITIES
+    from drivestyle.studies.av_vs_human import GROUPS, QUANTITIES
 
     def cell(median: float | None, lo: float | None, hi: float | None, n: int | None = None):
         if median is None:
@@ -727,7 +727,7 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
         study: the study's result.
         command: the command that produced it (shown in the report).
     """
-    from drivestyle.agents.studies.out_of_class import FDE_GOAL, SPEARMAN_GOAL
+    from drivestyle.studies.out_of_class import FDE_GOAL, SPEARMAN_GOAL
 
     cfg = study.config
     lines = [

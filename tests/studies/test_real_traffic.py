@@ -5,14 +5,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivestyle.agents.studies.real_traffic import (
+from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.studies.real_traffic import (
     classify_loo,
     constant_velocity,
     episode_feature_config,
     learn_personal,
 )
-from drivestyle.envs.real_data import load_cats, load_ngsim
-from drivestyle.irl.metrics import trajectory_errors
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data"
@@ -151,7 +151,7 @@ def test_recorded_inputs_recover_the_applied_inputs():
 
 
 def test_driver_demo_shifts_every_vehicle_to_the_evs_own_line():
-    from drivestyle.agents.studies.real_traffic import (
+    from drivestyle.studies.real_traffic import (
         RECORDED_DELTA_MAX,
         RECORDED_PHI_MAX,
         driver_demo,
@@ -172,7 +172,7 @@ def test_driver_demo_shifts_every_vehicle_to_the_evs_own_line():
 
 
 def test_driver_splits_leave_one_episode_out_per_vehicle():
-    from drivestyle.agents.studies.real_traffic import driver_splits
+    from drivestyle.studies.real_traffic import driver_splits
 
     vehicles = ["AV", "AV", "HV", "AV", "HV", "solo"]
     splits = driver_splits(vehicles, min_episodes=3)
@@ -186,7 +186,7 @@ def test_driver_splits_leave_one_episode_out_per_vehicle():
 
 
 def test_driver_settings_are_validated():
-    from drivestyle.agents.studies.real_traffic import DriverSettings
+    from drivestyle.studies.real_traffic import DriverSettings
 
     with pytest.raises(ValueError, match="restarts"):
         DriverSettings(screen=2, restarts=3)
@@ -207,7 +207,7 @@ def test_off_grid_recording_is_refused_by_the_driver_model():
 
 @pytest.mark.slow  # ~10 s: NLP build and a one-start fit
 def test_recorded_like_demo_learns_and_reproduces():
-    from drivestyle.agents.studies.real_traffic import DriverSettings, _driver_fit_task, driver_demo
+    from drivestyle.studies.real_traffic import DriverSettings, _driver_fit_task, driver_demo
 
     # beyond the highway bound: seen under the recorded bounds, its inputs recovered
     demo, _ = _recorded_like(steer=0.06, bounds=(0.05, 0.05))
@@ -218,8 +218,8 @@ def test_recorded_like_demo_learns_and_reproduces():
 
 @pytest.mark.slow  # ~10 s; failed before learn_driver kept v_ref in DriverStyle's range
 def test_fit_speed_survives_a_braking_driver():
-    from drivestyle.agents.studies.real_traffic import driver_demo
     from drivestyle.irl.driver_learning import learn_driver
+    from drivestyle.studies.real_traffic import driver_demo
 
     demo, _ = _recorded_like(n=9, brake=-1.5, speed=3.0)
     fit = learn_driver([driver_demo(demo)], fit_speed=True, screen=1, restarts=1)

@@ -18,9 +18,9 @@ import numpy as np
 
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
-from drivestyle.agents.studies.identification import knn_baseline
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.library import StyleLibrary
+from drivestyle.studies.identification import knn_baseline
 
 __all__ = [
     "CeilingResult",

@@ -12,7 +12,7 @@ scorer, ``likelihood``: each demonstration's risk profile is computed once and r
 its identification and by pooling. With ``ceiling=True`` every grid demonstration also gets
 the *path ceiling* (:class:`CeilingRecord`): the SMPC(q) path of each grid risk q in the
 demonstration's own scenario is the held-out demonstration of q in that scenario (the
-expert is deterministic, so this is what :mod:`~drivestyle.agents.studies.ceiling`
+expert is deterministic, so this is what :mod:`~drivestyle.studies.ceiling`
 re-simulates), the ceiling's estimate is the closest such path to the demonstration as
 observed, and the demonstration is *identifiable* when the closed-loop paths of the true
 risk's neighbouring grid risks both lie at least :data:`IDENTIFIABLE_GAP_M` (RMS position
@@ -88,7 +88,7 @@ driver library's calibration draws them."""
 def path_distance(a: np.ndarray, b: np.ndarray) -> float:
     """RMS position distance of two paths (n, ≥ 2) over their common length [m].
 
-    The distance :func:`drivestyle.agents.studies.ceiling.ceiling_identify` ranks by.
+    The distance :func:`drivestyle.studies.ceiling.ceiling_identify` ranks by.
     """
     n = min(len(a), len(b))
     diff = np.asarray(a)[:n, :2] - np.asarray(b)[:n, :2]

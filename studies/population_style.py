@@ -33,12 +33,6 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.agents.studies.prediction import (
-    DATASETS,
-    SplitRow,
-    check_sample_split,
-    load_recorded,
-)
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.real_data import recorded_view
 from drivestyle.irl.driver_learning import (
@@ -55,6 +49,12 @@ from drivestyle.irl.driver_style import (
     reproduce,
 )
 from drivestyle.irl.library import DriverLibrary
+from drivestyle.studies.prediction import (
+    DATASETS,
+    SplitRow,
+    check_sample_split,
+    load_recorded,
+)
 
 __all__ = [
     "CLOSED_LOOP_CAP_M",

@@ -2,8 +2,8 @@
 
 import pytest
 
-from drivestyle.agents.studies.compare import heldout_comparison, state_metrics
 from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.studies.compare import heldout_comparison, state_metrics
 
 DRIVER = DriverStyle((0.2, 34.0, 0.2, 1.0, 76.0), risk=0.6)
 """A p = 0.6 driver (weights of the order learn_driver finds)."""
