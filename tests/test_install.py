@@ -10,7 +10,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-USER_PACKAGES = ("envs", "planning", "agents", "irl", "scripts", "common")
+USER_PACKAGES = ("envs", "planning", "agents", "studies", "irl", "scripts", "common")
 
 
 def test_a_users_own_envs_folder_neither_shadows_nor_is_shadowed(tmp_path):
