@@ -1,4 +1,4 @@
-"""The layering common ← envs ← planning ← irl ← agents ← scripts, checked on every import."""
+"""Layers common ← envs ← planning ← irl ← agents ← studies ← scripts, checked on every import."""
 
 import ast
 import re
@@ -13,10 +13,11 @@ LAYERS = {
     "planning": ROOT / "planning",
     "irl": ROOT / "irl",
     "agents": ROOT / "agents",
+    "studies": ROOT / "studies",
     "scripts": ROOT / "scripts",
 }
 """Lowest first: a layer may import only itself and the layers before it."""
-GENERIC = {"envs", "planning", "irl", "agents", "scripts", "common"}
+GENERIC = {"envs", "planning", "irl", "agents", "studies", "scripts", "common"}
 """Top-level names that must never be imported bare: the library is ``drivestyle.*``."""
 
 
