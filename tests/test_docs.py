@@ -20,7 +20,8 @@ def test_every_design_citation_names_an_existing_section():
     existing = set(_sections())
     cite = re.compile(r"DESIGN(?:\.md)? *§ *(\d+)")
     files = [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
-    for folder in ("drivestyle", "envs", "planning", "irl", "agents", "studies", "scripts", "tests"):
+    folders = ("drivestyle", "envs", "planning", "irl", "agents", "studies", "scripts", "tests")
+    for folder in folders:
         files += sorted((ROOT / folder).rglob("*.py"))
     missing = [
         f"{path.relative_to(ROOT)}: §{n}"
