@@ -1,10 +1,10 @@
-"""drivestyle agents: the drivers and the studies.
+"""drivestyle agents: the drivers.
 
 The stochastic MPC expert's closed-loop shell (``smpc``; its NLP is
 :mod:`drivestyle.planning`'s), its demonstrations (``demo_generation``), the style-aware
-ego (``aware_planner``), SB3 policies on a learned reward (``sb3_baseline``), and in
-``studies`` every evaluation that combines the layers. The planning names re-exported
-here (``SMPCProblem``, ``chance_margin``, …) live in :mod:`drivestyle.planning`.
+ego (``aware_planner``) and SB3 policies on a learned reward (``sb3_baseline``). The
+planning names re-exported here (``SMPCProblem``, ``chance_margin``, …) live in
+:mod:`drivestyle.planning`.
 """
 
 from drivestyle.agents.demo_generation import demo_summary, generate_demonstration, rollout_expert

@@ -1,14 +1,15 @@
 """drivestyle: identify the driving style of an automated vehicle from its trajectories.
 
-One installable root with four layers, each importing only those before it:
+One installable root with its layers, each importing only those before it:
 
 - :mod:`drivestyle.common`: infrastructure (atomic files, the process pool, CLI helpers);
 - :mod:`drivestyle.envs`: the world and its data (Gymnasium envs, demonstrations,
   recorded traffic);
+- :mod:`drivestyle.planning`: the receding-horizon planner every driver and style solves;
 - :mod:`drivestyle.irl`: learning styles from trajectories (splines, features, ME-IRL,
   style libraries, identification, the learned reward);
-- :mod:`drivestyle.agents`: drivers (the SMPC expert, SB3 policies) and
-  :mod:`drivestyle.studies`, the evaluations that combine them;
+- :mod:`drivestyle.agents`: drivers (the SMPC expert, the style-aware ego, SB3 policies);
+- :mod:`drivestyle.studies`: the evaluations that combine the layers before it;
 - :mod:`drivestyle.scripts`: the command-line entry points (``drivestyle --help``).
 
 Importing ``drivestyle`` registers the Gymnasium ids (``drivestyle/LaneChange-v0`` and

@@ -3,7 +3,7 @@ r"""A TV that deviates from its prediction: SMPC, an SB3 policy and the spline p
 In the style's scenario the TV brakes (or, with a positive ``--accel``, accelerates) from
 ``--t-start`` for ``--duration`` seconds. Compares the SMPC (re-plans every step), an SB3
 policy (closed loop, ``--model``), the spline reproduction planned once and executed
-open-loop, and the spline re-planned every ``--replan-every`` samples (agents/deviation.py).
+open-loop, and the spline re-planned every ``--replan-every`` samples (studies/deviation.py).
 Writes ``OUT/deviation.json`` (per driver: collision, min d_k, rmse_y against the SMPC)
 and a gif per driver.
 
