@@ -109,7 +109,10 @@ class SigtermState:
 def sigterm_stops_the_job(replace: bool = False) -> Iterator[SigtermState]:
     """While active, SIGTERM raises ``SystemExit(143)`` here (cleanup runs, as on Ctrl-C).
 
-    Only in the main thread (Python runs handlers there).
+    Only in the main thread (Python runs handlers there). SIGTERM and Ctrl-C's
+    ``KeyboardInterrupt`` are raised outside the code whose exceptions C discards
+    (:data:`_DROPPING_PACKAGES`): one that lands there is raised again :data:`_RETRY_S`
+    later, so a stop is never lost (it was: the job ran on to exit 0).
 
     Args:
         replace: also replace a handler installed by someone else (Ray's driver installs
@@ -134,27 +137,26 @@ def sigterm_stops_the_job(replace: bool = False) -> Iterator[SigtermState]:
         if not state.received:
             state.received = True
             print("terminated: stopping the job", file=sys.stderr, flush=True)
-        if _drops_exceptions(frame):
-            signal.setitimer(signal.ITIMER_REAL, _RETRY_S)  # raise it where it is kept
-            return
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        raise SystemExit(EXIT_TERMINATED)
+        _raise_where_kept(signum, frame, SystemExit(EXIT_TERMINATED))
 
-    def on_retry(signum: int, frame: Any) -> None:
-        if os.getpid() == owner and state.received:
-            on_sigterm(signal.SIGTERM, frame)
+    def on_sigint(signum: int, frame: Any) -> None:
+        if os.getpid() != owner:  # as Python's own handler does, before the initializer's
+            raise KeyboardInterrupt
+        _raise_where_kept(signum, frame, KeyboardInterrupt())
 
-    retry = signal.getsignal(signal.SIGALRM) is signal.SIG_DFL
-    previous = signal.signal(signal.SIGTERM, on_sigterm)
-    if retry:
-        signal.signal(signal.SIGALRM, on_retry)
+    previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, on_sigterm)}
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        previous[signal.SIGINT] = signal.signal(signal.SIGINT, on_sigint)
+    if signal.getsignal(signal.SIGALRM) is signal.SIG_DFL:  # an outer block's serves too
+        previous[signal.SIGALRM] = signal.signal(signal.SIGALRM, _on_retry)
     try:
         yield state
     finally:
-        signal.signal(signal.SIGTERM, previous)
-        if retry:
+        if signal.SIGALRM in previous:
             signal.setitimer(signal.ITIMER_REAL, 0.0)
-            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+            _PENDING.clear()
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 _RETRY_S = 0.02
@@ -163,13 +165,37 @@ _RETRY_S = 0.02
 _DROPPING_PACKAGES = (f"{os.sep}casadi{os.sep}",)
 """Packages whose Python code C calls and whose exceptions C discards: CasADi's SWIG
 wrappers call type checks such as ``DM_from_csc`` while choosing an overload and take any
-exception there for "not this type" — a SystemExit raised in them is lost and the job runs
-on to its end (seen: SIGTERM while an expert was being built, exit 0)."""
+exception there for "not this type" — a SystemExit or KeyboardInterrupt raised in them is
+lost and the job runs on to its end (seen: SIGTERM while an expert was being built, and
+Ctrl-C of mine-styles in 2 of 9 runs, each exit 0)."""
+
+_PENDING: list[int] = []
+"""The signal whose stop was deferred out of such code (at most one), for :func:`_on_retry`."""
 
 
 def _drops_exceptions(frame: Any) -> bool:
     """Whether an exception raised in ``frame`` (a signal handler's) may be discarded."""
     return frame is not None and any(p in frame.f_code.co_filename for p in _DROPPING_PACKAGES)
+
+
+def _raise_where_kept(signum: int, frame: Any, stop: BaseException) -> None:
+    """Raise ``stop`` now, or, in code that drops exceptions, once that code has returned."""
+    if _drops_exceptions(frame):
+        _PENDING[:] = [signum]
+        signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
+        return
+    _PENDING.clear()
+    signal.setitimer(signal.ITIMER_REAL, 0.0)
+    raise stop
+
+
+def _on_retry(signum: int, frame: Any) -> None:
+    """SIGALRM: hand a deferred stop to the handler now installed for its signal."""
+    if _PENDING:
+        pending = _PENDING[0]
+        handler = signal.getsignal(pending)
+        if callable(handler):
+            handler(pending, frame)
 
 
 def _how_it_died(exitcode: int | None) -> str:

@@ -70,3 +70,19 @@ def test_a_stop_that_lands_where_exceptions_are_dropped_is_raised_after_it(capsy
     assert capsys.readouterr().err.count("terminated: stopping the job") == 1
     assert signal.getsignal(signal.SIGALRM) is signal.SIG_DFL
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+
+
+def test_a_ctrl_c_that_lands_where_exceptions_are_dropped_is_raised_after_it():
+    code = compile(
+        _DROPPING.replace("signal.SIGTERM", "signal.SIGINT"),
+        os.path.join(os.sep, "site", "casadi", "casadi.py"),
+        "exec",
+    )
+    namespace = {"os": os, "signal": signal}
+    exec(code, namespace)
+    with pytest.raises(KeyboardInterrupt), sigterm_stops_the_job():
+        assert namespace["build"](10**5) == "kept"  # nothing raised inside it
+        time.sleep(5)  # the deferred Ctrl-C lands here
+        pytest.fail("Ctrl-C did not stop the job")
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
