@@ -247,8 +247,14 @@ def _markings_from_lanes(y: np.ndarray, lane: np.ndarray, path: Path | str) -> n
     return np.concatenate([[first], inner, [last]])
 
 
-def _check_markings(markings: np.ndarray, path: Path | str, what: str) -> np.ndarray:
-    """Lane lines that increase and lanes a road has (metres), or a one-line error."""
+def check_lane_lines(markings: np.ndarray, path: Path | str, what: str) -> np.ndarray:
+    """Lane lines that increase and lanes a road has (metres), or a one-line error.
+
+    Args:
+        markings: the lines' y [m], road edges included, shape (n,).
+        path: the file (or the option) that gave them, first in the message.
+        what: what they are called there, in the message's parentheses.
+    """
     if markings.size < 3 or not np.all(np.isfinite(markings)) or np.any(np.diff(markings) <= 0):
         raise TrackError(
             f"{path}: lane lines ({what}) must be 3 or more increasing numbers [m], road "
@@ -387,7 +393,7 @@ def _recording_lines(
 
     def checked(value: RoadLines, what: str) -> dict[str, np.ndarray]:
         if not isinstance(value, Mapping):
-            lines = _check_markings(np.asarray(value, float), source, what)
+            lines = check_lane_lines(np.asarray(value, float), source, what)
             return dict.fromkeys(DIRECTIONS, lines)
         odd = [k for k in value if k not in DIRECTIONS]
         if odd:
@@ -396,7 +402,7 @@ def _recording_lines(
                 f"got {odd[0]!r}"
             )
         return {
-            k: _check_markings(np.asarray(v, float), source, f"{what}, {k}")
+            k: check_lane_lines(np.asarray(v, float), source, f"{what}, {k}")
             for k, v in value.items()
         }
 
@@ -665,7 +671,7 @@ def read_table(
                     f"{data['y'][i]:.4g}): y in another unit, or a wrong row?"
                 )
             lines = np.arange(lo, max(hi, lo + 2) + 1) * lane_width
-            lines = _check_markings(lines, path, f"lane_width (--lane-width) {lane_width:g}")
+            lines = check_lane_lines(lines, path, f"lane_width (--lane-width) {lane_width:g}")
             given[name] = dict.fromkeys(DIRECTIONS, lines)
     elif "lane" in data:
         given = {}  # per carriageway, from its own lanes
@@ -896,7 +902,7 @@ def _table_carriageways(
             lines = np.sort(s * markings[direction]) + 0.0
         else:
             where = str(path) if recording is None else f"{path}, recording {recording!r}"
-            lines = _check_markings(
+            lines = check_lane_lines(
                 _markings_from_lanes(y_rows, data["lane"][rows], where),
                 where,
                 "from the lane column",
@@ -1493,7 +1499,7 @@ def read_levelx(tracks_csv: str | Path) -> Recording:
         )
     carriageways = []
     for d, (name, _, _, lines, _) in sides.items():
-        _check_markings(lines, rec_path, f"{name}LaneMarkings, in the {name} road frame")
+        check_lane_lines(lines, rec_path, f"{name}LaneMarkings, in the {name} road frame")
         carriageways.append(Carriageway(name, tuple(lines), tuple(found[d])))
     meta = {
         "format": "highd",
@@ -1598,7 +1604,7 @@ def read_interaction(
     path = Path(path)
     angle = _interaction_direction(direction)
     lines = _interaction_lines(lane_markings, direction, angle)
-    _check_markings(lines, path, f"lane_markings along {direction!r}, in the road frame")
+    check_lane_lines(lines, path, f"lane_markings along {direction!r}, in the road frame")
     _need_file(path, "an INTERACTION vehicle_tracks_NNN.csv")
     df = _read_csv(path, "an INTERACTION vehicle_tracks_NNN.csv")
     _published_columns(df, path, INTERACTION_COLUMNS, "INTERACTION")
@@ -1691,7 +1697,14 @@ def read_sample(folder: str | Path) -> Recording:
         FileNotFoundError: no ``tracks.csv.gz`` in ``folder``.
         TrackError: neither sample's columns, or a malformed track (naming the vehicle).
     """
-    path = Path(folder) / "tracks.csv.gz"
+    folder = Path(folder)
+    path = folder / "tracks.csv.gz"
+    if folder.is_file() or (folder.is_dir() and not path.exists()):
+        raise FileNotFoundError(
+            f"{folder}: not a shipped sample's folder (one holding tracks.csv.gz, such as "
+            "shared/data/ngsim or shared/data/cats-av-lanechange)"
+            + ("; a table of tracks is read with --format csv" if folder.is_file() else "")
+        )
     df = _read_frame(path, what="a shipped sample's tracks (NGSIM or CATS), gzip-compressed CSV")
     cats = "run_id" in df.columns
     key, t_col = ("run_id", "t_s") if cats else ("recording", "time_s")
@@ -1718,7 +1731,7 @@ def read_sample(folder: str | Path) -> Recording:
             lines = np.sort(-(intercept + slope * (np.arange(1, n_main + 2) - 0.5)))
             size = g["length_m"].to_numpy(float), g["width_m"].to_numpy(float)
             frames, x, y = g["frame"].to_numpy(), num["x_m"] - size[0] / 2, -num["y_m"]
-        lines = _check_markings(lines, path, f"{key} {name}")
+        lines = check_lane_lines(lines, path, f"{key} {name}")
         groups, skipped = _published_tracks(path, g["vehicle_id"].to_numpy(), t, frames)
         dropped += [f"{v} ({name})" for v in skipped]
         tracks = [

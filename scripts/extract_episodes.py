@@ -36,6 +36,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from drivestyle.common.cli import (
     HelpFormatter,
     float_list,
@@ -51,7 +53,7 @@ from drivestyle.envs.episodes import (
     extract_episodes,
     write_episodes,
 )
-from drivestyle.envs.readers import READERS, load_lanes
+from drivestyle.envs.readers import READERS, check_lane_lines, load_lanes
 
 FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
 """``--format`` choices (each a key of :data:`drivestyle.envs.readers.READERS`)."""
@@ -189,6 +191,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "the lane lines once (--lane-width W puts them at multiples of W, --lane-markings "
             "at the given y)"
         )
+    if args.lane_markings is not None and args.format == "csv":  # the option's, not the table's
+        check_lane_lines(np.asarray(args.lane_markings, float), "--lane-markings", "as given")
     if args.format == "interaction" and args.lane_width is not None:
         raise ValueError(
             "--lane-width is for --format csv; --format interaction takes the lane lines as "

@@ -795,8 +795,9 @@ def refuse_inputs(
     - the output folder *holds* an input: a run that replaces its folder as a whole
       (``replace``) would delete it (a run that only adds its files, ``replace=False``,
       may write beside its inputs: a style beside its demonstration);
-    - the output *lies inside* an input folder that a drivestyle run wrote (it holds
-      :data:`OUTPUT_MARKER`: episodes, demonstrations, a library, a mining run): the run
+    - the output *lies inside* an input folder that a drivestyle run wrote, or the one that
+      holds an input file (it holds :data:`OUTPUT_MARKER`: episodes, demonstrations, a
+      library, a mining run): the run
       would write into what it reads, and the run that wrote the folder replaces it whole,
       output and all. A folder of the user's own (a library folder that also holds the
       runs made with it, the working folder) may hold outputs.
@@ -827,11 +828,21 @@ def refuse_inputs(
                 f"{option} {path} holds the input {item}, which the run would replace; "
                 f"choose another {option}"
             )
-        if source in final.parents and (source / OUTPUT_MARKER).is_file():
+        written = _written_folder(source)
+        if written is not None and written in final.parents:
+            what = f"the input {item}" if written == source else f"{written}, which holds {item}"
             raise OutputPathError(
-                f"{option} {path} lies inside the input {item}, which the run reads (and "
-                f"the run that wrote it replaces whole); choose an {option} outside it"
+                f"{option} {path} lies inside {what}, which the run reads (and the run that "
+                f"wrote it replaces whole); choose an {option} outside it"
             )
+
+
+def _written_folder(source: Path) -> Path | None:
+    """The folder a drivestyle run wrote that is or holds ``source`` (nearest first), if any."""
+    for folder in (source, *source.parents):
+        if (folder / OUTPUT_MARKER).is_file():
+            return folder
+    return None
 
 
 def _resolved(path: Path, option: str) -> Path:

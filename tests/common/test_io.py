@@ -205,6 +205,8 @@ def test_an_output_that_is_holds_or_lies_inside_an_input_is_refused(tmp_path):
     link.symlink_to(data)
     with pytest.raises(OutputPathError, match="lies inside the input"):
         check_output_dir(link / "sub", inputs=[data])  # any spelling
+    with pytest.raises(OutputPathError, match=r"lies inside .*episodes, which holds .*a\.npz"):
+        check_output_dir(data / "id", inputs=[data / "a.npz"])  # a file of a drivestyle folder
     check_output_dir(data, replace=False, inputs=[data / "a.npz"])  # adds files beside it
     check_output_dir(tmp_path / "x", inputs=[tmp_path])  # the user's folder, not drivestyle's
     check_output_dir(tmp_path / "out", inputs=[data, data / "a.npz", None])

@@ -588,6 +588,20 @@ def test_an_empty_lane_marking_and_a_repeated_lanes_key_are_refused(tmp_path):
     )
 
 
+def test_decreasing_lane_markings_are_the_options_fault_and_a_file_is_no_sample(tmp_path):
+    table = tmp_path / "tracks.csv"
+    _vehicles().to_csv(table, index=False)
+    assert _error(_run(tmp_path, table, "--lane-markings", "11.25,7.5,3.75,0")) == (
+        "error: --lane-markings: lane lines (as given) must be 3 or more increasing numbers "
+        "[m], road edges included, got [11.25, 7.5, 3.75, 0.0]"
+    )
+    assert _error(_run(tmp_path, table, "--format", "sample")) == (
+        f"error: {table}: not a shipped sample's folder (one holding tracks.csv.gz, such as "
+        "shared/data/ngsim or shared/data/cats-av-lanechange); a table of tracks is read with "
+        "--format csv"
+    )
+
+
 # ------------------------------------ 8: a heading message quotes the file's values
 def test_a_heading_of_traffic_to_minus_x_is_quoted_as_the_file_holds_it(tmp_path):
     table = _vehicles()
