@@ -8,12 +8,22 @@ prediction exactly.
 from __future__ import annotations
 
 import math
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import casadi as ca
 import numpy as np
 
-__all__ = ["INPUT_FIT_SCALE", "bicycle_ode", "inverse_step", "rk4_step", "rk4_step_scalar"]
+if TYPE_CHECKING:
+    from drivestyle.envs.scenario import ScenarioConfig
+
+__all__ = [
+    "INPUT_FIT_SCALE",
+    "bicycle_ode",
+    "inverse_step",
+    "recover_inputs",
+    "rk4_step",
+    "rk4_step_scalar",
+]
 
 Arr = TypeVar("Arr", np.ndarray, ca.SX, ca.MX)
 
@@ -208,3 +218,32 @@ def inverse_step(
     from scipy.optimize import least_squares
 
     return least_squares(mismatch, u, bounds=(lo, hi)).x
+
+
+def recover_inputs(
+    ev: np.ndarray, scenario: ScenarioConfig, t: np.ndarray | None = None
+) -> np.ndarray:
+    """The inputs [a, δ] that carry each state to the next (recorded inputs are unseen).
+
+    Per step, :func:`inverse_step`: the input within the scenario's bounds
+    [a_min, a_max] × [−δ_max, δ_max] whose RK4 step of the bicycle model (l_f, l_r of the
+    scenario) comes closest to the next state — exact for states the model produced, the
+    closest input for recorded ones (every recorded path and the simulated tracker,
+    :func:`drivestyle.envs.tracking.observe`, use this one function). The online tracker
+    (:class:`drivestyle.irl.online.StyleTracker`) recovers the same inputs sample by sample.
+
+    Args:
+        ev: EV states [x, y, φ, v], shape (n, 4).
+        scenario: the episode's scenario (bounds, axle distances, T_s).
+        t: sample times, shape (n,) [s] (default: T_s apart).
+
+    Returns:
+        Inputs, shape (n − 1, 2) [m/s², rad].
+    """
+    ev = np.asarray(ev, float)
+    steps = np.full(ev.shape[0] - 1, scenario.dt) if t is None else np.diff(np.asarray(t, float))
+    lo, hi = (scenario.a_min, -scenario.delta_max), (scenario.a_max, scenario.delta_max)
+    u = np.zeros((ev.shape[0] - 1, 2))
+    for k, dt in enumerate(steps):
+        u[k] = inverse_step(ev[k], ev[k + 1], float(dt), scenario.l_f, scenario.l_r, lo, hi)
+    return u

@@ -41,8 +41,9 @@ rules (the numbers are :class:`ExtractionConfig` fields):
 - **Resampling** to T_s = ``dt`` (:func:`resample_states`): cubic splines through the
   recorded positions; the recorded heading and speed where the track has them, else the
   direction and norm of the splines' velocity.
-- **Inputs** [a, δ] are recovered from consecutive states (:func:`recover_inputs`, the one
-  function every recorded path uses).
+- **Inputs** [a, δ] are recovered from consecutive states
+  (:func:`~drivestyle.envs.dynamics.recover_inputs`, the one function every recorded path
+  uses; re-exported here).
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ from drivestyle.envs.demonstration import (
     plausibility_problems,
     save_demonstration,
 )
-from drivestyle.envs.dynamics import inverse_step
+from drivestyle.envs.dynamics import recover_inputs
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracks import Carriageway, Recording, Track
 from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS, off_grid
@@ -161,34 +162,6 @@ def resample_states(
     )
     speed = np.hypot(dx, dy) if v is None else np.interp(t_new, t_src, v)
     return np.column_stack([sx(t_new), sy(t_new), phi, speed])
-
-
-def recover_inputs(
-    ev: np.ndarray, scenario: ScenarioConfig, t: np.ndarray | None = None
-) -> np.ndarray:
-    """The inputs [a, δ] that carry each state to the next (recorded inputs are unseen).
-
-    Per step, :func:`~drivestyle.envs.dynamics.inverse_step`: the input within the
-    scenario's bounds [a_min, a_max] × [−δ_max, δ_max] whose RK4 step of the bicycle model
-    (l_f, l_r of the scenario) comes closest to the next state — exact for states the
-    model produced, the closest input for recorded ones. The online tracker
-    (:class:`drivestyle.irl.online.StyleTracker`) recovers the same inputs sample by sample.
-
-    Args:
-        ev: EV states [x, y, φ, v], shape (n, 4).
-        scenario: the episode's scenario (bounds, axle distances, T_s).
-        t: sample times, shape (n,) [s] (default: T_s apart).
-
-    Returns:
-        Inputs, shape (n − 1, 2) [m/s², rad].
-    """
-    ev = np.asarray(ev, float)
-    steps = np.full(ev.shape[0] - 1, scenario.dt) if t is None else np.diff(np.asarray(t, float))
-    lo, hi = (scenario.a_min, -scenario.delta_max), (scenario.a_max, scenario.delta_max)
-    u = np.zeros((ev.shape[0] - 1, 2))
-    for k, dt in enumerate(steps):
-        u[k] = inverse_step(ev[k], ev[k + 1], float(dt), scenario.l_f, scenario.l_r, lo, hi)
-    return u
 
 
 # --------------------------------------------------------------------------------- the config

@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes, recover_inputs
+from drivestyle.envs.dynamics import recover_inputs
+from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes
 
 __all__ = [
     "DATASETS",
@@ -231,7 +232,7 @@ a highway lane change's; the recorded EVs reach 0.07–0.22 rad (CATS at 4–7 m
 stop-and-go), and a plan from a state outside the bound is infeasible."""
 RECORDED_DELTA_MAX = 0.25
 """Steering bound of the driver model on recorded traffic [rad] (the recorded lane changes
-need up to 0.16 rad, :func:`~drivestyle.envs.episodes.recover_inputs`; the scenario's 0.05 rad
+need up to 0.16 rad, :func:`~drivestyle.envs.dynamics.recover_inputs`; the scenario's 0.05 rad
 is a highway's)."""
 HEADING_MARGIN = 1.2
 """A recording needs :func:`driver_demo`'s bounds when its heading exceeds the scenario's
@@ -325,7 +326,7 @@ def with_recorded_bounds(demo: Demonstration) -> Demonstration:
 
     The heading and steering bounds become :data:`RECORDED_PHI_MAX` and
     :data:`RECORDED_DELTA_MAX`, and the inputs are recovered within them
-    (:func:`~drivestyle.envs.episodes.recover_inputs`); states and vehicles are unchanged.
+    (:func:`~drivestyle.envs.dynamics.recover_inputs`); states and vehicles are unchanged.
 
     Args:
         demo: a recorded episode.

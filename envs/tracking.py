@@ -11,7 +11,7 @@ standard offline tracker for vehicle trajectories. From the smoothed velocity (v
 so the heading is the direction of travel (the side-slip β is not observable from
 positions: ``meta["heading"] = "course"`` says so, as for recorded traffic) and the
 kinematic control-point rule reproduces the tracked velocities exactly. The inputs are
-estimated from the tracked states by :func:`~drivestyle.envs.episodes.recover_inputs`
+estimated from the tracked states by :func:`~drivestyle.envs.dynamics.recover_inputs`
 (the bounded inverse RK4 step every recorded path uses): the steering too, from the
 tracked path's curvature. Before the style class for real traffic (DESIGN §18) the
 tracker recorded δ = 0 and a = dv/dt, so a teacher-forced fit's steering residual said
@@ -27,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.episodes import recover_inputs
+from drivestyle.envs.dynamics import recover_inputs
 
 __all__ = ["DEFAULT_JERK_PSD", "observe", "rts_smooth"]
 
