@@ -3,8 +3,10 @@
 One installable root with its layers, each importing only those before it:
 
 - :mod:`drivestyle.common`: infrastructure (atomic files, the process pool, CLI helpers);
-- :mod:`drivestyle.envs`: the world and its data (Gymnasium envs, demonstrations,
-  recorded traffic);
+- :mod:`drivestyle.envs`: the simulated world and its data (Gymnasium envs,
+  demonstrations, the physical bounds of road vehicles);
+- :mod:`drivestyle.recorded`: recorded traffic (tracks, readers, lane-change episodes,
+  the shipped samples);
 - :mod:`drivestyle.planning`: the receding-horizon planner every driver and style solves;
 - :mod:`drivestyle.irl`: learning styles from trajectories (splines, features, ME-IRL,
   style libraries, identification, the learned reward);

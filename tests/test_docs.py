@@ -20,7 +20,9 @@ def test_every_design_citation_names_an_existing_section():
     existing = set(_sections())
     cite = re.compile(r"DESIGN(?:\.md)? *§ *(\d+)")
     files = [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
-    folders = ("drivestyle", "envs", "planning", "irl", "agents", "studies", "scripts", "tests")
+    folders = (
+        "drivestyle", "envs", "recorded", "planning", "irl", "agents", "studies", "scripts", "tests"
+    )  # fmt: skip
     for folder in folders:
         files += sorted((ROOT / folder).rglob("*.py"))
     missing = [
@@ -40,7 +42,7 @@ def test_the_readme_layout_table_names_every_module_and_only_existing_ones():
     assert not missing, f"README names modules that do not exist: {missing}"
     modules = {
         str(path.relative_to(ROOT))
-        for folder in ("drivestyle", "envs", "planning", "irl", "agents", "studies")
+        for folder in ("drivestyle", "envs", "recorded", "planning", "irl", "agents", "studies")
         for path in (ROOT / folder).rglob("*.py")
         if path.name not in ("__init__.py", "__main__.py")
     }

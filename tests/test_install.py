@@ -10,7 +10,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-USER_PACKAGES = ("envs", "planning", "agents", "studies", "irl", "scripts", "common")
+USER_PACKAGES = ("envs", "recorded", "planning", "agents", "studies", "irl", "scripts", "common")
 
 
 def test_a_users_own_envs_folder_neither_shadows_nor_is_shadowed(tmp_path):
@@ -22,6 +22,7 @@ def test_a_users_own_envs_folder_neither_shadows_nor_is_shadowed(tmp_path):
         "env = gym.make('drivestyle/LaneChange-v0')\n"
         "obs, _ = env.reset(seed=0)\n"
         "import drivestyle.agents.smpc, drivestyle.irl.learner, drivestyle.studies.paper\n"
+        "import drivestyle.recorded\n"
         "print(envs.WHO, agents.WHO, obs.shape, drivestyle.envs.__name__)\n"
     )
     out = subprocess.run(

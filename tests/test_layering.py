@@ -1,4 +1,7 @@
-"""Layers common ← envs ← planning ← irl ← agents ← studies ← scripts, checked on every import."""
+"""Layers common ← envs ← recorded ← planning ← irl ← agents ← studies ← scripts.
+
+Checked on every import, nested ones included.
+"""
 
 import ast
 import re
@@ -10,6 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {
     "common": ROOT / "drivestyle" / "common",
     "envs": ROOT / "envs",
+    "recorded": ROOT / "recorded",
     "planning": ROOT / "planning",
     "irl": ROOT / "irl",
     "agents": ROOT / "agents",
@@ -17,7 +21,7 @@ LAYERS = {
     "scripts": ROOT / "scripts",
 }
 """Lowest first: a layer may import only itself and the layers before it."""
-GENERIC = {"envs", "planning", "irl", "agents", "studies", "scripts", "common"}
+GENERIC = {"envs", "recorded", "planning", "irl", "agents", "studies", "scripts", "common"}
 """Top-level names that must never be imported bare: the library is ``drivestyle.*``."""
 
 

@@ -77,7 +77,7 @@ def test_every_markdown_writer_lives_in_reports():
 
     root = Path(__file__).resolve().parents[2]
     writers = []
-    for folder in ("drivestyle", "envs", "planning", "irl", "agents", "studies"):
+    for folder in ("drivestyle", "envs", "recorded", "planning", "irl", "agents", "studies"):
         for path in (root / folder).rglob("*.py"):
             for node in ast.walk(ast.parse(path.read_text())):
                 if isinstance(node, ast.FunctionDef) and "markdown" in node.name:
