@@ -24,7 +24,7 @@ rules (the numbers are :class:`ExtractionConfig` fields):
 - **Frame.** x as recorded; y moved so that the crossed line lies at y = w (w the mean
   width of the two lanes) and, for a change to the right, mirrored about it (y → −y, φ →
   −φ): the change goes to +y, lane 0 = [0, w) is the origin lane, lane 1 the target
-  (the frame of :mod:`drivestyle.envs.real_data`).
+  (the frame of :mod:`drivestyle.recorded.real_data`).
 - **Observed part.** The window's first ``observe_s`` seconds (at most ``min_before_s``, so
   it always ends before the crossing). Every scenario constant estimated from the
   data comes from it alone (:func:`observed_scenario`): nothing of the manoeuvre after it

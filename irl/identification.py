@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import recorded_view
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyleError
 from drivestyle.irl.inner import InnerProblem, InnerSolveError
@@ -43,6 +42,7 @@ from drivestyle.irl.learner import check_learnable
 from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
 from drivestyle.irl.risk_profile import RiskProfile, refined_profile
+from drivestyle.recorded.real_data import recorded_view
 
 __all__ = [
     "DEFAULT_SCORER",

@@ -46,7 +46,6 @@ import numpy as np
 
 from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_stops_the_job
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.envs.real_data import recorded_view
 from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.identification import (
     ENTERS_REGION,
@@ -60,6 +59,7 @@ from drivestyle.irl.identification import (
 )
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL
 from drivestyle.irl.library import DriverLibrary, StyleLibrary
+from drivestyle.recorded.real_data import recorded_view
 
 __all__ = [
     "COLUMNS",

@@ -31,7 +31,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
-from drivestyle.envs.real_data import check_data_dir
+from drivestyle.recorded.real_data import check_data_dir
 from drivestyle.studies.av_vs_human import compare_av_human, read_mined, unmined
 from drivestyle.studies.figures import plot_av_human
 from drivestyle.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes

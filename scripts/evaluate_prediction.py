@@ -64,9 +64,9 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
-from drivestyle.envs.real_data import check_data_dir
 from drivestyle.irl.library import load_driver_library
 from drivestyle.irl.physics import PhysicsParams, load_params, save_params
+from drivestyle.recorded.real_data import check_data_dir
 from drivestyle.studies.figures import (
     plot_posterior_over_time,
     plot_prediction,

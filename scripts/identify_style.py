@@ -29,7 +29,7 @@ Demonstrations of several recorded vehicles pool too, but a note on stderr names
 vehicles and ``identify.json`` says so (``vehicles``: each demonstration's,
 ``pools_several_vehicles``). A recorded vehicle is ``<carriageway>:<vehicle id>`` of its
 recording, from the episode's metadata (``meta["vehicle_id"]``, ``meta["source"]``, the
-carriageway in the extraction's ``episode_id``; envs/real_data.py ``recorded_vehicle``); a
+carriageway in the extraction's ``episode_id``; recorded/real_data.py ``recorded_vehicle``); a
 generated demonstration names no vehicle and is taken to be the vehicle of the others.
 
 Example:
@@ -49,7 +49,6 @@ from drivestyle.common.cli import HelpFormatter, run_cli
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.envs.real_data import recorded_vehicle
 from drivestyle.irl.driver_style import DriverStyleError, Reproduction, reproduce
 from drivestyle.irl.identification import (
     DEFAULT_SCORER,
@@ -62,6 +61,7 @@ from drivestyle.irl.identification import (
     identify,
 )
 from drivestyle.irl.library import DriverLibrary, StyleLibrary, load_any_library
+from drivestyle.recorded.real_data import recorded_vehicle
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> dict:
 def vehicle_names(demos: list[Demonstration]) -> list[str | None]:
     """Each demonstration's vehicle as ``<carriageway>:<vehicle id>`` (None: none known).
 
-    The rule is :func:`~drivestyle.envs.real_data.recorded_vehicle`'s (a generated
+    The rule is :func:`~drivestyle.recorded.real_data.recorded_vehicle`'s (a generated
     demonstration is of no known vehicle); two recordings that share a carriageway's name
     are told apart by their files.
     """

@@ -52,7 +52,6 @@ from drivestyle.agents import generate_demonstration
 from drivestyle.common.cli import HelpFormatter, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import check_data_dir
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl import driver_style as ds
@@ -64,6 +63,7 @@ from drivestyle.irl.library import DriverLibrary
 from drivestyle.irl.risk_profile import refined_profile
 from drivestyle.planning import smpc_problem as sp
 from drivestyle.planning.buffered import BufferedFunction
+from drivestyle.recorded.real_data import check_data_dir
 from drivestyle.studies.prediction import DEFAULT_DATA_DIR
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
@@ -668,7 +668,7 @@ def main(argv: list[str] | None = None) -> dict:
         bar.update(1)
         result["driver"][key] = entry
     if args.recorded > 0:
-        from drivestyle.envs.real_data import recorded_view
+        from drivestyle.recorded.real_data import recorded_view
         from drivestyle.studies.prediction import recorded_episodes
 
         episodes = recorded_episodes(str(args.data_dir), "cats")[: args.recorded]

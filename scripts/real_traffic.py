@@ -33,8 +33,8 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
-from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES
+from drivestyle.recorded.real_data import load_cats, load_ngsim
 from drivestyle.studies.figures import plot_driver_traffic
 from drivestyle.studies.real_traffic import DriverSettings, run_driver_study, run_study
 from drivestyle.studies.reports import driver_traffic_markdown, real_traffic_markdown

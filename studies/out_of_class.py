@@ -122,7 +122,7 @@ PREDICT_METHODS = ("cv", "ca", "physics", "population", "mode", "mixture")
 """Methods run (no oracle: the truth is not a member of the style class)."""
 HIGHWAY_EXTRACTION = ExtractionConfig(dt=0.2, l_a=None)
 """How the highway-env lane changes are extracted: the recorded-traffic loaders' settings
-(``envs/real_data.py``)."""
+(``recorded/real_data.py``)."""
 
 
 # ------------------------------------------------------------------------- highway-env drivers

@@ -5,7 +5,7 @@ from simulated SMPC(p) lane changes, it was never fitted to people. Here one sty
 cost weights, the risk and the speed-scaled safety region (T, s_0) — is learned by teacher
 forcing over every lane change of the recorded benchmark's *train* split (docs/
 benchmark_split.csv), each episode in the one recorded view
-(:func:`~drivestyle.envs.real_data.recorded_view`: the target lane's centre, no own-line
+(:func:`~drivestyle.recorded.real_data.recorded_view`: the target lane's centre, no own-line
 shift). The result is written as a driver library with
 the same risk grid and temperature as the library it started from, so identification,
 prediction and mining use it unchanged: ``drivestyle evaluate-prediction --library
@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import recorded_view
 from drivestyle.irl.driver_learning import (
     DriverFit,
     learn_driver,
@@ -49,6 +48,7 @@ from drivestyle.irl.driver_style import (
     reproduce,
 )
 from drivestyle.irl.library import DriverLibrary
+from drivestyle.recorded.real_data import recorded_view
 from drivestyle.studies.prediction import (
     DATASETS,
     SplitRow,

@@ -21,7 +21,7 @@ The vehicles:
   reported, once.
 - **recorded**: the NGSIM and CATS episodes seen through :func:`observed_view` after
   t_obs — the one recorded view of the observed samples
-  (:func:`~drivestyle.envs.real_data.recorded_view`; no own-line shift, which would read
+  (:func:`~drivestyle.recorded.real_data.recorded_view`; no own-line shift, which would read
   the episode's last second) in the no-leak frame: every method gets only what an
   observer knows then (module section "No leak"). No oracle. Episodes too short for a
   t_obs, or whose prediction fails, are skipped and counted with the reason
@@ -54,7 +54,7 @@ the vehicle it reacts to first (the TV slot) the nearest observed vehicle in tha
 the episode's target (chosen at the recorded crossing); a vehicle not yet recorded at t_obs
 (the loader continues it backwards at constant velocity from its first recorded state, i.e.
 from the future) is replaced by a phantom 1 km behind. Residual leaks, in the loader
-(``envs/real_data.py``): the resampling splines are global (a state at t ≤ t_obs moves by a
+(``recorded/real_data.py``): the resampling splines are global (a state at t ≤ t_obs moves by a
 decaying amount with the later recorded positions); NGSIM's lane grid is placed at the
 recorded crossing; the episode's window is centred on the recorded crossing (the lane change
 is known to happen).
@@ -96,7 +96,6 @@ from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.episodes import speed_constants
 from drivestyle.envs.lanes import lane_change_target, lane_index
-from drivestyle.envs.real_data import DATASETS, is_recorded, recorded_view
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
 from drivestyle.envs.units import off_grid
@@ -111,6 +110,7 @@ from drivestyle.irl.physics import (
     calibrate_physics,
 )
 from drivestyle.planning.description import SMPCConfig
+from drivestyle.recorded.real_data import DATASETS, is_recorded, recorded_view
 
 __all__ = [
     "BOOTSTRAP_SEED",
@@ -594,7 +594,7 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
     """A recorded episode as an observer knows it after ``t_obs`` s (module docstring, No leak).
 
     The episode is first seen as the driver model sees the samples 0 … k_obs
-    (:func:`~drivestyle.envs.real_data.recorded_view`: the recorded bounds where the
+    (:func:`~drivestyle.recorded.real_data.recorded_view`: the recorded bounds where the
     observed heading needs them). The returned demonstration has the same samples (the
     truth after t_obs is still there, to score against; no method reads it), its vehicles
     reordered (the observed TV first), unobserved ones replaced by phantoms, and every

@@ -9,7 +9,7 @@ For each recorded episode four reproductions are compared with the recording:
 
 Errors are taken at the recording's samples: rmse_y, rmse_xy and the final displacement
 error (fde). Feature constants adapt to each episode: the scenario's lane width, v_ref and
-ellipse come from the observed part (:mod:`drivestyle.envs.real_data`, DESIGN §10);
+ellipse come from the observed part (:mod:`drivestyle.recorded.real_data`, DESIGN §10);
 l_initial and l_des are the EV's own mean lateral positions over the window's first and
 last second (drivers keep their own line, not the painted lane centre, and a constant
 offset would otherwise be charged as lane deviation), and v_des = v_lane is its mean speed
@@ -28,18 +28,18 @@ import numpy as np
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.real_data import (
-    RECORDED_DELTA_MAX,
-    RECORDED_PHI_MAX,
-    RecordedEpisode,
-    recorded_view,
-)
 from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
 from drivestyle.irl.driver_style import reproduce
 from drivestyle.irl.features import FeatureConfig
 from drivestyle.irl.inner import InnerProblem
 from drivestyle.irl.learner import IRLConfig, MaxEntIRL, normalise_theta
 from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.recorded.real_data import (
+    RECORDED_DELTA_MAX,
+    RECORDED_PHI_MAX,
+    RecordedEpisode,
+    recorded_view,
+)
 from drivestyle.studies.figures import plot_episode
 
 __all__ = [
@@ -161,7 +161,7 @@ def own_line_shift(demo: Demonstration, settle_s: float = 1.0) -> Demonstration:
 def driver_demo(demo: Demonstration, own_line: bool = True) -> Demonstration:
     """A recorded episode as the driver-model study learns from it.
 
-    The one recorded view (:func:`~drivestyle.envs.real_data.recorded_view`), shifted to
+    The one recorded view (:func:`~drivestyle.recorded.real_data.recorded_view`), shifted to
     the EV's own final line with ``own_line`` (:func:`own_line_shift`).
 
     Returns:

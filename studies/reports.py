@@ -202,7 +202,7 @@ def real_traffic_markdown(study: RealTrafficStudy) -> str:
     lines = [
         f"# Real traffic: {study.dataset}",
         "",
-        f"{study.n_used} of {study.n_episodes} episodes used (selection in envs/real_data.py).",
+        f"{study.n_used} of {study.n_episodes} episodes used (selection in recorded/real_data.py).",
         "",
         "| method | median rmse_y [m] | median rmse_xy [m] | median fde [m] |",
         "|---|---|---|---|",

@@ -244,7 +244,7 @@ def test_tracked_demonstrations_pass_the_step_checks(paper_demo):
 @pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
 def test_every_recorded_episode_passes_the_step_checks():
     from drivestyle.envs.demonstration import step_problems
-    from drivestyle.envs.real_data import load_cats, load_ngsim
+    from drivestyle.recorded.real_data import load_cats, load_ngsim
 
     episodes = [*load_ngsim(DATA / "ngsim"), *load_cats(DATA / "cats-av-lanechange")]
     demos = [e.demo for e in episodes if e.demo is not None]

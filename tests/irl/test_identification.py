@@ -168,10 +168,10 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
     from dataclasses import replace as dc_replace
 
     import drivestyle.irl.identification as ident
-    from drivestyle.envs.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX, recorded_view
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.identification import identify_driver
     from drivestyle.irl.library import DriverLibrary
+    from drivestyle.recorded.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX, recorded_view
 
     # a recording that turns 3× the scenario's heading bound (as recorded drivers do)
     ev = paper_demo.ev * [1.0, 1.0, 3.0, 1.0]

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from drivestyle.envs.dynamics import rk4_step
-from drivestyle.envs.real_data import RECORDED_DELTA_MAX, recorded_view
 from drivestyle.envs.scenario import PAPER
 from drivestyle.irl.driver_style import _PLANNERS, DriverStyle, StylePlanner
 from drivestyle.irl.identification import identify_driver
@@ -22,6 +21,7 @@ from drivestyle.planning.reachability import (
     stage_one_blocked,
     stage_one_box,
 )
+from drivestyle.recorded.real_data import RECORDED_DELTA_MAX, recorded_view
 from drivestyle.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)

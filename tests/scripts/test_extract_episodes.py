@@ -171,4 +171,4 @@ def test_the_shipped_ngsim_sample_goes_through_the_command(tmp_path):
     rows = (tmp_path / "out" / "episodes.csv").read_text().splitlines()
     assert (
         len(rows) - 1 == 19
-    )  # every lane change of the sample (tests/envs/test_sample_extraction.py)
+    )  # every lane change of the sample (tests/recorded/test_sample_extraction.py)

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from drivestyle.envs.demonstration import save_demonstration
-from drivestyle.envs.real_data import recorded_vehicle
 from drivestyle.irl.driver_style import DriverStyle
 from drivestyle.irl.library import DriverLibrary
+from drivestyle.recorded.real_data import recorded_vehicle
 from drivestyle.scripts import identify_style
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"

@@ -137,7 +137,7 @@ def test_the_observed_scenario_uses_the_observed_speeds_only(paper_demo):
 
 
 def test_the_recorded_bounds_are_chosen_from_the_observed_heading_only(paper_demo):
-    from drivestyle.envs.real_data import RECORDED_PHI_MAX
+    from drivestyle.recorded.real_data import RECORDED_PHI_MAX
 
     demo = _as_recorded(paper_demo)
     k = round(2.0 / demo.scenario.dt)

@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivestyle.envs.real_data import load_cats, load_ngsim
 from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.recorded.real_data import load_cats, load_ngsim
 from drivestyle.studies.real_traffic import (
     classify_loo,
     constant_velocity,

@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.recorded.real_data import load_cats, load_ngsim
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")

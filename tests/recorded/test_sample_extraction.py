@@ -3,7 +3,7 @@
 ``read_sample`` reads each sample's ``tracks.csv.gz`` (every vehicle of every recording) and
 :func:`extract_episodes` finds every lane change in it; the converters' curated
 ``episodes.csv`` lists the changes the learning studies use, and the loaders of
-:mod:`drivestyle.envs.real_data` match each of its rows to an extracted change. A row
+:mod:`drivestyle.recorded.real_data` match each of its rows to an extracted change. A row
 matches when it has the same recording, the same ego vehicle and a crossing time within
 ±0.5 s (the converters' t_cross is the first sample in the new lane, the extraction's the
 interpolated line crossing: I-80 is sampled at 2 Hz). Every *used* curated episode must be
@@ -21,7 +21,7 @@ import pytest
 
 from drivestyle.envs.episodes import Episode, extract_episodes
 from drivestyle.envs.readers import READERS
-from drivestyle.envs.real_data import load_cats, load_ngsim
+from drivestyle.recorded.real_data import load_cats, load_ngsim
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 pytestmark = [
