@@ -2,7 +2,7 @@
 
 Every reader (generic CSV/Parquet, raw NGSIM, the levelX format of highD/exiD,
 INTERACTION; :mod:`drivestyle.envs.readers`) turns its file into a :class:`Recording`, and
-the extraction (:mod:`drivestyle.envs.episodes`) turns a recording into lane-change
+the extraction (:mod:`drivestyle.recorded.episodes`) turns a recording into lane-change
 episodes: nothing downstream knows where a track came from (the way trajdata and the
 levelX tools keep a source's conventions at the edge).
 

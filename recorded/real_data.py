@@ -2,7 +2,7 @@
 
 Both samples go through the one extraction every recorded source uses
 (:func:`~drivestyle.envs.readers.read_sample` then
-:func:`~drivestyle.envs.episodes.extract_episodes`, DESIGN §15): the road frame, lane
+:func:`~drivestyle.recorded.episodes.extract_episodes`, DESIGN §15): the road frame, lane
 changes to the right mirrored to +y, resampling to T_s by splines local to each sample
 interval, heading and speed from the track, recovered inputs, interacting vehicles chosen
 at the window's start, and the scenario from the observed part only. What this module adds
@@ -35,7 +35,7 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import recover_inputs
-from drivestyle.envs.episodes import Episode, ExtractionConfig, extract_episodes
+from drivestyle.recorded.episodes import Episode, ExtractionConfig, extract_episodes
 
 __all__ = [
     "DATASETS",
@@ -264,7 +264,7 @@ def recorded_vehicle(demo: Demonstration) -> RecordedVehicle | None:
     """Which recorded vehicle a demonstration is of; None where its metadata does not say.
 
     A vehicle id is unique within its carriageway of one recording (the rule of
-    :func:`~drivestyle.envs.episodes.read_episodes`, ``<carriageway>:<vehicle id>``), so a
+    :func:`~drivestyle.recorded.episodes.read_episodes`, ``<carriageway>:<vehicle id>``), so a
     recorded vehicle is (``meta["source"]``, the carriageway, ``meta["vehicle_id"]``). The
     carriageway is read from the extraction's episode id, ``<carriageway>_<vehicle
     id>_<crossing ms>`` (``meta["extraction_id"]`` of a curated episode, else

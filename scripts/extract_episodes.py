@@ -3,7 +3,7 @@ r"""Extract the lane changes of your own trajectories as demonstrations (``.npz`
 Reads DATA with a reader of ``--format`` (``csv``: the generic long table with columns
 ``id, t, x, y`` and optionally ``recording, v, heading, length, width, lane, frame``;
 ``ngsim``, ``highd``, ``interaction``: those datasets' published files), finds every lane
-change (envs/episodes.py: a lane line crossed and the new lane held, enough track before
+change (recorded/episodes.py: a lane line crossed and the new lane held, enough track before
 and after, a lateral move of at least ``--min-lateral-move`` lanes), mirrors rightward
 changes to +y, keeps the interacting vehicles (target-lane
 follower and leader, own-lane leader), resamples to ``--dt``, recovers the inputs and sets
@@ -20,7 +20,7 @@ The tracks are checked by their physics (envs/track_checks.py): a file in anothe
 likely unit; a vehicle beyond a bound alone, two vehicles in one place, a gap longer than
 ``--max-gap`` across a lane change keep the lane change in episodes.csv, unusable, with
 the reason. A demonstration's file name is its episode id made safe
-(envs.episodes.episode_file_name), always inside OUT.
+(recorded.episodes.episode_file_name), always inside OUT.
 
 Example:
     python scripts/extract_episodes.py tracks.csv --format csv --lane-width 3.75 \\
@@ -47,13 +47,13 @@ from drivestyle.common.cli import (
     run_cli,
 )
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.episodes import (
+from drivestyle.envs.readers import READERS, check_lane_lines, load_lanes
+from drivestyle.recorded.episodes import (
     ExtractionConfig,
     episode_file_names,
     extract_episodes,
     write_episodes,
 )
-from drivestyle.envs.readers import READERS, check_lane_lines, load_lanes
 
 FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
 """``--format`` choices (each a key of :data:`drivestyle.envs.readers.READERS`)."""

@@ -41,7 +41,6 @@ from tqdm import tqdm
 from drivestyle.common.cli import HelpFormatter, Interrupted, positive_float, run_cli, workers
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import check_output_dir, write_json
-from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
 from drivestyle.envs.readers import read_sample
 from drivestyle.irl.library import load_any_library
 from drivestyle.irl.mining import (
@@ -53,6 +52,7 @@ from drivestyle.irl.mining import (
     summary_numbers,
 )
 from drivestyle.irl.mining_output import MiningOutput, RunFingerprint
+from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.studies.figures import plot_population
 
 
@@ -89,7 +89,7 @@ def _tasks(args: argparse.Namespace) -> tuple[list[MiningTask], str]:
     if args.dataset:
         if args.data is None or args.input is not None:
             raise ValueError("--dataset needs --data DIR and no INPUT folder")
-        # the same extraction as anyone's own data (envs.episodes): every usable lane change
+        # the same extraction as anyone's own data (recorded.episodes): every usable lane change
         recording = read_sample(args.data)
         if recording.meta.get("dataset") != args.dataset:
             raise ValueError(

@@ -16,7 +16,7 @@ known by construction:
   standstill gap (the gap it keeps), MOBIL's politeness and — the safety criterion — the
   braking it may impose on the new follower (MOBIL's minimum own gain, the motivation to
   change, is the same for all). The recording goes through the project's own extraction
-  (:func:`~drivestyle.envs.episodes.extract_episodes`, the path recorded traffic takes), so
+  (:func:`~drivestyle.recorded.episodes.extract_episodes`, the path recorded traffic takes), so
   these lane changes are identified and predicted exactly as NGSIM's are.
 - **SMPC drivers of another class** (:data:`SMPC_VARIANTS`): the expert with another
   horizon, another TV-uncertainty model or other cost weights, each at several risks; the
@@ -47,7 +47,6 @@ import numpy as np
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstration
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.envs.tracks import Carriageway, Recording, Track
 from drivestyle.irl.identification import Identification, identify_driver, recorded_verdict_label
@@ -55,6 +54,7 @@ from drivestyle.irl.library import DriverLibrary, LibraryError
 from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
+from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.studies.prediction import (
     PREDICTION_ERRORS,
     MethodSummary,

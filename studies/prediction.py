@@ -94,7 +94,6 @@ from drivestyle.agents.demo_generation import (
 from drivestyle.common.parallel import parallel_map
 from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.episodes import speed_constants
 from drivestyle.envs.lanes import lane_change_target, lane_index
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
@@ -110,6 +109,7 @@ from drivestyle.irl.physics import (
     calibrate_physics,
 )
 from drivestyle.planning.description import SMPCConfig
+from drivestyle.recorded.episodes import speed_constants
 from drivestyle.recorded.real_data import DATASETS, is_recorded, recorded_view
 
 __all__ = [
@@ -254,8 +254,8 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
 
     The sample's whole ``tracks.csv.gz`` goes through
     :func:`~drivestyle.envs.readers.read_sample` and
-    :func:`~drivestyle.envs.episodes.extract_episodes` with the default
-    :class:`~drivestyle.envs.episodes.ExtractionConfig` (the path ``drivestyle
+    :func:`~drivestyle.recorded.episodes.extract_episodes` with the default
+    :class:`~drivestyle.recorded.episodes.ExtractionConfig` (the path ``drivestyle
     extract-episodes --format sample`` takes); every vehicle's changes count, not only the
     converters' curated ones.
 
@@ -272,8 +272,8 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
     Raises:
         ValueError: an unknown dataset; the reader's errors for missing or malformed files.
     """
-    from drivestyle.envs.episodes import extract_episodes
     from drivestyle.envs.readers import read_sample
+    from drivestyle.recorded.episodes import extract_episodes
 
     if dataset not in DATASETS:
         raise ValueError(f"unknown dataset {dataset!r}; known: {sorted(DATASETS)}")
@@ -692,9 +692,9 @@ def episodes_split(folder: str | Path, seed: int = SPLIT_SEED) -> list[SplitRow]
     """The split by vehicle of a folder of extracted episodes (:func:`split_by_vehicle`).
 
     Its rows' dataset is :data:`EPISODES_SET`; a vehicle is ``<carriageway>:<vehicle id>``
-    (:func:`~drivestyle.envs.episodes.read_episodes`).
+    (:func:`~drivestyle.recorded.episodes.read_episodes`).
     """
-    from drivestyle.envs.episodes import read_episodes
+    from drivestyle.recorded.episodes import read_episodes
 
     pairs = [(eid, vehicle) for eid, vehicle, _ in read_episodes(folder)]
     if not pairs:
@@ -724,7 +724,7 @@ def load_episodes_folder(
             (:func:`check_split_vehicles`), or a split that selects none. Rows of episodes
             the folder lacks are noted on stderr.
     """
-    from drivestyle.envs.episodes import read_episodes
+    from drivestyle.recorded.episodes import read_episodes
 
     found = {eid: (vehicle, demo) for eid, vehicle, demo in read_episodes(folder)}
     if rows is None:

@@ -518,7 +518,7 @@ def test_ngsim_i80_has_six_main_lanes_and_us101_five(tmp_path):
 
 
 def test_ngsim_a_gap_across_a_lane_change_keeps_it_unusable_not_lost(tmp_path):
-    from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+    from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 
     df = _ngsim_table()
     hole = (df.Vehicle_ID == 2) & df.Frame_ID.between(15, 26)  # 1.3 s across its crossing

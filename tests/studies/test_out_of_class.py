@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from drivestyle.envs.episodes import ExtractionConfig, extract_episodes
+from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.studies.out_of_class import (
     HIGHWAY_CLASSES,
     LANE_WIDTH,

@@ -144,7 +144,7 @@ def _recorded_like(
 
 
 def test_recorded_inputs_recover_the_applied_inputs():
-    from drivestyle.envs.episodes import recover_inputs
+    from drivestyle.recorded.episodes import recover_inputs
 
     demo, u = _recorded_like()
     np.testing.assert_allclose(recover_inputs(demo.ev, demo.scenario, demo.t), u, atol=1e-6)

@@ -11,7 +11,10 @@ import pytest
 
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.dynamics import rk4_step
-from drivestyle.envs.episodes import (
+from drivestyle.envs.readers import READERS, read_table
+from drivestyle.envs.scenario import PAPER
+from drivestyle.envs.tracks import TrackError
+from drivestyle.recorded.episodes import (
     PHANTOM_GAP_M,
     ExtractionConfig,
     extract_episodes,
@@ -21,9 +24,6 @@ from drivestyle.envs.episodes import (
     speed_constants,
     write_episodes,
 )
-from drivestyle.envs.readers import READERS, read_table
-from drivestyle.envs.scenario import PAPER
-from drivestyle.envs.tracks import TrackError
 
 W = 3.5
 RATE = 0.1  # 10 Hz
