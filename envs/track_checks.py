@@ -1,6 +1,6 @@
 """Every reader's tracks checked by their physics: the rules' one home.
 
-Each reader of :mod:`drivestyle.envs.readers` (the generic table, raw NGSIM, levelX,
+Each reader of :mod:`drivestyle.recorded.readers` (the generic table, raw NGSIM, levelX,
 INTERACTION, the shipped samples) ends with :func:`check_recording`; no reader keeps a
 copy of a rule. A rule has two outcomes:
 

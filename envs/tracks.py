@@ -1,7 +1,7 @@
 """Recorded trajectories in one road frame, whatever file format they came from.
 
 Every reader (generic CSV/Parquet, raw NGSIM, the levelX format of highD/exiD,
-INTERACTION; :mod:`drivestyle.envs.readers`) turns its file into a :class:`Recording`, and
+INTERACTION; :mod:`drivestyle.recorded.readers`) turns its file into a :class:`Recording`, and
 the extraction (:mod:`drivestyle.recorded.episodes`) turns a recording into lane-change
 episodes: nothing downstream knows where a track came from (the way trajdata and the
 levelX tools keep a source's conventions at the edge).

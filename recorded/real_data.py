@@ -1,7 +1,7 @@
 """The shipped recorded samples (NGSIM I-80 / US-101, the CATS AV field test) as episodes.
 
 Both samples go through the one extraction every recorded source uses
-(:func:`~drivestyle.envs.readers.read_sample` then
+(:func:`~drivestyle.recorded.readers.read_sample` then
 :func:`~drivestyle.recorded.episodes.extract_episodes`, DESIGN §15): the road frame, lane
 changes to the right mirrored to +y, resampling to T_s by splines local to each sample
 interval, heading and speed from the track, recovered inputs, interacting vehicles chosen
@@ -343,7 +343,7 @@ def with_recorded_bounds(demo: Demonstration) -> Demonstration:
 
 def _extracted(data_dir: Path, dt: float) -> list[Episode]:
     """Every lane change of the sample's ``tracks.csv.gz`` (the loaders' scenario rule)."""
-    from drivestyle.envs.readers import read_sample
+    from drivestyle.recorded.readers import read_sample
 
     try:
         recording = read_sample(data_dir)

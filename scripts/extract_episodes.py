@@ -47,16 +47,16 @@ from drivestyle.common.cli import (
     run_cli,
 )
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.envs.readers import READERS, check_lane_lines, load_lanes
 from drivestyle.recorded.episodes import (
     ExtractionConfig,
     episode_file_names,
     extract_episodes,
     write_episodes,
 )
+from drivestyle.recorded.readers import READERS, check_lane_lines, load_lanes
 
 FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
-"""``--format`` choices (each a key of :data:`drivestyle.envs.readers.READERS`)."""
+"""``--format`` choices (each a key of :data:`drivestyle.recorded.readers.READERS`)."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -253,7 +253,7 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
     """Every usable lane change of a shipped sample, as the extraction finds it.
 
     The sample's whole ``tracks.csv.gz`` goes through
-    :func:`~drivestyle.envs.readers.read_sample` and
+    :func:`~drivestyle.recorded.readers.read_sample` and
     :func:`~drivestyle.recorded.episodes.extract_episodes` with the default
     :class:`~drivestyle.recorded.episodes.ExtractionConfig` (the path ``drivestyle
     extract-episodes --format sample`` takes); every vehicle's changes count, not only the
@@ -272,8 +272,8 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
     Raises:
         ValueError: an unknown dataset; the reader's errors for missing or malformed files.
     """
-    from drivestyle.envs.readers import read_sample
     from drivestyle.recorded.episodes import extract_episodes
+    from drivestyle.recorded.readers import read_sample
 
     if dataset not in DATASETS:
         raise ValueError(f"unknown dataset {dataset!r}; known: {sorted(DATASETS)}")

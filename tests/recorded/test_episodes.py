@@ -11,7 +11,6 @@ import pytest
 
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.dynamics import rk4_step
-from drivestyle.envs.readers import READERS, read_table
 from drivestyle.envs.scenario import PAPER
 from drivestyle.envs.tracks import TrackError
 from drivestyle.recorded.episodes import (
@@ -24,6 +23,7 @@ from drivestyle.recorded.episodes import (
     speed_constants,
     write_episodes,
 )
+from drivestyle.recorded.readers import READERS, read_table
 
 W = 3.5
 RATE = 0.1  # 10 Hz
@@ -348,10 +348,10 @@ def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, 
 def test_an_smpc_lane_change_in_levelx_image_coordinates_is_identified_like_its_npz(tmp_path, risk):
     """highD's layout, lower direction (driving to image +x, its left is image −y)."""
     from drivestyle.agents import generate_demonstration
-    from drivestyle.envs.readers import read_levelx
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.identification import identify
     from drivestyle.irl.library import DriverLibrary
+    from drivestyle.recorded.readers import read_levelx
 
     w = 3.75
     sc = replace(PAPER, lane_width=w, l_b=3 * w / 5.25)

@@ -19,8 +19,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from drivestyle.envs.readers import READERS
 from drivestyle.recorded.episodes import Episode, extract_episodes
+from drivestyle.recorded.readers import READERS
 from drivestyle.recorded.real_data import load_cats, load_ngsim
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"

@@ -20,13 +20,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.readers import read_table
 from drivestyle.recorded.episodes import (
     FILE_NAME_MAX,
     episode_file_name,
     episode_file_names,
     extract_episodes,
 )
+from drivestyle.recorded.readers import read_table
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):
 # CI runs them with the slow set, the default run stays within its time

@@ -302,8 +302,8 @@ def test_a_recorded_sample_is_mined_through_the_extraction(dataset):
     folder = data / ("ngsim" if dataset == "ngsim" else "cats-av-lanechange")
     if not folder.is_dir():
         pytest.skip("../shared/data not beside the checkout")
-    from drivestyle.envs.readers import read_sample
     from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
+    from drivestyle.recorded.readers import read_sample
     from drivestyle.scripts import mine_styles
 
     args = mine_styles.parse_args(["--dataset", dataset, "--data", str(folder), "--library", "x"])

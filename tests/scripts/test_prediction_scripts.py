@@ -348,9 +348,9 @@ def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(f
     import subprocess
     import sys
 
-    from drivestyle.envs.readers import read_sample, write_table
     from drivestyle.irl.library import load_driver_library
     from drivestyle.irl.physics import load_params
+    from drivestyle.recorded.readers import read_sample, write_table
     from drivestyle.studies.prediction import (
         PHYSICS_FILE,
         SPLIT_FILE,

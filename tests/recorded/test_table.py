@@ -10,9 +10,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.readers import load_lanes, outside_road, read_sample, read_table, write_table
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.recorded.episodes import extract_episodes
+from drivestyle.recorded.readers import (
+    load_lanes,
+    outside_road,
+    read_sample,
+    read_table,
+    write_table,
+)
 
 W = 3.5
 T = np.round(np.arange(0, 12.0 + 1e-9, 0.1), 9)  # 10 Hz, 12 s

@@ -11,14 +11,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.readers import (
+from drivestyle.envs.tracks import TrackError
+from drivestyle.recorded.readers import (
     NGSIM_COLUMNS,
     READERS,
     read_interaction,
     read_levelx,
     read_ngsim,
 )
-from drivestyle.envs.tracks import TrackError
 
 FT = 0.3048
 T0_MS = 1_118_846_980_000  # an NGSIM-like epoch time stamp [ms]
