@@ -447,7 +447,7 @@ def _kinematic_problems(
         if not problems and implied.max() > v_limit:
             k, j = (int(i) for i in np.unravel_index(int(np.argmax(implied)), implied.shape))
             jump = implied[k, j] * dt[k]
-            # a fleet beyond the bound is refused by the readers (envs.track_checks): one
+            # a fleet beyond the bound is refused by the readers (recorded.track_checks): one
             # step beyond it is a jump, one vehicle at that speed throughout a unit slip
             steady = bool(np.median(implied[:, j]) > v_limit)
             cause = (

@@ -46,7 +46,7 @@ def _array(name: str, value: object, n: int | None, where: str) -> np.ndarray:
 class TrackProblem:
     """Why (part of) a track is not a road vehicle's motion.
 
-    A finding of the readers' checks (:func:`drivestyle.envs.track_checks.check_recording`).
+    A finding of the readers' checks (:func:`drivestyle.recorded.track_checks.check_recording`).
     """
 
     text: str
@@ -90,7 +90,7 @@ class Track:
     """The file it was read from (for messages and ``episodes.csv``)."""
     problems: tuple[TrackProblem, ...] = ()
     """Why the track (or a part of it) is not a road vehicle's motion (the readers' checks,
-    :func:`drivestyle.envs.track_checks.check_recording`): a lane change whose window meets
+    :func:`drivestyle.recorded.track_checks.check_recording`): a lane change whose window meets
     one — its own or an interacting vehicle's — is kept unusable with it. Empty:
     plausible."""
 
@@ -145,7 +145,7 @@ class Carriageway:
     """A recorded heading in the source's frame is the road frame's plus this [rad]: π for
     a table's traffic to −x (turned by 180°), the direction's angle for INTERACTION; 0 where
     the frame is the source's. Messages quote the source's values
-    (:mod:`drivestyle.envs.track_checks`)."""
+    (:mod:`drivestyle.recorded.track_checks`)."""
 
     def __post_init__(self) -> None:
         m = tuple(float(v) for v in self.markings)

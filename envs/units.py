@@ -3,7 +3,7 @@
 A recorded value no road vehicle can show is most often a value in another unit: positions
 in feet, speeds in km/h, times in milliseconds, headings in degrees. The bounds here are
 the one statement of what a road vehicle can do; the readers' checks
-(:mod:`drivestyle.envs.track_checks`), the plausibility of a demonstration
+(:mod:`drivestyle.recorded.track_checks`), the plausibility of a demonstration
 (:mod:`drivestyle.envs.demonstration`) and the scenario's speed bound
 (:class:`~drivestyle.envs.scenario.ScenarioConfig`) use them, and the hints name the
 conversion that would make the value a road vehicle's. :func:`off_grid` is the one rule

@@ -669,7 +669,7 @@ def _episode(
         "lane_width": w,
         "lateral_move": move,
     }
-    # the readers' checks (envs.track_checks): the vehicle's motion in the window is not a
+    # the readers' checks (recorded.track_checks): the vehicle's motion in the window is not a
     # road vehicle's; the demonstration is still built, for the plausibility's own say
     flagged = tuple(
         f"vehicle {track.vehicle_id} {p.text}" for p in track.problems if p.meets(start, stop)

@@ -3,7 +3,7 @@
 Every reader keeps its source's conventions here, at the edge, and returns tracks in the
 one road frame of :mod:`drivestyle.envs.tracks` (x along travel, y to the left, lane 0
 rightmost, vehicle centres, SI units), checked by their physics by the one home of the
-readers' rules, :func:`~drivestyle.envs.track_checks.check_recording`, which every reader
+readers' rules, :func:`~drivestyle.recorded.track_checks.check_recording`, which every reader
 calls last. Every CSV is read through :func:`_read_csv` (one-line messages for empty,
 binary and non-UTF-8 files). :data:`READERS` maps a format name to its reader.
 """
@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
-from drivestyle.envs.track_checks import SINGLE_SAMPLE, check_recording
 from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.envs.units import FOOT
+from drivestyle.recorded.track_checks import SINGLE_SAMPLE, check_recording
 
 __all__ = [
     "INTERACTION_COLUMNS",
@@ -582,7 +582,7 @@ def read_table(
             (feet), lines that do not increase, a recording without lines or lines of a
             recording the table lacks, two of ``lanes``, ``lane_width`` and
             ``lane_markings``, no lane geometry, or a file the readers' checks refuse
-            (:func:`~drivestyle.envs.track_checks.check_recording`: times, speeds or
+            (:func:`~drivestyle.recorded.track_checks.check_recording`: times, speeds or
             headings in another unit); one line naming the file, and the recording,
             vehicle, row and frame where one is at fault.
     """
@@ -1084,8 +1084,8 @@ def _published_tracks(
     time jumps by more than ``max_gap_s`` (a reused id: the later parts are named
     ``'<id>@<first frame>'``; a gap in one vehicle's track is the extraction's rule,
     ``ExtractionConfig.max_gap_s``). Tracks of a single sample are dropped (their names
-    returned: the readers' :data:`~drivestyle.envs.track_checks.SINGLE_SAMPLE` meta, which
-    :func:`~drivestyle.envs.track_checks.check_recording` notes).
+    returned: the readers' :data:`~drivestyle.recorded.track_checks.SINGLE_SAMPLE` meta, which
+    :func:`~drivestyle.recorded.track_checks.check_recording` notes).
 
     Raises:
         TrackError: a vehicle has two rows at one time or one frame, or frames that do not

@@ -15,7 +15,7 @@ Lane lines are given with the road edges: the outermost lines are the edges, a v
 outside them is in no lane (a warning names such vehicles). A table of several recordings
 (a ``recording`` column) takes ``--lanes lanes.json``, each recording's lines.
 
-The tracks are checked by their physics (envs/track_checks.py): a file in another unit
+The tracks are checked by their physics (recorded/track_checks.py): a file in another unit
 (speeds beyond 70 m/s, a time step of 100, headings in degrees) is refused naming the
 likely unit; a vehicle beyond a bound alone, two vehicles in one place, a gap longer than
 ``--max-gap`` across a lane change keep the lane change in episodes.csv, unusable, with

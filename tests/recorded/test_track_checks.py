@@ -1,4 +1,4 @@
-"""The readers' checks of tracks (envs/track_checks.py) in closed form."""
+"""The readers' checks of tracks (recorded/track_checks.py) in closed form."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 
 from drivestyle.envs.safety import rectangles_overlap, vehicle_corners, vehicles_overlap
-from drivestyle.envs.track_checks import course, overlaps
+from drivestyle.recorded.track_checks import course, overlaps
 
 
 def test_vehicles_overlap_agrees_with_the_single_pair_test(rng):
@@ -50,8 +50,8 @@ def test_course_is_the_direction_over_a_base_along_the_road():
 
 
 def test_a_standing_vehicles_jitter_neither_turns_its_course_nor_disputes_its_heading(rng):
-    from drivestyle.envs.track_checks import check_recording, course_disagreement
     from drivestyle.envs.tracks import Carriageway, Recording, Track
+    from drivestyle.recorded.track_checks import check_recording, course_disagreement
 
     # 20 s standing with 0.1 m of position noise (its path grows 2 m every ≈ 1.5 s), then
     # 10 s at 10 m/s straight along +x; the recorded heading is 0 throughout
