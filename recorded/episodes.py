@@ -1,4 +1,4 @@
-"""Lane-change episodes of a :class:`~drivestyle.envs.tracks.Recording` as demonstrations.
+"""Lane-change episodes of a :class:`~drivestyle.recorded.tracks.Recording` as demonstrations.
 
 :func:`extract_episodes` finds, on each carriageway, every lane change of every vehicle
 and turns it into a :class:`~drivestyle.envs.demonstration.Demonstration` in the
@@ -66,8 +66,8 @@ from drivestyle.envs.demonstration import (
 )
 from drivestyle.envs.dynamics import recover_inputs
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.envs.tracks import Carriageway, Recording, Track
 from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS, off_grid
+from drivestyle.recorded.tracks import Carriageway, Recording, Track
 
 __all__ = [
     "EPISODE_COLUMNS",

@@ -1,7 +1,7 @@
-"""Readers of published trajectory formats into a :class:`~drivestyle.envs.tracks.Recording`.
+"""Readers of published trajectory formats into a :class:`~drivestyle.recorded.tracks.Recording`.
 
 Every reader keeps its source's conventions here, at the edge, and returns tracks in the
-one road frame of :mod:`drivestyle.envs.tracks` (x along travel, y to the left, lane 0
+one road frame of :mod:`drivestyle.recorded.tracks` (x along travel, y to the left, lane 0
 rightmost, vehicle centres, SI units), checked by their physics by the one home of the
 readers' rules, :func:`~drivestyle.recorded.track_checks.check_recording`, which every reader
 calls last. Every CSV is read through :func:`_read_csv` (one-line messages for empty,
@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
-from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.envs.units import FOOT
 from drivestyle.recorded.track_checks import SINGLE_SAMPLE, check_recording
+from drivestyle.recorded.tracks import Carriageway, Recording, Track, TrackError
 
 __all__ = [
     "INTERACTION_COLUMNS",

@@ -4,11 +4,11 @@ Each reader of :mod:`drivestyle.recorded.readers` (the generic table, raw NGSIM,
 INTERACTION, the shipped samples) ends with :func:`check_recording`; no reader keeps a
 copy of a rule. A rule has two outcomes:
 
-- **the file** is refused (:class:`~drivestyle.envs.tracks.TrackError`, one line naming
+- **the file** is refused (:class:`~drivestyle.recorded.tracks.TrackError`, one line naming
   the file, the column and the value with the likely unit) where most of its vehicles
   break the rule: that is a unit or a convention of the file, not a vehicle;
 - **a vehicle** that breaks it alone is kept with the reason in
-  :attr:`~drivestyle.envs.tracks.Track.problems` (with the times it concerns): a lane
+  :attr:`~drivestyle.recorded.tracks.Track.problems` (with the times it concerns): a lane
   change whose window meets it — the lane changer's or an interacting vehicle's — is
   listed unusable in ``episodes.csv`` with it, and a warning on stderr names the vehicles.
 
@@ -46,7 +46,6 @@ import numpy as np
 
 from drivestyle.envs.demonstration import OVERLAP_SHRINK
 from drivestyle.envs.safety import vehicles_overlap
-from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError, TrackProblem
 from drivestyle.envs.units import (
     FOOT,
     ROAD_SPEED_MAX_MPS,
@@ -55,6 +54,7 @@ from drivestyle.envs.units import (
     speed_unit_hint,
     time_unit_hint,
 )
+from drivestyle.recorded.tracks import Carriageway, Recording, Track, TrackError, TrackProblem
 
 __all__ = [
     "COURSE_BASE_M",
@@ -400,7 +400,7 @@ def _heading_problems(
 ) -> list[tuple[TrackProblem, ...]]:
     """Recorded headings that disagree with the course of the positions, per track.
 
-    Said in the source's frame (:attr:`~drivestyle.envs.tracks.Carriageway.heading_offset`):
+    Said in the source's frame (:attr:`~drivestyle.recorded.tracks.Carriageway.heading_offset`):
     the heading the file holds and the course of its positions as the file has them.
 
     Raises:
@@ -526,7 +526,7 @@ def check_recording(recording: Recording, warn: bool = True) -> Recording:
             stderr.
 
     Returns:
-        The recording with each track's :attr:`~drivestyle.envs.tracks.Track.problems` set
+        The recording with each track's :attr:`~drivestyle.recorded.tracks.Track.problems` set
         (``meta["track_problems"]``: carriageway, vehicle and problems of each such track).
 
     Raises:

@@ -48,13 +48,13 @@ import numpy as np
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstration
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.envs.tracks import Carriageway, Recording, Track
 from drivestyle.irl.identification import Identification, identify_driver, recorded_verdict_label
 from drivestyle.irl.library import DriverLibrary, LibraryError
 from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
+from drivestyle.recorded.tracks import Carriageway, Recording, Track
 from drivestyle.studies.prediction import (
     PREDICTION_ERRORS,
     MethodSummary,
@@ -270,7 +270,7 @@ def draw_traffic(
 def project_frame(
     y: np.ndarray, heading: np.ndarray, lanes: int, lane_width: float = LANE_WIDTH
 ) -> tuple[np.ndarray, np.ndarray, tuple[float, ...]]:
-    """highway-env's lateral axis to the project's road frame (``envs/tracks.py``).
+    """highway-env's lateral axis to the project's road frame (``recorded/tracks.py``).
 
     highway-env's y grows to the right of travel with lane i's centre at y = i·w (lane 0
     leftmost); the project's grows to the left with lane 0 the rightmost. So
@@ -294,7 +294,7 @@ def project_frame(
 def highway_recording(
     samples: dict[str, np.ndarray], lanes: int, name: str = "highway-env"
 ) -> Recording:
-    """Recorded highway-env states as a :class:`~drivestyle.envs.tracks.Recording`.
+    """Recorded highway-env states as a :class:`~drivestyle.recorded.tracks.Recording`.
 
     Args:
         samples: vehicle id → rows [t, x, y, v, φ] in highway-env's frame, shape (n, 5)

@@ -12,7 +12,6 @@ import pytest
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import PAPER
-from drivestyle.envs.tracks import TrackError
 from drivestyle.recorded.episodes import (
     PHANTOM_GAP_M,
     ExtractionConfig,
@@ -24,6 +23,7 @@ from drivestyle.recorded.episodes import (
     write_episodes,
 )
 from drivestyle.recorded.readers import READERS, read_table
+from drivestyle.recorded.tracks import TrackError
 
 W = 3.5
 RATE = 0.1  # 10 Hz

@@ -11,7 +11,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.tracks import TrackError
 from drivestyle.recorded.readers import (
     NGSIM_COLUMNS,
     READERS,
@@ -19,6 +18,7 @@ from drivestyle.recorded.readers import (
     read_levelx,
     read_ngsim,
 )
+from drivestyle.recorded.tracks import TrackError
 
 FT = 0.3048
 T0_MS = 1_118_846_980_000  # an NGSIM-like epoch time stamp [ms]

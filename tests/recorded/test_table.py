@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivestyle.envs.tracks import Carriageway, Recording, Track, TrackError
 from drivestyle.recorded.episodes import extract_episodes
 from drivestyle.recorded.readers import (
     load_lanes,
@@ -19,6 +18,7 @@ from drivestyle.recorded.readers import (
     read_table,
     write_table,
 )
+from drivestyle.recorded.tracks import Carriageway, Recording, Track, TrackError
 
 W = 3.5
 T = np.round(np.arange(0, 12.0 + 1e-9, 0.1), 9)  # 10 Hz, 12 s

@@ -50,8 +50,8 @@ def test_course_is_the_direction_over_a_base_along_the_road():
 
 
 def test_a_standing_vehicles_jitter_neither_turns_its_course_nor_disputes_its_heading(rng):
-    from drivestyle.envs.tracks import Carriageway, Recording, Track
     from drivestyle.recorded.track_checks import check_recording, course_disagreement
+    from drivestyle.recorded.tracks import Carriageway, Recording, Track
 
     # 20 s standing with 0.1 m of position noise (its path grows 2 m every ≈ 1.5 s), then
     # 10 s at 10 m/s straight along +x; the recorded heading is 0 throughout
