@@ -1,10 +1,10 @@
-"""drivestyle environments: the world and its data.
+"""drivestyle environments: the simulated world and its data.
 
-The three-lane highway (scenarios, the bicycle dynamics, safety geometry, the Gymnasium
-envs, rendering and videos), demonstrations and their plausibility, and recorded data:
-the one road frame of recorded tracks (``tracks``), readers of published formats
-(``readers``), lane-change episodes from them (``episodes``), the shipped NGSIM/CATS
-samples' loaders (``real_data``) and a tracker's noise model (``tracking``).
+The three-lane highway (scenarios, the bicycle dynamics and the inputs that carry one
+state to the next, safety geometry, lanes, the Gymnasium envs, rendering and videos),
+demonstrations and their plausibility, the physical bounds of road vehicles (``units``)
+and a tracker's noise model (``tracking``). Recorded traffic (tracks, readers, episodes,
+the shipped samples) is the layer above, :mod:`drivestyle.recorded`.
 
 Importing this package registers the Gymnasium ids (idempotently):
 
