@@ -16,13 +16,13 @@ from drivestyle.agents.smpc import (
     SolveReport,
 )
 from drivestyle.planning.chance import chance_margin, risk_quantile
-from drivestyle.planning.prediction import (
+from drivestyle.planning.smpc_problem import SMPCProblem
+from drivestyle.planning.tv_gaussian import (
     PAPER_TV_UNCERTAINTY,
     TVUncertainty,
     tv_covariance,
     tv_mean_prediction,
 )
-from drivestyle.planning.smpc_problem import SMPCProblem
 
 __all__ = [
     "PAPER_TV_UNCERTAINTY",

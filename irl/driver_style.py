@@ -2,7 +2,7 @@
 
 A :class:`DriverStyle` describes a *driver*, not one scenario. At every sample the
 driver solves, from its current state ξ_k and with the surrounding vehicles predicted at
-constant velocity under the uncertainty of :mod:`drivestyle.planning.prediction`,
+constant velocity under the uncertainty of :mod:`drivestyle.planning.tv_gaussian`,
 
     min_u  Σ_{i<N} w_y (y_i − y_ref)² + w_φ φ_i² + w_v (v_i − v_ref)² + w_a a_i² + w_δ δ_i²
               + (terminal state terms) + slack penalty

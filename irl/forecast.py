@@ -1,6 +1,6 @@
 """Predicting a vehicle's trajectory from its observed past, with or without its style (DESIGN §17).
 
-Not to be confused with :mod:`drivestyle.planning.prediction`, the SMPC's own model of the
+Not to be confused with :mod:`drivestyle.planning.tv_gaussian`, the SMPC's own model of the
 vehicles around it (constant velocity plus a growing covariance, inside the NLP). Here an
 *observer* has seen a vehicle's first samples ξ_0 … ξ_k and predicts ξ_{k+1} … ξ_{k+H}:
 

@@ -63,7 +63,7 @@ from drivestyle.irl.features import (
 from drivestyle.irl.spline import basis_matrix
 from drivestyle.irl.style import Style, StyleError, load_style
 from drivestyle.planning.chance import chance_margin
-from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
+from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 
 __all__ = [
     "COST_TERMS",

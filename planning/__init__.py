@@ -11,7 +11,7 @@
 - :mod:`~drivestyle.planning.warm_starts`: the next solve's initial guess (the last
   solution shifted by one stage, or a cold rollout).
 - :mod:`~drivestyle.planning.chance`: the tangent chance-constraint back-off (eq. 4).
-- :mod:`~drivestyle.planning.prediction`: the other vehicles' predicted mean and
+- :mod:`~drivestyle.planning.tv_gaussian`: the other vehicles' predicted mean and
   covariance.
 - :mod:`~drivestyle.planning.compiled`: generated C of the NLP's functions, compiled once per
   machine and cached on disk (verified before it is loaded).

@@ -12,7 +12,7 @@ One solve of the stochastic MPC is
 
 for every constrained vehicle j = 1 … M, with ξ^ref_k = [x_0 + v_ref t_k, y_ref, 0, v_ref]
 (the x weight is 1e-6, so x_ref only keeps that term bounded) and the vehicles predicted
-at constant velocity with the covariance of :func:`drivestyle.planning.prediction.tv_covariance`.
+at constant velocity with the covariance of :func:`drivestyle.planning.tv_gaussian.tv_covariance`.
 
 Why the slack: the chance constraint can be infeasible from the current state — a
 growing TV covariance at large p may demand more distance than the road offers — and a
@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike
 
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.chance import risk_quantile
-from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
+from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty
 
 __all__ = [
     "NU",
@@ -98,7 +98,7 @@ class SMPCConfig:
     R: tuple[float, float] = (1.0, 10.0)
     """Input weights on [a, δ]."""
     uncertainty: TVUncertainty = field(default_factory=lambda: PAPER_TV_UNCERTAINTY)
-    """TV prediction error model (drivestyle.planning.prediction)."""
+    """TV prediction error model (drivestyle.planning.tv_gaussian)."""
     solver: str = "fatrop"
     """'fatrop' (structure-exploiting interior point) or 'ipopt'."""
     max_iter: int = 200

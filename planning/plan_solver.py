@@ -65,8 +65,8 @@ from drivestyle.planning.description import (
     SMPCConfig,
     nlp_layout,
 )
-from drivestyle.planning.prediction import tv_covariance
 from drivestyle.planning.transcription import discrete_dynamics, ellipse_margins, nlp_symbols
+from drivestyle.planning.tv_gaussian import tv_covariance
 
 __all__ = [
     "IPMLayout",
@@ -617,7 +617,7 @@ def _key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
               sc.l_b)  # fmt: skip
     digest = source_digest([__name__, "drivestyle.planning.compiled",
                             "drivestyle.planning.description", "drivestyle.planning.transcription",
-                            "drivestyle.planning.chance", "drivestyle.planning.prediction",
+                            "drivestyle.planning.chance", "drivestyle.planning.tv_gaussian",
                             "drivestyle.envs.dynamics"])  # fmt: skip
     # the driver's C is not a module: its text enters the key itself (an edit rebuilds)
     return hashlib.sha256((repr(fields) + digest + _driver_c()).encode()).hexdigest()[:20]

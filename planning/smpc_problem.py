@@ -284,7 +284,7 @@ def _compiled_key(config: SMPCConfig, scenario: ScenarioConfig) -> str:
               geometry_key(scenario, c.weights_as_parameters))  # fmt: skip
     digest = source_digest([
         "drivestyle.envs.dynamics", "drivestyle.planning.chance", "drivestyle.planning.compiled",
-        "drivestyle.planning.prediction", "drivestyle.planning.description",
+        "drivestyle.planning.tv_gaussian", "drivestyle.planning.description",
         "drivestyle.planning.transcription", "drivestyle.planning.smpc_problem",
     ])  # fmt: skip
     return hashlib.sha256((repr(fields) + digest).encode()).hexdigest()

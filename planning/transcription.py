@@ -21,7 +21,7 @@ from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.planning.chance import chance_margin
 from drivestyle.planning.description import N_WEIGHTS, NU, NX, SMPCConfig
-from drivestyle.planning.prediction import tv_covariance
+from drivestyle.planning.tv_gaussian import tv_covariance
 
 __all__ = [
     "NLPSymbols",
@@ -111,7 +111,7 @@ def ellipse_margins(
     """(chance margin g_k, nominal margin ‖z̄_k‖ − 1) of the EV at ξ_k against one vehicle.
 
     The vehicle is predicted at constant velocity from its state ``vehicle`` (the mean of
-    :func:`drivestyle.planning.prediction.tv_mean_prediction`), or, with ``paths``, ``vehicle``
+    :func:`drivestyle.planning.tv_gaussian.tv_mean_prediction`), or, with ``paths``, ``vehicle``
     is its predicted path; covariance Σ_k. The ellipse's semi-major axis is ``l_a`` (a
     parametric NLP's parameter: the style's speed-scaled region, DESIGN §18) or the
     scenario's.

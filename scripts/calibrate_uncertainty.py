@@ -1,6 +1,6 @@
 """Scan the TV-uncertainty scale and the risk p on the paper scenario (DESIGN §3).
 
-For each scale s (multiplying :data:`drivestyle.planning.prediction.PAPER_TV_UNCERTAINTY`) and each
+For each scale s (multiplying :data:`drivestyle.planning.tv_gaussian.PAPER_TV_UNCERTAINTY`) and each
 risk p, runs the SMPC closed loop and records t_trg, min s_e (and where), when the EV
 enters the centre lane and where it ends. Writes ``OUT/calibration.json`` and, with
 ``--plot``, ``OUT/risk_sweep.png``: the EV paths and s_e for each p at scale 1.

@@ -3,7 +3,7 @@
 The paper gives no covariance for its TV prediction, yet the covariance decides whether the
 risk p changes the behaviour at all. :func:`uncertainty_scan` runs the SMPC closed loop on
 the paper scenario for every (scale, p) pair, the scale multiplying
-:data:`drivestyle.planning.prediction.PAPER_TV_UNCERTAINTY`;
+:data:`drivestyle.planning.tv_gaussian.PAPER_TV_UNCERTAINTY`;
 :func:`drivestyle.studies.figures.plot_risk_sweep` draws the EV paths and s_e per risk.
 """
 
@@ -17,7 +17,7 @@ from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import PAPER
-from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY
+from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY
 
 __all__ = ["PAPER_CALIBRATION", "SCAN_KEYS", "UncertaintyScan", "uncertainty_scan"]
 

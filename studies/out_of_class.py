@@ -52,7 +52,7 @@ from drivestyle.irl.identification import Identification, identify_driver, recor
 from drivestyle.irl.library import DriverLibrary, LibraryError
 from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.description import SMPCConfig
-from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, TVUncertainty
+from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.recorded.tracks import Carriageway, Recording, Track
 from drivestyle.studies.prediction import (

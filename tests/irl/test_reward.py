@@ -162,7 +162,7 @@ def test_driver_step_cost_equals_a_hand_computation():
 def test_driver_cost_reward_is_the_scaled_negative_cost(tmp_path):
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.reward import DriverCostConfig, DriverCostReward, driver_step_cost
-    from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY
+    from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY
 
     style = DriverStyle((0.04, 400.0, 0.04, 1.0, 2500.0), risk=0.8)
     env = DriverCostReward(LaneChangeEnv(), style, DriverCostConfig(chance_weight=3.0))
@@ -379,7 +379,7 @@ def test_the_driver_cost_step_equals_driver_step_cost(look_ahead, m):
     from drivestyle.envs.scenario import get_scenario
     from drivestyle.irl.driver_style import DriverStyle
     from drivestyle.irl.reward import DriverCost, DriverCostConfig, driver_step_cost
-    from drivestyle.planning.prediction import PAPER_TV_UNCERTAINTY, tv_covariance
+    from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, tv_covariance
 
     sc = get_scenario("paper")
     style = DriverStyle(weights=(0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from drivestyle.planning.chance import chance_margin, risk_quantile
-from drivestyle.planning.prediction import TVUncertainty, tv_covariance, tv_mean_prediction
+from drivestyle.planning.tv_gaussian import TVUncertainty, tv_covariance, tv_mean_prediction
 
 L_A, L_B = 15.0, 3.0
 

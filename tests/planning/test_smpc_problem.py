@@ -18,8 +18,8 @@ from drivestyle.planning.description import (
     nlp_layout,
     nlp_parameters,
 )
-from drivestyle.planning.prediction import tv_covariance
 from drivestyle.planning.smpc_problem import SMPCProblem
+from drivestyle.planning.tv_gaussian import tv_covariance
 
 
 @pytest.fixture(scope="module")
