@@ -31,8 +31,8 @@ if TYPE_CHECKING:
     from drivestyle.irl.identification import Identification
     from drivestyle.studies.av_vs_human import AVHumanComparison
     from drivestyle.studies.compare import HeldoutComparison
+    from drivestyle.studies.cut_in_study import PlanningStudy
     from drivestyle.studies.identification import EvaluationRecord
-    from drivestyle.studies.planning import PlanningStudy
     from drivestyle.studies.prediction import PredictionStudy, TrackingRecord
     from drivestyle.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 

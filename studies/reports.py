@@ -19,10 +19,10 @@ if TYPE_CHECKING:
     from drivestyle.studies.capacity import CapacityStudy
     from drivestyle.studies.ceiling import References
     from drivestyle.studies.compare import Comparison
+    from drivestyle.studies.cut_in_study import PlanningStudy
     from drivestyle.studies.identification import Evaluation
     from drivestyle.studies.out_of_class import OutOfClassStudy
     from drivestyle.studies.paper import PaperStudy
-    from drivestyle.studies.planning import PlanningStudy
     from drivestyle.studies.prediction import PredictionStudy, TrackingSummary
     from drivestyle.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
@@ -490,7 +490,7 @@ def driver_evaluation_markdown(curve: Sequence[Evaluation], refs: References | N
 
 def planning_markdown(study: PlanningStudy) -> str:
     """The cut-in study's table (``planning.md``; docs/RESULTS.md quotes it)."""
-    from drivestyle.studies.planning import HARD_BRAKING
+    from drivestyle.studies.cut_in_study import HARD_BRAKING
 
     lines = [
         f"Cut-in scenes: {len(study.seeds)} (seeds {study.seeds[0]}–{study.seeds[-1]}); "
