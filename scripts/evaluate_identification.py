@@ -59,7 +59,7 @@ from drivestyle.studies.figures import (
     plot_population,
     plot_theta_vs_risk,
 )
-from drivestyle.studies.identification import (
+from drivestyle.studies.identification_study import (
     Evaluation,
     continuous_demonstrations,
     draw_continuous_risks,

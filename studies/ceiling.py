@@ -20,7 +20,7 @@ from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.library import StyleLibrary
-from drivestyle.studies.identification import knn_baseline
+from drivestyle.studies.identification_study import knn_baseline
 
 __all__ = [
     "CeilingResult",

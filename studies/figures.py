@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from drivestyle.studies.av_vs_human import AVHumanComparison
     from drivestyle.studies.compare import HeldoutComparison
     from drivestyle.studies.cut_in_study import PlanningStudy
-    from drivestyle.studies.identification import EvaluationRecord
+    from drivestyle.studies.identification_study import EvaluationRecord
     from drivestyle.studies.prediction import PredictionStudy, TrackingRecord
     from drivestyle.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from drivestyle.studies.ceiling import References
     from drivestyle.studies.compare import Comparison
     from drivestyle.studies.cut_in_study import PlanningStudy
-    from drivestyle.studies.identification import Evaluation
+    from drivestyle.studies.identification_study import Evaluation
     from drivestyle.studies.out_of_class import OutOfClassStudy
     from drivestyle.studies.paper import PaperStudy
     from drivestyle.studies.prediction import PredictionStudy, TrackingSummary

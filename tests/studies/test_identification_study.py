@@ -8,7 +8,7 @@ import pytest
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS
 from drivestyle.studies.ceiling import CeilingSummary, References
-from drivestyle.studies.identification import evaluate_identification, noise_curve_json
+from drivestyle.studies.identification_study import evaluate_identification, noise_curve_json
 from drivestyle.studies.reports import (
     evaluation_markdown,
     noise_markdown,
@@ -79,7 +79,7 @@ from drivestyle.envs.scenario import get_scenario  # noqa: E402
 from drivestyle.irl.driver_style import DriverStyle  # noqa: E402
 from drivestyle.irl.library import DriverLibrary  # noqa: E402
 from drivestyle.studies.ceiling import ceiling_identify  # noqa: E402
-from drivestyle.studies.identification import (  # noqa: E402
+from drivestyle.studies.identification_study import (  # noqa: E402
     CONTINUOUS_RANGE,
     IDENTIFIABLE_GAP_M,
     continuous_demonstrations,
