@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT.parent / "shared" / "data"  # the recorded samples beside a checkout
 
 
 def _main(name):
@@ -109,6 +110,9 @@ def test_bench_smpc_json(tmp_path):
 
 
 @pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
+@pytest.mark.skipif(
+    not (DATA / "ngsim" / "tracks.csv.gz").is_file(), reason="the NGSIM sample is absent"
+)
 def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
     from drivestyle.irl import driver_style, inner
     from drivestyle.planning import smpc_problem
@@ -129,7 +133,19 @@ def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
     }
     out = tmp_path / "profile.json"
     res = _main("profile_inner")(
-        ["--out", str(out), "--repeats", "1", "--identify", "1", "--no-jit", "--recorded", "1"]
+        [
+            "--out",
+            str(out),
+            "--repeats",
+            "1",
+            "--identify",
+            "1",
+            "--no-jit",
+            "--recorded",
+            "1",
+            "--data-dir",
+            str(DATA),
+        ]
     )
     js = json.loads(out.read_text())
     assert "command" in js and len(js["load_average_before"]) == 3

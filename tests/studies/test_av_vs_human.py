@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ from drivestyle.studies.av_vs_human import (
 )
 from drivestyle.studies.reports import av_human_markdown
 
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"  # beside a checkout
 W = PAPER.lane_width
 
 
@@ -157,10 +159,14 @@ def test_the_mined_table_is_read_and_a_foreign_table_refused(tmp_path):
 
 
 @pytest.mark.slow  # the whole CATS sample is extracted (≈ 15 s): CI runs it
+@pytest.mark.skipif(
+    not (DATA / "cats-av-lanechange" / "tracks.csv.gz").is_file(),
+    reason="the CATS sample is absent",
+)
 def test_the_command_writes_the_comparison_of_the_shipped_sample(tmp_path):
     from drivestyle.scripts.compare_av_human import main
 
-    payload = main(["--samples", "200", "--out", str(tmp_path / "o")])
+    payload = main(["--samples", "200", "--data-dir", str(DATA), "--out", str(tmp_path / "o")])
     assert (tmp_path / "o" / "av_vs_human.png").stat().st_size > 10_000
     groups = {s["group"] for s in payload["stats"]}
     assert groups == {"AV", "same car, human", "other humans"}
