@@ -9,8 +9,8 @@ comes from a :class:`Predictor` (the NLP built with
 - :class:`ConstantVelocityPredictor` — what the SMPC assumes today (the ego then plans
   exactly as :class:`~drivestyle.agents.smpc.SMPCExpert` does, tested);
 - :class:`StylePredictor` — the style identified online: a
-  :class:`~drivestyle.irl.online.StyleTracker` updated with every observed state of the
-  vehicle, and the library's style at the posterior mean risk driven in closed loop over
+  :class:`~drivestyle.irl.identification.online.StyleTracker` updated with every observed state of
+  the vehicle, and the library's style at the posterior mean risk driven in closed loop over
   the horizon from the vehicle's current state, the ego at constant velocity (what the
   vehicle's own SMPC assumes of it), each rollout's first solve warm-started from the
   previous rollout's first plan (:func:`~drivestyle.irl.forecast.rollout_from`);
@@ -29,10 +29,10 @@ import numpy as np
 
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.forecast import constant_velocity, rollout_from
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.online import StyleTracker
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.planning.description import PrimalDual
 
 __all__ = [

@@ -4,7 +4,7 @@ Needs the ``rl`` extra (stable-baselines3, torch). The training env is
 :func:`make_rl_env` (learned reward, translation-invariant observation, actions in
 [−1, 1]) inside SB3's ``VecNormalize`` (observations normalised, rewards left as the
 learned cost so that returns stay comparable with θᵀf). A receding-horizon driver style
-(:mod:`drivestyle.irl.driver_style`) trains on its per-step cost instead
+(:mod:`drivestyle.irl.driver.driver_style`) trains on its per-step cost instead
 (:class:`drivestyle.irl.reward.DriverCostReward`).
 """
 
@@ -24,9 +24,9 @@ from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import TrafficEnv
-from drivestyle.irl.driver_style import DRIVER_STYLE_KIND, DriverStyle, load_driver_style
+from drivestyle.irl.driver.driver_style import DRIVER_STYLE_KIND, DriverStyle, load_driver_style
+from drivestyle.irl.paper.style import Style, StyleError, load_style
 from drivestyle.irl.reward import DriverCostConfig, DriverCostReward, LearnedStyleReward
-from drivestyle.irl.style import Style, StyleError, load_style
 
 __all__ = [
     "ALGOS",
@@ -129,7 +129,8 @@ def make_rl_env(
 
     Args:
         style: ``style.json`` path (either model) or a loaded
-            :class:`drivestyle.irl.style.Style` or :class:`drivestyle.irl.driver_style.DriverStyle`.
+            :class:`drivestyle.irl.paper.style.Style` or
+            :class:`drivestyle.irl.driver.driver_style.DriverStyle`.
         scenario: scenario name or config.
         randomize: draw scenarios per reset (``LaneChangeRandom``).
         monitor_file: write SB3 ``Monitor`` episode statistics to this CSV.

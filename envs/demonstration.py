@@ -398,8 +398,8 @@ def step_problems(
     :data:`SPEED_TOLERANCE_MPS`; the change of the implied velocity between consecutive
     steps must not exceed :data:`ACCEL_MAX_MPS2`; no vehicle may overlap the EV
     (rectangles shrunk by :data:`OVERLAP_SHRINK`). Shared by :func:`plausibility_problems`
-    and the online tracker (:class:`drivestyle.irl.online.StyleTracker`), which checks each
-    new sample with the two before it.
+    and the online tracker (:class:`drivestyle.irl.identification.online.StyleTracker`), which
+    checks each new sample with the two before it.
 
     Args:
         t: sample times, shape (n,) [s], strictly increasing.

@@ -230,7 +230,8 @@ def recover_inputs(
     scenario) comes closest to the next state — exact for states the model produced, the
     closest input for recorded ones (every recorded path and the simulated tracker,
     :func:`drivestyle.envs.tracking.observe`, use this one function). The online tracker
-    (:class:`drivestyle.irl.online.StyleTracker`) recovers the same inputs sample by sample.
+    (:class:`drivestyle.irl.identification.online.StyleTracker`) recovers the same inputs sample
+    by sample.
 
     Args:
         ev: EV states [x, y, φ, v], shape (n, 4).

@@ -317,9 +317,9 @@ class LaneChangeEnv(gym.Env):
             reset from ``np_random`` (``drivestyle/LaneChangeRandom-v0``).
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
         show_ellipse: draw the safety ellipse (and the λ-scaled one) around the TV.
-        style: a learned style (``style.json`` path or :class:`drivestyle.irl.style.Style`): the
-            reward becomes its negative cost (:mod:`drivestyle.irl.reward`, found as a plugin, see
-            :func:`style_reward_model`); the task reward moves to ``info["original_env_rew"]``.
+        style: a learned style (``style.json`` path or :class:`drivestyle.irl.paper.style.Style`):
+            the reward becomes its negative cost (:mod:`drivestyle.irl.reward`, found as a plugin,
+            see :func:`style_reward_model`); the task reward moves to ``info["original_env_rew"]``.
         reward: any :class:`RewardModel` instead of ``style`` (not both).
         tv_deviation: make the TV brake or accelerate mid-episode (:class:`TVDeviation`).
         **overrides: scenario fields to replace, e.g. ``ev_speed=27``.

@@ -1,18 +1,22 @@
 """drivestyle IRL: learning driving styles from trajectories, and using them.
 
-- The paper's model: quintic-spline trajectories (``spline``), the ten reaction-aware
-  features (``features``), the inner problem (``inner``) and ME-IRL (``learner``), its
-  styles (``style``).
-- The default style model, a receding-horizon driver on :mod:`drivestyle.planning`'s NLP:
-  the model and its closed loop (``driver_style``), teacher-forced learning
-  (``driver_learning``), the risk profile S(p) (``risk_profile``).
-- Identification: libraries (``library``), the posterior over the risk
-  (``identification``), online tracking (``online``), prediction (``forecast``), many
-  vehicles (``mining``, ``mining_output``); the learned style as the env's reward
-  (``reward``); error metrics (``metrics``).
+- :mod:`drivestyle.irl.paper`, the paper's model: quintic-spline trajectories (``spline``),
+  the ten reaction-aware features (``features``), the inner problem (``inner``) and ME-IRL
+  (``learner``), its styles (``style``).
+- :mod:`drivestyle.irl.driver`, the default style model, a receding-horizon driver on
+  :mod:`drivestyle.planning`'s NLP: the model and its closed loop (``driver_style``),
+  teacher-forced learning (``driver_learning``), the risk profile S(p) (``risk_profile``).
+- :mod:`drivestyle.irl.identification`, identifying styles: libraries (``library``), the
+  posterior over the risk (``posterior``), online tracking (``online``), many vehicles
+  (``mining``, ``mining_output``).
+- Here: prediction (``forecast``, its physics baseline ``physics``), the learned style as
+  the env's reward (``reward``), error metrics (``metrics``).
+
+The paper model's public names are re-exported here (``from drivestyle.irl import MaxEntIRL``).
 """
 
-from drivestyle.irl.features import (
+from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.irl.paper.features import (
     FEATURE_SETS,
     FEATURES,
     EventTimes,
@@ -23,10 +27,9 @@ from drivestyle.irl.features import (
     feature_values,
     gauss_legendre_nodes,
 )
-from drivestyle.irl.inner import InnerProblem, InnerSolution, InnerSolveError, newton_minimize
-from drivestyle.irl.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta
-from drivestyle.irl.metrics import trajectory_errors
-from drivestyle.irl.spline import (
+from drivestyle.irl.paper.inner import InnerProblem, InnerSolution, InnerSolveError, newton_minimize
+from drivestyle.irl.paper.learner import IRLConfig, LearningResult, MaxEntIRL, normalise_theta
+from drivestyle.irl.paper.spline import (
     QuinticTrajectory,
     basis_matrix,
     demo_control_points,

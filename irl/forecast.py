@@ -9,16 +9,16 @@ vehicles around it (constant velocity plus a growing covariance, inside the NLP)
 - ``physics``: IDM car following behind the observed leader plus a fitted quintic lane
   change (:mod:`drivestyle.irl.physics`), with calibrated parameters;
 - ``style`` rollouts (:func:`style_rollout`): the receding-horizon style model
-  (:mod:`drivestyle.irl.driver_style`) driven in closed loop from ξ_k, the surrounding
+  (:mod:`drivestyle.irl.driver.driver_style`) driven in closed loop from ξ_k, the surrounding
   vehicles predicted at constant velocity from their last observed states (the observer
   does not know their future either). With the risk from the online posterior
-  (:class:`~drivestyle.irl.online.StyleTracker`): ``mode`` — the posterior density's
+  (:class:`~drivestyle.irl.identification.online.StyleTracker`): ``mode`` — the posterior density's
   argmax; ``mixture`` — the rollouts at the library's risks averaged with the posterior's
   mass (the mean prediction under the posterior; risks with mass below
   :data:`MIXTURE_MIN_MASS` are dropped and the rest renormalised); ``population`` — one
   style for every vehicle, the library's cost at its middle risk (no identification);
   ``oracle`` — the vehicle's true model (for an SMPC(p):
-  :func:`~drivestyle.irl.driver_style.expert_style`).
+  :func:`~drivestyle.irl.driver.driver_style.expert_style`).
 
 :func:`predict` runs every method on one demonstration after ``t_obs`` seconds and scores
 each with the average and final displacement errors (ADE, FDE) over the rest of it, and
@@ -36,10 +36,10 @@ import numpy as np
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.units import off_grid
-from drivestyle.irl.driver_style import DriverStyle, StylePlanner, closed_loop, planner_for
-from drivestyle.irl.identification import Identification
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.online import StyleTracker
+from drivestyle.irl.driver.driver_style import DriverStyle, StylePlanner, closed_loop, planner_for
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.online import StyleTracker
+from drivestyle.irl.identification.posterior import Identification
 from drivestyle.irl.physics import PhysicsParams, physics_forecast
 from drivestyle.planning.description import PrimalDual
 

@@ -21,7 +21,7 @@ then be saved, a crash costs ``crash_penalty`` (default: ten times the style's c
 own demonstration, θᵀ f(r_D) — large enough that rushing into the target lane and being
 hit there never pays; with 2× an RL policy learned exactly that).
 
-A receding-horizon *driver style* (:mod:`drivestyle.irl.driver_style`, the default model)
+A receding-horizon *driver style* (:mod:`drivestyle.irl.driver.driver_style`, the default model)
 gives a per-step reward instead (:func:`driver_step_cost`, :class:`DriverCostReward`): the
 style's stage cost of the step,
 
@@ -51,8 +51,8 @@ from gymnasium.utils import RecordConstructorArgs
 
 from drivestyle.envs.lanes import leaders
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import DriverStyle, load_driver_style
-from drivestyle.irl.features import (
+from drivestyle.irl.driver.driver_style import DriverStyle, load_driver_style
+from drivestyle.irl.paper.features import (
     FEATURES,
     SEGMENT_FEATURES,
     EventTimes,
@@ -60,8 +60,8 @@ from drivestyle.irl.features import (
     gauss_legendre_nodes,
     segment_integrals,
 )
-from drivestyle.irl.spline import basis_matrix
-from drivestyle.irl.style import Style, StyleError, load_style
+from drivestyle.irl.paper.spline import basis_matrix
+from drivestyle.irl.paper.style import Style, StyleError, load_style
 from drivestyle.planning.chance import chance_margin
 from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty, tv_covariance
 
@@ -89,7 +89,7 @@ class StyleReward:
     ``crash_penalty``.
 
     Args:
-        style: a loaded :class:`drivestyle.irl.style.Style` or the path of a ``style.json``.
+        style: a loaded :class:`drivestyle.irl.paper.style.Style` or the path of a ``style.json``.
         crash_penalty: cost of a collision or leaving the road; None: CRASH_FACTOR·θᵀ f(r_D).
 
     Raises:
@@ -546,7 +546,7 @@ class LearnedStyleReward(gym.Wrapper, RecordConstructorArgs):
 
     Args:
         env: a drivestyle env (possibly wrapped).
-        style: a :class:`drivestyle.irl.style.Style` or the path of a ``style.json`` (or its
+        style: a :class:`drivestyle.irl.paper.style.Style` or the path of a ``style.json`` (or its
             folder).
         crash_penalty: see :class:`StyleReward`.
     """
@@ -698,7 +698,7 @@ class DriverCost:
     :func:`driver_step_cost` as the increment.
 
     Args:
-        style: a :class:`drivestyle.irl.driver_style.DriverStyle` or a driver-style file.
+        style: a :class:`drivestyle.irl.driver.driver_style.DriverStyle` or a driver-style file.
         config: penalties, crash penalty, covariance and scale.
         uncertainty: the vehicles' prediction error model (the style model's default).
     """
@@ -843,7 +843,7 @@ class DriverCostReward(LearnedStyleReward):
 
     Args:
         env: a drivestyle env (possibly wrapped).
-        style: a :class:`drivestyle.irl.driver_style.DriverStyle` or a driver-style file.
+        style: a :class:`drivestyle.irl.driver.driver_style.DriverStyle` or a driver-style file.
         config: see :class:`DriverCostConfig`.
     """
 

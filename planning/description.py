@@ -140,7 +140,7 @@ class SMPCConfig:
     weights_as_parameters: bool = False
     """Make the cost weights w = [q_y, q_φ, q_v, r_a, r_δ] parameters of each solve
     (appended to p, :func:`nlp_parameters`), with Q_N = Q and the x weight fixed at Q[0]:
-    the receding-horizon style model (``drivestyle.irl.driver_style``, DESIGN §15) learns
+    the receding-horizon style model (``drivestyle.irl.driver.driver_style``, DESIGN §15) learns
     them without rebuilding the NLP. False (the expert's default) keeps Q, Q_N and R as
     the constants above, so the expert's NLP is exactly the one first built."""
 

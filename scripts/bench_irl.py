@@ -44,10 +44,10 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs import load_demonstration, save_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
-from drivestyle.irl.driver_learning import learn_driver
-from drivestyle.irl.driver_style import DriverStyle, StylePlanner
-from drivestyle.irl.identification import identify
-from drivestyle.irl.library import DriverLibrary, load_any_library
+from drivestyle.irl.driver.driver_learning import learn_driver
+from drivestyle.irl.driver.driver_style import DriverStyle, StylePlanner
+from drivestyle.irl.identification.library import DriverLibrary, load_any_library
+from drivestyle.irl.identification.posterior import identify
 from drivestyle.planning.plan_solver import IPMOptions, bounds_vector, compiled_solver
 
 
@@ -78,9 +78,9 @@ import resource, sys, time
 t0 = time.perf_counter()
 import numpy as np
 from drivestyle.envs import load_demonstration
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.identification import identify
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.posterior import identify
+from drivestyle.irl.identification.library import DriverLibrary
 demo = load_demonstration(sys.argv[1])
 lib = DriverLibrary(style=DriverStyle(%r, risk=0.7), risks=%r)
 t1 = time.perf_counter()
@@ -177,7 +177,10 @@ def bench_driver(demo, n_identify: int, seed: int, learn: bool) -> dict:
 
 
 def time_identification(library_dir: Path, n: int, seed: int) -> dict:
-    """Median wall time of :func:`drivestyle.irl.identification.identify` on n new demos."""
+    """Median wall time of identification on n new demos.
+
+    (:func:`drivestyle.irl.identification.posterior.identify`)
+    """
     library = load_any_library(library_dir)
     rng = np.random.default_rng(seed)
     times = []

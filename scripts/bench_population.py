@@ -35,9 +35,9 @@ from tqdm import tqdm
 from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
-from drivestyle.irl.learner import IRLConfig, MaxEntIRL
-from drivestyle.irl.library import StyleLibrary, load_any_library
-from drivestyle.irl.mining import mine
+from drivestyle.irl.identification.library import StyleLibrary, load_any_library
+from drivestyle.irl.identification.mining import mine
+from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
 from drivestyle.studies.population import simulate_population
 
 TARGET_VEHICLES = 110_000

@@ -3,7 +3,7 @@
 The goal (DESIGN §16) is a solver at the floor's scale whose results equal the product's (fatrop
 from the previous step's shifted plan): inputs to 1e-6, posteriors to 1e-6. This measures
 candidate paths on the risk profile S(p) identification is built from (13 risks,
-:func:`drivestyle.irl.risk_profile.risk_profile`) of random-family SMPC demonstrations
+:func:`drivestyle.irl.driver.risk_profile.risk_profile`) of random-family SMPC demonstrations
 (risks alternating 0.6 and 0.9, ``--seed``):
 
 ``product``          the compiled fatrop, as identification runs it;
@@ -49,8 +49,8 @@ from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.irl.driver_learning import teacher_forced
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_learning import teacher_forced
+from drivestyle.irl.driver.driver_style import (
     INPUT_SCALE,
     DriverStyle,
     Link,
@@ -59,7 +59,7 @@ from drivestyle.irl.driver_style import (
     check_demo,
     n_vehicles,
 )
-from drivestyle.irl.risk_profile import RISK_EVAL, risk_profile
+from drivestyle.irl.driver.risk_profile import RISK_EVAL, risk_profile
 from drivestyle.planning import smpc_problem as sp
 from drivestyle.planning.description import SMPCConfig
 

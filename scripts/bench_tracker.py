@@ -2,8 +2,8 @@
 
 Generates ``--vehicles`` SMPC demonstrations of the random scenario family with risks drawn
 from U[0.5, 0.95] (``--seed``), then streams each, sample by sample, into a fresh
-:class:`~drivestyle.irl.online.StyleTracker` as an observer would: the inputs are recovered
-from consecutive states, not read. Every update is timed (the first sample of each vehicle
+:class:`~drivestyle.irl.identification.online.StyleTracker` as an observer would: the inputs are
+recovered from consecutive states, not read. Every update is timed (the first sample of each vehicle
 included: it builds nothing, the planner is cached per process after a warm-up vehicle).
 Reports the median, 95th and 99th percentile and maximum [ms], with the load average
 before and after (the machine is shared), and writes JSON.
@@ -27,8 +27,8 @@ from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.common.cli import HelpFormatter, count, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.irl.library import load_driver_library
-from drivestyle.irl.online import StyleTracker
+from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.planning.description import SMPCConfig
 
 GOAL_MS = 20.0

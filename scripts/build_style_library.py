@@ -39,9 +39,9 @@ from drivestyle.common.cli import HelpFormatter, count, risk_list, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
 from drivestyle.envs.tracking import observe
-from drivestyle.irl.driver_style import RISK_RANGE
-from drivestyle.irl.identification import calibrate_temperature
-from drivestyle.irl.library import LibraryError, learn_driver_library, learn_library
+from drivestyle.irl.driver.driver_style import RISK_RANGE
+from drivestyle.irl.identification.library import LibraryError, learn_driver_library, learn_library
+from drivestyle.irl.identification.posterior import calibrate_temperature
 from drivestyle.studies.figures import plot_theta_vs_risk
 
 

@@ -38,8 +38,8 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.envs import load_demonstration
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.style import Style, StyleError, load_style
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.paper.style import Style, StyleError, load_style
 from drivestyle.studies.compare import LABELS, compare_methods, heldout_comparison
 from drivestyle.studies.figures import plot_comparison, plot_heldout
 from drivestyle.studies.reports import comparison_markdown

@@ -30,7 +30,7 @@ from drivestyle.common.cli import (
 from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write_json
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.lane_change import TVDeviation
-from drivestyle.irl.style import load_style
+from drivestyle.irl.paper.style import load_style
 from drivestyle.studies.deviation import deviating_tv_study, write_videos
 
 

@@ -51,7 +51,12 @@ from drivestyle.common.cli import (
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
-from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary, load_any_library
+from drivestyle.irl.identification.library import (
+    DriverLibrary,
+    LibraryError,
+    StyleLibrary,
+    load_any_library,
+)
 from drivestyle.studies.ceiling import identification_references
 from drivestyle.studies.figures import (
     plot_confusion,

@@ -40,7 +40,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
-from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.irl.physics import load_params
 from drivestyle.studies.out_of_class import StudyConfig, run_study, vehicle_spans
 from drivestyle.studies.prediction import PHYSICS_FILE, check_observed_times

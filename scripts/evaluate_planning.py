@@ -26,7 +26,7 @@ from drivestyle.common.cli import SEED_MAX, HelpFormatter, count, run_cli, seed,
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.video import write_video
-from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.studies.cut_in_study import (
     CUT_IN_RANGES,
     PlanningStudy,

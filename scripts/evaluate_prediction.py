@@ -64,7 +64,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
-from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.irl.physics import PhysicsParams, load_params, save_params
 from drivestyle.recorded.real_data import check_data_dir
 from drivestyle.studies.figures import (

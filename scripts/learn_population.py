@@ -27,8 +27,8 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, for_option, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.irl.driver_learning import DriverFit
-from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.driver.driver_learning import DriverFit
+from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.studies.population_style import (
     OBJECTIVES,
     ClosedLoopFit,

@@ -48,7 +48,7 @@ from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
-from drivestyle.irl.driver_learning import (
+from drivestyle.irl.driver.driver_learning import (
     POOR_FIT_RATIO,
     RESIDUAL_FLOOR,
     DriverFit,
@@ -56,12 +56,12 @@ from drivestyle.irl.driver_learning import (
     reproduced_note,
     save_driver_style,
 )
-from drivestyle.irl.driver_style import WEIGHT_NAMES
-from drivestyle.irl.inner import InnerSolveError
-from drivestyle.irl.learner import UPDATE_RULES, IterationRecord, check_learnable
-from drivestyle.irl.library import load_driver_library
-from drivestyle.irl.spline import CONTROL_POINT_RULES, demo_control_points
-from drivestyle.irl.style import fit_style, locate_demos
+from drivestyle.irl.driver.driver_style import WEIGHT_NAMES
+from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.irl.paper.inner import InnerSolveError
+from drivestyle.irl.paper.learner import UPDATE_RULES, IterationRecord, check_learnable
+from drivestyle.irl.paper.spline import CONTROL_POINT_RULES, demo_control_points
+from drivestyle.irl.paper.style import fit_style, locate_demos
 from drivestyle.studies.figures import plot_lateral, plot_reproductions
 
 EXIT_POOR_FIT = 3

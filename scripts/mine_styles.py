@@ -41,8 +41,8 @@ from tqdm import tqdm
 from drivestyle.common.cli import HelpFormatter, Interrupted, positive_float, run_cli, workers
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import check_output_dir, write_json
-from drivestyle.irl.library import load_any_library
-from drivestyle.irl.mining import (
+from drivestyle.irl.identification.library import load_any_library
+from drivestyle.irl.identification.mining import (
     CONNECT_TIMEOUT_S,
     ENGINES,
     MinedRow,
@@ -50,7 +50,7 @@ from drivestyle.irl.mining import (
     mine,
     summary_numbers,
 )
-from drivestyle.irl.mining_output import MiningOutput, RunFingerprint
+from drivestyle.irl.identification.mining_output import MiningOutput, RunFingerprint
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.recorded.readers import read_sample
 from drivestyle.studies.figures import plot_population

@@ -33,7 +33,7 @@ from pathlib import Path
 from drivestyle.common.cli import HelpFormatter, for_option, positive_float, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
-from drivestyle.irl.library import load_driver_library
+from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.irl.physics import load_params
 from drivestyle.recorded.real_data import is_recorded
 from drivestyle.studies.figures import plot_prediction

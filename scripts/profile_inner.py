@@ -4,7 +4,7 @@ Three measurements, each as shares of its wall time (the machine is shared: shar
 steadier than absolute times, and the load average is recorded with them):
 
 (a) the paper model on the paper demonstration: ``MaxEntIRL.learn`` with its damped-Newton
-    inner problem (``drivestyle.irl.inner``), split into CasADi evaluation of the value,
+    inner problem (``drivestyle.irl.paper.inner``), split into CasADi evaluation of the value,
     gradient and Hessian, line-search trial evaluations, the Cholesky factorisations and
     solves, the sensitivity (feature Jacobian and H⁻¹Jᵀ), the numpy copies around each
     CasADi call and the remaining Python; with the Newton steps per inner solve and the
@@ -54,13 +54,13 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
-from drivestyle.irl import driver_style as ds
-from drivestyle.irl import inner as inner_mod
-from drivestyle.irl.driver_learning import step_residuals
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.identification import identify_driver
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.risk_profile import refined_profile
+from drivestyle.irl.driver import driver_style as ds
+from drivestyle.irl.driver.driver_learning import step_residuals
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.driver.risk_profile import refined_profile
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.posterior import identify_driver
+from drivestyle.irl.paper import inner as inner_mod
 from drivestyle.planning import smpc_problem as sp
 from drivestyle.planning.buffered import BufferedFunction
 from drivestyle.recorded.real_data import check_data_dir

@@ -10,7 +10,7 @@ computer-driven (AV) and human-driven (HV) lane changes and runs a leave-one-out
 classifier on the learned styles.
 
 ``--model driver`` (or ``both``, the default) also learns the receding-horizon driver model
-(irl/driver_style.py) per episode — weights, risk and desired speed free — and reproduces it
+(irl/driver/driver_style.py) per episode — weights, risk and desired speed free — and reproduces it
 in closed loop against the recorded vehicles; where a vehicle has several episodes (CATS:
 the computer- and the human-driven ego car) its style learned from all but one reproduces
 the held-out one, beside the general style of the other vehicles' episodes. Its results are
@@ -33,7 +33,7 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
-from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES
+from drivestyle.irl.driver.driver_learning import RESTARTS, SCREEN_CANDIDATES
 from drivestyle.recorded.real_data import load_cats, load_ngsim
 from drivestyle.studies.figures import plot_driver_traffic
 from drivestyle.studies.real_traffic import DriverSettings, run_driver_study, run_study

@@ -23,7 +23,7 @@ from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges, TrafficScene
 from drivestyle.envs.video import write_video
-from drivestyle.irl.style import load_style
+from drivestyle.irl.paper.style import load_style
 from drivestyle.studies.compare import policy_frames
 
 

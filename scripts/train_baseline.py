@@ -101,7 +101,7 @@ def main(argv: list[str] | None = None) -> dict:
         raise RuntimeError(
             f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"
         ) from None
-    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.driver.driver_style import DriverStyle
     from drivestyle.irl.reward import DriverCostConfig
 
     style = load_reward_style(args.style)

@@ -33,9 +33,13 @@ import numpy as np
 from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lanes import leaders
-from drivestyle.irl.identification import ENTERS_REGION, OUT_OF_CLASS, recorded_verdict_label
-from drivestyle.irl.mining import MinedRow as MiningRow
-from drivestyle.irl.mining_output import TABLE, read_table
+from drivestyle.irl.identification.mining import MinedRow as MiningRow
+from drivestyle.irl.identification.mining_output import TABLE, read_table
+from drivestyle.irl.identification.posterior import (
+    ENTERS_REGION,
+    OUT_OF_CLASS,
+    recorded_verdict_label,
+)
 from drivestyle.studies.real_traffic import lane_change_stats
 
 AV_VEHICLE = "cats:AV:3"
@@ -142,8 +146,8 @@ def read_mined(folder: str | Path) -> dict[str, MinedRow]:
     """The ``ok`` rows of a mine-styles output folder, by episode id.
 
     Every row is validated as it is read
-    (:func:`drivestyle.irl.mining_output.read_table`): a torn row (an interrupted run,
-    to be resumed), a value that does not parse or lies outside its range (a risk outside
+    (:func:`drivestyle.irl.identification.mining_output.read_table`): a torn row (an interrupted
+    run, to be resumed), a value that does not parse or lies outside its range (a risk outside
     (0, 1), a negative width, an unknown status) is an error naming the file, the row, the
     column and the value, never a lane change quietly counted as not mined.
 
@@ -229,7 +233,7 @@ class EpisodeCaution:
     values: dict[str, float | None]
     """:data:`QUANTITIES` key → value (None: not available, e.g. not mined)."""
     verdict: str
-    """The identification's label (:data:`~drivestyle.irl.identification.VERDICT_LABELS`),
+    """The identification's label (:data:`~drivestyle.irl.identification.posterior.VERDICT_LABELS`),
     or :data:`NOT_MINED`."""
 
 

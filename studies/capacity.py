@@ -15,15 +15,15 @@ receding-horizon style) are scored beside them. The classes (:data:`CLASSES`):
     is free).
 ``paper_irl``
     The same class, θ learned by ME-IRL from the K demonstrations jointly
-    (:func:`drivestyle.irl.style.fit_style`).
+    (:func:`drivestyle.irl.paper.style.fit_style`).
 ``rh_cost_nm``
-    The receding-horizon planner of :mod:`drivestyle.irl.driver_style` with its cost only:
+    The receding-horizon planner of :mod:`drivestyle.irl.driver.driver_style` with its cost only:
     p = 0.5 (κ = 0: the nominal ellipse, no back-off), the four free weights fitted by
-    Nelder–Mead on closed-loop reproductions (:func:`~drivestyle.irl.driver_style.reproduce`).
-``rh_chance_nm``
+    Nelder–Mead on closed-loop reproductions
+(:func:`~drivestyle.irl.driver.driver_style.reproduce`). ``rh_chance_nm``
     The same planner with the chance constraint: the weights and p fitted by Nelder–Mead.
 ``rh_learned``
-    The same planner learned by :func:`~drivestyle.irl.driver_learning.learn_driver` (the
+    The same planner learned by :func:`~drivestyle.irl.driver.driver_learning.learn_driver` (the
     product's learner: teacher-forced input residuals, no reproduction in the loop).
 
 The objective scores x and y together (a fit on y alone hides the error by moving x):
@@ -52,18 +52,18 @@ from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_learning import learn_driver
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_learning import learn_driver
+from drivestyle.irl.driver.driver_style import (
     RISK_RANGE,
     WEIGHT_NAMES,
     DriverStyle,
     initial_weights,
     reproduce,
 )
-from drivestyle.irl.features import X_FEATURES, FeatureConfig
-from drivestyle.irl.inner import InnerProblem, InnerSolveError
-from drivestyle.irl.learner import IRLConfig
-from drivestyle.irl.style import fit_style
+from drivestyle.irl.paper.features import X_FEATURES, FeatureConfig
+from drivestyle.irl.paper.inner import InnerProblem, InnerSolveError
+from drivestyle.irl.paper.learner import IRLConfig
+from drivestyle.irl.paper.style import fit_style
 
 __all__ = [
     "CLASSES",
@@ -540,8 +540,9 @@ def capacity_of_risk(
         train: its training demonstrations (K ≥ 1).
         test: its held-out demonstrations (≥ 1).
         budget: objective evaluations per Nelder–Mead fit (the starting candidates count).
-        learn_options: keyword arguments of :func:`~drivestyle.irl.driver_learning.learn_driver`
-            (e.g. fewer starting points for a quick run); default: its defaults.
+        learn_options: keyword arguments of
+            :func:`~drivestyle.irl.driver.driver_learning.learn_driver` (e.g. fewer starting
+            points for a quick run); default: its defaults.
         irl_max_iter: ME-IRL's outer iteration cap (default: its default).
 
     Returns:

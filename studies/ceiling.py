@@ -19,7 +19,7 @@ import numpy as np
 from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.irl.library import StyleLibrary
+from drivestyle.irl.identification.library import StyleLibrary
 from drivestyle.studies.identification_study import knn_baseline
 
 __all__ = [

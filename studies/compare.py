@@ -3,7 +3,7 @@
 The three: the SMPC demonstration it came from, the spline-optimised reproduction r*_θ,
 and an RL policy trained on the learned reward. On held-out scenarios
 (:func:`heldout_comparison`) also the default style model's closed-loop reproduction
-(:func:`drivestyle.irl.driver_style.reproduce`, method ``style``).
+(:func:`drivestyle.irl.driver.driver_style.reproduce`, method ``style``).
 
 All trajectories are scored the same way: control points at the demonstration's sample
 times (by the style's control-point rule for sampled states, the spline's own for r*_θ)
@@ -28,12 +28,12 @@ from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rollout import Policy, run_episode
 from drivestyle.envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
 from drivestyle.envs.traffic import TrafficEnv, TrafficScene
-from drivestyle.irl.driver_style import DriverStyle, reproduce
-from drivestyle.irl.features import feature_basis, feature_values
-from drivestyle.irl.inner import InnerProblem
+from drivestyle.irl.driver.driver_style import DriverStyle, reproduce
 from drivestyle.irl.metrics import trajectory_errors
-from drivestyle.irl.spline import demo_control_points, spline_eval
-from drivestyle.irl.style import Style
+from drivestyle.irl.paper.features import feature_basis, feature_values
+from drivestyle.irl.paper.inner import InnerProblem
+from drivestyle.irl.paper.spline import demo_control_points, spline_eval
+from drivestyle.irl.paper.style import Style
 
 __all__ = [
     "LABELS",
@@ -374,7 +374,7 @@ def heldout_comparison(
 
     In each scenario drawn from :class:`drivestyle.envs.scenario.ScenarioRanges` with ``seed``, the
     SMPC(p) demonstration is the reference; the driver style (``style``) re-plans in closed
-    loop against the recorded TV (:func:`drivestyle.irl.driver_style.reproduce`); the spline
+    loop against the recorded TV (:func:`drivestyle.irl.driver.driver_style.reproduce`); the spline
     reproduction r*_θ is planned in that scenario (open loop); each SB3 policy drives it in
     closed loop. Per method: the learned cost θᵀf (paper style only), rmse_y and rmse_xy
     against SMPC(p), min d_k, collisions, entries into the ellipse the SMPC did not enter and

@@ -30,8 +30,8 @@ from drivestyle.agents.aware_planner import (
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
-from drivestyle.irl.driver_style import expert_style
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import expert_style
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig
 
 __all__ = [

@@ -32,8 +32,8 @@ from drivestyle.envs.lane_change import LaneChangeEnv, TVDeviation
 from drivestyle.envs.rollout import run_episode
 from drivestyle.envs.safety import ellipse_constraint, rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig, get_scenario
-from drivestyle.irl.inner import InnerProblem, InnerSolveError
-from drivestyle.irl.style import Style
+from drivestyle.irl.paper.inner import InnerProblem, InnerSolveError
+from drivestyle.irl.paper.style import Style
 
 __all__ = ["DeviationStudy", "DriverMeasures", "deviating_tv_study", "plan_states", "write_videos"]
 

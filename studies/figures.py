@@ -22,13 +22,13 @@ from matplotlib.ticker import MaxNLocator
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index, trigger_time, vehicle_corners
 from drivestyle.irl.forecast import METHODS, Prediction
-from drivestyle.irl.learner import LearningResult
-from drivestyle.irl.spline import spline_eval
+from drivestyle.irl.paper.learner import LearningResult
+from drivestyle.irl.paper.spline import spline_eval
 from drivestyle.studies.reports import seconds
 
 if TYPE_CHECKING:
-    from drivestyle.irl.driver_style import Reproduction
-    from drivestyle.irl.identification import Identification
+    from drivestyle.irl.driver.driver_style import Reproduction
+    from drivestyle.irl.identification.posterior import Identification
     from drivestyle.studies.av_vs_human import AVHumanComparison
     from drivestyle.studies.compare import HeldoutComparison
     from drivestyle.studies.cut_in_study import PlanningStudy
@@ -385,7 +385,7 @@ def plot_theta_vs_risk(libraries: dict, path: str | Path) -> Path:
     """Normalised θ (per feature group) against the risk p, one panel per library."""
     fig, axes = plt.subplots(1, len(libraries), figsize=(6 * len(libraries), 4), squeeze=False)
     for ax, (name, lib) in zip(axes[0], libraries.items(), strict=True):
-        from drivestyle.irl.learner import normalise_theta
+        from drivestyle.irl.paper.learner import normalise_theta
 
         th = np.array([normalise_theta(np.asarray(t), lib.features.names) for t in lib.thetas])
         for j, n in enumerate(lib.features.names):
@@ -509,7 +509,7 @@ def plot_population(rows: Sequence[dict], path: str | Path, title: str = "") -> 
     """Estimated against true risk (where known, with 90 % intervals) and the distribution.
 
     Args:
-        rows: ``styles.csv`` rows (:mod:`drivestyle.irl.mining`).
+        rows: ``styles.csv`` rows (:mod:`drivestyle.irl.identification.mining`).
         path: output PNG.
         title: figure title.
     """
@@ -895,7 +895,7 @@ def plot_identification(
     come within :data:`NEAR_VEHICLE_M` of the EV.
 
     Args:
-        ident: the identification (:func:`~drivestyle.irl.identification.identify`).
+        ident: the identification (:func:`~drivestyle.irl.identification.posterior.identify`).
         demos: its demonstrations.
         reproductions: per demonstration the reproduction at the identified risk (None:
             not drawn, e.g. a paper-model library).

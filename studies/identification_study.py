@@ -1,14 +1,14 @@
 """Identification on held-out demonstrations of known risk, and a k-NN reference (DESIGN §8).
 
 :func:`evaluate_identification` identifies held-out demonstrations with every scorer of
-:mod:`drivestyle.irl.identification` and summarises accuracy on the library's grid, the error
-between grid points, interval coverage, pooling of one vehicle's demonstrations and
+:mod:`drivestyle.irl.identification.posterior` and summarises accuracy on the library's grid, the
+error between grid points, interval coverage, pooling of one vehicle's demonstrations and
 timing; :func:`knn_baseline` is a supervised reference without IRL. Results are typed
 (:class:`Evaluation`, one :class:`EvaluationRecord` per demonstration with a result per
 scorer); the Markdown of ``evaluation.md`` is written from them by small functions.
 
-A :class:`~drivestyle.irl.library.DriverLibrary` (DESIGN §15) is evaluated with its one
-scorer, ``likelihood``: each demonstration's risk profile is computed once and reused by
+A :class:`~drivestyle.irl.identification.library.DriverLibrary` (DESIGN §15) is evaluated with its
+one scorer, ``likelihood``: each demonstration's risk profile is computed once and reused by
 its identification and by pooling. With ``ceiling=True`` every grid demonstration also gets
 the *path ceiling* (:class:`CeilingRecord`): the SMPC(q) path of each grid risk q in the
 demonstration's own scenario is the held-out demonstration of q in that scenario (the
@@ -34,9 +34,10 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.tracking import observe
 from drivestyle.envs.traffic import TrafficScene
-from drivestyle.irl.driver_style import DriverStyleError
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.identification import (
+from drivestyle.irl.driver.driver_style import DriverStyleError
+from drivestyle.irl.driver.risk_profile import RiskProfile, refined_profile
+from drivestyle.irl.identification.library import DriverLibrary, LibraryError, StyleLibrary
+from drivestyle.irl.identification.posterior import (
     DEFAULT_SCORER,
     LIKELIHOOD,
     SCORERS,
@@ -48,9 +49,8 @@ from drivestyle.irl.identification import (
     risk_interval,
     summarise,
 )
-from drivestyle.irl.inner import InnerProblem
-from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
-from drivestyle.irl.risk_profile import RiskProfile, refined_profile
+from drivestyle.irl.paper.features import FeatureConfig
+from drivestyle.irl.paper.inner import InnerProblem
 
 __all__ = [
     "CONTINUOUS_RANGE",
@@ -306,7 +306,7 @@ class ScorerSummary:
     grid_accuracy: float | None
     grid_accuracy_informative: float | None
     """Accuracy among grid demonstrations in which p can matter
-    (:attr:`~drivestyle.irl.identification.DemoScores.constraint_binds`; the name is the
+    (:attr:`~drivestyle.irl.identification.posterior.DemoScores.constraint_binds`; the name is the
     results' key, older than the verdict's labels)."""
     grid_mae_informative: float | None
     """MAE of the posterior mode on the same demonstrations."""
@@ -463,7 +463,7 @@ def _driver_task(
     """Worker: a driver library's identification of the demonstration as observed.
 
     The risk profile is computed once and handed to
-    :func:`~drivestyle.irl.identification.identify_driver` (and kept for pooling).
+    :func:`~drivestyle.irl.identification.posterior.identify_driver` (and kept for pooling).
 
     Returns:
         ((observed demonstration, profile, identification) or the refusal's message,
@@ -537,7 +537,7 @@ def pooled_accuracy(
 
     A "vehicle" is a grid risk; its demonstrations (in different scenarios, scenario order)
     are pooled in consecutive groups of ``n_pool`` by :func:`posterior_from_scores` (a
-    driver library: by :func:`~drivestyle.irl.identification.identify_driver` from the
+    driver library: by :func:`~drivestyle.irl.identification.posterior.identify_driver` from the
     records' risk profiles, ``library`` needed); the single and pooled accuracies are over
     the same demonstrations.
     """

@@ -48,8 +48,12 @@ import numpy as np
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstration
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
-from drivestyle.irl.identification import Identification, identify_driver, recorded_verdict_label
-from drivestyle.irl.library import DriverLibrary, LibraryError
+from drivestyle.irl.identification.library import DriverLibrary, LibraryError
+from drivestyle.irl.identification.posterior import (
+    Identification,
+    identify_driver,
+    recorded_verdict_label,
+)
 from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty
@@ -551,9 +555,10 @@ class EpisodeResult:
 
     @property
     def verdict(self) -> str:
-        """The identification's label (:data:`~drivestyle.irl.identification.VERDICT_LABELS`).
+        """The identification's label.
 
-        Derived from the flags by the identification's own rule.
+        One of :data:`~drivestyle.irl.identification.posterior.VERDICT_LABELS`, derived from the
+        flags by the identification's own rule.
         """
         return recorded_verdict_label(
             self.informative, self.out_of_class, self.constraint_binds, self.enters_region

@@ -23,10 +23,10 @@ from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.common.io import command_line, write_json, write_text
 from drivestyle.envs.demonstration import Demonstration, save_demonstration
-from drivestyle.irl.features import FeatureConfig, feature_basis, feature_values
-from drivestyle.irl.learner import IRLConfig, LearningResult
-from drivestyle.irl.spline import demo_control_points
-from drivestyle.irl.style import fit_style, locate_demos
+from drivestyle.irl.paper.features import FeatureConfig, feature_basis, feature_values
+from drivestyle.irl.paper.learner import IRLConfig, LearningResult
+from drivestyle.irl.paper.spline import demo_control_points
+from drivestyle.irl.paper.style import fit_style, locate_demos
 from drivestyle.studies.figures import (
     plot_comparison,
     plot_demonstration,
@@ -314,7 +314,7 @@ def baseline_study(
     """
     from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
     from drivestyle.envs.video import write_video
-    from drivestyle.irl.style import load_style
+    from drivestyle.irl.paper.style import load_style
     from drivestyle.studies.compare import compare_methods, policy_frames
 
     out = Path(out)

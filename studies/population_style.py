@@ -1,7 +1,7 @@
 """The population's style learned from recorded drivers (DESIGN §18).
 
-The driver library of :mod:`drivestyle.irl.library` carries the SMPC expert's cost: built
-from simulated SMPC(p) lane changes, it was never fitted to people. Here one style — the
+The driver library of :mod:`drivestyle.irl.identification.library` carries the SMPC expert's cost:
+built from simulated SMPC(p) lane changes, it was never fitted to people. Here one style — the
 cost weights, the risk and the speed-scaled safety region (T, s_0) — is learned by teacher
 forcing over every lane change of the recorded benchmark's *train* split (docs/
 benchmark_split.csv), each episode in the one recorded view
@@ -12,11 +12,11 @@ prediction and mining use it unchanged: ``drivestyle evaluate-prediction --libra
 runs/people`` compares it on the validation split.
 
 Two objectives (:data:`OBJECTIVES`). ``teacher``: the one-step input residuals of
-:func:`~drivestyle.irl.driver_learning.learn_driver`, the library's own objective. On
+:func:`~drivestyle.irl.driver.driver_learning.learn_driver`, the library's own objective. On
 recorded traffic it learned the inputs' noise (residual 8.1 σ_u, the speed weight driven to
 0.0002) and predicted worse than constant velocity. ``closed-loop``: the style is driven
 from each episode's first state against the recorded vehicles
-(:func:`~drivestyle.irl.driver_style.reproduce`) and the mean of the episodes' rmse_xy
+(:func:`~drivestyle.irl.driver.driver_style.reproduce`) and the mean of the episodes' rmse_xy
 (each capped at :data:`CLOSED_LOOP_CAP_M`, so one diverging episode cannot dominate) is
 minimised over the log weights, p, T and s_0 by Nelder–Mead — what a predictor needs, at
 the price of a derivative-free search over 7 coordinates.
@@ -34,20 +34,20 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.driver_learning import (
+from drivestyle.irl.driver.driver_learning import (
     DriverFit,
     learn_driver,
     step_residuals,
     style_from_coordinates,
 )
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_style import (
     GAUGE,
     MIN_GAP_RANGE,
     DriverStyle,
     DriverStyleError,
     reproduce,
 )
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.recorded.real_data import recorded_view
 from drivestyle.studies.prediction import (
     DATASETS,

@@ -60,8 +60,8 @@ recorded crossing; the episode's window is centred on the recorded crossing (the
 is known to happen).
 
 Online identification (:func:`track_vehicle`): each simulated demonstration is fed whole to
-the :class:`~drivestyle.irl.online.StyleTracker` without its inputs (an observer does not
-see them); per vehicle the posterior mean and 90 % interval over time and the first time the
+the :class:`~drivestyle.irl.identification.online.StyleTracker` without its inputs (an observer does
+not see them); per vehicle the posterior mean and 90 % interval over time and the first time the
 interval is narrower than :data:`NARROW_WIDTH`.
 
 Results are typed: one :class:`PredictionRecord` per (vehicle, t_obs), a
@@ -98,10 +98,10 @@ from drivestyle.envs.lanes import lane_change_target, lane_index
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges
 from drivestyle.envs.units import off_grid
-from drivestyle.irl.driver_style import DriverStyle, DriverStyleError, expert_style
+from drivestyle.irl.driver.driver_style import DriverStyle, DriverStyleError, expert_style
 from drivestyle.irl.forecast import METHODS, ForecastError, Prediction, predict
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.online import StyleTracker, TrackerError
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.online import StyleTracker, TrackerError
 from drivestyle.irl.physics import (
     PhysicsCalibration,
     PhysicsCase,
@@ -557,7 +557,7 @@ def draw_simulated(n: int, seed: int) -> list[SimulatedVehicle]:
 def oracle_style(meta: dict[str, Any]) -> DriverStyle | None:
     """The true style of an SMPC demonstration (``"risk"`` and ``"smpc"`` in its meta).
 
-    :func:`~drivestyle.irl.driver_style.expert_style` of the SMPC at the demonstration's
+    :func:`~drivestyle.irl.driver.driver_style.expert_style` of the SMPC at the demonstration's
     risk, with its recorded weights and horizon where the meta holds them.
 
     Returns:
@@ -999,7 +999,7 @@ def track_vehicle(
 ) -> TrackingRecord:
     """Feed a demonstration to a fresh tracker, inputs unseen (as ``track_demo(…, False)``).
 
-    The loop is :func:`~drivestyle.irl.online.track_demo`'s, timed per update.
+    The loop is :func:`~drivestyle.irl.identification.online.track_demo`'s, timed per update.
     """
     tracker = StyleTracker(library, demo.scenario)
     vehicles = demo.vehicles

@@ -28,12 +28,12 @@ import numpy as np
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
-from drivestyle.irl.driver_style import reproduce
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.inner import InnerProblem
-from drivestyle.irl.learner import IRLConfig, MaxEntIRL, normalise_theta
+from drivestyle.irl.driver.driver_learning import RESTARTS, SCREEN_CANDIDATES, learn_driver
+from drivestyle.irl.driver.driver_style import reproduce
 from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.irl.paper.features import FeatureConfig
+from drivestyle.irl.paper.inner import InnerProblem
+from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL, normalise_theta
 from drivestyle.recorded.real_data import (
     RECORDED_DELTA_MAX,
     RECORDED_PHI_MAX,
@@ -531,7 +531,7 @@ class DriverTrafficStudy:
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
         return {
-            "model": "receding-horizon driver style (irl/driver_style.py)",
+            "model": "receding-horizon driver style (irl/driver/driver_style.py)",
             "dataset": self.dataset,
             "settings": self.settings.to_json(),
             "limits": {"phi_max_rad": RECORDED_PHI_MAX, "delta_max_rad": RECORDED_DELTA_MAX},

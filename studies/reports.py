@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from drivestyle.common.io import fmt
-from drivestyle.irl.identification import DEFAULT_SCORER, INTERVAL_MASS, VERDICT_LABELS
+from drivestyle.irl.identification.posterior import DEFAULT_SCORER, INTERVAL_MASS, VERDICT_LABELS
 from drivestyle.studies.compare import LABELS
 
 if TYPE_CHECKING:
@@ -371,7 +371,7 @@ def driver_traffic_markdown(
     settings = study.settings
     lines = [
         "",
-        "## Receding-horizon driver model (irl/driver_style.py)",
+        "## Receding-horizon driver model (irl/driver/driver_style.py)",
         "",
         "Per episode `learn_driver([episode], fit_speed=True)` (weights, risk p and desired "
         f"speed free; {settings.screen} screened starts, {settings.restarts} LM run(s)), "

@@ -26,8 +26,8 @@ def _build_style_library(workers: int):
         draw_interactive_scenarios,
         generate_demonstrations,
     )
-    from drivestyle.irl.identification import MIN_MEMBERS
-    from drivestyle.irl.library import learn_library
+    from drivestyle.irl.identification.library import learn_library
+    from drivestyle.irl.identification.posterior import MIN_MEMBERS
 
     scenarios = draw_interactive_scenarios(MIN_MEMBERS, seed=0)
     demos = generate_demonstrations([0.5, 0.95], scenarios, workers=workers)

@@ -21,7 +21,7 @@ def test_a_users_own_envs_folder_neither_shadows_nor_is_shadowed(tmp_path):
         "import gymnasium as gym, drivestyle, envs, agents\n"
         "env = gym.make('drivestyle/LaneChange-v0')\n"
         "obs, _ = env.reset(seed=0)\n"
-        "import drivestyle.agents.smpc, drivestyle.irl.learner, drivestyle.studies.paper\n"
+        "import drivestyle.agents.smpc, drivestyle.irl.paper.learner, drivestyle.studies.paper\n"
         "import drivestyle.recorded\n"
         "print(envs.WHO, agents.WHO, obs.shape, drivestyle.envs.__name__)\n"
     )
@@ -65,6 +65,6 @@ def test_the_wheel_installs_one_root_package(tmp_path):
     tops = {n.split("/")[0] for n in names}
     assert {t for t in tops if not t.endswith(".dist-info")} == {"drivestyle"}
     for module in ("envs/lane_change.py", "recorded/readers.py", "planning/smpc_problem.py",
-                   "planning/plan_solver_driver.c", "irl/learner.py", "studies/paper.py",
+                   "planning/plan_solver_driver.c", "irl/paper/learner.py", "studies/paper.py",
                    "scripts/learn_style.py", "common/io.py", "py.typed"):  # fmt: skip
         assert f"drivestyle/{module}" in names

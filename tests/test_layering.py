@@ -75,10 +75,10 @@ def test_the_checker_sees_nested_imports(tmp_path):
     module = tmp_path / "m.py"
     module.write_text(
         "def f():\n    from drivestyle.agents.smpc import SMPCExpert\n"
-        "    import drivestyle.irl.spline\n    import envs\n"
+        "    import drivestyle.irl.paper.spline\n    import envs\n"
     )
     found = {m for _, m in _imported_modules(module)}
-    assert found == {"drivestyle.agents.smpc", "drivestyle.irl.spline", "envs"}
+    assert found == {"drivestyle.agents.smpc", "drivestyle.irl.paper.spline", "envs"}
     assert {_layer(m) for m in found} == {"agents", "irl", None}
 
 

@@ -34,8 +34,8 @@ naming the output and the holder's pid:
   ends: on return, an error, Ctrl-C or SIGTERM (turned into ``SystemExit(143)`` for the
   command's duration) the lock is released and its file removed;
 - outside a command, :func:`atomic_output_dir` holds the lock for its block (so does the
-  mining output, :class:`~drivestyle.irl.mining_output.MiningOutput`); inside one it uses
-  the command's;
+  mining output, :class:`~drivestyle.irl.identification.mining_output.MiningOutput`); inside one it
+  uses the command's;
 - the kernel releases the ``flock`` of a process that dies (``kill -9``); its record (pid,
   start time, host) stays in the file, and the next writer takes over with a one-line
   notice naming the dead pid. A lock still held by a process other than the one recorded,

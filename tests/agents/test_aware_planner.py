@@ -14,8 +14,8 @@ from drivestyle.agents.aware_planner import (
 )
 from drivestyle.agents.smpc import SMPCExpert
 from drivestyle.envs.cut_in import CutInEnv
-from drivestyle.irl.driver_style import DriverStyle, expert_style
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import DriverStyle, expert_style
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig, nlp_parameters
 from drivestyle.studies.cut_in_study import (
     CUT_IN_RANGES,

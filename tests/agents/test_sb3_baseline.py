@@ -8,7 +8,7 @@ import pytest
 from drivestyle.agents.sb3_baseline import SB3Policy, TrainConfig, make_rl_env, train_baseline
 from drivestyle.envs import LaneChangeEnv
 from drivestyle.irl import FeatureConfig, IRLConfig
-from drivestyle.irl.style import fit_style
+from drivestyle.irl.paper.style import fit_style
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -42,7 +42,7 @@ def test_rl_env_passes_sb3_check(style_file):
 
 def test_rl_env_of_a_driver_style_file_trains_on_its_cost(tmp_path):
     from drivestyle.common.io import write_json
-    from drivestyle.irl.driver_style import DRIVER_STYLE_KIND, DriverStyle
+    from drivestyle.irl.driver.driver_style import DRIVER_STYLE_KIND, DriverStyle
     from drivestyle.irl.reward import DriverCostConfig, DriverCostReward
 
     style = DriverStyle((0.2, 34.0, 0.2, 1.0, 76.0), risk=0.9)
@@ -178,7 +178,7 @@ def test_scripts_train_compare_render(tmp_path, style_file):
 
 
 def test_heldout_comparison_scores_every_method(style_file, tmp_path):
-    from drivestyle.irl.style import load_style
+    from drivestyle.irl.paper.style import load_style
     from drivestyle.studies.compare import HeldoutComparison, heldout_comparison
     from drivestyle.studies.figures import plot_heldout
 
@@ -209,7 +209,7 @@ def test_heldout_comparison_scores_every_method(style_file, tmp_path):
 def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
     from drivestyle.agents import generate_demonstration
     from drivestyle.envs.lane_change import LaneChangeEnv, TVDeviation
-    from drivestyle.irl.style import load_style
+    from drivestyle.irl.paper.style import load_style
     from drivestyle.studies.deviation import deviating_tv_study
 
     with pytest.raises(ValueError, match="duration"):

@@ -178,7 +178,7 @@ def test_implausible_demonstration_is_refused(paper_demo, case):
 @pytest.mark.parametrize("case", CASES)
 def test_learning_and_identification_refuse_it(paper_demo, case):
     """check_learnable (MaxEntIRL, identify, mining) runs the plausibility check."""
-    from drivestyle.irl.learner import check_learnable
+    from drivestyle.irl.paper.learner import check_learnable
 
     make, message = CASES[case]
     with pytest.raises(DemonstrationError, match=message):

@@ -1,4 +1,4 @@
-"""Teacher-forced learning of a driver style (irl/driver_learning.py, DESIGN §15): the
+"""Teacher-forced learning of a driver style (irl/driver/driver_learning.py, DESIGN §15): the
 risk reaches the bound p = 0.5, the profile over p leaves the saw-tooth's local minima,
 the Cauchy descent leaves least squares' local minima, and the fit says when no single
 driver explains the demonstrations (``poor_fit``) — not when only the learner's residual
@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver_learning import (
+from drivestyle.irl.driver.driver_learning import (
     POOR_FIT_RATIO,
     REPRODUCTION_TOLERANCE,
     RESIDUAL_FLOOR,
@@ -22,7 +22,7 @@ from drivestyle.irl.driver_learning import (
     cauchy_residuals,
     learn_driver,
 )
-from drivestyle.irl.driver_style import INPUT_SCALE, DriverStyle, DriverStyleError
+from drivestyle.irl.driver.driver_style import INPUT_SCALE, DriverStyle, DriverStyleError
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's weights: SMPC(p) drivers are the style (SMPC_WEIGHTS, p)."""

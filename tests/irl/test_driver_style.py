@@ -1,4 +1,4 @@
-"""The receding-horizon style model (irl/driver_style.py), driver libraries and continuous
+"""The receding-horizon style model (irl/driver/driver_style.py), driver libraries and continuous
 identification (DESIGN §15)."""
 
 import json
@@ -7,27 +7,27 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver_learning import (
+from drivestyle.irl.driver.driver_learning import (
     DriverFit,
     learn_driver,
     save_driver_style,
     step_residuals,
 )
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_style import (
     INPUT_SCALE,
     DriverStyle,
     DriverStyleError,
     load_driver_style,
     reproduce,
 )
-from drivestyle.irl.identification import (
+from drivestyle.irl.driver.risk_profile import risk_profile
+from drivestyle.irl.identification.library import DriverLibrary, LibraryError, load_any_library
+from drivestyle.irl.identification.posterior import (
     calibrate_temperature,
     identify,
     identify_driver,
     risk_log_likelihood,
 )
-from drivestyle.irl.library import DriverLibrary, LibraryError, load_any_library
-from drivestyle.irl.risk_profile import risk_profile
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's Q (y, φ, v) and R (a, δ) diagonal: the SMPC is a member of the class."""
@@ -84,7 +84,7 @@ def test_identification_finds_the_true_risk_with_a_continuous_posterior(paper_de
 
 
 def test_the_likelihood_widens_with_the_residual_left_at_the_best_risk():
-    from drivestyle.irl.risk_profile import RiskProfile
+    from drivestyle.irl.driver.risk_profile import RiskProfile
 
     grid = np.array([0.5, 0.6, 0.7])
     exact = RiskProfile((0.5, 0.6, 0.7), (4.0, 0.0, 4.0), 100, 5)

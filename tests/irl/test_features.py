@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from drivestyle.envs import PAPER, Demonstration
-from drivestyle.irl.features import (
+from drivestyle.irl.paper.features import (
     FEATURES,
     EventTimes,
     FeatureConfig,
@@ -119,7 +119,7 @@ def test_trigger_and_reactive_features_on_constructed_pair():
 def test_casadi_and_numpy_features_agree(paper_demo):
     import casadi as ca
 
-    from drivestyle.irl.spline import demo_control_points
+    from drivestyle.irl.paper.spline import demo_control_points
 
     C = demo_control_points(paper_demo)
     basis = feature_basis(paper_demo, FeatureConfig())

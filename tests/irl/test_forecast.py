@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver_style import DriverStyle, expert_style
+from drivestyle.irl.driver.driver_style import DriverStyle, expert_style
 from drivestyle.irl.forecast import (
     METHODS,
     ForecastError,
@@ -13,7 +13,7 @@ from drivestyle.irl.forecast import (
     others_at_constant_velocity,
     predict,
 )
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig
 
 LIBRARY = DriverLibrary(

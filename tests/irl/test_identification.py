@@ -12,7 +12,8 @@ from drivestyle.agents import generate_demonstration
 from drivestyle.agents.demo_generation import draw_interactive_scenarios
 from drivestyle.common.io import write_json
 from drivestyle.envs import Demonstration
-from drivestyle.irl.identification import (
+from drivestyle.irl.identification.library import LibraryError, StyleLibrary
+from drivestyle.irl.identification.posterior import (
     DEFAULT_SCORER,
     MIN_MEMBERS,
     SCORERS,
@@ -20,7 +21,6 @@ from drivestyle.irl.identification import (
     identify,
     identify_all,
 )
-from drivestyle.irl.library import LibraryError, StyleLibrary
 
 ROOT = Path(__file__).resolve().parents[2]
 IDENTIFY_JSON_KEYS = {
@@ -97,7 +97,7 @@ def _first_scenarios(library: StyleLibrary, k: int) -> StyleLibrary:
 
 def test_a_library_with_too_few_scenarios_is_refused(style_library, paper_demo):
     # a 3-scenario library answered the paper demo of p = 0.7 with posterior 0.996 on p = 0.5
-    # (irl.identification.MIN_MEMBERS); it now says how many scenarios it needs
+    # (irl.identification.posterior.MIN_MEMBERS); it now says how many scenarios it needs
     small = _first_scenarios(style_library, 3)
     with pytest.raises(LibraryError, match=f"has 3 training scenarios .* at least {MIN_MEMBERS}"):
         identify(paper_demo, small)
@@ -141,10 +141,10 @@ def test_identify_script_has_no_seed_option():
 
 def test_scrambled_inputs_are_out_of_class(paper_demo):
     # an SMPC(0.7) drive whose recorded inputs carry noise of 10 σ_u: far above the floor
-    from drivestyle.irl.driver_style import INPUT_SCALE, DriverStyle
-    from drivestyle.irl.identification import driver_posterior
-    from drivestyle.irl.library import DriverLibrary
-    from drivestyle.irl.risk_profile import risk_profile
+    from drivestyle.irl.driver.driver_style import INPUT_SCALE, DriverStyle
+    from drivestyle.irl.driver.risk_profile import risk_profile
+    from drivestyle.irl.identification.library import DriverLibrary
+    from drivestyle.irl.identification.posterior import driver_posterior
 
     n = 8  # a prefix keeps the test fast
     demo = Demonstration(t=paper_demo.t[:n], ev=paper_demo.ev[:n], tv=paper_demo.tv[:n],
@@ -167,10 +167,10 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
 ):
     from dataclasses import replace as dc_replace
 
-    import drivestyle.irl.identification as ident
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.identification import identify_driver
-    from drivestyle.irl.library import DriverLibrary
+    import drivestyle.irl.identification.posterior as ident
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
+    from drivestyle.irl.identification.posterior import identify_driver
     from drivestyle.recorded.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX, recorded_view
 
     # a recording that turns 3× the scenario's heading bound (as recorded drivers do)
@@ -201,7 +201,7 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
 def test_the_printed_estimate_is_the_densitys_mode_inside_its_interval():
     """A posterior peaked between two library risks gives its grid mass to one of them (the
     documented ``risk_estimate``), which may lie outside the interval; ``risk_mode`` may not."""
-    from drivestyle.irl.identification import Identification
+    from drivestyle.irl.identification.posterior import Identification
 
     grid = np.linspace(0.5, 0.99, 197)
     density = np.exp(-0.5 * ((grid - 0.7) / 0.003) ** 2)

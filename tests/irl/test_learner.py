@@ -11,8 +11,8 @@ from drivestyle.irl import (
     newton_minimize,
     normalise_theta,
 )
-from drivestyle.irl.inner import InnerSolveError
-from drivestyle.irl.style import StyleError, fit_style, load_style
+from drivestyle.irl.paper.inner import InnerSolveError
+from drivestyle.irl.paper.style import StyleError, fit_style, load_style
 
 
 @pytest.fixture(scope="module")

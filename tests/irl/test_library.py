@@ -9,8 +9,8 @@ import pytest
 
 from drivestyle.common.io import write_json
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import (
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import (
     DriverLibrary,
     LibraryError,
     StyleLibrary,
@@ -164,7 +164,7 @@ def test_learning_records_the_demonstrations_scenarios(style_library):
 
 
 def test_learning_refuses_risks_in_different_scenarios(paper_demo):
-    from drivestyle.irl.library import learn_library
+    from drivestyle.irl.identification.library import learn_library
 
     other = replace(
         paper_demo,
@@ -187,15 +187,15 @@ def _small_style_library(risks=(0.5, 0.9)):
 
 
 def _driver_library_json(**changes):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     return DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.7, 0.9)).to_json() | changes
 
 
 def test_one_risk_is_refused_when_built_and_when_loaded(tmp_path):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary, load_any_library
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary, load_any_library
 
     with pytest.raises(LibraryError, match=r"at least 2 risks to tell styles apart, got 1 \(0.7\)"):
         _small_style_library((0.7,))
@@ -213,7 +213,7 @@ def test_one_risk_is_refused_when_built_and_when_loaded(tmp_path):
 
 
 def test_learning_refuses_one_risk_before_learning(paper_demo, monkeypatch):
-    from drivestyle.irl import library as lib_module
+    from drivestyle.irl.identification import library as lib_module
 
     def no_learning(*args, **kwargs):
         raise AssertionError("learned before refusing")
@@ -228,7 +228,7 @@ def test_learning_refuses_one_risk_before_learning(paper_demo, monkeypatch):
 
 @pytest.mark.parametrize("version", [99, 0, "1", True, None])
 def test_an_unknown_version_is_refused(tmp_path, version):
-    from drivestyle.irl.library import load_any_library
+    from drivestyle.irl.identification.library import load_any_library
 
     with pytest.raises(LibraryError, match=rf"unknown library version {version!r}"):
         load_any_library(_write(tmp_path, _driver_library_json(version=version)))
@@ -238,7 +238,7 @@ def test_an_unknown_version_is_refused(tmp_path, version):
 
 
 def test_the_current_version_and_none_load(tmp_path):
-    from drivestyle.irl.library import LIBRARY_VERSION, load_any_library
+    from drivestyle.irl.identification.library import LIBRARY_VERSION, load_any_library
 
     raw = _small_style_library().to_json()
     assert raw["version"] == LIBRARY_VERSION
@@ -249,8 +249,8 @@ def test_the_current_version_and_none_load(tmp_path):
 
 @pytest.mark.parametrize("temperature", [1e-300, 0.0, -1.0, 0.05, 150.0, 1e300])
 def test_a_temperature_outside_its_range_is_refused(tmp_path, temperature):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary, load_any_library
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary, load_any_library
 
     with pytest.raises(LibraryError, match=r"temperature .* is outside \[0.1, 100\]"):
         DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.9), temperature=temperature)
@@ -261,8 +261,8 @@ def test_a_temperature_outside_its_range_is_refused(tmp_path, temperature):
 
 def test_the_posterior_is_never_nan():
     """The posterior computation refuses what would be NaN (a library bypassing checks)."""
-    from drivestyle.irl.identification import posterior_from_scores, risk_log_likelihood
-    from drivestyle.irl.risk_profile import RiskProfile
+    from drivestyle.irl.driver.risk_profile import RiskProfile
+    from drivestyle.irl.identification.posterior import posterior_from_scores, risk_log_likelihood
 
     profile = RiskProfile((0.5, 0.7, 0.9), (3.0, 1.0, 2.0), 20, 5)
     assert np.isfinite(risk_log_likelihood([profile], 1.0)).all()

@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 
 from drivestyle.envs.demonstration import save_demonstration
-from drivestyle.irl import mining
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.library import StyleLibrary
-from drivestyle.irl.mining import COLUMNS, MinedRow, mine, summary_numbers
-from drivestyle.irl.mining_output import read_rows
+from drivestyle.irl.identification import mining
+from drivestyle.irl.identification.library import StyleLibrary
+from drivestyle.irl.identification.mining import COLUMNS, MinedRow, mine, summary_numbers
+from drivestyle.irl.identification.mining_output import read_rows
+from drivestyle.irl.paper.features import FeatureConfig
 from drivestyle.studies.population import draw_vehicle, simulate_population
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -122,7 +122,7 @@ def test_summary_numbers_use_ok_rows_with_a_true_risk():
 
 
 def test_verdict_ranges_are_in_noise_floors():
-    from drivestyle.irl.mining import verdict_numbers
+    from drivestyle.irl.identification.mining import verdict_numbers
 
     rows = [
         dataclasses.replace(OK_ROW, id="a", residual_rms=0.2, noise_floor=0.1, kl_nats=0.5,
@@ -339,8 +339,8 @@ def test_the_styles_csv_header_is_the_documented_one():
 
 
 def test_a_driver_library_mines_the_risk_and_the_reproduction(paper_demo):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     weights = (0.2, 50.0, 0.2, 1.0, 10.0)  # the expert's: the demo is reproduced exactly
     library = DriverLibrary(DriverStyle(weights), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))
@@ -409,10 +409,10 @@ def test_the_verdict_columns_round_trip_and_an_older_row_reads():
 
 
 def test_a_driver_library_row_carries_the_verdict(paper_demo):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.identification import driver_posterior
-    from drivestyle.irl.library import DriverLibrary
-    from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
+    from drivestyle.irl.identification.library import DriverLibrary
+    from drivestyle.irl.identification.posterior import driver_posterior
 
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
     flat = RiskProfile(RISK_EVAL, (0.6,) * len(RISK_EVAL), 60, 0)
@@ -455,9 +455,9 @@ def test_a_row_label_follows_its_flags_and_a_contradicting_verdict_is_refused(fl
 _RAY_JOB = """
 import os, sys, time
 from pathlib import Path
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.library import StyleLibrary
-from drivestyle.irl.mining import mine
+from drivestyle.irl.paper.features import FeatureConfig
+from drivestyle.irl.identification.library import StyleLibrary
+from drivestyle.irl.identification.mining import mine
 
 class Sleeps(os.PathLike):  # defined in __main__: Ray ships it by value to its workers
     def __init__(self, folder):

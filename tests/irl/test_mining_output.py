@@ -10,10 +10,9 @@ import sys
 import pytest
 
 from drivestyle.common.io import lock_file
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.library import StyleLibrary
-from drivestyle.irl.mining import COLUMNS, MinedRow
-from drivestyle.irl.mining_output import (
+from drivestyle.irl.identification.library import StyleLibrary
+from drivestyle.irl.identification.mining import COLUMNS, MinedRow
+from drivestyle.irl.identification.mining_output import (
     FINGERPRINT,
     TABLE,
     MiningOutput,
@@ -22,6 +21,7 @@ from drivestyle.irl.mining_output import (
     read_rows,
     read_table,
 )
+from drivestyle.irl.paper.features import FeatureConfig
 
 
 def _library(risks=(0.5, 0.9)) -> StyleLibrary:
@@ -131,7 +131,7 @@ def test_the_lock_is_held_inside_the_with_block_only(tmp_path):
 
 _FP_CODE = (
     "import json\n"
-    "from drivestyle.irl.mining_output import MiningOutput, RunFingerprint\n"
+    "from drivestyle.irl.identification.mining_output import MiningOutput, RunFingerprint\n"
     f"FP = RunFingerprint.from_json(json.loads({json.dumps(FP.to_json())!r}))"
 )
 """Code that makes :data:`FP` in another process."""
@@ -260,7 +260,11 @@ def test_infrastructure_failures_are_retried_and_data_failures_are_final(tmp_pat
     "version", ["before failure_kind", "before the verdict", "before the label"]
 )
 def test_a_table_of_an_earlier_version_is_read_and_rewritten(tmp_path, version):
-    from drivestyle.irl.mining import LEGACY_COLUMNS, PRE_LABEL_COLUMNS, PRE_VERDICT_COLUMNS
+    from drivestyle.irl.identification.mining import (
+        LEGACY_COLUMNS,
+        PRE_LABEL_COLUMNS,
+        PRE_VERDICT_COLUMNS,
+    )
 
     (tmp_path / FINGERPRINT).write_text(json.dumps(FP.to_json()))
     legacy = {"before failure_kind": LEGACY_COLUMNS, "before the verdict": PRE_VERDICT_COLUMNS,

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.driver_style import RISK_RANGE, DriverStyle
-from drivestyle.irl.identification import identify_driver
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.online import StyleTracker, TrackerError, track_demo
+from drivestyle.irl.driver.driver_style import RISK_RANGE, DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.online import StyleTracker, TrackerError, track_demo
+from drivestyle.irl.identification.posterior import identify_driver
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 LIBRARY = DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95))

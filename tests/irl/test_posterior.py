@@ -5,7 +5,7 @@ import pytest
 
 from drivestyle.agents import generate_demonstration
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.identification import (
+from drivestyle.irl.identification.posterior import (
     S_E_INFORMATIVE,
     identify,
     posterior_from_scores,
@@ -79,21 +79,21 @@ def test_identify_reports_a_posterior_and_interval(style_library, paper_demo):
 
 # ---------------------------------------------------------------- the verdict (DESIGN §15)
 def _driver_library(temperature=1.0):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     style = DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0))
     return DriverLibrary(style, risks=(0.5, 0.7, 0.9), temperature=temperature)
 
 
 def _profile(ssr, n_active=30, n_residuals=60):
-    from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+    from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
 
     return RiskProfile(RISK_EVAL, tuple(float(s) for s in ssr), n_residuals, n_active)
 
 
 def test_kl_of_the_prior_is_zero_and_of_a_point_mass_is_log_cells():
-    from drivestyle.irl.identification import density_grid, kl_from_uniform
+    from drivestyle.irl.identification.posterior import density_grid, kl_from_uniform
 
     n = density_grid().size
     assert kl_from_uniform(np.full(n, 1.0 / n)) == pytest.approx(0.0, abs=1e-12)
@@ -112,8 +112,8 @@ def test_kl_of_the_prior_is_zero_and_of_a_point_mass_is_log_cells():
     ],
 )
 def test_a_demo_without_a_binding_constraint_cannot_inform_the_risk(profile):
-    from drivestyle.irl.driver_style import RISK_RANGE
-    from drivestyle.irl.identification import driver_posterior
+    from drivestyle.irl.driver.driver_style import RISK_RANGE
+    from drivestyle.irl.identification.posterior import driver_posterior
 
     res = driver_posterior([profile], _driver_library(), [95.0], [None])
     v = res.verdict
@@ -129,7 +129,7 @@ def test_a_demo_without_a_binding_constraint_cannot_inform_the_risk(profile):
 
 
 def test_a_posterior_that_barely_moved_is_not_informative():
-    from drivestyle.irl.identification import KL_INFORMATIVE, driver_posterior
+    from drivestyle.irl.identification.posterior import KL_INFORMATIVE, driver_posterior
 
     # the NGSIM shape: residuals of 5 σ_u everywhere, a little worse at high risk, under
     # runs/library's calibrated temperature
@@ -141,7 +141,7 @@ def test_a_posterior_that_barely_moved_is_not_informative():
 
 
 def test_residuals_far_above_the_floor_are_out_of_class_and_near_it_in_class():
-    from drivestyle.irl.identification import OUT_OF_CLASS_FACTOR, driver_posterior
+    from drivestyle.irl.identification.posterior import OUT_OF_CLASS_FACTOR, driver_posterior
 
     lib = _driver_library()
     sharp = np.full(13, 100.0)
@@ -157,7 +157,7 @@ def test_residuals_far_above_the_floor_are_out_of_class_and_near_it_in_class():
 
 @pytest.mark.parametrize("s_e", [0.25, 0.9])
 def test_a_vehicle_inside_the_safety_region_is_less_cautious_than_the_class(s_e):
-    from drivestyle.irl.identification import driver_posterior
+    from drivestyle.irl.identification.posterior import driver_posterior
 
     sharp = np.full(13, 100.0)
     sharp[4] = 0.0  # a sharp minimum that would otherwise be informative
@@ -178,8 +178,8 @@ def test_a_vehicle_inside_the_safety_region_is_less_cautious_than_the_class(s_e)
 
 
 def test_the_noise_floor_combines_the_fit_residual_and_s_floor():
-    from drivestyle.irl.driver_style import RESIDUAL_FLOOR
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import RESIDUAL_FLOOR
+    from drivestyle.irl.identification.library import DriverLibrary
 
     lib = _driver_library()
     assert lib.fit_residual == 0.0 and lib.noise_floor == pytest.approx(RESIDUAL_FLOOR)

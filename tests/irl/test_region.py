@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_style import (
     DriverStyle,
     DriverStyleError,
     StylePlanner,
     planner_for,
 )
-from drivestyle.irl.risk_profile import REFINE_PER_SIDE, refined_profile, risk_profile
+from drivestyle.irl.driver.risk_profile import REFINE_PER_SIDE, refined_profile, risk_profile
 from drivestyle.planning.description import nlp_parameters
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
@@ -86,8 +86,8 @@ def test_the_refined_profile_adds_risks_beside_the_minimum_and_keeps_the_grid(pa
 
 @pytest.mark.slow  # ≈ 40 s: one learning run over 7 coordinates
 def test_learning_recovers_the_region_a_driver_keeps(paper_demo):
-    from drivestyle.irl.driver_learning import learn_driver
-    from drivestyle.irl.driver_style import reproduce
+    from drivestyle.irl.driver.driver_learning import learn_driver
+    from drivestyle.irl.driver.driver_style import reproduce
 
     truth = DriverStyle(SMPC_WEIGHTS, risk=0.7, time_gap=0.8, min_gap=6.0)  # 30 m at 30 m/s
     rep = reproduce(truth, paper_demo)

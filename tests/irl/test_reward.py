@@ -7,9 +7,9 @@ from gymnasium.utils.env_checker import check_env
 
 from drivestyle.envs import LaneChangeEnv
 from drivestyle.irl import FeatureConfig, IRLConfig, feature_basis, feature_values
+from drivestyle.irl.paper.spline import demo_control_points
+from drivestyle.irl.paper.style import fit_style, load_style
 from drivestyle.irl.reward import LearnedStyleReward
-from drivestyle.irl.spline import demo_control_points
-from drivestyle.irl.style import fit_style, load_style
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_bad_style_path():
 
 
 def test_a_style_names_its_demonstration_or_says_it_has_none(tmp_path):
-    from drivestyle.irl.style import Style, StyleError
+    from drivestyle.irl.paper.style import Style, StyleError
 
     named = Style(("ax",), np.ones(1), None, "kinematic", {"demos": [{"path": "d/demo.npz"}]})
     assert str(named.demo_path()) == "d/demo.npz"
@@ -112,7 +112,7 @@ def _scaled_style(path, tmp_path, theta_scale, f_demo=None):
 
 
 def test_an_overflowing_theta_says_what_is_wrong_with_the_style(styles, tmp_path):
-    from drivestyle.irl.style import StyleError
+    from drivestyle.irl.paper.style import StyleError
 
     # finite θ (load_style accepts it) whose cost of its own demonstration overflows
     path = _scaled_style(styles["base"], tmp_path, 5e306)  # largest θ about 1e308
@@ -125,7 +125,7 @@ def test_an_overflowing_theta_says_what_is_wrong_with_the_style(styles, tmp_path
 
 
 def test_a_malformed_demo_feature_vector_is_a_style_error(styles, tmp_path):
-    from drivestyle.irl.style import StyleError
+    from drivestyle.irl.paper.style import StyleError
 
     path = _scaled_style(styles["base"], tmp_path, 1.0, f_demo=[1.0, 2.0])
     with pytest.raises(StyleError, match="feature_values_demo"):
@@ -160,7 +160,7 @@ def test_driver_step_cost_equals_a_hand_computation():
 
 
 def test_driver_cost_reward_is_the_scaled_negative_cost(tmp_path):
-    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.driver.driver_style import DriverStyle
     from drivestyle.irl.reward import DriverCostConfig, DriverCostReward, driver_step_cost
     from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY
 
@@ -214,7 +214,7 @@ class _ReferenceStyleReward:
     TAIL = 4
 
     def __init__(self, style):
-        from drivestyle.irl.features import FEATURES
+        from drivestyle.irl.paper.features import FEATURES
 
         self.style = style
         self.config = style.features
@@ -223,7 +223,7 @@ class _ReferenceStyleReward:
         self.omega = np.asarray(self.config.omega, float)
 
     def reset(self, scenario, ev, tv, others=None):
-        from drivestyle.irl.features import feature_constants
+        from drivestyle.irl.paper.features import feature_constants
 
         self.sc = scenario
         self.constants = feature_constants(self.config, scenario)
@@ -238,7 +238,7 @@ class _ReferenceStyleReward:
         self.f = np.zeros(len(self.omega))
 
     def features(self):
-        from drivestyle.irl.features import (
+        from drivestyle.irl.paper.features import (
             FEATURES,
             SEGMENT_FEATURES,
             event_times,
@@ -247,7 +247,7 @@ class _ReferenceStyleReward:
             tiv_reference,
             tv_control_points,
         )
-        from drivestyle.irl.spline import spline_eval, state_control_points
+        from drivestyle.irl.paper.spline import spline_eval, state_control_points
 
         n = len(self.t)
         t = np.asarray(self.t)
@@ -307,8 +307,8 @@ class _ReferenceStyleReward:
 
 def _known_style(feature_set="reactive", rule="kinematic"):
     """A paper-model style with known weights (no learning)."""
-    from drivestyle.irl.features import FEATURE_SETS
-    from drivestyle.irl.style import Style
+    from drivestyle.irl.paper.features import FEATURE_SETS
+    from drivestyle.irl.paper.style import Style
 
     names = FEATURE_SETS[feature_set]
     theta = np.array([0.8, 2.0, 0.05, 0.6, 0.3, 1.5, 0.2, 4.0, 3.0, 0.7])[: len(names)]
@@ -377,7 +377,7 @@ def test_the_incremental_reward_equals_the_reference_on_random_driving(env_id):
 @pytest.mark.parametrize("m", [1, 4])
 def test_the_driver_cost_step_equals_driver_step_cost(look_ahead, m):
     from drivestyle.envs.scenario import get_scenario
-    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.driver.driver_style import DriverStyle
     from drivestyle.irl.reward import DriverCost, DriverCostConfig, driver_step_cost
     from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, tv_covariance
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from drivestyle.irl.spline import (
+from drivestyle.irl.paper.spline import (
     QuinticTrajectory,
     basis_matrix,
     demo_control_points,

@@ -10,10 +10,10 @@ from drivestyle.agents.demo_generation import generate_traffic_demonstration
 from drivestyle.common.io import write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration, save_demonstration
 from drivestyle.envs.traffic import TrafficScene, VehicleSpec
-from drivestyle.irl.features import FeatureConfig, event_times, feature_basis, tiv_reference
-from drivestyle.irl.inner import InnerProblem
-from drivestyle.irl.learner import IRLConfig
-from drivestyle.irl.style import fit_style
+from drivestyle.irl.paper.features import FeatureConfig, event_times, feature_basis, tiv_reference
+from drivestyle.irl.paper.inner import InnerProblem
+from drivestyle.irl.paper.learner import IRLConfig
+from drivestyle.irl.paper.style import fit_style
 
 
 @pytest.fixture(scope="module")

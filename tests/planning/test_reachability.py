@@ -7,10 +7,10 @@ import pytest
 
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.driver_style import _PLANNERS, DriverStyle, StylePlanner
-from drivestyle.irl.identification import identify_driver
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.risk_profile import risk_profile
+from drivestyle.irl.driver.driver_style import _PLANNERS, DriverStyle, StylePlanner
+from drivestyle.irl.driver.risk_profile import risk_profile
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.posterior import identify_driver
 from drivestyle.planning.reachability import (
     MARGIN_SLACK,
     POSITION_SLACK,

@@ -310,9 +310,9 @@ def _ten_hz(states, u, sc):
 @pytest.mark.parametrize("risk", [0.6, 0.9])
 def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, risk, columns):
     from drivestyle.agents import generate_demonstration
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.identification import identify
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
+    from drivestyle.irl.identification.posterior import identify
 
     w = 3.75  # its own lanes; the ellipse's l_b scaled with them (the extraction's rule)
     sc = replace(PAPER, lane_width=w, l_b=3 * w / 5.25)
@@ -348,9 +348,9 @@ def test_an_smpc_lane_change_as_a_10hz_csv_is_identified_like_its_npz(tmp_path, 
 def test_an_smpc_lane_change_in_levelx_image_coordinates_is_identified_like_its_npz(tmp_path, risk):
     """highD's layout, lower direction (driving to image +x, its left is image −y)."""
     from drivestyle.agents import generate_demonstration
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.identification import identify
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
+    from drivestyle.irl.identification.posterior import identify
     from drivestyle.recorded.readers import read_levelx
 
     w = 3.75

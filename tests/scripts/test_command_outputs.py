@@ -15,8 +15,8 @@ from cli_runner import run_command
 
 from drivestyle.common.io import OUTPUT_MARKER
 from drivestyle.envs.demonstration import save_demonstration
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary
 
 # each test runs a command in its own process (1-3 s each): CI runs them with the slow set
 pytestmark = pytest.mark.slow

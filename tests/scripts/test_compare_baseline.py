@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from drivestyle.common.io import write_json
-from drivestyle.irl.driver_style import DRIVER_STYLE_KIND, DriverStyle
-from drivestyle.irl.style import StyleError
+from drivestyle.irl.driver.driver_style import DRIVER_STYLE_KIND, DriverStyle
+from drivestyle.irl.paper.style import StyleError
 
 ROOT = Path(__file__).resolve().parents[2]
 

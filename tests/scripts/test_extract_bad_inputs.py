@@ -390,8 +390,8 @@ def test_unreadable_files_are_said_to_be_what_they_are(tmp_path):
 def test_a_text_file_named_npz_and_an_off_grid_observe_time_are_said_plainly(tmp_path):
     import json
 
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))
     (tmp_path / "library.json").write_text(json.dumps(library.to_json()))

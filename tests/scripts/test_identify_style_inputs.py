@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from drivestyle.envs.demonstration import save_demonstration
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.recorded.real_data import recorded_vehicle
 from drivestyle.scripts import identify_style
 
@@ -44,8 +44,8 @@ def test_plot_writes_a_figure_and_the_summary_says_the_verdict(tmp_path, paper_d
     import numpy as np
     from PIL import Image
 
-    from drivestyle.irl.identification import driver_posterior
-    from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+    from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
+    from drivestyle.irl.identification.posterior import driver_posterior
 
     lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
     (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))

@@ -10,8 +10,8 @@ import pytest
 from drivestyle.agents import generate_demonstration
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary
 
 EXPERT = (0.2, 50.0, 0.2, 1.0, 10.0)  # the SMPC expert's weights: its demos fit exactly
 

@@ -78,7 +78,7 @@ def test_a_learned_style_finds_its_demonstration_from_any_working_directory(
     # compare-baseline, deviating-tv and render-rollout run elsewhere did not find it
     import shutil
 
-    from drivestyle.irl.style import load_style
+    from drivestyle.irl.paper.style import load_style
 
     (tmp_path / "runs").mkdir()
     shutil.copy(demo_file, tmp_path / "runs" / "demo.npz")
@@ -178,7 +178,7 @@ def test_help(name, seeded, capsys):
 
 def test_learn_style_says_when_learning_stalled(tmp_path, demo_file, monkeypatch, capsys):
     from drivestyle.common.cli import run_cli
-    from drivestyle.irl.inner import InnerProblem, InnerSolveError
+    from drivestyle.irl.paper.inner import InnerProblem, InnerSolveError
 
     solve, calls = InnerProblem.solve, {"n": 0}
 
@@ -230,8 +230,8 @@ def test_learn_style_refuses_options_of_the_other_model(
 
 def test_learn_style_exits_3_on_a_poor_fit_and_names_the_demonstration(tmp_path, demo_file, capsys):
     from drivestyle.common.cli import run_cli
-    from drivestyle.irl.driver_learning import ClosedLoop, DemoFit, DriverFit
-    from drivestyle.irl.driver_style import DriverStyle
+    from drivestyle.irl.driver.driver_learning import ClosedLoop, DemoFit, DriverFit
+    from drivestyle.irl.driver.driver_style import DriverStyle
 
     def poor_fit(demos, **kwargs):  # two drivers' demonstrations: the second unexplained
         per_demo = (
@@ -335,8 +335,8 @@ def test_reproduce_paper_with_baseline(tmp_path):
 def test_learn_style_with_a_populations_cost_learns_only_the_risk(tmp_path, demo_file, capsys):
     # the paper demonstration is an SMPC(0.7) driver; the library holds the expert's cost
     from drivestyle.common.cli import run_cli
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     weights = (0.2, 50.0, 0.2, 1.0, 10.0)
     lib = DriverLibrary(style=DriverStyle(weights, risk=0.9), risks=(0.5, 0.9))
@@ -372,8 +372,8 @@ def test_bench_solver_paths_measures_each_path_against_the_product(tmp_path):
 
 def test_bench_irl_times_identification_with_the_default_driver_library(tmp_path):
     # build-style-library's default library was refused: "no 'feature_config'"
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
     from drivestyle.scripts.bench_irl import time_identification
 
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.9))

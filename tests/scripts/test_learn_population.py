@@ -4,8 +4,8 @@ import json
 
 import pytest
 
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import DriverLibrary, load_any_library
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary, load_any_library
 from drivestyle.scripts import learn_population
 from drivestyle.studies.population_style import PopulationSettings
 from drivestyle.studies.prediction import DEFAULT_DATA_DIR, SplitRow, write_split
@@ -59,7 +59,7 @@ def test_learns_one_style_from_the_train_split_and_writes_a_driver_library(tmp_p
 
 
 def test_the_closed_loop_cost_is_the_mean_capped_reproduction_error(paper_demo):
-    from drivestyle.irl.driver_style import reproduce
+    from drivestyle.irl.driver.driver_style import reproduce
     from drivestyle.studies.population_style import CLOSED_LOOP_CAP_M, closed_loop_cost
 
     truth = DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7)  # the SMPC that drove it

@@ -19,10 +19,14 @@ import pytest
 from drivestyle.agents import generate_demonstration
 from drivestyle.common.io import lock_file, write_json
 from drivestyle.envs.demonstration import save_demonstration
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.library import StyleLibrary
-from drivestyle.irl.mining import COLUMNS, Miner
-from drivestyle.irl.mining_output import MiningOutput, MiningOutputError, RunFingerprint
+from drivestyle.irl.identification.library import StyleLibrary
+from drivestyle.irl.identification.mining import COLUMNS, Miner
+from drivestyle.irl.identification.mining_output import (
+    MiningOutput,
+    MiningOutputError,
+    RunFingerprint,
+)
+from drivestyle.irl.paper.features import FeatureConfig
 from drivestyle.scripts.mine_styles import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -172,7 +176,7 @@ def test_a_running_job_locks_its_output_folder(lib, tmp_path):
             sys.executable,
             "-c",
             "import json, sys, time\n"
-            "from drivestyle.irl.mining_output import MiningOutput, RunFingerprint\n"
+            "from drivestyle.irl.identification.mining_output import MiningOutput, RunFingerprint\n"
             "fp = RunFingerprint.from_json(json.loads(open(sys.argv[2]).read()))\n"
             "with MiningOutput(sys.argv[1], fp):\n"
             "    print('locked', flush=True)\n"
@@ -359,8 +363,8 @@ def test_ctrl_c_keeps_the_finished_rows_and_says_how_to_resume(tmp_path, paper_d
     import signal
     import time
 
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
     write_json(tmp_path / "lib" / "library.json", lib.to_json())

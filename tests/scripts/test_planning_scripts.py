@@ -7,8 +7,8 @@ import json
 import pytest
 
 from drivestyle.common.io import write_json
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import DriverLibrary, LibraryError
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary, LibraryError
 
 LIBRARY = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
 
@@ -36,7 +36,7 @@ def test_evaluate_planning_writes_the_study_and_one_video_per_predictor(tmp_path
 
 @pytest.mark.slow  # the refusal itself: tests/irl/test_library.py (load_driver_library)
 def test_evaluate_planning_refuses_a_paper_library(tmp_path, style_library):
-    from drivestyle.irl.library import StyleLibrary
+    from drivestyle.irl.identification.library import StyleLibrary
     from drivestyle.scripts.evaluate_planning import main
 
     assert isinstance(style_library, StyleLibrary)

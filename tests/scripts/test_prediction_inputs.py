@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from cli_runner import DATA
 
-from drivestyle.irl.driver_style import DriverStyle
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.studies.prediction import SPLIT_FILE, read_split, write_split
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from drivestyle.envs.demonstration import save_demonstration
-from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.forecast import METHODS, ForecastError
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.scripts import evaluate_prediction, predict_trajectory
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
@@ -218,7 +218,7 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
 
     import numpy as np
 
-    from drivestyle.irl.library import load_driver_library
+    from drivestyle.irl.identification.library import load_driver_library
     from drivestyle.irl.physics import load_params
     from drivestyle.studies.prediction import PHYSICS_FILE, predict_vehicle
 
@@ -284,7 +284,7 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
     import sys
 
     from drivestyle.envs.demonstration import load_demonstration
-    from drivestyle.irl.library import load_driver_library
+    from drivestyle.irl.identification.library import load_driver_library
     from drivestyle.irl.physics import load_params
     from drivestyle.studies.prediction import PHYSICS_FILE, predict_demo
 
@@ -348,7 +348,7 @@ def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(f
     import subprocess
     import sys
 
-    from drivestyle.irl.library import load_driver_library
+    from drivestyle.irl.identification.library import load_driver_library
     from drivestyle.irl.physics import load_params
     from drivestyle.recorded.readers import read_sample, write_table
     from drivestyle.studies.prediction import (

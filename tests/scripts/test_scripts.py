@@ -114,7 +114,8 @@ def test_bench_smpc_json(tmp_path):
     not (DATA / "ngsim" / "tracks.csv.gz").is_file(), reason="the NGSIM sample is absent"
 )
 def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
-    from drivestyle.irl import driver_style, inner
+    from drivestyle.irl.driver import driver_style
+    from drivestyle.irl.paper import inner
     from drivestyle.planning import smpc_problem
     from drivestyle.planning.buffered import BufferedFunction
 
@@ -197,8 +198,8 @@ def test_help(name):
 @pytest.mark.slow  # an end-to-end job: CI runs it (pytest -m slow)
 def test_bench_population_mines_with_a_driver_library(tmp_path):
     # the default model's library: mining throughput is measured on it (DESIGN §16)
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     lib = DriverLibrary(style=DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7),
                         risks=(0.5, 0.7, 0.9))  # fmt: skip
@@ -225,8 +226,8 @@ def test_bench_population_mines_with_a_driver_library(tmp_path):
 
 @pytest.mark.slow  # starts Ray: CI runs it (pytest -m slow)
 def test_bench_population_scales_out_on_ray_and_reports_each_workers_memory(tmp_path):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
 
     lib = DriverLibrary(style=DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0), risk=0.7),
                         risks=(0.5, 0.9))  # fmt: skip

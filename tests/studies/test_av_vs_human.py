@@ -10,7 +10,7 @@ import pytest
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl import mining
+from drivestyle.irl.identification import mining
 from drivestyle.studies.av_vs_human import (
     MinedRow,
     closest_distance,

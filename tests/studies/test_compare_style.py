@@ -2,7 +2,7 @@
 
 import pytest
 
-from drivestyle.irl.driver_style import DriverStyle
+from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.studies.compare import heldout_comparison, state_metrics
 
 DRIVER = DriverStyle((0.2, 34.0, 0.2, 1.0, 76.0), risk=0.6)

@@ -5,9 +5,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.learner import IRLConfig, MaxEntIRL
-from drivestyle.irl.spline import demo_control_points
+from drivestyle.irl.paper.features import FeatureConfig
+from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
+from drivestyle.irl.paper.spline import demo_control_points
 from drivestyle.studies import figures
 
 

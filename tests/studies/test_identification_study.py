@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
-from drivestyle.irl.identification import DEFAULT_SCORER, SCORERS
+from drivestyle.irl.identification.posterior import DEFAULT_SCORER, SCORERS
 from drivestyle.studies.ceiling import CeilingSummary, References
 from drivestyle.studies.identification_study import evaluate_identification, noise_curve_json
 from drivestyle.studies.reports import (
@@ -76,8 +76,8 @@ def test_markdown_is_written_from_the_typed_results(evaluation):
 
 # ---------------------------------------------------------------------------- driver libraries
 from drivestyle.envs.scenario import get_scenario  # noqa: E402
-from drivestyle.irl.driver_style import DriverStyle  # noqa: E402
-from drivestyle.irl.library import DriverLibrary  # noqa: E402
+from drivestyle.irl.driver.driver_style import DriverStyle  # noqa: E402
+from drivestyle.irl.identification.library import DriverLibrary  # noqa: E402
 from drivestyle.studies.ceiling import ceiling_identify  # noqa: E402
 from drivestyle.studies.identification_study import (  # noqa: E402
     CONTINUOUS_RANGE,

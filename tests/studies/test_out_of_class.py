@@ -109,8 +109,8 @@ def test_spearman_on_a_hand_made_table():
 
 @pytest.mark.slow  # a tiny end-to-end run of the command (≈ 1 min): CI runs it
 def test_the_command_writes_its_report(tmp_path):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
     from drivestyle.scripts.evaluate_out_of_class import main
 
     library = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9))
@@ -129,8 +129,8 @@ def test_the_command_writes_its_report(tmp_path):
 
 
 def test_the_study_refuses_an_observed_time_before_simulating(monkeypatch):
-    from drivestyle.irl.driver_style import DriverStyle
-    from drivestyle.irl.library import DriverLibrary
+    from drivestyle.irl.driver.driver_style import DriverStyle
+    from drivestyle.irl.identification.library import DriverLibrary
     from drivestyle.studies import out_of_class
 
     def simulated(*args, **kwargs):

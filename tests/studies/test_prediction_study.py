@@ -6,9 +6,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver_style import DriverStyle, expert_style
+from drivestyle.irl.driver.driver_style import DriverStyle, expert_style
 from drivestyle.irl.forecast import METHODS
-from drivestyle.irl.library import DriverLibrary
+from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.studies.prediction import (
     DEFAULT_DATA_DIR,

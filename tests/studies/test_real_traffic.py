@@ -196,8 +196,8 @@ def test_driver_settings_are_validated():
 
 def test_off_grid_recording_is_refused_by_the_driver_model():
     from drivestyle.envs.demonstration import Demonstration
-    from drivestyle.irl.driver_learning import learn_driver
-    from drivestyle.irl.driver_style import DriverStyleError
+    from drivestyle.irl.driver.driver_learning import learn_driver
+    from drivestyle.irl.driver.driver_style import DriverStyleError
 
     demo, _ = _recorded_like()
     off = Demonstration(t=demo.t * 0.5, ev=demo.ev, tv=demo.tv, u=demo.u, meta=demo.meta)
@@ -218,7 +218,7 @@ def test_recorded_like_demo_learns_and_reproduces():
 
 @pytest.mark.slow  # ~10 s; failed before learn_driver kept v_ref in DriverStyle's range
 def test_fit_speed_survives_a_braking_driver():
-    from drivestyle.irl.driver_learning import learn_driver
+    from drivestyle.irl.driver.driver_learning import learn_driver
     from drivestyle.studies.real_traffic import driver_demo
 
     demo, _ = _recorded_like(n=9, brake=-1.5, speed=3.0)

@@ -12,8 +12,8 @@ Two kinds of library share the file name and the commands (``build_style_library
 A *library* holds, per SMPC risk level p, one θ learned jointly from K demonstrations of
 that risk in shared scenarios of the random family and one θ per demonstration
 (*members*, in the order of the K ``training_scenarios``). Identification
-(:mod:`drivestyle.irl.identification`) scores, per risk, the members learned in the training
-scenarios nearest to an unseen demonstration's (DESIGN §8).
+(:mod:`drivestyle.irl.identification.posterior`) scores, per risk, the members learned in the
+training scenarios nearest to an unseen demonstration's (DESIGN §8).
 
 A library is validated whole when it is built or loaded (:class:`LibraryError`, one line
 naming the problem): a known file ``version``; at least two risks (one risk cannot be told
@@ -39,10 +39,15 @@ from drivestyle.common.io import read_json
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_learning import DriverFit, learn_driver
-from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyle, DriverStyleError
-from drivestyle.irl.features import FeatureConfig
-from drivestyle.irl.learner import IRLConfig, MaxEntIRL
+from drivestyle.irl.driver.driver_learning import DriverFit, learn_driver
+from drivestyle.irl.driver.driver_style import (
+    RESIDUAL_FLOOR,
+    RISK_RANGE,
+    DriverStyle,
+    DriverStyleError,
+)
+from drivestyle.irl.paper.features import FeatureConfig
+from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
 
 __all__ = [
     "DRIVER_LIBRARY_KIND",
@@ -483,7 +488,7 @@ class DriverLibrary:
         """The residual RMS one driver of the class leaves under the style [σ_u units].
 
         √(fit_residual² + s_floor²) (DESIGN §15), s_floor =
-        :data:`~drivestyle.irl.driver_style.RESIDUAL_FLOOR`.
+        :data:`~drivestyle.irl.driver.driver_style.RESIDUAL_FLOOR`.
 
         The learned cost misses its own class by ``fit_residual`` (model error of the
         shared cost), and a driver of the class is never assumed to be fitted closer than
@@ -572,7 +577,7 @@ def learn_driver_library(
 
     Args:
         demos_by_risk: risk p → demonstrations of SMPC(p) (p within
-            :data:`~drivestyle.irl.driver_style.RISK_RANGE`).
+            :data:`~drivestyle.irl.driver.driver_style.RISK_RANGE`).
         meta: stored in the library (seeds, scenarios, …).
         progress: called with (iteration, cost) by the learner.
 

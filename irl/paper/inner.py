@@ -3,9 +3,9 @@
 The features split into a longitudinal group (f_ax, f_v, f_tiv: x spline only) and a lateral group
 (the rest: y spline only), so the inner problem separates into two unconstrained problems of 3S
 variables each. Each is solved by a damped Newton method with the exact gradient and Hessian that
-CasADi derives from :func:`drivestyle.irl.features.feature_values` (|·| smoothed), warm-started from
-the previous solution. The same Hessian H and feature Jacobian J give the sensitivity of the optimum
-used by the learner,
+CasADi derives from :func:`drivestyle.irl.paper.features.feature_values` (|·| smoothed),
+warm-started from the previous solution. The same Hessian H and feature Jacobian J give the
+sensitivity of the optimum used by the learner,
 
     ∂f(r*_θ)/∂θ = −J H⁻¹ Jᵀ     (implicit function theorem on ∇_c θᵀf = 0).
 """
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.features import (
+from drivestyle.irl.paper.features import (
     FEATURES,
     X_FEATURES,
     FeatureBasis,
@@ -28,7 +28,7 @@ from drivestyle.irl.features import (
     feature_basis,
     feature_values,
 )
-from drivestyle.irl.spline import demo_control_points
+from drivestyle.irl.paper.spline import demo_control_points
 from drivestyle.planning.buffered import BufferedFunction
 
 __all__ = ["InnerProblem", "InnerSolution", "InnerSolveError", "newton_minimize"]
@@ -121,7 +121,7 @@ class InnerProblem:
         demo: the demonstration (knots = its sample times; c_0 from its first sample).
         config: feature configuration (active set, constants).
         control_point_rule: how the demonstration's control points are derived
-            (``drivestyle.irl.spline.demo_control_points``).
+            (``drivestyle.irl.paper.spline.demo_control_points``).
         control_points: the demonstration's control points, shape (n, 6), instead of
             deriving them by ``control_point_rule`` (e.g. a trajectory that is itself a spline).
     """
@@ -252,5 +252,5 @@ class InnerProblem:
 
     @property
     def feature_index(self) -> np.ndarray:
-        """Indices of the active features in :data:`drivestyle.irl.features.FEATURES`."""
+        """Indices of the active features in :data:`drivestyle.irl.paper.features.FEATURES`."""
         return np.array([FEATURES.index(n) for n in self.names])

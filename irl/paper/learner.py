@@ -16,7 +16,7 @@ demonstrations (and r*_θ solved in each demonstration's own scenario). Two upda
 Both report θ normalised per group (x group: ax, v, tiv; y group: the rest) so that
 styles are comparable, and how they stopped (:data:`LearningStatus`): ``"converged"`` at the
 rule's stopping criterion, ``"max_iter"`` at the cap, ``"stalled"`` when the inner problem
-could not be solved at the trial θ (only :class:`~drivestyle.irl.inner.InnerSolveError` is
+could not be solved at the trial θ (only :class:`~drivestyle.irl.paper.inner.InnerSolveError` is
 taken as such; any other error propagates).
 """
 
@@ -31,9 +31,9 @@ from typing import Any, Literal
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration, DemonstrationError, check_plausible
-from drivestyle.irl.features import X_FEATURES, FeatureConfig
-from drivestyle.irl.inner import InnerProblem, InnerSolution, InnerSolveError
 from drivestyle.irl.metrics import trajectory_errors
+from drivestyle.irl.paper.features import X_FEATURES, FeatureConfig
+from drivestyle.irl.paper.inner import InnerProblem, InnerSolution, InnerSolveError
 
 __all__ = [
     "IRLConfig",
@@ -278,7 +278,7 @@ class MaxEntIRL:
             demonstration (same active set; e.g. recorded episodes with their own lanes).
         config: outer-loop settings.
         control_point_rule: how the demonstrations' control points are derived
-            (``drivestyle.irl.spline``).
+            (``drivestyle.irl.paper.spline``).
         control_points: per demonstration, control points to use instead of the rule.
     """
 

@@ -3,8 +3,8 @@
 :class:`Miner` (a stateful shell holding one style library) turns one demonstration into one
 :class:`MinedRow` (a row of ``styles.csv``, columns :data:`COLUMNS`): the personal style
 learned by ME-IRL (θ normalised per group, fit errors), the identified risk with its 90 %
-interval (:func:`drivestyle.irl.identification.identify`) and timings. A demonstration that
-cannot be mined (an unreadable file, malformed data, no lane change, a solver failure, any
+interval (:func:`drivestyle.irl.identification.posterior.identify`) and timings. A demonstration
+that cannot be mined (an unreadable file, malformed data, no lane change, a solver failure, any
 error at all) becomes a row with ``status = "failed"`` and a one-line error naming the file,
 never a crashed job. Its ``failure_kind`` says whose failure it is: "data" (the
 demonstration's: final) or "infrastructure" (a worker process that died or was killed, out
@@ -26,7 +26,7 @@ write them as they come and resume after an interruption):
 Both engines compute identical rows (timings aside): the work is deterministic.
 
 The output folder of a resumable run (fingerprint, lock, repair) is
-:mod:`drivestyle.irl.mining_output`.
+:mod:`drivestyle.irl.identification.mining_output`.
 """
 
 from __future__ import annotations
@@ -46,8 +46,9 @@ import numpy as np
 
 from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_stops_the_job
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
-from drivestyle.irl.driver_style import reproduce
-from drivestyle.irl.identification import (
+from drivestyle.irl.driver.driver_style import reproduce
+from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
+from drivestyle.irl.identification.posterior import (
     ENTERS_REGION,
     INFORMATIVE,
     INTERVAL_MASS,
@@ -57,8 +58,7 @@ from drivestyle.irl.identification import (
     identify,
     recorded_verdict_label,
 )
-from drivestyle.irl.learner import IRLConfig, MaxEntIRL
-from drivestyle.irl.library import DriverLibrary, StyleLibrary
+from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
 from drivestyle.recorded.real_data import recorded_view
 
 __all__ = [
@@ -115,8 +115,8 @@ class RowError(ValueError):
     """A ``styles.csv`` row that is no mined row, and where: the column and its value.
 
     A table reader names the file and the row around it
-    (:func:`drivestyle.irl.mining_output.read_table`); a resumed run drops the row and
-    mines it again.
+    (:func:`drivestyle.irl.identification.mining_output.read_table`); a resumed run drops the row
+    and mines it again.
 
     Args:
         problem: what is wrong, in words (naming the value).
@@ -234,7 +234,7 @@ class MinedRow:
     """A failed row's :data:`FAILURE_KINDS` ("data" or "infrastructure"), empty when ok.
     Appended after the first version's columns: the earlier columns keep their places."""
     residual_rms: float | None = None
-    """The verdict (:class:`~drivestyle.irl.identification.Verdict`, the columns
+    """The verdict (:class:`~drivestyle.irl.identification.posterior.Verdict`, the columns
     :data:`VERDICT_COLUMNS`, appended last): residual RMS at the best risk [σ_u units]."""
     noise_floor: float | None = None
     """The library's noise floor [σ_u units] (driver libraries)."""
@@ -252,8 +252,8 @@ class MinedRow:
     enters_region: bool | None = None
     """Whether another vehicle came inside the safety region every risk keeps clear of."""
     verdict: str = ""
-    """The verdict's label (:data:`~drivestyle.irl.identification.VERDICT_LABELS`), the one
-    :attr:`label` derives from the row's flags; empty in failed rows and tables written
+    """The verdict's label (:data:`~drivestyle.irl.identification.posterior.VERDICT_LABELS`), the
+    one :attr:`label` derives from the row's flags; empty in failed rows and tables written
     before the column."""
 
     def __post_init__(self) -> None:
@@ -333,7 +333,7 @@ class MinedRow:
     def label(self) -> str | None:
         """The verdict's label from the row's flags (None: a failed row).
 
-        :func:`~drivestyle.irl.identification.recorded_verdict_label`: the same function
+        :func:`~drivestyle.irl.identification.posterior.recorded_verdict_label`: the same function
         as the identification's, so a row of an older table (flags missing) is labelled
         the way every reader labels it.
         """
@@ -837,7 +837,7 @@ def verdict_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
 
     Returns:
         ``verdicts`` (label → rows, every label of
-        :data:`~drivestyle.irl.identification.VERDICT_LABELS`), ``n_informative`` (label
+        :data:`~drivestyle.irl.identification.posterior.VERDICT_LABELS`), ``n_informative`` (label
         ``informative``), ``n_out_of_class`` (``out_of_class`` or ``enters_region``: the
         style does not describe the driver) and the [min, max] of the residual in noise
         floors (``residual_floors``), of ``kl_nats`` and of ``interval_width_ratio`` (None

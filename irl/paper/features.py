@@ -5,8 +5,8 @@ Order (``FEATURES``): f_ax, f_ay, f_v, f_l, f_il, f_el, f_tiv, f_sd, f_ed, f_id.
 
 Every feature is a weighted sum, over fixed Gauss–Legendre nodes (or a single fixed
 instant), of a scalar function of a spline value; spline values are linear in the
-control points (:func:`drivestyle.irl.spline.basis_matrix`). :func:`feature_basis` precomputes those
-linear maps for one demonstration (its event times stay fixed while candidate
+control points (:func:`drivestyle.irl.paper.spline.basis_matrix`). :func:`feature_basis` precomputes
+those linear maps for one demonstration (its event times stay fixed while candidate
 trajectories are optimised, DESIGN §5) and :func:`feature_values` evaluates the features on
 numpy arrays or on CasADi symbols, so the inner problem gets exact derivatives.
 
@@ -43,7 +43,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lanes import leaders
 from drivestyle.envs.safety import elliptical_index, trigger_time
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.spline import basis_matrix, state_control_points
+from drivestyle.irl.paper.spline import basis_matrix, state_control_points
 
 __all__ = [
     "FEATURES",

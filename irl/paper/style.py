@@ -13,8 +13,8 @@ import numpy as np
 
 from drivestyle.common.io import read_json
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.features import FEATURES, FeatureConfig
-from drivestyle.irl.learner import (
+from drivestyle.irl.paper.features import FEATURES, FeatureConfig
+from drivestyle.irl.paper.learner import (
     IRLConfig,
     IterationRecord,
     LearningResult,
@@ -22,7 +22,7 @@ from drivestyle.irl.learner import (
     MaxEntIRL,
     normalise_theta,
 )
-from drivestyle.irl.spline import spline_eval
+from drivestyle.irl.paper.spline import spline_eval
 
 __all__ = [
     "DemoFit",
@@ -152,7 +152,7 @@ class FittedStyle:
 
     @property
     def status(self) -> LearningStatus:
-        """How learning stopped (see :data:`drivestyle.irl.learner.LearningStatus`)."""
+        """How learning stopped (see :data:`drivestyle.irl.paper.learner.LearningStatus`)."""
         return self.result.status
 
     @property

@@ -21,8 +21,8 @@ up to a common scale (the argmin is invariant), so w_a = 1 fixes the gauge.
 *Reproduction* (:func:`reproduce`, :func:`closed_loop`) drives the style in closed loop
 from a demonstration's first state, re-planning every T_s against the recorded surrounding
 vehicles, as the driver did. Learning a style from demonstrations (teacher forcing) is
-:mod:`drivestyle.irl.driver_learning`; its fit per risk, which identification uses, is
-:mod:`drivestyle.irl.risk_profile`. The NLP itself is :mod:`drivestyle.planning`'s.
+:mod:`drivestyle.irl.driver.driver_learning`; its fit per risk, which identification uses, is
+:mod:`drivestyle.irl.driver.risk_profile`. The NLP itself is :mod:`drivestyle.planning`'s.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ position, velocity and acceleration are continuous (C²) across knots.
 
 Everything a feature needs is a value of r, ṙ or r̈ at fixed times, and those are linear
 in the control points of one axis: :func:`basis_matrix` builds that linear map once, so
-features and their exact derivatives are cheap (see :mod:`drivestyle.irl.features`).
+features and their exact derivatives are cheap (see :mod:`drivestyle.irl.paper.features`).
 """
 
 from __future__ import annotations

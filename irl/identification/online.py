@@ -1,7 +1,7 @@
 """Online identification: a vehicle's risk posterior, current as its samples arrive (DESIGN §17).
 
 :class:`StyleTracker` is the streaming form of
-:func:`~drivestyle.irl.identification.identify_driver`. Each :meth:`StyleTracker.update`
+:func:`~drivestyle.irl.identification.posterior.identify_driver`. Each :meth:`StyleTracker.update`
 with the vehicle's state ξ_k (and its neighbours') does two things:
 
 1. it closes step k−1: the input u_{k−1} that carried ξ_{k−1} to ξ_k (given, or recovered
@@ -9,14 +9,14 @@ with the vehicle's state ξ_k (and its neighbours') does two things:
    made from ξ_{k−1} at every risk, and the residuals r = (u_0(ξ_{k−1}; p) − u_{k−1}) / σ_u
    are added to the running residual sums S(p);
 2. it plans from ξ_k at the largest risk and — only if a chance constraint binds there
-   (else every risk has the same optimum, :func:`~drivestyle.irl.risk_profile.risk_profile`)
-   — at the other risks of :data:`~drivestyle.irl.risk_profile.RISK_EVAL`, each
+   (else every risk has the same optimum, :func:`~drivestyle.irl.driver.risk_profile.risk_profile`)
+   — at the other risks of :data:`~drivestyle.irl.driver.risk_profile.RISK_EVAL`, each
    warm-started from its own previous plan as the offline pass is.
 
 So an update costs one plan, or one batch of 13 when the vehicle is near another, and the
 posterior after sample k equals the offline identification of the first k + 1 samples
 (tested to round-off): same residuals, same warm starts, same likelihood
-(:func:`~drivestyle.irl.identification.driver_posterior`).
+(:func:`~drivestyle.irl.identification.posterior.driver_posterior`).
 
 A sample no vehicle can produce — a speed beyond v_max, a position jump, an implied
 acceleration beyond any car's, a vehicle on top of the tracked one — is refused before it
@@ -37,7 +37,7 @@ from drivestyle.envs.demonstration import Demonstration, step_problems
 from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_style import (
     INPUT_SCALE,
     RISK_RANGE,
     DriverStyle,
@@ -46,9 +46,9 @@ from drivestyle.irl.driver_style import (
     StylePlanner,
     planner_for,
 )
-from drivestyle.irl.identification import Identification, driver_posterior
-from drivestyle.irl.library import DriverLibrary
-from drivestyle.irl.risk_profile import RISK_EVAL, RiskProfile
+from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
+from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.irl.identification.posterior import Identification, driver_posterior
 from drivestyle.planning.description import PrimalDual
 
 __all__ = ["StyleTracker", "TrackerError", "track_demo"]
@@ -77,7 +77,7 @@ class StyleTracker:
         library: the driver library (the style's weights, its risks, τ).
         scenario: the vehicle's scenario (T_s, geometry, target lane, v_ref, bounds).
         risks: the risks the residual sums are kept at (increasing, in
-            :data:`~drivestyle.irl.driver_style.RISK_RANGE`).
+            :data:`~drivestyle.irl.driver.driver_style.RISK_RANGE`).
 
     Raises:
         TrackerError: fewer than two risks, or risks outside the model's range.
@@ -133,7 +133,7 @@ class StyleTracker:
                 (simulation); None recovers it from the two states.
 
         Returns:
-            The :class:`~drivestyle.irl.identification.Identification` of the samples so
+            The :class:`~drivestyle.irl.identification.posterior.Identification` of the samples so
             far (the uniform prior, verdict ``no_constraint``, until a step where p matters).
 
         Raises:

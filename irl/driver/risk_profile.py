@@ -1,6 +1,6 @@
 """The risk profile S(p): a style's teacher-forced fit to one demonstration per risk.
 
-Identification (:mod:`drivestyle.irl.identification`) turns S(p) into a posterior over p;
+Identification (:mod:`drivestyle.irl.identification.posterior`) turns S(p) into a posterior over p;
 only the steps where a chance constraint binds at the largest risk are re-solved per risk
 (DESIGN §15).
 """
@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.irl.driver_learning import teacher_forced
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_learning import teacher_forced
+from drivestyle.irl.driver.driver_style import (
     INPUT_SCALE,
     DriverStyle,
     DriverStyleError,

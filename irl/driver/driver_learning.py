@@ -25,7 +25,7 @@ import numpy as np
 from drivestyle.common.io import write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver_style import (
+from drivestyle.irl.driver.driver_style import (
     DRIVER_STYLE_KIND,
     GAUGE,
     INPUT_SCALE,
@@ -138,7 +138,7 @@ def cauchy_residuals(r: np.ndarray, scale: float) -> np.ndarray:
 # ---------------------------------------------------------------------------- learning
 PROFILE_RISKS = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.99)
 """Risks of the 1-D profile over p (identification's grid, :data:`RISK_EVAL` of
-:mod:`~drivestyle.irl.risk_profile`): where :func:`learn_driver` looks for a better risk
+:mod:`~drivestyle.irl.driver.risk_profile`): where :func:`learn_driver` looks for a better risk
 than its Levenberg–Marquardt run found, and each demonstration's best risk."""
 PROFILE_ROUNDS = 3
 """Profile-then-LM rounds per start at most (each round must lower the cost)."""
@@ -184,7 +184,8 @@ class ClosedLoop:
     rmse_xy_m: float
     """RMS position error [m]."""
     min_d: float
-    """Least nominal ellipse margin (:attr:`~drivestyle.irl.driver_style.Reproduction.min_d`)."""
+    """Least nominal ellipse margin
+    (:attr:`~drivestyle.irl.driver.driver_style.Reproduction.min_d`)."""
     failures: int
     """Steps whose solve failed."""
 
@@ -445,8 +446,8 @@ def learn_driver(
             coordinates starting from ``initial``'s (T = 0 and s_0 = the demonstrations'
             median l_a when it has none: the fixed ellipse the fit improves on).
         fit_weights: learn the cost weights; False keeps ``initial``'s (a population's
-            cost, :class:`~drivestyle.irl.library.DriverLibrary`'s style) and learns only
-            the driver's own coordinates (p, and v_des, T, s_0 as asked): one LM run from
+            cost, :class:`~drivestyle.irl.identification.library.DriverLibrary`'s style) and learns
+            only the driver's own coordinates (p, and v_des, T, s_0 as asked): one LM run from
             ``initial``, no screening (its starting points differ in the weights only).
 
     Returns:

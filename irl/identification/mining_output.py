@@ -1,7 +1,7 @@
 """The output folder of a resumable mining run (``mine_styles.py --out``).
 
-``styles.csv`` gets one :class:`~drivestyle.irl.mining.MinedRow` per demonstration, appended
-and flushed as each finishes, so a killed run loses at most the rows in flight and a rerun
+``styles.csv`` gets one :class:`~drivestyle.irl.identification.mining.MinedRow` per demonstration,
+appended and flushed as each finishes, so a killed run loses at most the rows in flight and a rerun
 skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
 
 - ``fingerprint.json`` records which input and which library (:class:`RunFingerprint`, the
@@ -42,8 +42,8 @@ from types import TracebackType
 from typing import Any
 
 from drivestyle.common.io import OutputInUseError, output_lock, write_text
-from drivestyle.irl.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.mining import COLUMNS, READABLE_HEADERS, MinedRow, RowError
+from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
+from drivestyle.irl.identification.mining import COLUMNS, READABLE_HEADERS, MinedRow, RowError
 
 __all__ = [
     "FINGERPRINT",

@@ -1,7 +1,7 @@
 """Style identification: scorers, the posterior over a library's risks and its interval (DESIGN §8).
 
-*Identification* scores, per risk of a :class:`~drivestyle.irl.library.StyleLibrary`, the
-members learned in the training scenarios nearest to an unseen demonstration's, by
+*Identification* scores, per risk of a :class:`~drivestyle.irl.identification.library.StyleLibrary`,
+the members learned in the training scenarios nearest to an unseen demonstration's, by
 reproducing r*_θ in the demonstration's own scenario (its knots, event times and TV) and
 comparing it with the demonstration:
 
@@ -22,7 +22,7 @@ risks (:func:`posterior_from_scores`, DESIGN §8): its mode is ``risk_estimate``
 ``risk_interpolated`` and the span of its 90 % set ``risk_interval``
 (:class:`Identification`).
 
-The library (its type, file and learning) lives in :mod:`drivestyle.irl.library`; the
+The library (its type, file and learning) lives in :mod:`drivestyle.irl.identification.library`; the
 held-out evaluation in :mod:`drivestyle.studies.identification_study`.
 """
 
@@ -36,12 +36,12 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import elliptical_index
-from drivestyle.irl.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyleError
-from drivestyle.irl.inner import InnerProblem, InnerSolveError
-from drivestyle.irl.learner import check_learnable
-from drivestyle.irl.library import DriverLibrary, LibraryError, StyleLibrary
+from drivestyle.irl.driver.driver_style import RESIDUAL_FLOOR, RISK_RANGE, DriverStyleError
+from drivestyle.irl.driver.risk_profile import RiskProfile, refined_profile
+from drivestyle.irl.identification.library import DriverLibrary, LibraryError, StyleLibrary
 from drivestyle.irl.metrics import trajectory_errors
-from drivestyle.irl.risk_profile import RiskProfile, refined_profile
+from drivestyle.irl.paper.inner import InnerProblem, InnerSolveError
+from drivestyle.irl.paper.learner import check_learnable
 from drivestyle.recorded.real_data import recorded_view
 
 __all__ = [
@@ -82,8 +82,9 @@ __all__ = [
 
 SCORERS = ("feature", "rmse_xy", "rmse_y", "suboptimality")
 LIKELIHOOD = "likelihood"
-"""The scorer of a :class:`~drivestyle.irl.library.DriverLibrary`: the demonstration's
-teacher-forced residuals under the one learned style as a function of p (DESIGN §15)."""
+"""The scorer of a :class:`~drivestyle.irl.identification.library.DriverLibrary`: the
+demonstration's teacher-forced residuals under the one learned style as a function of p
+(DESIGN §15)."""
 DENSITY_STEP = 0.005
 """Spacing of the continuous posterior's grid over p ∈ [0.5, 0.99]."""
 DEFAULT_SCORER = "feature"
@@ -110,7 +111,7 @@ INTERVAL_MASS = 0.9
 """Posterior mass of the reported risk interval."""
 OUT_OF_CLASS_FACTOR = 55.0
 """k: a demonstration is *out of class* when its residual RMS at the best risk exceeds k noise
-floors (:attr:`~drivestyle.irl.library.DriverLibrary.noise_floor`, 0.1005 σ_u for
+floors (:attr:`~drivestyle.irl.identification.library.DriverLibrary.noise_floor`, 0.1005 σ_u for
 runs/library). Measured with runs/library: 10 simulated SMPC drivers of continuous risk
 (random interactive scenarios, seed 4000) 2–50 floors exact and 10–52 through the 0.1 m
 tracker — large because the 13-risk profile misses the true risk's sharp minimum (a 0.01
@@ -245,14 +246,14 @@ class Verdict:
     :attr:`reason` — is derived from them here, so no two can disagree. For a driver
     library (DESIGN §15): the residual RMS the demonstrations leave at their best risk,
     √(min_p S(p) / n) [σ_u units], against the library's noise floor
-    √(fit_residual² + s_floor²) (:attr:`~drivestyle.irl.library.DriverLibrary.noise_floor`):
-    out of class above :data:`OUT_OF_CLASS_FACTOR` floors. What the data added: the KL
-    divergence of the posterior from the uniform prior, KL = Σ_i q_i log(q_i / u_i) [nats]
-    (0 for the prior itself, log N for a point mass on one of N cells), and the 90 %
-    interval's width relative to the prior's; the posterior *moved* when KL >
-    :data:`KL_INFORMATIVE` and the width ratio < :data:`WIDTH_INFORMATIVE`. A paper-model
-    library has no residual scale (``residual_rms`` and ``noise_floor`` None, never out of
-    class); its KL and width are those of the posterior over the library's risks, and a TV
+    √(fit_residual² + s_floor²)
+    (:attr:`~drivestyle.irl.identification.library.DriverLibrary.noise_floor`): out of class above
+    :data:`OUT_OF_CLASS_FACTOR` floors. What the data added: the KL divergence of the posterior from
+    the uniform prior, KL = Σ_i q_i log(q_i / u_i) [nats] (0 for the prior itself, log N for a point
+    mass on one of N cells), and the 90 % interval's width relative to the prior's; the posterior
+    *moved* when KL > :data:`KL_INFORMATIVE` and the width ratio < :data:`WIDTH_INFORMATIVE`. A
+    paper-model library has no residual scale (``residual_rms`` and ``noise_floor`` None, never out
+    of class); its KL and width are those of the posterior over the library's risks, and a TV
     within s_e < :data:`S_E_INFORMATIVE` stands for a binding constraint.
     """
 
@@ -420,7 +421,7 @@ def constraint_binds(profile: RiskProfile) -> bool:
     """Whether a chance constraint binds at some step of ``profile`` at some risk.
 
     The solver flags a step active when a chance multiplier exceeds 1e-8
-    (:attr:`~drivestyle.irl.risk_profile.RiskProfile.n_active`); an interior-point
+    (:attr:`~drivestyle.irl.driver.risk_profile.RiskProfile.n_active`); an interior-point
     multiplier is never exactly 0, so vehicles 120–150 m away are flagged too. A
     constraint that binds changes a plan, so S(p) is not constant: it binds when S
     varies over the risks by more than one residual entry at the floor,
@@ -901,12 +902,12 @@ def risk_log_likelihood(
     The residual sums of the demonstrations add (one vehicle, one p); between the solved
     risks they are interpolated linearly. With S(p) that sum, n its residual count and
     s² = min S / n + s_floor² the residual scale the best risk leaves (noise and model
-    error; never below :data:`~drivestyle.irl.driver_style.RESIDUAL_FLOOR`),
+    error; never below :data:`~drivestyle.irl.driver.driver_style.RESIDUAL_FLOOR`),
     ℓ(p) = −(S(p) − min S) / (2 τ² s²). Demonstrations without a step at which p matters
     contribute nothing.
 
     Args:
-        profiles: the demonstrations' :class:`~drivestyle.irl.risk_profile.RiskProfile`.
+        profiles: the demonstrations' :class:`~drivestyle.irl.driver.risk_profile.RiskProfile`.
         temperature: τ > 0 (residuals of neighbouring steps are correlated: τ > 1 widens).
         grid: risks to evaluate at (default :func:`density_grid`).
 
@@ -975,7 +976,7 @@ def identify_driver(
     """One vehicle's risk as a continuous parameter of the library's style (DESIGN §15).
 
     Each demonstration's teacher-forced residual sum is computed as a function of p
-    (:func:`~drivestyle.irl.risk_profile.risk_profile`), turned into a likelihood
+    (:func:`~drivestyle.irl.driver.risk_profile.risk_profile`), turned into a likelihood
     (:func:`risk_log_likelihood`) and, with a uniform prior on [0.5, 0.99], into a
     posterior over p on :func:`density_grid`. Reported: ``risk_interpolated`` its mean,
     ``risk_interval`` its central 90 % interval, ``posterior`` its mass in each library
@@ -1020,7 +1021,7 @@ def driver_posterior(
     """The :class:`Identification` of demonstrations' risk profiles (:func:`identify_driver`).
 
     Shared by the offline identification and the online tracker
-    (:class:`drivestyle.irl.online.StyleTracker`), so both report the same posterior.
+    (:class:`drivestyle.irl.identification.online.StyleTracker`), so both report the same posterior.
 
     Args:
         profiles: each demonstration's (or stream's) residual sums over the risks.

@@ -1,0 +1,6 @@
+"""The default style model: a receding-horizon driver on :mod:`drivestyle.planning`'s NLP.
+
+- ``driver_style``: the model (cost weights, risk p, desired speed) and its closed loop.
+- ``driver_learning``: teacher-forced learning of a driver style.
+- ``risk_profile``: the risk profile S(p), the model's fit per risk.
+"""

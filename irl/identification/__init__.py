@@ -1,0 +1,8 @@
+"""Identifying styles: which risk a demonstration was driven with, offline, online, at scale.
+
+- ``library``: style libraries by risk (the driver library and the paper model's), their file
+  and learning one.
+- ``posterior``: the posterior over the risk (``identify`` → ``Identification``), verdicts.
+- ``online``: online identification, the posterior updated sample by sample.
+- ``mining``, ``mining_output``: many vehicles, one row each, and a mining run's folder.
+"""
