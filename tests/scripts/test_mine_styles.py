@@ -2,7 +2,8 @@
 
 Fast: the inputs here are files that cannot be mined (each a failed row in milliseconds) and
 the library is a valid stand-in, so the resume, fingerprint, repair and lock logic runs
-without a solver. Mining real demonstrations is in ``tests/irl/test_mining.py`` (slow).
+without a solver. Mining real demonstrations is in
+``tests/irl/identification/test_mining.py`` (slow).
 """
 
 import csv

@@ -34,7 +34,8 @@ def test_evaluate_planning_writes_the_study_and_one_video_per_predictor(tmp_path
     assert "| style |" in (out / "planning.md").read_text()
 
 
-@pytest.mark.slow  # the refusal itself: tests/irl/test_library.py (load_driver_library)
+# the refusal itself: tests/irl/identification/test_library.py (load_driver_library)
+@pytest.mark.slow
 def test_evaluate_planning_refuses_a_paper_library(tmp_path, style_library):
     from drivestyle.irl.identification.library import StyleLibrary
     from drivestyle.scripts.evaluate_planning import main

@@ -22,7 +22,7 @@ from drivestyle.irl.identification.posterior import (
     identify_all,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 IDENTIFY_JSON_KEYS = {
     "scorer",
     "risk_estimate",

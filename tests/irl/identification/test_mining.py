@@ -23,7 +23,7 @@ from drivestyle.irl.identification.mining_output import read_rows
 from drivestyle.irl.paper.features import FeatureConfig
 from drivestyle.studies.population import draw_vehicle, simulate_population
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module")
