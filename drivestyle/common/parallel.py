@@ -179,13 +179,20 @@ def _drops_exceptions(frame: Any) -> bool:
 
 
 def _raise_where_kept(signum: int, frame: Any, stop: BaseException) -> None:
-    """Raise ``stop`` now, or, in code that drops exceptions, once that code has returned."""
-    if _drops_exceptions(frame):
+    """Raise ``stop`` now, or, in code that drops exceptions, once that code has returned.
+
+    The timer is touched only while SIGALRM is :func:`_on_retry`'s: another holder's alarm
+    (a caller's timeout) is neither fired early nor cancelled; there the stop is raised at
+    once, as before the deferral.
+    """
+    ours = signal.getsignal(signal.SIGALRM) is _on_retry
+    if ours and _drops_exceptions(frame):
         _PENDING[:] = [signum]
         signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
         return
-    _PENDING.clear()
-    signal.setitimer(signal.ITIMER_REAL, 0.0)
+    if ours:
+        _PENDING.clear()
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
     raise stop
 
 
