@@ -183,7 +183,7 @@ def _reason(exc: OSError) -> str:
 
 NAME_ROOM = 32
 """Bytes an output's name leaves for the names drivestyle makes of it: its lock file
-(``.NAME.drivestyle-lock``), its temporary folder or file (``.NAME.xxxxxxxx.partial``) and
+(``.NAME.drivestyle-lock``), its temporary folder or file (``.NAME.<pid>-<hex>.partial``) and
 the previous output while it is swapped out (``.NAME.<pid>-<hex>.old``)."""
 
 
