@@ -6,16 +6,16 @@ risk is a continuous parameter of the library's one style: its posterior over p 
 ``likelihood``; ``posterior_density`` holds the continuous posterior, ``posterior`` its
 mass per library risk). With a paper-model library (``--model paper``) every style is
 scored by reproducing r*_θ in each demonstration's own scenario (``--scorer``, default: the
-one validation picked; see irl/identification/posterior.py). Writes
+one validation picked; see irl/identification/paper_scorers.py). Writes
 ``OUT/identify.json`` with ``scorer``, ``risk_estimate`` (the library risk of the
 largest posterior mass; the printed estimate is the density's mode, ``risk_mode``),
 ``risk_interpolated`` (posterior mean), ``posterior`` (per library risk), ``risk_interval``
 (90 % of the posterior), ``scores``, ``ranking``, ``trigger_fired``, per demonstration
 ``constraint_binds_per_demo`` and ``min_s_e_per_demo`` and, where the demonstrations'
 metadata holds it, ``true_risk``. The verdict
-(:class:`~drivestyle.irl.identification.posterior.Verdict`): ``verdict``, one label of
+(:class:`~drivestyle.irl.identification.verdict.Verdict`): ``verdict``, one label of
 ``informative``, ``prior``, ``no_constraint``, ``out_of_class`` and ``enters_region``
-(:func:`~drivestyle.irl.identification.posterior.verdict_label`), the flags it comes from
+(:func:`~drivestyle.irl.identification.verdict.verdict_label`), the flags it comes from
 (``informative`` is the label ``informative``; ``out_of_class`` is either label of a driver the
 class does not describe; ``constraint_binds``, ``enters_region``), the numbers (``residual_rms``,
 ``noise_floor``, ``residual_floors``, ``kl_nats``, ``interval_width_ratio``, ``min_s_e``) and
@@ -51,15 +51,14 @@ from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver.driver_style import DriverStyleError, Reproduction, reproduce
 from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary, load_any_library
-from drivestyle.irl.identification.posterior import (
-    DEFAULT_SCORER,
+from drivestyle.irl.identification.paper_scorers import DEFAULT_SCORER, SCORERS
+from drivestyle.irl.identification.posterior import identify
+from drivestyle.irl.identification.result import Identification
+from drivestyle.irl.identification.verdict import (
     INFORMATIVE,
     NO_CONSTRAINT,
     OUT_OF_CLASS_FACTOR,
     PRIOR,
-    SCORERS,
-    Identification,
-    identify,
 )
 from drivestyle.recorded.real_data import recorded_vehicle
 

@@ -27,7 +27,7 @@ def _build_style_library(workers: int):
         generate_demonstrations,
     )
     from drivestyle.irl.identification.library import learn_library
-    from drivestyle.irl.identification.posterior import MIN_MEMBERS
+    from drivestyle.irl.identification.paper_scorers import MIN_MEMBERS
 
     scenarios = draw_interactive_scenarios(MIN_MEMBERS, seed=0)
     demos = generate_demonstrations([0.5, 0.95], scenarios, workers=workers)

@@ -2,7 +2,9 @@
 
 - ``library``: style libraries by risk (the driver library and the paper model's), their file
   and learning one.
-- ``posterior``: the posterior over the risk (``identify`` → ``Identification``), verdicts.
+- ``posterior``: the posterior over the risk (``identify`` → ``Identification``); the paper
+  model's scorers (``paper_scorers``); what identification returns (``result``) and its
+  verdict (``verdict``).
 - ``online``: online identification, the posterior updated sample by sample.
 - ``mining``, ``mining_output``: many vehicles, one row each, and a mining run's folder.
 """

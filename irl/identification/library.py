@@ -12,8 +12,8 @@ Two kinds of library share the file name and the commands (``build_style_library
 A *library* holds, per SMPC risk level p, one θ learned jointly from K demonstrations of
 that risk in shared scenarios of the random family and one θ per demonstration
 (*members*, in the order of the K ``training_scenarios``). Identification
-(:mod:`drivestyle.irl.identification.posterior`) scores, per risk, the members learned in the
-training scenarios nearest to an unseen demonstration's (DESIGN §8).
+(:mod:`drivestyle.irl.identification.paper_scorers`) scores, per risk, the members learned in
+the training scenarios nearest to an unseen demonstration's (DESIGN §8).
 
 A library is validated whole when it is built or loaded (:class:`LibraryError`, one line
 naming the problem): a known file ``version``; at least two risks (one risk cannot be told

@@ -48,14 +48,13 @@ from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_st
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver.driver_style import reproduce
 from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.identification.posterior import (
+from drivestyle.irl.identification.posterior import identify
+from drivestyle.irl.identification.result import INTERVAL_MASS, Identification
+from drivestyle.irl.identification.verdict import (
     ENTERS_REGION,
     INFORMATIVE,
-    INTERVAL_MASS,
     OUT_OF_CLASS,
     VERDICT_LABELS,
-    Identification,
-    identify,
     recorded_verdict_label,
 )
 from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
@@ -234,7 +233,7 @@ class MinedRow:
     """A failed row's :data:`FAILURE_KINDS` ("data" or "infrastructure"), empty when ok.
     Appended after the first version's columns: the earlier columns keep their places."""
     residual_rms: float | None = None
-    """The verdict (:class:`~drivestyle.irl.identification.posterior.Verdict`, the columns
+    """The verdict (:class:`~drivestyle.irl.identification.verdict.Verdict`, the columns
     :data:`VERDICT_COLUMNS`, appended last): residual RMS at the best risk [σ_u units]."""
     noise_floor: float | None = None
     """The library's noise floor [σ_u units] (driver libraries)."""
@@ -252,7 +251,7 @@ class MinedRow:
     enters_region: bool | None = None
     """Whether another vehicle came inside the safety region every risk keeps clear of."""
     verdict: str = ""
-    """The verdict's label (:data:`~drivestyle.irl.identification.posterior.VERDICT_LABELS`), the
+    """The verdict's label (:data:`~drivestyle.irl.identification.verdict.VERDICT_LABELS`), the
     one :attr:`label` derives from the row's flags; empty in failed rows and tables written
     before the column."""
 
@@ -333,7 +332,7 @@ class MinedRow:
     def label(self) -> str | None:
         """The verdict's label from the row's flags (None: a failed row).
 
-        :func:`~drivestyle.irl.identification.posterior.recorded_verdict_label`: the same function
+        :func:`~drivestyle.irl.identification.verdict.recorded_verdict_label`: the same function
         as the identification's, so a row of an older table (flags missing) is labelled
         the way every reader labels it.
         """
@@ -837,7 +836,7 @@ def verdict_numbers(rows: Sequence[MinedRow]) -> dict[str, Any]:
 
     Returns:
         ``verdicts`` (label → rows, every label of
-        :data:`~drivestyle.irl.identification.posterior.VERDICT_LABELS`), ``n_informative`` (label
+        :data:`~drivestyle.irl.identification.verdict.VERDICT_LABELS`), ``n_informative`` (label
         ``informative``), ``n_out_of_class`` (``out_of_class`` or ``enters_region``: the
         style does not describe the driver) and the [min, max] of the residual in noise
         floors (``residual_floors``), of ``kl_nats`` and of ``interval_width_ratio`` (None

@@ -48,7 +48,8 @@ from drivestyle.irl.driver.driver_style import (
 )
 from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
 from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.irl.identification.posterior import Identification, driver_posterior
+from drivestyle.irl.identification.posterior import driver_posterior
+from drivestyle.irl.identification.result import Identification
 from drivestyle.planning.description import PrimalDual
 
 __all__ = ["StyleTracker", "TrackerError", "track_demo"]
@@ -133,7 +134,7 @@ class StyleTracker:
                 (simulation); None recovers it from the two states.
 
         Returns:
-            The :class:`~drivestyle.irl.identification.posterior.Identification` of the samples so
+            The :class:`~drivestyle.irl.identification.result.Identification` of the samples so
             far (the uniform prior, verdict ``no_constraint``, until a step where p matters).
 
         Raises:

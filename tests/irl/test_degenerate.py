@@ -16,7 +16,8 @@ from drivestyle.envs.demonstration import DemonstrationError
 from drivestyle.envs.scenario import PAPER
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl.identification.library import LibraryError, StyleLibrary, load_library
-from drivestyle.irl.identification.posterior import DEFAULT_SCORER, identify
+from drivestyle.irl.identification.paper_scorers import DEFAULT_SCORER
+from drivestyle.irl.identification.posterior import identify
 from drivestyle.irl.paper.learner import check_learnable
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -13,14 +13,9 @@ from drivestyle.agents.demo_generation import draw_interactive_scenarios
 from drivestyle.common.io import write_json
 from drivestyle.envs import Demonstration
 from drivestyle.irl.identification.library import LibraryError, StyleLibrary
-from drivestyle.irl.identification.posterior import (
-    DEFAULT_SCORER,
-    MIN_MEMBERS,
-    SCORERS,
-    Identification,
-    identify,
-    identify_all,
-)
+from drivestyle.irl.identification.paper_scorers import DEFAULT_SCORER, MIN_MEMBERS, SCORERS
+from drivestyle.irl.identification.posterior import identify, identify_all
+from drivestyle.irl.identification.result import Identification
 
 ROOT = Path(__file__).resolve().parents[3]
 IDENTIFY_JSON_KEYS = {
@@ -97,7 +92,7 @@ def _first_scenarios(library: StyleLibrary, k: int) -> StyleLibrary:
 
 def test_a_library_with_too_few_scenarios_is_refused(style_library, paper_demo):
     # a 3-scenario library answered the paper demo of p = 0.7 with posterior 0.996 on p = 0.5
-    # (irl.identification.posterior.MIN_MEMBERS); it now says how many scenarios it needs
+    # (irl.identification.paper_scorers.MIN_MEMBERS); it now says how many scenarios it needs
     small = _first_scenarios(style_library, 3)
     with pytest.raises(LibraryError, match=f"has 3 training scenarios .* at least {MIN_MEMBERS}"):
         identify(paper_demo, small)
@@ -201,7 +196,7 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
 def test_the_printed_estimate_is_the_densitys_mode_inside_its_interval():
     """A posterior peaked between two library risks gives its grid mass to one of them (the
     documented ``risk_estimate``), which may lie outside the interval; ``risk_mode`` may not."""
-    from drivestyle.irl.identification.posterior import Identification
+    from drivestyle.irl.identification.result import Identification
 
     grid = np.linspace(0.5, 0.99, 197)
     density = np.exp(-0.5 * ((grid - 0.7) / 0.003) ** 2)

@@ -262,7 +262,8 @@ def test_a_temperature_outside_its_range_is_refused(tmp_path, temperature):
 def test_the_posterior_is_never_nan():
     """The posterior computation refuses what would be NaN (a library bypassing checks)."""
     from drivestyle.irl.driver.risk_profile import RiskProfile
-    from drivestyle.irl.identification.posterior import posterior_from_scores, risk_log_likelihood
+    from drivestyle.irl.identification.paper_scorers import posterior_from_scores
+    from drivestyle.irl.identification.posterior import risk_log_likelihood
 
     profile = RiskProfile((0.5, 0.7, 0.9), (3.0, 1.0, 2.0), 20, 5)
     assert np.isfinite(risk_log_likelihood([profile], 1.0)).all()

@@ -4,7 +4,7 @@ import itertools
 
 import pytest
 
-from drivestyle.irl.identification.posterior import (
+from drivestyle.irl.identification.verdict import (
     ENTERS_REGION_S_E,
     KL_INFORMATIVE,
     OUT_OF_CLASS_FACTOR,
