@@ -5,7 +5,7 @@ Needs the ``rl`` extra (stable-baselines3, torch). The training env is
 [−1, 1]) inside SB3's ``VecNormalize`` (observations normalised, rewards left as the
 learned cost so that returns stay comparable with θᵀf). A receding-horizon driver style
 (:mod:`drivestyle.irl.driver.driver_style`) trains on its per-step cost instead
-(:class:`drivestyle.irl.reward.DriverCostReward`).
+(:class:`drivestyle.irl.driver.driver_cost.DriverCostReward`).
 """
 
 from __future__ import annotations
@@ -24,9 +24,10 @@ from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rl import NormalisedAction, RLObservation, physical_action, rl_observation
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import TrafficEnv
+from drivestyle.irl.driver.driver_cost import DriverCostConfig, DriverCostReward
 from drivestyle.irl.driver.driver_style import DRIVER_STYLE_KIND, DriverStyle, load_driver_style
 from drivestyle.irl.paper.style import Style, StyleError, load_style
-from drivestyle.irl.reward import DriverCostConfig, DriverCostReward, LearnedStyleReward
+from drivestyle.irl.paper.style_reward import LearnedStyleReward
 
 __all__ = [
     "ALGOS",
@@ -59,7 +60,7 @@ class TrainConfig:
     traffic: bool = False
     """Train in traffic (``Traffic-v0`` / ``TrafficRandom-v0``)."""
     crash_penalty: float | None = None
-    """Cost of a crash (None: the reward's default, see drivestyle.irl.reward)."""
+    """Cost of a crash (None: the reward's default, see drivestyle.irl.paper.style_reward)."""
     norm_reward: bool = False
     """Normalise rewards during training (VecNormalize); evaluations stay raw."""
     driver_cost: DriverCostConfig | None = None
@@ -135,7 +136,7 @@ def make_rl_env(
         randomize: draw scenarios per reset (``LaneChangeRandom``).
         monitor_file: write SB3 ``Monitor`` episode statistics to this CSV.
         render_mode: passed to the env.
-        crash_penalty: see :class:`drivestyle.irl.reward.StyleReward`.
+        crash_penalty: see :class:`drivestyle.irl.paper.style_reward.StyleReward`.
         traffic: the traffic env (``Traffic-v0``, or ``TrafficRandom-v0`` with randomize)
             instead of the single-TV one (``scenario`` then ignored).
         driver_cost: penalties and scale of a driver style's reward.

@@ -2,15 +2,17 @@
 
 - :mod:`drivestyle.irl.paper`, the paper's model: quintic-spline trajectories (``spline``),
   the ten reaction-aware features (``features``), the inner problem (``inner``) and ME-IRL
-  (``learner``), its styles (``style``).
+  (``learner``), its styles (``style``) and the style as the env's reward
+  (``style_reward``).
 - :mod:`drivestyle.irl.driver`, the default style model, a receding-horizon driver on
   :mod:`drivestyle.planning`'s NLP: the model and its closed loop (``driver_style``),
-  teacher-forced learning (``driver_learning``), the risk profile S(p) (``risk_profile``).
+  teacher-forced learning (``driver_learning``), the risk profile S(p) (``risk_profile``),
+  its cost as the env's reward (``driver_cost``).
 - :mod:`drivestyle.irl.identification`, identifying styles: libraries (``library``), the
   posterior over the risk (``posterior``), online tracking (``online``), many vehicles
   (``mining``, ``mining_output``).
-- Here: prediction (``forecast``, its physics baseline ``physics``), the learned style as
-  the env's reward (``reward``), error metrics (``metrics``).
+- Here: prediction (``forecast``, its physics baseline ``physics``), where the env's
+  ``style=`` finds the learned reward (``reward``), error metrics (``metrics``).
 
 The paper model's public names are re-exported here (``from drivestyle.irl import MaxEntIRL``).
 """

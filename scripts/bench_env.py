@@ -43,10 +43,11 @@ import numpy as np
 import drivestyle.envs  # noqa: F401  (registers the ids)
 from drivestyle.common.cli import HelpFormatter, count, nonnegative_int, positive_int, run_cli, seed
 from drivestyle.common.io import check_output_file, write_json
+from drivestyle.irl.driver.driver_cost import DriverCostReward
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.paper.features import FEATURES, FeatureConfig
 from drivestyle.irl.paper.style import Style
-from drivestyle.irl.reward import DriverCostReward, LearnedStyleReward
+from drivestyle.irl.paper.style_reward import LearnedStyleReward
 
 PAPER_THETA = (0.8, 2.0, 0.05, 0.6, 0.3, 1.5, 0.2, 4.0, 3.0, 0.7)
 """Weights of the benchmark's paper-model style (FEATURES order; any positive θ costs the same)."""

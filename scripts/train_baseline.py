@@ -2,7 +2,7 @@ r"""Train a stable-baselines3 policy (SAC or PPO) on a learned style's reward.
 
 The style is either model's file: a receding-horizon driver style (``learn_style.py``, the
 default model) trains on its per-step cost — stage cost plus its constraints as penalties
-(``drivestyle.irl.reward.DriverCostReward``); a paper-model style on −θᵀΔf.
+(``drivestyle.irl.driver.driver_cost.DriverCostReward``); a paper-model style on −θᵀΔf.
 
 Writes ``OUT/model.zip``, ``OUT/vecnormalize.pkl``, ``OUT/monitor.csv``,
 ``OUT/evaluations.npz``, ``OUT/learning_curve.png`` and ``OUT/train.json``.
@@ -101,8 +101,8 @@ def main(argv: list[str] | None = None) -> dict:
         raise RuntimeError(
             f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"
         ) from None
+    from drivestyle.irl.driver.driver_cost import DriverCostConfig
     from drivestyle.irl.driver.driver_style import DriverStyle
-    from drivestyle.irl.reward import DriverCostConfig
 
     style = load_reward_style(args.style)
     cost = None

@@ -3,4 +3,5 @@
 - ``driver_style``: the model (cost weights, risk p, desired speed) and its closed loop.
 - ``driver_learning``: teacher-forced learning of a driver style.
 - ``risk_profile``: the risk profile S(p), the model's fit per risk.
+- ``driver_cost``: the style's per-step cost as the env's reward.
 """

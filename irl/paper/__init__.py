@@ -5,4 +5,5 @@
 - ``inner``: the inner problem argmin θᵀf and its θ-sensitivity.
 - ``learner``: ME-IRL (:class:`~drivestyle.irl.paper.learner.MaxEntIRL`).
 - ``style``: the paper model's learned :class:`~drivestyle.irl.paper.style.Style` and its file.
+- ``style_reward``: the learned style as the env's reward, −θᵀΔf of the growing trajectory.
 """

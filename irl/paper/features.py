@@ -580,7 +580,7 @@ def _segment_basis(T: float, tau: tuple[float, ...], d: int) -> np.ndarray:
 
 SEGMENT_FEATURES = ("ax", "ay", "v", "l", "il", "tiv", "id")
 """Features that are integrals over the whole horizon or a window of it, so they add up
-segment by segment (f_el, f_sd and f_ed are not: see :mod:`drivestyle.irl.reward`)."""
+segment by segment (f_el, f_sd and f_ed are not: see :mod:`drivestyle.irl.paper.style_reward`)."""
 
 
 def segment_integrals(
@@ -599,7 +599,8 @@ def segment_integrals(
 
     Summed over all segments they give :func:`feature_values`'s integral features exactly:
     the same integrands and Gauss–Legendre nodes, split at the event times. Used to
-    compute features incrementally along a growing trajectory (:mod:`drivestyle.irl.reward`).
+    compute features incrementally along a growing trajectory
+    (:mod:`drivestyle.irl.paper.style_reward`).
 
     Args:
         cx: EV x control points [r, v, a] at t0 and t1, shape (6,).

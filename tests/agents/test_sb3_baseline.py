@@ -42,8 +42,8 @@ def test_rl_env_passes_sb3_check(style_file):
 
 def test_rl_env_of_a_driver_style_file_trains_on_its_cost(tmp_path):
     from drivestyle.common.io import write_json
+    from drivestyle.irl.driver.driver_cost import DriverCostConfig, DriverCostReward
     from drivestyle.irl.driver.driver_style import DRIVER_STYLE_KIND, DriverStyle
-    from drivestyle.irl.reward import DriverCostConfig, DriverCostReward
 
     style = DriverStyle((0.2, 34.0, 0.2, 1.0, 76.0), risk=0.9)
     path = write_json(
