@@ -42,10 +42,10 @@ from drivestyle.common.cli import HelpFormatter, Interrupted, positive_float, ru
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import check_output_dir, write_json
 from drivestyle.irl.identification.library import load_any_library
+from drivestyle.irl.identification.mined_row import MinedRow
 from drivestyle.irl.identification.mining import (
     CONNECT_TIMEOUT_S,
     ENGINES,
-    MinedRow,
     MiningTask,
     mine,
     summary_numbers,

@@ -6,5 +6,6 @@
   model's scorers (``paper_scorers``); what identification returns (``result``) and its
   verdict (``verdict``).
 - ``online``: online identification, the posterior updated sample by sample.
-- ``mining``, ``mining_output``: many vehicles, one row each, and a mining run's folder.
+- ``mining``, ``mined_row``, ``mining_output``: many vehicles, one row each (a row of
+  ``styles.csv``), and a mining run's folder.
 """

@@ -1,8 +1,8 @@
 """The output folder of a resumable mining run (``mine_styles.py --out``).
 
-``styles.csv`` gets one :class:`~drivestyle.irl.identification.mining.MinedRow` per demonstration,
-appended and flushed as each finishes, so a killed run loses at most the rows in flight and a rerun
-skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
+``styles.csv`` gets one :class:`~drivestyle.irl.identification.mined_row.MinedRow` per
+demonstration, appended and flushed as each finishes, so a killed run loses at most the rows in
+flight and a rerun skips the rows already there. :class:`MiningOutput` makes that safe to rely on:
 
 - ``fingerprint.json`` records which input and which library (:class:`RunFingerprint`, the
   library by its content's SHA-256) the rows come from; a run with another input or library
@@ -43,7 +43,7 @@ from typing import Any
 
 from drivestyle.common.io import OutputInUseError, output_lock, write_text
 from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.identification.mining import COLUMNS, READABLE_HEADERS, MinedRow, RowError
+from drivestyle.irl.identification.mined_row import COLUMNS, READABLE_HEADERS, MinedRow, RowError
 
 __all__ = [
     "FINGERPRINT",

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from cli_runner import DATA, run_command
 
-from drivestyle.irl.identification.mining import COLUMNS, MinedRow
+from drivestyle.irl.identification.mined_row import COLUMNS, MinedRow
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):
 # CI runs them with the slow set, the default run stays within its time

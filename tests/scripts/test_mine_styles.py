@@ -21,7 +21,8 @@ from drivestyle.agents import generate_demonstration
 from drivestyle.common.io import lock_file, write_json
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.identification.library import StyleLibrary
-from drivestyle.irl.identification.mining import COLUMNS, Miner
+from drivestyle.irl.identification.mined_row import COLUMNS
+from drivestyle.irl.identification.mining import Miner
 from drivestyle.irl.identification.mining_output import (
     MiningOutput,
     MiningOutputError,

@@ -1,10 +1,10 @@
 """Mining a population: typed rows, any failure as a row, resuming, and identical rows on Ray.
 
 The output folder's resume, fingerprint, repair and lock logic is tested through the script
-in ``tests/scripts/test_mine_styles.py`` (fast); here the rows themselves and the engines.
+in ``tests/scripts/test_mine_styles.py`` (fast), a row's own checks in ``test_mined_row.py``;
+here the miner and the engines.
 """
 
-import csv
 import dataclasses
 import inspect
 import json
@@ -18,7 +18,8 @@ import pytest
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.identification import mining
 from drivestyle.irl.identification.library import StyleLibrary
-from drivestyle.irl.identification.mining import COLUMNS, MinedRow, mine, summary_numbers
+from drivestyle.irl.identification.mined_row import MinedRow
+from drivestyle.irl.identification.mining import mine, summary_numbers
 from drivestyle.irl.identification.mining_output import read_rows
 from drivestyle.irl.paper.features import FeatureConfig
 from drivestyle.studies.population import draw_vehicle, simulate_population
@@ -51,65 +52,10 @@ def _stable(rows):
     return [r.without_timings() for r in rows]
 
 
-OK_ROW = MinedRow(
-    id="v1",
-    source="pop",
-    status="ok",
-    true_risk=0.7,
-    risk_estimate=0.75,
-    risk_lo=0.6,
-    risk_hi=0.9,
-    risk_mean=0.731,
-    informative=True,
-    trigger_fired=False,
-    theta_normalised=(0.25, 1.5e-05, 3.0),
-    rmse_y_m=0.012,
-    rmse_xy_m=0.034,
-    iterations=12,
-    converged=True,
-    learn_s=1.25,
-    identify_s=0.5,
-)
-
-
-def test_a_row_round_trips_through_csv_and_keeps_the_documented_columns(tmp_path):
-    failed = MinedRow.failed("v2", "pop", "DemonstrationError: a.npz:\n  torn", true_risk=0.6)
-    assert failed.error == "DemonstrationError: a.npz: torn"  # one line
-    path = tmp_path / "styles.csv"
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=COLUMNS)
-        writer.writeheader()
-        writer.writerows([OK_ROW.to_csv(), failed.to_csv()])
-    assert path.read_text().splitlines()[0] == ",".join(COLUMNS)
-    assert read_rows(path) == [OK_ROW, failed]
-    assert tuple(OK_ROW.to_json()) == COLUMNS
-    assert json.loads(json.dumps(OK_ROW.to_json()))["theta_normalised"] == [0.25, 1.5e-05, 3.0]
-    assert failed.to_json()["risk_estimate"] is None and failed.to_csv()["risk_estimate"] == ""
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        OK_ROW.status = "failed"  # type: ignore[misc]
-
-
-@pytest.mark.parametrize(
-    "change, message",
-    [
-        ({"status": "done"}, "status"),
-        ({"error": "ok rows have none"}, "no error"),
-        ({"risk_estimate": None}, "risk_estimate"),
-        ({"risk_lo": 0.95}, "interval"),
-        ({"id": ""}, "id"),
-    ],
-)
-def test_an_inconsistent_row_is_refused(change, message):
-    with pytest.raises(ValueError, match=message):
-        dataclasses.replace(OK_ROW, **change)
-    with pytest.raises(ValueError, match="needs its error"):
-        MinedRow("v", "pop", "failed")
-
-
-def test_summary_numbers_use_ok_rows_with_a_true_risk():
+def test_summary_numbers_use_ok_rows_with_a_true_risk(ok_row):
     rows = [
-        OK_ROW,
-        dataclasses.replace(OK_ROW, id="v2", true_risk=None),
+        ok_row,
+        dataclasses.replace(ok_row, id="v2", true_risk=None),
         MinedRow.failed("v3", "p", "x"),
     ]
     summary = summary_numbers(rows)
@@ -121,13 +67,13 @@ def test_summary_numbers_use_ok_rows_with_a_true_risk():
     assert summary["n_out_of_class"] == sum(bool(r.out_of_class) for r in rows[:2])
 
 
-def test_verdict_ranges_are_in_noise_floors():
+def test_verdict_ranges_are_in_noise_floors(ok_row):
     from drivestyle.irl.identification.mining import verdict_numbers
 
     rows = [
-        dataclasses.replace(OK_ROW, id="a", residual_rms=0.2, noise_floor=0.1, kl_nats=0.5,
+        dataclasses.replace(ok_row, id="a", residual_rms=0.2, noise_floor=0.1, kl_nats=0.5,
                             interval_width_ratio=0.4, informative=True, out_of_class=False),
-        dataclasses.replace(OK_ROW, id="b", residual_rms=6.0, noise_floor=0.1, kl_nats=0.01,
+        dataclasses.replace(ok_row, id="b", residual_rms=6.0, noise_floor=0.1, kl_nats=0.01,
                             interval_width_ratio=0.99, informative=False, out_of_class=True),
         MinedRow.failed("c", "p", "x"),
     ]  # fmt: skip
@@ -327,17 +273,6 @@ def test_a_local_multi_node_ray_cluster(population, library):
         os.environ.pop("RAY_ADDRESS", None)
 
 
-def test_the_styles_csv_header_is_the_documented_one():
-    # the file interface (README "Many vehicles"): a field added to MinedRow changes it
-    assert COLUMNS == (
-        "id", "source", "status", "error", "true_risk", "risk_estimate", "risk_lo", "risk_hi",
-        "risk_mean", "informative", "trigger_fired", "theta_normalised", "rmse_y_m",
-        "rmse_xy_m", "iterations", "converged", "learn_s", "identify_s", "failure_kind",
-        "residual_rms", "noise_floor", "out_of_class", "kl_nats", "interval_width_ratio",
-        "reason", "constraint_binds", "enters_region", "verdict",
-    )  # fmt: skip
-
-
 def test_a_driver_library_mines_the_risk_and_the_reproduction(paper_demo):
     from drivestyle.irl.driver.driver_style import DriverStyle
     from drivestyle.irl.identification.library import DriverLibrary
@@ -372,42 +307,6 @@ def test_a_worker_crash_on_the_local_engine_is_an_infrastructure_row(monkeypatch
     assert all(r.failure_kind == "data" for r in rows if r.id != "boom")
 
 
-def test_a_failure_kind_is_validated_and_round_trips():
-    row = MinedRow.failed("v", "pop", "worker died", kind="infrastructure")
-    assert MinedRow.from_csv(row.to_csv()) == row
-    with pytest.raises(ValueError, match="failure_kind"):
-        MinedRow.failed("v", "pop", "x", kind="cosmic rays")
-    # a row of the version before failure_kind: its failures are data failures
-    legacy = {k: v for k, v in MinedRow.failed("v", "pop", "x").to_csv().items()}
-    for column in ("failure_kind", *mining.VERDICT_COLUMNS, *mining.LABEL_COLUMNS):
-        del legacy[column]
-    assert MinedRow.from_csv(legacy).failure_kind == "data"
-
-
-def test_the_verdict_columns_round_trip_and_an_older_row_reads():
-    row = MinedRow(
-        "v", "pop", "ok", risk_estimate=0.7, risk_lo=0.52, risk_hi=0.94, risk_mean=0.7,
-        informative=False, theta_normalised=(1.0, 2.0), residual_rms=5.04,
-        noise_floor=0.1005, out_of_class=False, kl_nats=0.046, interval_width_ratio=0.94,
-        reason="the data barely moved the posterior (KL 0.05 nats, σ_u, a comma)",
-        constraint_binds=True, enters_region=False, verdict="prior",
-    )  # fmt: skip
-    assert mining.COLUMNS[-len(mining.LABEL_COLUMNS) :] == mining.LABEL_COLUMNS
-    assert MinedRow.from_csv(row.to_csv()) == row and row.label == "prior"
-    # a table of the version before the label columns: the label from the flags it has
-    before_label = {k: v for k, v in row.to_csv().items() if k not in mining.LABEL_COLUMNS}
-    read = MinedRow.from_csv(before_label)
-    assert read.constraint_binds is None and read.verdict == "" and read.label == "prior"
-    assert read.reason == row.reason
-    # … and before the verdict columns
-    older = {k: v for k, v in before_label.items() if k not in mining.VERDICT_COLUMNS}
-    read = MinedRow.from_csv(older)
-    assert read.residual_rms is None and read.out_of_class is None and read.reason == ""
-    assert read.risk_mean == 0.7 and read.informative is False and read.label == "prior"
-    with pytest.raises(ValueError, match="one line"):
-        MinedRow("v", "pop", "failed", error="x", failure_kind="data", reason="a\nb")
-
-
 def test_a_driver_library_row_carries_the_verdict(paper_demo):
     from drivestyle.irl.driver.driver_style import DriverStyle
     from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
@@ -427,29 +326,6 @@ def test_a_driver_library_row_carries_the_verdict(paper_demo):
     assert "no chance constraint binds" in row.reason
     assert row.verdict == row.label == ident.verdict.label == "no_constraint"
     assert (row.constraint_binds, row.enters_region) == (False, False)
-
-
-@pytest.mark.parametrize(
-    ("flags", "label"),
-    [
-        ({"informative": True, "constraint_binds": True}, "informative"),
-        ({"constraint_binds": True}, "prior"),
-        ({"constraint_binds": False}, "no_constraint"),
-        ({"out_of_class": True, "constraint_binds": True, "informative": False}, "out_of_class"),
-        ({"out_of_class": True, "enters_region": True, "constraint_binds": True},
-         "enters_region"),
-    ],
-)  # fmt: skip
-def test_a_row_label_follows_its_flags_and_a_contradicting_verdict_is_refused(flags, label):
-    fields = {"informative": False, "out_of_class": False, "enters_region": False} | flags
-    row = dataclasses.replace(OK_ROW, **fields)
-    assert row.label == label
-    assert dataclasses.replace(row, verdict=label).verdict == label
-    other = next(v for v in ("informative", "prior") if v != label)
-    with pytest.raises(ValueError, match=f"verdict '{other}' contradicts its flags"):
-        dataclasses.replace(row, verdict=other)
-    with pytest.raises(ValueError, match="verdict must be one of"):
-        dataclasses.replace(row, verdict="uninformative")
 
 
 _RAY_JOB = """

@@ -11,7 +11,7 @@ import pytest
 
 from drivestyle.common.io import lock_file
 from drivestyle.irl.identification.library import StyleLibrary
-from drivestyle.irl.identification.mining import COLUMNS, MinedRow
+from drivestyle.irl.identification.mined_row import COLUMNS, MinedRow
 from drivestyle.irl.identification.mining_output import (
     FINGERPRINT,
     TABLE,
@@ -260,7 +260,7 @@ def test_infrastructure_failures_are_retried_and_data_failures_are_final(tmp_pat
     "version", ["before failure_kind", "before the verdict", "before the label"]
 )
 def test_a_table_of_an_earlier_version_is_read_and_rewritten(tmp_path, version):
-    from drivestyle.irl.identification.mining import (
+    from drivestyle.irl.identification.mined_row import (
         LEGACY_COLUMNS,
         PRE_LABEL_COLUMNS,
         PRE_VERDICT_COLUMNS,
