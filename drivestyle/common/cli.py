@@ -7,7 +7,7 @@ and SIGTERM with 143 after the script's atomic writes (:mod:`drivestyle.common.i
 discarded the unfinished output (a script that keeps some, e.g. a resumable run's finished
 rows, says what with :class:`Interrupted`); anything unexpected ends with one line and exit
 status 1 (``DRIVESTYLE_TRACEBACK=1`` shows the traceback). The outputs the script checks
-stay locked while it runs (:func:`~drivestyle.common.io.command_outputs`): a second run
+stay locked while it runs (:func:`~drivestyle.common.output_lock.command_outputs`): a second run
 into them is refused.
 
 The ``argparse`` types below reject out-of-range values at parse time, so a script never
@@ -27,7 +27,7 @@ from collections.abc import Callable, Hashable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from drivestyle.common.io import command_outputs
+from drivestyle.common.output_lock import command_outputs
 
 _T = TypeVar("_T", bound=Hashable)
 

@@ -8,7 +8,7 @@ flight and a rerun skips the rows already there. :class:`MiningOutput` makes tha
   library by its content's SHA-256) the rows come from; a run with another input or library
   is refused (its rows would be credited to the wrong input, or never mined), unless it
   starts over (``force``);
-- the folder's lock (:func:`~drivestyle.common.io.output_lock`, the one every command's
+- the folder's lock (:func:`~drivestyle.common.output_lock.output_lock`, the one every command's
   output has: ``flock`` on a file beside the folder, recording the holder) is held while a
   run writes: a second run into the same folder is refused, naming the holder's pid,
   instead of writing every row twice. A killed run is no obstacle: its lock is taken over
@@ -41,7 +41,8 @@ from pathlib import Path, PurePosixPath
 from types import TracebackType
 from typing import Any
 
-from drivestyle.common.io import OutputInUseError, output_lock, write_text
+from drivestyle.common.io import write_text
+from drivestyle.common.output_lock import OutputInUseError, output_lock
 from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
 from drivestyle.irl.identification.mined_row import COLUMNS, READABLE_HEADERS, MinedRow, RowError
 
@@ -297,7 +298,7 @@ def read_table(path: str | Path) -> list[MinedRow]:
 class MiningOutput:
     """The output folder of a resumable mining run (module docstring); a context manager.
 
-    On entering: takes the folder's lock (:func:`~drivestyle.common.io.output_lock`, the
+    On entering: takes the folder's lock (:func:`~drivestyle.common.output_lock.output_lock`, the
     running command's if it holds it; a second run is refused; the lock of a run that has
     ended is taken over, with a notice on stderr), checks ``fingerprint.json`` against this
     run's (``force``: delete the earlier run's results first), repairs ``styles.csv`` (drops

@@ -9,8 +9,6 @@ import pytest
 
 from drivestyle.common import io
 from drivestyle.common.io import (
-    OUTPUT_MARKER,
-    OutputPathError,
     atomic_output_dir,
     atomic_output_file,
     check_output_dir,
@@ -18,6 +16,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.common.output_paths import OUTPUT_MARKER, OutputPathError
 
 # a folder that no one, root included, can create files in (sysfs refuses new entries)
 UNWRITABLE = Path("/sys")

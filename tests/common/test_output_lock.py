@@ -1,4 +1,4 @@
-"""One writer per output (drivestyle.common.io's OutputLock): refused, released, taken over."""
+"""One writer per output (drivestyle.common.output_lock): refused, released, taken over."""
 
 import os
 import signal
@@ -10,24 +10,23 @@ from pathlib import Path
 
 import pytest
 
-from drivestyle.common import io
-from drivestyle.common.io import (
+import drivestyle.common.output_lock as locks
+from drivestyle.common.io import atomic_output_dir, check_output_dir, check_output_file
+from drivestyle.common.output_lock import (
     OutputInUseError,
     OutputLock,
-    atomic_output_dir,
-    check_output_dir,
-    check_output_file,
     command_outputs,
     lock_file,
     output_lock,
 )
+from drivestyle.common.output_paths import OutputPathError
 from drivestyle.common.parallel import parallel_map
 
-pytestmark = pytest.mark.skipif(io.fcntl is None, reason="outputs are locked with flock")
+pytestmark = pytest.mark.skipif(locks.fcntl is None, reason="outputs are locked with flock")
 
 _HOLDER = """
 import sys, time
-from drivestyle.common.io import OutputLock
+from drivestyle.common.output_lock import OutputLock
 OutputLock(sys.argv[1]).acquire()
 print("locked", flush=True)
 time.sleep(60)
@@ -135,7 +134,7 @@ def test_a_lock_file_released_between_open_and_flock_is_not_held(tmp_path, monke
     # another run released (removed) the file this one had opened: a flock on the removed
     # file would lock nothing that a third run could see
     out = tmp_path / "out"
-    fcntl = io.fcntl
+    fcntl = locks.fcntl
     replaced = []
 
     class Fcntl:
@@ -149,7 +148,7 @@ def test_a_lock_file_released_between_open_and_flock_is_not_held(tmp_path, monke
                 lock_file(out).touch()
             return fcntl.flock(fd, op)
 
-    monkeypatch.setattr(io, "fcntl", Fcntl)
+    monkeypatch.setattr(locks, "fcntl", Fcntl)
     with OutputLock(out) as lock:
         assert replaced
         assert os.fstat(lock._fd).st_ino == os.stat(lock_file(out)).st_ino
@@ -241,7 +240,7 @@ def test_a_forked_worker_neither_holds_nor_releases_the_commands_lock(tmp_path):
 
 _KILLED_WITH_WORKER = """
 import os, sys, time
-from drivestyle.common.io import OutputLock
+from drivestyle.common.output_lock import OutputLock
 OutputLock(sys.argv[1]).acquire()
 child = os.fork()
 if child == 0:
@@ -273,5 +272,5 @@ def test_a_lock_file_that_cannot_be_created_is_an_output_error():
     unwritable = Path("/sys")  # sysfs refuses new entries, root's too
     if os.access(unwritable, os.W_OK) and not os.path.ismount(unwritable):
         pytest.skip(f"{unwritable} is no sysfs here")
-    with pytest.raises(io.OutputPathError, match=f"^--out {unwritable}/out: cannot lock it"):
+    with pytest.raises(OutputPathError, match=f"^--out {unwritable}/out: cannot lock it"):
         OutputLock(unwritable / "out").acquire()

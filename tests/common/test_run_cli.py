@@ -3,7 +3,7 @@
 import pytest
 
 from drivestyle.common.cli import run_cli
-from drivestyle.common.io import OutputPathError
+from drivestyle.common.output_paths import OutputPathError
 
 
 def _raises(exc: BaseException):

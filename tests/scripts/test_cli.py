@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivestyle.common.io import OutputPathError
+from drivestyle.common.output_paths import OutputPathError
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
@@ -266,7 +266,7 @@ def test_an_unwritable_output_is_reported_before_the_work(name, time_limit):
 def test_an_output_another_run_writes_is_refused_before_the_work(name, time_limit, tmp_path):
     # every script takes its output's lock where it checks it, first thing: with the lock
     # held (here by this process, as another run would hold it), it stops at once
-    from drivestyle.common.io import OutputLock
+    from drivestyle.common.output_lock import OutputLock
 
     option, leaf, rest = WRITES[name]
     target = tmp_path / leaf

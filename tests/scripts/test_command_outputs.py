@@ -1,10 +1,10 @@
 """A command's ``--out`` against its own inputs, as a user meets it (``python -m drivestyle``).
 
-The rule (``drivestyle.common.io.refuse_inputs``, applied by every command's output check):
-an output that is, holds or lies inside one of the run's inputs is refused before any work,
+The rule (``drivestyle.common.output_paths.refuse_inputs``, applied by every command's output
+check): an output that is, holds or lies inside one of the run's inputs is refused before any work,
 naming the option, the output and the input; the input is left as it was. Without it,
-``identify-style ob/a.npz --out ob`` (``ob`` an extract-episodes output) said "wrote
-identify.json" and the whole folder of episodes was gone.
+``identify-style ob/a.npz --out ob`` (``ob`` an extract-episodes output) said "wrote identify.json"
+and the whole folder of episodes was gone.
 """
 
 import json
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from cli_runner import run_command
 
-from drivestyle.common.io import OUTPUT_MARKER
+from drivestyle.common.output_paths import OUTPUT_MARKER
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary

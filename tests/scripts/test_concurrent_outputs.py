@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from drivestyle.common.io import lock_file
+from drivestyle.common.output_lock import lock_file
 
 pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGSTOP"), reason="POSIX signals")
 

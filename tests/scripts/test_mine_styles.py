@@ -18,7 +18,8 @@ from pathlib import Path
 import pytest
 
 from drivestyle.agents import generate_demonstration
-from drivestyle.common.io import lock_file, write_json
+from drivestyle.common.io import write_json
+from drivestyle.common.output_lock import lock_file
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.identification.library import StyleLibrary
 from drivestyle.irl.identification.mined_row import COLUMNS

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from drivestyle.common.io import lock_file
+from drivestyle.common.output_lock import lock_file
 from drivestyle.irl.identification.library import StyleLibrary
 from drivestyle.irl.identification.mined_row import COLUMNS, MinedRow
 from drivestyle.irl.identification.mining_output import (
