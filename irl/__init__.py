@@ -6,8 +6,8 @@
   (``style_reward``).
 - :mod:`drivestyle.irl.driver`, the default style model, a receding-horizon driver on
   :mod:`drivestyle.planning`'s NLP: the model and its closed loop (``driver_style``),
-  teacher-forced learning (``driver_learning``), the risk profile S(p) (``risk_profile``),
-  its cost as the env's reward (``driver_cost``).
+  teacher-forced learning (``driver_learning``, ``descent``, ``driver_fit``), the risk
+  profile S(p) (``risk_profile``), its cost as the env's reward (``driver_cost``).
 - :mod:`drivestyle.irl.identification`, identifying styles: libraries (``library``), the
   posterior over the risk (``posterior``), online tracking (``online``), many vehicles
   (``mining``, ``mining_output``).

@@ -48,15 +48,14 @@ from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.irl import FEATURE_SETS, FeatureConfig, IRLConfig
-from drivestyle.irl.driver.driver_learning import (
+from drivestyle.irl.driver.driver_fit import (
     POOR_FIT_RATIO,
-    RESIDUAL_FLOOR,
     DriverFit,
-    learn_driver,
     reproduced_note,
     save_driver_style,
 )
-from drivestyle.irl.driver.driver_style import WEIGHT_NAMES
+from drivestyle.irl.driver.driver_learning import learn_driver
+from drivestyle.irl.driver.driver_style import RESIDUAL_FLOOR, WEIGHT_NAMES
 from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.irl.paper.inner import InnerSolveError
 from drivestyle.irl.paper.learner import UPDATE_RULES, IterationRecord, check_learnable

@@ -8,7 +8,9 @@ alternating with a 1-D profile over p (the objective is a saw-tooth in p), first
 Cauchy loss of the residuals and then on their squares (the continuation that leaves the
 local minima of a few mistimed steps); it then compares each demonstration's residuals with
 the noise floor one driver of the class leaves (``poor_fit`` when no single driver explains
-them all). :func:`save_driver_style` writes the result as ``style.json``.
+them all). The optimiser is :mod:`drivestyle.irl.driver.descent`; the fit it returns
+(:class:`~drivestyle.irl.driver.driver_fit.DriverFit`, per demonstration whether the style
+explains it) and its ``style.json`` are :mod:`drivestyle.irl.driver.driver_fit`'s.
 """
 
 from __future__ import annotations
@@ -16,17 +18,22 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any, NamedTuple
+from dataclasses import replace
 
 import numpy as np
 
-from drivestyle.common.io import write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.driver import descent
+from drivestyle.irl.driver.descent import EXACT, PROFILE_RISKS, Box, Run
+from drivestyle.irl.driver.driver_fit import (
+    POOR_FIT_RATIO,
+    DriverFit,
+    closed_loop_errors,
+    diagnose,
+    reproduced_note,
+)
 from drivestyle.irl.driver.driver_style import (
-    DRIVER_STYLE_KIND,
     GAUGE,
     INPUT_SCALE,
     MIN_GAP_RANGE,
@@ -43,26 +50,18 @@ from drivestyle.irl.driver.driver_style import (
     initial_weights,
     n_vehicles,
     planner_for,
-    reproduce,
 )
 from drivestyle.planning.description import N_WEIGHTS
 
 __all__ = [
-    "POOR_FIT_RATIO",
-    "PROFILE_RISKS",
-    "REPRODUCTION_TOLERANCE",
-    "RESIDUAL_FLOOR",
-    "RISK_AGREEMENT",
+    "RESTARTS",
     "ROBUST_SCALE",
-    "ClosedLoop",
-    "DemoFit",
-    "DriverFit",
+    "SCREEN_CANDIDATES",
     "cauchy_residuals",
-    "closed_loop_errors",
     "learn_driver",
-    "reproduced_note",
-    "save_driver_style",
     "step_residuals",
+    "style_from_coordinates",
+    "teacher_forced",
 ]
 
 SCREEN_CANDIDATES = 24
@@ -136,22 +135,6 @@ def cauchy_residuals(r: np.ndarray, scale: float) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- learning
-PROFILE_RISKS = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.99)
-"""Risks of the 1-D profile over p (identification's grid, :data:`RISK_EVAL` of
-:mod:`~drivestyle.irl.driver.risk_profile`): where :func:`learn_driver` looks for a better risk
-than its Levenberg–Marquardt run found, and each demonstration's best risk."""
-PROFILE_ROUNDS = 3
-"""Profile-then-LM rounds per start at most (each round must lower the cost)."""
-POOR_FIT_RATIO = 3.0
-"""A demonstration whose residual RMS exceeds this many noise floors, and whose closed loop
-does not reproduce it (:data:`REPRODUCTION_TOLERANCE`), is not explained by the learned
-driver: status ``poor_fit``."""
-REPRODUCTION_TOLERANCE = 0.01
-"""Closed-loop rmse_xy [m] within which the learned style reproduces a demonstration: its
-teacher-forced residual above the threshold is then the learner's (a local minimum whose
-mistimed plans re-planning recovers) or the recorded inputs', not the trajectory's. Exact
-fits reproduce to 1e-4 m; the local minima measured left 0.04–1.1 m, recorded drivers
-≈ 1 m."""
 ROBUST_SCALE = POOR_FIT_RATIO
 """c of the Cauchy loss of the first descent, in noise floors: a step whose residual lies
 above the poor-fit threshold weighs as an outlier there."""
@@ -164,175 +147,10 @@ NEGLIGIBLE_RATIO = 1e-3
 demonstrations: it stops there and the other starts are not tried (near an exact fit
 forward-difference LM converges linearly, ≈ ×0.3 per iteration: the way on to 1e-20 is
 least squares' alone)."""
-RISK_AGREEMENT = 0.05
-"""A demonstration whose best risk alone lies further than this (the profile grid's
-spacing) from the learned risk disagrees with it."""
-_EXACT = 1e-18
-"""A cost this small is an exact fit (simulated drivers reach ~1e-22): nothing to improve."""
 _RISK_STEP = 0.0025
 """Forward-difference step of the risk coordinate (p itself)."""
 _RISK_MAX_STEP = 0.1
 """Largest change of p in one Levenberg–Marquardt step."""
-
-
-@dataclass(frozen=True)
-class ClosedLoop:
-    """A style driven in closed loop in a demonstration's scenario (:func:`reproduce`)."""
-
-    rmse_y_m: float
-    """RMS lateral error against the demonstration [m]."""
-    rmse_xy_m: float
-    """RMS position error [m]."""
-    min_d: float
-    """Least nominal ellipse margin
-    (:attr:`~drivestyle.irl.driver.driver_style.Reproduction.min_d`)."""
-    failures: int
-    """Steps whose solve failed."""
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict (an entry of ``style.json``'s ``reproductions``)."""
-        return {"rmse_y_m": self.rmse_y_m, "rmse_xy_m": self.rmse_xy_m, "min_d": self.min_d,
-                "failures": self.failures}  # fmt: skip
-
-
-def closed_loop_errors(
-    style: DriverStyle, demo: Demonstration, planner: StylePlanner | None = None
-) -> ClosedLoop:
-    """Drive ``style`` from the demonstration's first state and measure it against it.
-
-    Args:
-        style: the driver style.
-        demo: the demonstration.
-        planner: the NLP (default: the cached one of the demo's geometry).
-
-    Returns:
-        Its rmse_y, rmse_xy [m], least ellipse margin and failed solves.
-    """
-    rep = reproduce(style, demo, planner)
-    rmse_y, rmse_xy = rep.errors(demo)
-    return ClosedLoop(rmse_y, rmse_xy, rep.min_d, rep.failures)
-
-
-@dataclass(frozen=True)
-class DemoFit:
-    """How well the learned style explains one demonstration."""
-
-    index: int
-    """Position of the demonstration in the input."""
-    n_residuals: int
-    """Residual entries (2 per step)."""
-    residual_rms: float
-    """RMS of its residuals at the learned style [σ_u units]."""
-    active_steps: int
-    """Steps whose plan has a binding chance constraint (where p matters; 0: the
-    demonstration says nothing about p)."""
-    best_risk: float | None
-    """The risk that fits this demonstration best with the learned weights (the profile's
-    grid risks and the learned one); None when the risks were given."""
-    best_residual_rms: float | None
-    """Its residual RMS at ``best_risk``."""
-    poor: bool
-    """The learned driver does not explain it: residual RMS above the poor-fit threshold
-    and the closed loop (where driven) not within :data:`REPRODUCTION_TOLERANCE`."""
-    disagrees: bool = False
-    """Alone it prefers another risk: ``best_risk`` lies more than :data:`RISK_AGREEMENT`
-    from the learned one (with the learned weights)."""
-    closed_loop: ClosedLoop | None = None
-    """The learned style driven in closed loop from its first state (None: not driven)."""
-
-    @property
-    def reproduced(self) -> bool:
-        """The closed loop lies within :data:`REPRODUCTION_TOLERANCE` of it."""
-        return self.closed_loop is not None and self.closed_loop.rmse_xy_m <= REPRODUCTION_TOLERANCE
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {
-            "disagrees": self.disagrees,
-            "index": self.index,
-            "n_residuals": self.n_residuals,
-            "residual_rms": self.residual_rms,
-            "active_steps": self.active_steps,
-            "best_risk": self.best_risk,
-            "best_residual_rms": self.best_residual_rms,
-            "poor": self.poor,
-            "closed_loop": None if self.closed_loop is None else self.closed_loop.to_json(),
-            "reproduced": self.reproduced,
-        }
-
-
-@dataclass(frozen=True)
-class DriverFit:
-    """The result of :func:`learn_driver`."""
-
-    style: DriverStyle
-    """The learned style (weights, risk, desired speed)."""
-    risks: tuple[float, ...]
-    """The risk each demonstration was fitted with (all equal unless risks were given)."""
-    cost: float
-    """½ Σ ‖r‖² at the optimum (teacher-forced input residuals)."""
-    residual_rms: float
-    """RMS of the residuals (in σ_u units)."""
-    n_residuals: int
-    """Number of residual entries (2 per step)."""
-    iterations: int
-    """Levenberg–Marquardt iterations (every descent's)."""
-    status: str
-    """'converged', 'max_iter', 'stalled' (no step lowered the cost) or 'poor_fit' (the
-    optimiser stopped, but some demonstrations' residuals are far above the noise floor
-    and the learned style's closed loop does not reproduce them: no single driver of the
-    class explains them all; see ``per_demo``)."""
-    seconds: float
-    """Wall time [s]."""
-    history: tuple[float, ...] = field(default=())
-    """Cost per iteration of the final (least-squares) descent."""
-    residual_floor: float = RESIDUAL_FLOOR
-    """The noise floor the residuals were compared with [σ_u units]."""
-    per_demo: tuple[DemoFit, ...] = field(default=())
-    """Per demonstration, in input order: residual RMS, best risk, poor or not."""
-    optimiser_status: str = ""
-    """The optimiser's own status ('converged', 'max_iter' or 'stalled') under
-    ``poor_fit``; equal to ``status`` otherwise."""
-    notes: tuple[str, ...] = field(default=())
-    """What the status does not say: a demonstration whose residual lies above the
-    threshold but whose closed loop reproduces it (:func:`reproduced_note`)."""
-
-    @property
-    def poor_fit_threshold(self) -> float:
-        """Residual RMS above which a demonstration is poorly fitted [σ_u units]."""
-        return POOR_FIT_RATIO * self.residual_floor
-
-    @property
-    def poor_demos(self) -> tuple[int, ...]:
-        """Indices of the demonstrations the learned driver does not explain.
-
-        The poorly fitted ones that alone prefer another risk (the odd ones out: the shared
-        weights compromise for them, which may lift the others above the threshold too),
-        else every poorly fitted one.
-        """
-        poor = [d for d in self.per_demo if d.poor]
-        odd = [d for d in poor if d.disagrees]
-        return tuple(d.index for d in (odd or poor))
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {
-            "style": self.style.to_json(),
-            "risks": list(self.risks),
-            "cost": self.cost,
-            "residual_rms": self.residual_rms,
-            "n_residuals": self.n_residuals,
-            "iterations": self.iterations,
-            "status": self.status,
-            "optimiser_status": self.optimiser_status or self.status,
-            "residual_floor": self.residual_floor,
-            "poor_fit_threshold": self.poor_fit_threshold,
-            "poor_demos": list(self.poor_demos),
-            "per_demo": [d.to_json() for d in self.per_demo],
-            "notes": list(self.notes),
-            "seconds": self.seconds,
-            "history": list(self.history),
-        }
 
 
 def style_from_coordinates(
@@ -410,7 +228,8 @@ def learn_driver(
     while its trend falls 160-fold to p = 0.5), so LM alone stops on a tooth far from the
     driver's risk: before and after each LM run the 1-D profile over
     :data:`PROFILE_RISKS` (weights fixed) moves p to a grid risk that fits better, and
-    LM restarts from there (at most :data:`PROFILE_ROUNDS` runs). Least squares also has
+    LM restarts from there (at most
+    :data:`~drivestyle.irl.driver.descent.PROFILE_ROUNDS` runs). Least squares also has
     local minima where a few steps' plans switch branch a step early or late: LM raises
     the steering weight to damp them and stops (five SMPC(0.9) demonstrations: w_δ 25–1133
     against the driver's 10, some ``poor_fit``). So the descents from the ``restarts``
@@ -542,7 +361,7 @@ def learn_driver(
         lower += [TIME_GAP_RANGE[0], MIN_GAP_RANGE[0]]
         upper += [TIME_GAP_RANGE[1], MIN_GAP_RANGE[1]]
     z0 = np.array(z, dtype=float)
-    box = _Box(np.array(fd), np.array(big), np.array(lower), np.array(upper))
+    box = Box(np.array(fd), np.array(big), np.array(lower), np.array(upper))
     rng = np.random.default_rng(SCREEN_SEED)
     candidates = [z0]
     for _ in range(max(screen, 1) - 1 if fit_weights else 0):
@@ -573,12 +392,12 @@ def learn_driver(
     # a Cauchy descent is done when the fit is negligible against the noise floor
     negligible = 0.5 * scored[0][3].size * (NEGLIGIBLE_RATIO * residual_floor) ** 2
 
-    def descend(z: np.ndarray, r: np.ndarray, robust: bool) -> _Run:
+    def descend(z: np.ndarray, r: np.ndarray, robust: bool) -> Run:
         prof = (robust_profile if robust else profile) if risk_free else None
-        return _descend(
+        return descent.descend(
             (lambda x: residuals(x, robust=True)) if robust else residuals, prof, i_p, z, r,
             0.5 * float(r @ r), box, max_iter, ROBUST_TOL if robust else tol, progress,
-            max(negligible, _EXACT) if robust else _EXACT,
+            max(negligible, EXACT) if robust else EXACT,
         )  # fmt: skip
 
     starts = scored[: max(restarts, 1)]
@@ -618,7 +437,7 @@ def learn_driver(
         closed_loop_errors(replace(style, risk=p), d, planners[i])
         for i, (d, p) in enumerate(zip(demos, ps, strict=True))
     ]
-    per_demo = _diagnose(final, best.ssr, style.risk if risk_free else None, residual_floor, closed)
+    per_demo = diagnose(final, best.ssr, style.risk if risk_free else None, residual_floor, closed)
     r = best.r
     rms = float(np.sqrt(np.mean(r**2)))
     # the whole fit's RMS lies above the threshold only if some demonstration's does
@@ -643,243 +462,3 @@ def learn_driver(
         optimiser_status=status,
         notes=notes,
     )
-
-
-def reproduced_note(demo: DemoFit, floor: float, name: str) -> str:
-    """One sentence: ``demo``'s residual lies above the threshold, its closed loop within.
-
-    Args:
-        demo: a demonstration's fit (driven in closed loop).
-        floor: the noise floor [σ_u units].
-        name: how to call the demonstration (a file name, or ``per_demo[i]``).
-    """
-    xy = demo.closed_loop.rmse_xy_m if demo.closed_loop is not None else float("nan")
-    return (
-        f"{name}: teacher-forced residual {demo.residual_rms / floor:.1f} noise floors, above "
-        f"{POOR_FIT_RATIO:g}, but the closed loop reproduces it (rmse_xy {xy:.3f} m ≤ "
-        f"{REPRODUCTION_TOLERANCE:g} m): not a poor fit of the data (a local minimum of "
-        "learning, or recorded inputs its path does not show)"
-    )
-
-
-def _diagnose(
-    final: list[tuple[np.ndarray, np.ndarray]],
-    ssr: np.ndarray | None,
-    risk: float | None,
-    floor: float,
-    closed: Sequence[ClosedLoop | None] | None = None,
-) -> list[DemoFit]:
-    """Per demonstration: residual RMS, best risk alone, and whether it is explained.
-
-    Explained: its residual RMS within the poor-fit threshold, or its closed loop within
-    :data:`REPRODUCTION_TOLERANCE`.
-
-    Args:
-        final: each demonstration's residuals and chance activity at the learned style.
-        ssr: Σ‖r‖² per (profile risk, demonstration) at the learned weights, or None
-            (risks given, or an exact fit: the learned risk is each one's best).
-        risk: the learned shared risk (None: the risks were given).
-        floor: the noise floor [σ_u units].
-        closed: each demonstration's closed loop at the learned style (None: not driven,
-            the residual alone decides).
-    """
-    loops = list(closed) if closed is not None else [None] * len(final)
-    out = []
-    for i, ((r, active), loop) in enumerate(zip(final, loops, strict=True)):
-        n = int(r.size)
-        s_here = float(np.sum(r**2))
-        rms = float(np.sqrt(s_here / max(n, 1)))
-        best_risk, best_rms = (risk, rms) if risk is not None else (None, None)
-        if ssr is not None and risk is not None:
-            column = np.append(ssr[:, i], s_here)
-            j = int(np.argmin(column))
-            best_risk = float(PROFILE_RISKS[j]) if j < len(PROFILE_RISKS) else risk
-            best_rms = float(np.sqrt(column[j] / max(n, 1)))
-        reproduced = loop is not None and loop.rmse_xy_m <= REPRODUCTION_TOLERANCE
-        poor = rms > POOR_FIT_RATIO * floor and not reproduced
-        disagrees = (
-            best_risk is not None and risk is not None and abs(best_risk - risk) > RISK_AGREEMENT
-        )
-        out.append(DemoFit(i, n, rms, int(active.sum()), best_risk, best_rms, poor, disagrees,
-                           loop))  # fmt: skip
-    return out
-
-
-@dataclass(frozen=True)
-class _Box:
-    """The coordinates' forward-difference steps, largest steps and bounds."""
-
-    fd: np.ndarray
-    max_step: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-
-
-class _Run(NamedTuple):
-    """One start's descent (:func:`_descend`)."""
-
-    z: np.ndarray
-    r: np.ndarray
-    cost: float
-    history: list[float]
-    iterations: int
-    status: str
-    ssr: np.ndarray | None
-    """The profile over p at the final weights (None: the risk was not free)."""
-
-
-def _descend(
-    residuals: Callable[[np.ndarray], np.ndarray],
-    profile: Callable[[np.ndarray], tuple[np.ndarray, list[np.ndarray]]] | None,
-    i_p: int,
-    z: np.ndarray,
-    r: np.ndarray,
-    cost: float,
-    box: _Box,
-    max_iter: int,
-    tol: float,
-    progress: Callable[[int, float], None] | None,
-    exact: float = _EXACT,
-) -> _Run:
-    """LM from z, alternating with the 1-D profile over p while it finds a better risk.
-
-    Args:
-        residuals: z → all residuals.
-        profile: z → (Σ‖r‖² per profile risk and demonstration, the residuals per risk),
-            or None when the risk is not a coordinate.
-        i_p: the risk's coordinate.
-        z: the start.
-        r: its residuals.
-        cost: ½‖r‖².
-        box: the coordinates' steps and bounds.
-        max_iter: iteration cap of each LM run.
-        tol: relative cost decrease below which a run has converged.
-        progress: called with (iteration, cost) after each iteration.
-        exact: a cost this small is an exact fit: nothing to improve.
-    """
-    history = [cost]
-    iterations, status = 0, "converged"
-    ssr, rs = profile(z) if profile is not None and cost > exact else (None, [])
-    for round_ in range(PROFILE_ROUNDS):
-        if cost <= exact:
-            break
-        if ssr is not None:
-            totals = 0.5 * ssr.sum(axis=1)
-            j = int(np.argmin(totals))
-            # another grid risk fits clearly better at these weights: LM's p sat on a
-            # tooth of the saw (or the start's p was far off)
-            if totals[j] < cost * (1.0 - tol) - 1e-12:
-                z = z.copy()
-                z[i_p] = PROFILE_RISKS[j]
-                r, cost = rs[j], float(totals[j])
-                history.append(cost)
-            elif round_ > 0:
-                break
-        z, r, cost, h, it, status = _levenberg_marquardt(
-            residuals, z, r, cost, box, max_iter, tol, progress, exact
-        )
-        history.extend(h[1:])
-        iterations += it
-        if profile is None or cost <= exact:
-            break
-        ssr, rs = profile(z)
-    if profile is not None and ssr is None and cost > exact:
-        ssr, _ = profile(z)  # each demonstration's best risk (DriverFit.per_demo)
-    return _Run(z, r, cost, history, iterations, status, ssr)
-
-
-def _levenberg_marquardt(
-    residuals: Callable[[np.ndarray], np.ndarray],
-    z: np.ndarray,
-    r: np.ndarray,
-    cost: float,
-    box: _Box,
-    max_iter: int,
-    tol: float,
-    progress: Callable[[int, float], None] | None,
-    exact: float = _EXACT,
-) -> tuple[np.ndarray, np.ndarray, float, list[float], int, str]:
-    """Projected LM with forward-difference Jacobians from z (residuals r, cost ½‖r‖²).
-
-    A coordinate at its bound whose gradient points out of the box is held for the
-    iteration; the step is clipped to each coordinate's largest step and to the box. A
-    cost at or below ``exact`` is an exact fit: the run stops there.
-
-    Returns:
-        (z, r, cost, cost history, iterations, status).
-    """
-    history = [cost]
-    lam = 1e-2
-    status = "max_iter"
-    it = 0
-    if cost <= exact:
-        return z, r, cost, history, it, "converged"
-    for it in range(1, max_iter + 1):
-        J = np.empty((r.size, z.size))
-        for i in range(z.size):
-            h = box.fd[i] if z[i] + box.fd[i] <= box.upper[i] else -box.fd[i]
-            dz = np.zeros(z.size)
-            dz[i] = h
-            J[:, i] = (residuals(z + dz) - r) / h
-        g = J.T @ r
-        held = ((z <= box.lower) & (g > 0)) | ((z >= box.upper) & (g < 0))
-        move = ~held
-        H = (J.T @ J)[np.ix_(move, move)]
-        improved = False
-        for _ in range(8):
-            step = np.zeros(z.size)
-            step[move] = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g[move])
-            step = np.clip(step, -box.max_step, box.max_step)
-            z_try = np.clip(z + step, box.lower, box.upper)
-            r_try = residuals(z_try)
-            cost_try = 0.5 * float(r_try @ r_try)
-            if np.isfinite(cost_try) and cost_try < cost:
-                improved = True
-                break
-            lam *= 10.0
-        if not improved:
-            # nothing lowers the cost: a minimum (an exact fit counts, even at once)
-            status = "stalled" if it == 1 and cost > exact else "converged"
-            break
-        rel = (cost - cost_try) / max(cost, 1e-12)
-        z, r, cost = z_try, r_try, cost_try
-        lam = max(lam / 10.0, 1e-6)
-        history.append(cost)
-        if progress is not None:
-            progress(it, cost)
-        if rel < tol or cost <= exact:
-            status = "converged"
-            break
-    return z, r, cost, history, it, status
-
-
-def save_driver_style(
-    fit: DriverFit,
-    path: str | Path,
-    demo_paths: Sequence[str] = (),
-    reproductions: Sequence[dict[str, Any]] = (),
-) -> Path:
-    """Write a driver-style file (``kind`` :data:`DRIVER_STYLE_KIND`).
-
-    Args:
-        fit: the learning result.
-        path: the file to write.
-        demo_paths: the demonstrations it was learned from.
-        reproductions: per demonstration, e.g. ``{"rmse_y_m": …, "rmse_xy_m": …}``.
-
-    Returns:
-        The path written.
-    """
-    fitted = fit.to_json()
-    if len(demo_paths) == len(fit.per_demo):  # name the demonstrations, poor ones too
-        paths = [str(p) for p in demo_paths]
-        fitted["per_demo"] = [{"path": paths[d["index"]], **d} for d in fitted["per_demo"]]
-    payload = {
-        "kind": DRIVER_STYLE_KIND,
-        "version": 1,
-        "model": "receding-horizon style (DESIGN §15)",
-        **fitted,
-        "demos": [{"path": str(p)} for p in demo_paths],
-        "reproductions": list(reproductions),
-    }
-    return write_json(Path(path), payload)

@@ -23,6 +23,12 @@ from a demonstration's first state, re-planning every T_s against the recorded s
 vehicles, as the driver did. Learning a style from demonstrations (teacher forcing) is
 :mod:`drivestyle.irl.driver.driver_learning`; its fit per risk, which identification uses, is
 :mod:`drivestyle.irl.driver.risk_profile`. The NLP itself is :mod:`drivestyle.planning`'s.
+
+The module is one concept at ≈ 750 lines: a driver style *is* a planner, so its parameters
+(:class:`DriverStyle`), the planner that solves its NLP for every style of the class
+(:class:`StylePlanner`, the model's prediction of the driver's inputs that learning and
+identification compare with the recorded ones, not a controller of the simulated world) and
+the closed loop that drives it are the model together.
 """
 
 from __future__ import annotations

@@ -39,7 +39,8 @@ from drivestyle.common.io import read_json
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver.driver_learning import DriverFit, learn_driver
+from drivestyle.irl.driver.driver_fit import DriverFit
+from drivestyle.irl.driver.driver_learning import learn_driver
 from drivestyle.irl.driver.driver_style import (
     RESIDUAL_FLOOR,
     RISK_RANGE,

@@ -230,7 +230,7 @@ def test_learn_style_refuses_options_of_the_other_model(
 
 def test_learn_style_exits_3_on_a_poor_fit_and_names_the_demonstration(tmp_path, demo_file, capsys):
     from drivestyle.common.cli import run_cli
-    from drivestyle.irl.driver.driver_learning import ClosedLoop, DemoFit, DriverFit
+    from drivestyle.irl.driver.driver_fit import ClosedLoop, DemoFit, DriverFit
     from drivestyle.irl.driver.driver_style import DriverStyle
 
     def poor_fit(demos, **kwargs):  # two drivers' demonstrations: the second unexplained

@@ -9,19 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver.driver_learning import (
-    POOR_FIT_RATIO,
-    REPRODUCTION_TOLERANCE,
-    RESIDUAL_FLOOR,
-    ClosedLoop,
-    DemoFit,
-    DriverFit,
-    _Box,
-    _diagnose,
-    _levenberg_marquardt,
-    cauchy_residuals,
-    learn_driver,
-)
+from drivestyle.irl.driver.driver_fit import REPRODUCTION_TOLERANCE
+from drivestyle.irl.driver.driver_learning import cauchy_residuals, learn_driver
 from drivestyle.irl.driver.driver_style import INPUT_SCALE, DriverStyle, DriverStyleError
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
@@ -38,23 +27,6 @@ def smpc_demos():
 
     scenarios = draw_interactive_scenarios(3, seed=0, probe_risk=0.5)
     return generate_demonstrations([0.5, 0.55, 0.9], scenarios, workers=1)
-
-
-# ---------------------------------------------------------------------------- the optimiser
-def test_projected_lm_reaches_a_bound_exactly():
-    # r(z) = z − (−1, 2): the minimum of the first coordinate lies below its bound 0
-    def residuals(z):
-        return z - np.array([-1.0, 2.0])
-
-    box = _Box(np.full(2, 1e-3), np.full(2, 0.4), np.array([0.0, -np.inf]), np.full(2, np.inf))
-    z0 = np.array([0.7, 0.0])
-    r0 = residuals(z0)
-    z, _, cost, _, _, status = _levenberg_marquardt(
-        residuals, z0, r0, 0.5 * float(r0 @ r0), box, 50, 1e-10, None
-    )
-    assert z[0] == 0.0  # on the bound, not approaching it (a sigmoid never gets there)
-    assert z[1] == pytest.approx(2.0, abs=1e-6)
-    assert cost == pytest.approx(0.5) and status == "converged"
 
 
 def test_cauchy_residuals_are_the_square_root_of_the_steps_cauchy_loss():
@@ -126,46 +98,6 @@ def test_a_low_risk_driver_is_learned_with_the_default_search(smpc_demos, risk, 
 
 
 # ---------------------------------------------------------------------------- honest status
-def _fit_with(per_demo):
-    return DriverFit(
-        DriverStyle(SMPC_WEIGHTS, risk=0.5), (0.5,) * len(per_demo), 1.0, 1.0, 120, 3,
-        "poor_fit", 1.0, per_demo=tuple(per_demo), optimiser_status="converged",
-    )  # fmt: skip
-
-
-def test_diagnosis_names_the_demonstration_no_shared_driver_explains():
-    exact, off = np.zeros((30, 2)), np.full((30, 2), 4.0)
-    active = np.ones(30, bool)
-    ssr = np.zeros((13, 2))
-    ssr[:, 1] = np.linspace(960.0, 0.0, 13)  # alone, the second is best at p = 0.99
-    per_demo = _diagnose([(exact, active), (off, active)], ssr, 0.5, RESIDUAL_FLOOR)
-    assert [d.poor for d in per_demo] == [False, True]
-    assert per_demo[1].residual_rms == pytest.approx(4.0)
-    assert per_demo[1].best_risk == 0.99 and per_demo[1].best_residual_rms == 0.0
-    assert per_demo[0].best_risk == 0.5 and per_demo[0].active_steps == 30
-    assert per_demo[1].disagrees and not per_demo[0].disagrees
-    fit = _fit_with(per_demo)
-    assert fit.poor_demos == (1,)
-    assert fit.poor_fit_threshold == pytest.approx(POOR_FIT_RATIO * RESIDUAL_FLOOR)
-    payload = fit.to_json()
-    assert payload["status"] == "poor_fit" and payload["optimiser_status"] == "converged"
-    assert payload["poor_demos"] == [1] and payload["residual_floor"] == RESIDUAL_FLOOR
-    assert payload["per_demo"][1]["best_risk"] == 0.99 and payload["per_demo"][1]["poor"]
-    # the shared weights' compromise lifts an agreeing demonstration too: the odd one is named
-    lifted = [per_demo[1], DemoFit(0, 60, 0.6, 30, 0.5, 0.6, True, False)]
-    assert _fit_with(lifted).poor_demos == (1,)
-    both = [DemoFit(0, 60, 0.6, 30, 0.5, 0.6, True), DemoFit(1, 60, 0.5, 30, 0.5, 0.5, True)]
-    assert _fit_with(both).poor_demos == (0, 1)  # no odd one: every poorly fitted one
-
-
-def test_a_residual_above_the_threshold_counts_only_where_the_closed_loop_misses():
-    off, active = np.full((30, 2), 1.0), np.ones(30, bool)  # 10 floors
-    near = ClosedLoop(0.002, REPRODUCTION_TOLERANCE / 2, 0.5, 0)
-    far = ClosedLoop(0.2, 1.5, 0.5, 0)
-    per_demo = _diagnose([(off, active)] * 3, None, 0.7, RESIDUAL_FLOOR, [near, far, None])
-    assert [d.reproduced for d in per_demo] == [True, False, False]
-    assert [d.poor for d in per_demo] == [False, True, True]  # not driven: the residual decides
-    assert per_demo[0].to_json()["closed_loop"]["rmse_xy_m"] == REPRODUCTION_TOLERANCE / 2
 
 
 def test_a_fit_whose_closed_loop_reproduces_the_demonstration_is_not_poor(paper_demo):
@@ -199,14 +131,6 @@ def test_a_fit_whose_closed_loop_misses_the_demonstration_stays_poor(paper_demo)
         d = fit.per_demo[i]
         assert d.residual_rms > fit.poor_fit_threshold and not d.reproduced
         assert d.closed_loop.rmse_xy_m > 10 * REPRODUCTION_TOLERANCE
-
-
-def test_a_larger_floor_accepts_larger_residuals():
-    off = np.full((30, 2), 0.5)
-    (tight,) = _diagnose([(off, np.ones(30, bool))], None, 0.7, RESIDUAL_FLOOR)
-    (loose,) = _diagnose([(off, np.ones(30, bool))], None, 0.7, 1.0)
-    assert tight.poor and not loose.poor
-    assert isinstance(tight, DemoFit) and tight.best_risk == 0.7
 
 
 def test_learning_refuses_a_non_positive_floor(paper_demo):

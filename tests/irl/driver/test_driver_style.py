@@ -7,12 +7,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver.driver_learning import (
-    DriverFit,
-    learn_driver,
-    save_driver_style,
-    step_residuals,
-)
+from drivestyle.irl.driver.driver_fit import DriverFit, save_driver_style
+from drivestyle.irl.driver.driver_learning import learn_driver, step_residuals
 from drivestyle.irl.driver.driver_style import (
     INPUT_SCALE,
     DriverStyle,
