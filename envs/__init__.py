@@ -28,7 +28,8 @@ import gymnasium as gym
 
 from drivestyle.envs.demonstration import Demonstration, load_demonstration, save_demonstration
 from drivestyle.envs.dynamics import bicycle_ode, rk4_step
-from drivestyle.envs.lane_change import LaneChangeEnv, task_reward
+from drivestyle.envs.lane_change import LaneChangeEnv
+from drivestyle.envs.reward_model import task_reward
 from drivestyle.envs.safety import ellipse_constraint, elliptical_index
 from drivestyle.envs.scenario import PAPER, SCENARIOS, ScenarioConfig, ScenarioRanges, get_scenario
 

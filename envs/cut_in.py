@@ -13,7 +13,7 @@ x = ``ev_x + tv_gap``, initial speed ``tv_speed``, which is also its desired spe
 The cutter's driver is a plug-in (:class:`CutInDriver`): the env package does not import
 the agents package (layering ``envs ← irl ← agents``), so the default driver, SMPC(p)
 (:class:`drivestyle.agents.smpc.SMPCDriver`), is found through the entry point ``smpc``
-of the group :data:`DRIVER_PLUGINS`, as :func:`drivestyle.envs.lane_change.style_reward_model`
+of the group :data:`DRIVER_PLUGINS`, as :func:`drivestyle.envs.reward_model.style_reward_model`
 finds the learned reward.
 """
 

@@ -1,7 +1,9 @@
 """The three-lane highway lane-change environment (paper §IV-A).
 
 An ego vehicle (EV) driven by continuous physical inputs [a, δ] changes from ``ev_lane``
-to ``target_lane`` while a scripted target vehicle (TV) drives at constant speed.
+to ``target_lane`` while a scripted target vehicle (TV) drives at constant speed. Its
+reward, the task's or a :class:`~drivestyle.envs.reward_model.RewardModel`'s, is
+:mod:`drivestyle.envs.reward_model`'s.
 """
 
 from __future__ import annotations
@@ -9,35 +11,26 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from importlib.metadata import entry_points
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol, SupportsFloat
+from typing import TYPE_CHECKING, Any, ClassVar, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from drivestyle.envs.dynamics import rk4_step_scalar
+from drivestyle.envs.reward_model import (
+    COLLISION_PENALTY,
+    RewardModel,
+    check_reward_model,
+    style_reward_model,
+)
 from drivestyle.envs.safety import rectangles_overlap, vehicle_corners
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges, get_scenario
 
 if TYPE_CHECKING:
     from drivestyle.envs.rendering import HighwayRenderer
 
-__all__ = [
-    "COLLISION_PENALTY",
-    "REWARD_PLUGINS",
-    "LaneChangeEnv",
-    "RewardModel",
-    "TVDeviation",
-    "task_reward",
-]
-
-COLLISION_PENALTY = 10.0
-"""Reward lost on a collision or on leaving the road (the episode then terminates)."""
-
-
-REWARD_PLUGINS = "drivestyle.rewards"
-"""Entry-point group of reward models that ``style=`` resolves (the ``style`` entry)."""
+__all__ = ["LaneChangeEnv", "TVDeviation"]
 
 
 @dataclass(frozen=True)
@@ -68,92 +61,6 @@ class TVDeviation:
     def accel_at(self, t: float) -> float:
         """The TV's acceleration over the step starting at t [m/s²]."""
         return self.accel if self.t_start <= t < self.t_start + self.duration else 0.0
-
-
-class RewardModel(Protocol):
-    """A reward computed from the growing trajectory (e.g. a learned style's cost).
-
-    The env calls ``reset`` at every reset and ``step`` after every step; on a crash it
-    also subtracts ``crash_penalty``.
-    """
-
-    crash_penalty: float
-
-    def reset(
-        self,
-        scenario: ScenarioConfig,
-        ev: np.ndarray,
-        tv: np.ndarray,
-        others: np.ndarray | None = None,
-    ) -> None:
-        """Start a trajectory at the episode's first sample."""
-
-    def step(
-        self,
-        u: np.ndarray,
-        ev: np.ndarray,
-        tv: np.ndarray,
-        dt: float,
-        others: np.ndarray | None = None,
-    ) -> tuple[float, np.ndarray]:
-        """Add a sample; return (reward, per-feature increment).
-
-        In traffic (:class:`drivestyle.envs.traffic.TrafficEnv`) ``reset`` and ``step`` also receive
-        ``others``: the further vehicles' states, shape (m, 4); the single-TV env passes none.
-        """
-
-
-def style_reward_model(style: Any) -> RewardModel:
-    """The reward model of a learned style, through the ``drivestyle.rewards`` plugin.
-
-    The env package does not import the learning package (layering ``envs ← irl``); the
-    learned reward registers itself as the entry point ``style`` of the group
-    :data:`REWARD_PLUGINS` in the distribution's metadata (``pyproject.toml``), which is
-    how ``gym.make(id, style=...)`` composes the two.
-
-    Args:
-        style: a ``style.json`` path (or its folder) or a loaded style.
-
-    Raises:
-        RuntimeError: no reward plugin is installed (install the project with pip).
-    """
-    found = entry_points(group=REWARD_PLUGINS, name="style")
-    if not found:
-        raise RuntimeError(
-            "style= needs the learned-reward plugin 'style' of the entry-point group "
-            f"{REWARD_PLUGINS!r}; install the project (pip install -e .) or pass reward="
-        )
-    return next(iter(found)).load()(style)
-
-
-def _check_reward_model(reward: Any) -> None:
-    """Raise a TypeError naming ``reward=`` unless it has the :class:`RewardModel` API."""
-    missing = [name for name in ("reset", "step") if not callable(getattr(reward, name, None))]
-    if not hasattr(reward, "crash_penalty"):
-        missing.append("crash_penalty")
-    if missing:
-        raise TypeError(
-            f"reward must be a RewardModel (reset(), step(), crash_penalty); "
-            f"{type(reward).__name__} lacks {missing}"
-        )
-
-
-def task_reward(ev: np.ndarray, sc: ScenarioConfig, crashed: bool) -> float:
-    """Default task reward of one step, evaluated at the EV's new state.
-
-    r = −[((y − y_ref)/w_lane)² + ((v − v_ref)/10 m/s)²] − 10·[collision or off-road].
-
-    Args:
-        ev: EV state after the step [x, y, φ, v].
-        sc: the scenario (target lane centre, v_ref, lane width).
-        crashed: the step ended in a collision or off the road.
-
-    Returns:
-        The reward [-].
-    """
-    lane_err = (ev[1] - sc.y_ref) / sc.lane_width
-    speed_err = (ev[3] - sc.v_ref) / 10.0
-    return float(-(lane_err**2 + speed_err**2) - COLLISION_PENALTY * crashed)
 
 
 class _StepConstants:
@@ -363,7 +270,7 @@ class LaneChangeEnv(gym.Env):
         if not isinstance(show_ellipse, (bool, np.bool_)):
             raise TypeError(f"show_ellipse must be a bool, got {show_ellipse!r}")
         if reward is not None:
-            _check_reward_model(reward)
+            check_reward_model(reward)
         self._reward_model = style_reward_model(style) if style is not None else reward
         if randomize is True:
             randomize = ScenarioRanges(base=base)
@@ -478,7 +385,7 @@ class LaneChangeEnv(gym.Env):
         """Hook: the lane centre [m] and the speed [m/s] of the task reward's errors.
 
         The base class holds the controlled vehicle to the target lane's centre y_ref and
-        to v_ref (:func:`task_reward`).
+        to v_ref (:func:`~drivestyle.envs.reward_model.task_reward`).
         """
         c = self._constants()
         return c.y_ref, c.v_ref

@@ -143,7 +143,7 @@ class DriverCost:
     """A driver style's per-step cost as the env's reward model (module docstring).
 
     Implements the env's reward-model protocol
-    (:class:`drivestyle.envs.lane_change.RewardModel`); ``step`` returns the terms of
+    (:class:`drivestyle.envs.reward_model.RewardModel`); ``step`` returns the terms of
     :func:`driver_step_cost` as the increment.
 
     Args:

@@ -60,7 +60,7 @@ class StyleReward:
     """Incremental learned cost of a growing trajectory (module docstring).
 
     It implements the env's reward-model protocol
-    (:class:`drivestyle.envs.lane_change.RewardModel`):
+    (:class:`drivestyle.envs.reward_model.RewardModel`):
     ``reset(scenario, ev, tv)``, ``step(u, ev, tv, dt) -> (reward, Δf)`` and
     ``crash_penalty``.
 

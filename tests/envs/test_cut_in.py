@@ -7,7 +7,7 @@ import pytest
 import drivestyle.envs  # noqa: F401 (registers the ids)
 from drivestyle.envs import ScenarioConfig, ScenarioRanges, rk4_step
 from drivestyle.envs.cut_in import CUT_IN, RISK_BOUNDS, CutInEnv
-from drivestyle.envs.lane_change import COLLISION_PENALTY
+from drivestyle.envs.reward_model import COLLISION_PENALTY
 from drivestyle.envs.safety import elliptical_index
 
 
