@@ -41,7 +41,7 @@ from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
 from drivestyle.studies.population import simulate_population
 
 TARGET_VEHICLES = 110_000
-"""A drone-recorded highway dataset's size (the issue's scale)."""
+"""A drone-recorded highway dataset's size: the scale mining is projected to."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -26,6 +26,11 @@ Event times (from the demonstration):
 Two guards, used everywhere (not only in the optimiser): the TIV integrand is
 v_lane / sqrt((x_TV − x_EV)² + d_0²) with d_0 = 1 m so a passing TV cannot make it
 singular; and inside the optimiser only, |z| is smoothed to sqrt(z² + ε²) − ε.
+
+The module is one concept at ≈ 640 lines: a feature is its integrand, the event times that
+bound it and its quadrature, written once here for the whole-trajectory features and the
+learned reward's segment integrals alike (the event times need the features' constants,
+and the features need the event times, so they do not part).
 """
 
 from __future__ import annotations

@@ -362,7 +362,7 @@ def test_bench_solver_paths_measures_each_path_against_the_product(tmp_path):
     res = _main("bench_solver_paths")(["--demos", "1", "--out", str(tmp_path / "paths.json")])
     summary = res["summary"]
     assert {"fatrop", "warm_duals", "warm_duals_mu", "continuation"} <= summary.keys()
-    # the interpreted product is the compiled one: S(p) equal to 1e-6 (the tolerance)
+    # the interpreted product is the compiled one: S(p) equal to 1e-6 (bench_solver_paths.EQUAL)
     assert summary["fatrop"]["demos_equal"] == 1 and summary["fatrop"]["reference"] == "product"
     assert summary["warm_duals"]["reference"] == "fatrop"
     for s in summary.values():
