@@ -61,7 +61,7 @@ def _not_yet_observed(states: np.ndarray, k: int) -> bool:
 
 
 def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, ScenarioConfig]:
-    """A recorded episode as an observer knows it after ``t_obs`` s (module docstring, No leak).
+    """A recorded episode as an observer knows it after ``t_obs`` s (module docstring).
 
     The episode is first seen as the driver model sees the samples 0 … k_obs
     (:func:`~drivestyle.recorded.real_data.recorded_view`: the recorded bounds where the

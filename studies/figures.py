@@ -1,4 +1,7 @@
-"""Every figure the project draws (the only module that imports matplotlib).
+"""The figures the studies draw, and the colours, lanes and saving they share.
+
+With the prediction study's own (:mod:`drivestyle.studies.prediction.figures`), the only
+modules that import matplotlib.
 
 Demonstrations (the paper's Fig. 2), learning (Figs. 3 and 4), the comparisons of the
 learned style's drivers, the uncertainty calibration, the RL learning curve, identification

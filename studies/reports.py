@@ -1,4 +1,6 @@
-"""Every Markdown report the studies write, and how they print times.
+"""The Markdown reports the studies write, and how they print times.
+
+The prediction study writes its own (:mod:`drivestyle.studies.prediction.report`).
 
 Each function takes a study's typed result and returns the Markdown text (or, for the
 parts of ``evaluation.md``, its lines); the scripts write it beside the JSON.

@@ -99,7 +99,6 @@ __all__ = [
 
 T_OBS = (1.0, 2.0, 3.0)
 """Observed times [s] (the issue's)."""
-
 VALIDATION_SEED = 19_000
 """The seed of the runs anything was chosen on (settings, tests)."""
 TEST_SEED = 19_001
