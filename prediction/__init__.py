@@ -19,8 +19,8 @@ style-aware planner re-plans with the style rollout). DESIGN §17.
     :class:`StyleRollout`; ``mixture`` :class:`PosteriorMixture` (the rollouts averaged
     with the posterior's mass).
 
-- :mod:`.predict`: :func:`predict` runs every method by name
-  (:func:`~drivestyle.prediction.predict.method_predictors`) and scores it
+- :mod:`.methods`: :func:`predict` runs every method by name
+  (:func:`~drivestyle.prediction.methods.method_predictors`) and scores it
   (:class:`Prediction` of :class:`MethodPrediction`); :func:`predict_demo` is the
   benchmark's prediction of one demonstration (a recorded episode through the no-leak view,
   :mod:`drivestyle.recorded.observed`).
@@ -38,15 +38,15 @@ from drivestyle.prediction.kinematic import (
     constant_acceleration,
     constant_velocity,
 )
-from drivestyle.prediction.physics import PhysicsBaseline, PhysicsParams, physics_forecast
-from drivestyle.prediction.physics_calibration import PHYSICS_FILE, calibrate_physics, load_params
-from drivestyle.prediction.predict import (
+from drivestyle.prediction.methods import (
     METHODS,
     MethodPrediction,
     Prediction,
     predict,
     predict_demo,
 )
+from drivestyle.prediction.physics import PhysicsBaseline, PhysicsParams, physics_forecast
+from drivestyle.prediction.physics_calibration import PHYSICS_FILE, calibrate_physics, load_params
 from drivestyle.prediction.protocol import ForecastError, Observation, PredictedPath, Predictor
 from drivestyle.prediction.regions import RegionCheck, region_coverage, region_rates
 from drivestyle.prediction.style import (

@@ -4,8 +4,8 @@ DESIGN §17. An *observer* has seen a vehicle's first samples ξ_0 … ξ_k and 
 vehicles around it (an :class:`Observation`: nothing after sample k is in it, so no
 predictor can read the future); a :class:`Predictor` returns the vehicle's positions
 ξ_k … ξ_{k+H} (a :class:`PredictedPath`, row 0 the present). Each method of
-:data:`drivestyle.prediction.predict.METHODS` is one predictor; :func:`~drivestyle.prediction.
-predict.predict` runs them by name.
+:data:`drivestyle.prediction.methods.METHODS` is one predictor;
+:func:`~drivestyle.prediction.methods.predict` runs them by name.
 """
 
 from __future__ import annotations

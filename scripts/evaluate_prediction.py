@@ -3,7 +3,7 @@ r"""Compare style-aware prediction with constant velocity on held-out and record
 Draws ``--vehicles`` simulated SMPC(p) vehicles of known risk (p ~ U[0.5, 0.95]; half in
 interactive scenarios of the random family, half in random traffic scenes) with ``--seed``
 and loads the recorded NGSIM and CATS episodes from ``--data-dir``; observes each for
-t_obs ∈ ``--observe`` seconds and predicts the rest with every method of prediction/predict.py
+t_obs ∈ ``--observe`` seconds and predicts the rest with every method of prediction/methods.py
 (cv, ca, population, mode, mixture, and the oracle on simulated vehicles); tracks each
 simulated vehicle's risk online over its whole demonstration. Writes
 ``OUT/prediction_eval.json`` (records, summaries per set, t_obs and method, the issue's goals

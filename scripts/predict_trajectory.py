@@ -2,7 +2,7 @@ r"""Predict the rest of a vehicle's trajectory after observing its first seconds
 
 Observes the demonstration for ``--observe`` seconds (a whole number of samples, less than
 the demonstration), identifies the vehicle online (its inputs unseen) and predicts the rest
-with every method of prediction/predict.py: constant velocity (``cv``) and acceleration (``ca``),
+with every method of prediction/methods.py: constant velocity (``cv``) and acceleration (``ca``),
 the physics baseline (``physics``: IDM behind the observed leader and a quintic lane
 change, with ``--physics``'s parameters, by default the benchmark's calibration), the
 library's style at its middle risk (``population``), the identified style at the
@@ -34,8 +34,8 @@ from drivestyle.common.cli import HelpFormatter, for_option, positive_float, run
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.prediction.methods import predict_demo
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
-from drivestyle.prediction.predict import predict_demo
 from drivestyle.prediction.style import oracle_style
 from drivestyle.recorded.observed import observer_view
 from drivestyle.recorded.real_data import is_recorded

@@ -27,7 +27,7 @@ interval and the verdict (DESIGN §15, "Verdict"); :func:`order_checks`
 compares the known caution rank with the identified p by Spearman's ρ, over the episodes
 and over the groups' medians (the issue's goal: ρ ≥ :data:`SPEARMAN_GOAL`).
 :func:`predict_episode` predicts each lane change after t_obs ∈ :data:`T_OBS` with every
-method of :func:`drivestyle.prediction.predict.predict` except the oracle (the recorded-episode
+method of :func:`drivestyle.prediction.methods.predict` except the oracle (the recorded-episode
 path, :func:`~drivestyle.recorded.observed.observed_view`, for the highway-env
 lane changes: nothing of the future enters); :func:`prediction_summaries` compares the
 style methods' FDE with constant velocity's (the goal: ≥ :data:`FDE_GOAL` lower).

@@ -23,7 +23,7 @@ from matplotlib.patches import Polygon
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import vehicle_corners
-from drivestyle.prediction.predict import METHODS, Prediction
+from drivestyle.prediction.methods import METHODS, Prediction
 from drivestyle.studies.figures import (
     EV_RED,
     SCALED_ORANGE,
@@ -53,7 +53,7 @@ METHOD_STYLES: dict[str, dict[str, Any]] = {
     "oracle": {"color": TV_BLUE, "ls": ":", "lw": 2.0},
 }
 """Line style per prediction method: one entry for every name of
-:data:`drivestyle.prediction.predict.METHODS` (a test checks it)."""
+:data:`drivestyle.prediction.methods.METHODS` (a test checks it)."""
 
 
 def plot_prediction(
@@ -67,7 +67,7 @@ def plot_prediction(
     x range follows the truth; a prediction that leaves it is cut.
 
     Args:
-        prediction: :func:`drivestyle.prediction.predict.predict`'s result.
+        prediction: :func:`drivestyle.prediction.methods.predict`'s result.
         demo: the demonstration predicted (its scenario draws the road).
         path: output PNG.
         title: figure title.

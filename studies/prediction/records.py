@@ -1,7 +1,7 @@
 """The prediction study's records: every method's errors on one vehicle after t_obs.
 
 :func:`predict_vehicle` predicts one vehicle at every observed time with
-:func:`~drivestyle.prediction.predict.predict_demo` (the benchmark's prediction: a recorded
+:func:`~drivestyle.prediction.methods.predict_demo` (the benchmark's prediction: a recorded
 episode through the no-leak view) and keeps one :class:`PredictionRecord` per t_obs, or a
 :class:`SkippedPrediction` with the reason where the data cannot be predicted
 (:data:`PREDICTION_ERRORS`).
@@ -19,8 +19,8 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle, DriverStyleError
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import TrackerError
+from drivestyle.prediction.methods import METHODS, Prediction, predict_demo
 from drivestyle.prediction.physics import PhysicsParams
-from drivestyle.prediction.predict import METHODS, Prediction, predict_demo
 from drivestyle.prediction.protocol import ForecastError
 
 __all__ = [
@@ -89,7 +89,7 @@ class PredictionRecord:
 
         Args:
             metric: a name of :data:`~drivestyle.prediction.errors.ERROR_METRICS`.
-            method: a name of :data:`~drivestyle.prediction.predict.METHODS`.
+            method: a name of :data:`~drivestyle.prediction.methods.METHODS`.
         """
         table = {
             "ade": self.ade_m,
@@ -158,7 +158,7 @@ def predict_vehicle(
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
     """Predict one vehicle at every observed time.
 
-    Each by :func:`~drivestyle.prediction.predict.predict_demo`, the benchmark's prediction.
+    Each by :func:`~drivestyle.prediction.methods.predict_demo`, the benchmark's prediction.
 
     Args:
         set_name: the set the vehicle belongs to.

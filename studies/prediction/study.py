@@ -4,7 +4,7 @@ DESIGN §17 (using a style: online identification, prediction and planning).
 
 :func:`evaluate_prediction` observes each held-out vehicle for t_obs ∈ :data:`T_OBS` seconds
 and predicts the rest of its demonstration with every method of
-:func:`drivestyle.prediction.predict.predict` (constant velocity and acceleration, the physics
+:func:`drivestyle.prediction.methods.predict` (constant velocity and acceleration, the physics
 baseline, the population style, the online posterior's mode and mixture, and — where the
 truth is known — the oracle), scoring each by its average and final displacement errors (ADE,
 FDE).
@@ -47,8 +47,8 @@ from typing import Any
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.prediction.methods import METHODS
 from drivestyle.prediction.physics import PhysicsParams
-from drivestyle.prediction.predict import METHODS
 from drivestyle.prediction.regions import RegionCheck, record_rows, region_coverage, region_rates
 from drivestyle.prediction.style import oracle_style
 from drivestyle.recorded.benchmark import (

@@ -19,7 +19,7 @@ import numpy as np
 
 from drivestyle.common.stats import bootstrap_rows, percentile_interval
 from drivestyle.prediction.errors import ERROR_METRICS
-from drivestyle.prediction.predict import METHODS
+from drivestyle.prediction.methods import METHODS
 from drivestyle.studies.prediction.records import PredictionRecord
 
 __all__ = [

@@ -9,7 +9,7 @@ import pytest
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.prediction.predict import METHODS
+from drivestyle.prediction.methods import METHODS
 from drivestyle.prediction.protocol import ForecastError
 from drivestyle.scripts import evaluate_prediction, predict_trajectory
 
@@ -287,8 +287,8 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
 
     from drivestyle.envs.demonstration import load_demonstration
     from drivestyle.irl.identification.library import load_driver_library
+    from drivestyle.prediction.methods import predict_demo
     from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
-    from drivestyle.prediction.predict import predict_demo
 
     folder = _episodes_folder(tmp_path / "eps", paper_demo)
     out = tmp_path / "bench"

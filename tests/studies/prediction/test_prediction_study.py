@@ -5,7 +5,7 @@ import pytest
 
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.prediction.predict import METHODS
+from drivestyle.prediction.methods import METHODS
 from drivestyle.studies.prediction import (
     GOALS,
     RISK_RANGE,

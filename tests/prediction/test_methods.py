@@ -12,7 +12,7 @@ from drivestyle.prediction.kinematic import (
     constant_velocity,
     others_at_constant_velocity,
 )
-from drivestyle.prediction.predict import METHODS, method_predictors, predict
+from drivestyle.prediction.methods import METHODS, method_predictors, predict
 from drivestyle.prediction.protocol import ForecastError, Observation
 
 LIBRARY = DriverLibrary(

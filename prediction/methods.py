@@ -1,6 +1,6 @@
-"""Predicting a vehicle after t_obs by every method, and scoring each (DESIGN §17).
+"""Every prediction method by name: predicting a vehicle after t_obs, and scoring each.
 
-:func:`predict` observes a demonstration for ``t_obs`` seconds (an
+DESIGN §17. :func:`predict` observes a demonstration for ``t_obs`` seconds (an
 :class:`~drivestyle.prediction.protocol.Observation` of samples 0 … k_obs) and runs every
 method of :data:`METHODS` through its :class:`~drivestyle.prediction.protocol.Predictor`
 (:func:`method_predictors`: ``cv`` and ``ca`` :mod:`~drivestyle.prediction.kinematic`,
