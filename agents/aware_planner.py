@@ -13,7 +13,7 @@ comes from a :class:`Predictor` (the NLP built with
   the vehicle, and the library's style at the posterior mean risk driven in closed loop over
   the horizon from the vehicle's current state, the ego at constant velocity (what the
   vehicle's own SMPC assumes of it), each rollout's first solve warm-started from the
-  previous rollout's first plan (:func:`~drivestyle.irl.forecast.rollout_from`);
+  previous rollout's first plan (:func:`~drivestyle.prediction.style.rollout_from`);
 - :class:`OraclePredictor` — the same rollout with the vehicle's true style.
 
 The scenario is the cut-in env's, in the lane changer's frame (its EV is the cutter, its
@@ -30,10 +30,11 @@ import numpy as np
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.driver.driver_style import DriverStyle
-from drivestyle.irl.forecast import constant_velocity, rollout_from
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.planning.description import PrimalDual
+from drivestyle.prediction.kinematic import constant_velocity
+from drivestyle.prediction.style import rollout_from
 
 __all__ = [
     "EGO_RISK",

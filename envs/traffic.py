@@ -81,7 +81,7 @@ def idm_acceleration(
     """IDM acceleration a = a_max [1 − (v/v0)^δ − (s*/s)²], s* = s0 + max(0, vT + vΔv/(2√(a b))).
 
     The project's one IDM (Treiber, Hennecke, Helbing 2000): the traffic env's vehicles and
-    the physics baseline of prediction (:mod:`drivestyle.irl.physics`) both call it.
+    the physics baseline of prediction (:mod:`drivestyle.prediction.physics`) both call it.
 
     Args:
         v: own speed [m/s].

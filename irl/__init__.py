@@ -11,8 +11,10 @@
 - :mod:`drivestyle.irl.identification`, identifying styles: libraries (``library``), the
   posterior over the risk (``posterior``), online tracking (``online``), many vehicles
   (``mining``, ``mining_output``).
-- Here: prediction (``forecast``, its physics baseline ``physics``), where the env's
-  ``style=`` finds the learned reward (``reward``), error metrics (``metrics``).
+- Here: where the env's ``style=`` finds the learned reward (``reward``), error metrics
+  (``metrics``).
+
+Prediction with the styles is a layer of its own above this one, :mod:`drivestyle.prediction`.
 
 The paper model's public names are re-exported here (``from drivestyle.irl import MaxEntIRL``).
 """

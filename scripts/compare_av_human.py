@@ -31,10 +31,10 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.recorded.real_data import check_data_dir
 from drivestyle.studies.av_vs_human import compare_av_human, read_mined, unmined
 from drivestyle.studies.figures import plot_av_human
-from drivestyle.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.studies.reports import av_human_markdown
 
 SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)

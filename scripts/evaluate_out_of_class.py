@@ -41,9 +41,9 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.irl.identification.library import load_driver_library
-from drivestyle.irl.physics import load_params
+from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
 from drivestyle.studies.out_of_class import StudyConfig, run_study, vehicle_spans
-from drivestyle.studies.prediction import PHYSICS_FILE, check_observed_times
+from drivestyle.studies.prediction.observed_times import check_observed_times
 from drivestyle.studies.reports import out_of_class_markdown
 
 _D = StudyConfig()
@@ -118,7 +118,7 @@ def _config(args: argparse.Namespace) -> StudyConfig:
     """The study's configuration, every option checked (before any output or simulation).
 
     The observed times by the prediction study's one rule
-    (:func:`~drivestyle.studies.prediction.check_observed_times`) against this run's
+    (:func:`~drivestyle.studies.prediction.observed_times.check_observed_times`) against this run's
     lane changes; a repeated risk or time counts once, and a note says so.
     """
     if args.no_highway and args.scenarios == 0:

@@ -3,14 +3,14 @@ r"""Compare style-aware prediction with constant velocity on held-out and record
 Draws ``--vehicles`` simulated SMPC(p) vehicles of known risk (p ~ U[0.5, 0.95]; half in
 interactive scenarios of the random family, half in random traffic scenes) with ``--seed``
 and loads the recorded NGSIM and CATS episodes from ``--data-dir``; observes each for
-t_obs ∈ ``--observe`` seconds and predicts the rest with every method of irl/forecast.py
+t_obs ∈ ``--observe`` seconds and predicts the rest with every method of prediction/methods.py
 (cv, ca, population, mode, mixture, and the oracle on simulated vehicles); tracks each
 simulated vehicle's risk online over its whole demonstration. Writes
 ``OUT/prediction_eval.json`` (records, summaries per set, t_obs and method, the issue's goals
 met or missed, the online identification; with the command), ``OUT/report.md``,
 ``OUT/fde_by_method.png``, ``OUT/posterior_over_time.png`` and ``OUT/example_prediction.png``
 (the simulated prediction at t_obs = 2 s with the median gain of the mode over CV).
-The study is studies/prediction.py; its validation seed is 19000 (tests, choices),
+The study is studies/prediction/; its validation seed is 19000 (tests, choices),
 the reported test seed 19001 (the default).
 
 The recorded episodes are the benchmark's ``--split`` (drivestyle/data/benchmark_split.csv,
@@ -65,36 +65,37 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.irl.identification.library import load_driver_library
-from drivestyle.irl.physics import PhysicsParams, load_params, save_params
-from drivestyle.recorded.real_data import check_data_dir
-from drivestyle.studies.figures import (
+from drivestyle.prediction.physics import PhysicsParams
+from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params, save_params
+from drivestyle.recorded.benchmark import (
+    DEFAULT_DATA_DIR,
+    SPLIT_FILE,
+    SPLITS,
+    SplitRow,
+    benchmark_split,
+    check_split_selects,
+    episodes_split,
+    read_split,
+    write_split,
+)
+from drivestyle.recorded.real_data import DATASETS, check_data_dir
+from drivestyle.studies.prediction import (
+    T_OBS,
+    TEST_SEED,
+    calibrate_on_split,
+    calibration_records,
+    check_observed_times,
+    evaluate_prediction,
+    example_record,
+    read_prediction_run,
+    spanning_tracks,
+)
+from drivestyle.studies.prediction.figures import (
     plot_posterior_over_time,
     plot_prediction,
     plot_prediction_errors,
 )
-from drivestyle.studies.prediction import (
-    DATASETS,
-    DEFAULT_DATA_DIR,
-    PHYSICS_FILE,
-    SPLIT_FILE,
-    SPLITS,
-    T_OBS,
-    TEST_SEED,
-    SplitRow,
-    benchmark_split,
-    calibrate_on_split,
-    calibration_records,
-    check_observed_times,
-    check_split_selects,
-    episodes_split,
-    evaluate_prediction,
-    example_record,
-    read_prediction_run,
-    read_split,
-    spanning_tracks,
-    write_split,
-)
-from drivestyle.studies.reports import prediction_markdown
+from drivestyle.studies.prediction.report import prediction_markdown
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

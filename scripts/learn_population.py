@@ -29,6 +29,13 @@ from drivestyle.common.cli import HelpFormatter, for_option, positive_int, run_c
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.irl.driver.driver_learning import DriverFit
 from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.recorded.benchmark import (
+    DEFAULT_DATA_DIR,
+    SPLIT_FILE,
+    SPLITS,
+    check_split_selects,
+    read_split,
+)
 from drivestyle.studies.population_style import (
     OBJECTIVES,
     ClosedLoopFit,
@@ -37,13 +44,6 @@ from drivestyle.studies.population_style import (
     learn_population,
     population_library,
     split_demos,
-)
-from drivestyle.studies.prediction import (
-    DEFAULT_DATA_DIR,
-    SPLIT_FILE,
-    SPLITS,
-    check_split_selects,
-    read_split,
 )
 
 

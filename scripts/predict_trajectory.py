@@ -2,7 +2,7 @@ r"""Predict the rest of a vehicle's trajectory after observing its first seconds
 
 Observes the demonstration for ``--observe`` seconds (a whole number of samples, less than
 the demonstration), identifies the vehicle online (its inputs unseen) and predicts the rest
-with every method of irl/forecast.py: constant velocity (``cv``) and acceleration (``ca``),
+with every method of prediction/methods.py: constant velocity (``cv``) and acceleration (``ca``),
 the physics baseline (``physics``: IDM behind the observed leader and a quintic lane
 change, with ``--physics``'s parameters, by default the benchmark's calibration), the
 library's style at its middle risk (``population``), the identified style at the
@@ -13,7 +13,7 @@ same episode at the same t_obs, method by method: a recorded episode (``episode_
 its metadata, e.g. from ``extract-episodes``) is seen as an observer knows it then (the one
 recorded view of its observed samples, its frame shifted by whole lanes so that the current
 lane is the middle one, the scenario from the observed samples only;
-studies/prediction.py). Writes ``OUT/prediction.json`` (per method ``ade_m``,
+recorded/observed.py). Writes ``OUT/prediction.json`` (per method ``ade_m``,
 ``fde_m``, their lateral and longitudinal parts, ``risk`` and the predicted ``path``; the
 observed and true paths; the posterior at t_obs; ``lateral_shift_m``: the frame's lateral
 shift from the file's, to add back to compare with the file) and ``OUT/prediction.png``
@@ -34,15 +34,12 @@ from drivestyle.common.cli import HelpFormatter, for_option, positive_float, run
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.irl.identification.library import load_driver_library
-from drivestyle.irl.physics import load_params
+from drivestyle.prediction.methods import predict_demo
+from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
+from drivestyle.prediction.style import oracle_style
+from drivestyle.recorded.observed import observer_view
 from drivestyle.recorded.real_data import is_recorded
-from drivestyle.studies.figures import plot_prediction
-from drivestyle.studies.prediction import (
-    PHYSICS_FILE,
-    observer_view,
-    oracle_style,
-    predict_demo,
-)
+from drivestyle.studies.prediction.figures import plot_prediction
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -63,8 +63,8 @@ from drivestyle.irl.identification.posterior import identify_driver
 from drivestyle.irl.paper import inner as inner_mod
 from drivestyle.planning import smpc_problem as sp
 from drivestyle.planning.buffered import BufferedFunction
+from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR
 from drivestyle.recorded.real_data import check_data_dir
-from drivestyle.studies.prediction import DEFAULT_DATA_DIR
 
 STYLE_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The driver style profiled: the SMPC expert's own cost weights [w_y, w_φ, w_v, w_a, w_δ]."""
@@ -668,8 +668,8 @@ def main(argv: list[str] | None = None) -> dict:
         bar.update(1)
         result["driver"][key] = entry
     if args.recorded > 0:
+        from drivestyle.recorded.benchmark import recorded_episodes
         from drivestyle.recorded.real_data import recorded_view
-        from drivestyle.studies.prediction import recorded_episodes
 
         episodes = recorded_episodes(str(args.data_dir), "cats")[: args.recorded]
         rec = [recorded_view(d) for _, _, d in episodes]

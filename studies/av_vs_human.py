@@ -2,7 +2,7 @@
 
 CATS drove the same car (vehicle 3) on some days by computer (``cats:AV:3``) and on others
 by a human (``cats:HV:3``), among human-driven vehicles. Each extracted lane change
-(:func:`~drivestyle.studies.prediction.recorded_episodes`) is described by
+(:func:`~drivestyle.recorded.benchmark.recorded_episodes`) is described by
 
 * what the style model identifies: the posterior mean and 90 % interval width of the risk p
   (of lane changes within the class: an out-of-class driver has no risk of the class) and
@@ -338,7 +338,7 @@ def compare_av_human(
 
     Args:
         episodes: (episode id, vehicle id, demonstration) of CATS lane changes, as
-            :func:`~drivestyle.studies.prediction.recorded_episodes` returns them.
+            :func:`~drivestyle.recorded.benchmark.recorded_episodes` returns them.
         mined: a mine-styles run's rows by episode id (None: no identified quantities).
         samples: bootstrap replicates.
         seed: their seed (deterministic given it).

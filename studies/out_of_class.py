@@ -27,8 +27,8 @@ interval and the verdict (DESIGN §15, "Verdict"); :func:`order_checks`
 compares the known caution rank with the identified p by Spearman's ρ, over the episodes
 and over the groups' medians (the issue's goal: ρ ≥ :data:`SPEARMAN_GOAL`).
 :func:`predict_episode` predicts each lane change after t_obs ∈ :data:`T_OBS` with every
-method of :func:`drivestyle.irl.forecast.predict` except the oracle (the recorded-episode
-path, :func:`~drivestyle.studies.prediction.observed_view`, for the highway-env
+method of :func:`drivestyle.prediction.methods.predict` except the oracle (the recorded-episode
+path, :func:`~drivestyle.recorded.observed.observed_view`, for the highway-env
 lane changes: nothing of the future enters); :func:`prediction_summaries` compares the
 style methods' FDE with constant velocity's (the goal: ≥ :data:`FDE_GOAL` lower).
 
@@ -54,21 +54,19 @@ from drivestyle.irl.identification.posterior import (
     identify_driver,
     recorded_verdict_label,
 )
-from drivestyle.irl.physics import PhysicsParams
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty
+from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.recorded.tracks import Carriageway, Recording, Track
-from drivestyle.studies.prediction import (
+from drivestyle.studies.prediction.observed_times import VehicleSpan, check_observed_times
+from drivestyle.studies.prediction.records import (
     PREDICTION_ERRORS,
-    MethodSummary,
     PredictionRecord,
     SkippedPrediction,
-    VehicleSpan,
-    check_observed_times,
     predict_vehicle,
-    summarise_records,
 )
+from drivestyle.studies.prediction.summaries import MethodSummary, summarise_records
 
 __all__ = [
     "FDE_GOAL",
@@ -720,7 +718,7 @@ def predict_episode(
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
     """Predict one lane change after each t_obs by every method but the oracle.
 
-    :func:`~drivestyle.studies.prediction.predict_vehicle`: a highway-env lane
+    :func:`~drivestyle.studies.prediction.records.predict_vehicle`: a highway-env lane
     change is a recorded episode (``meta["episode_id"]``) and is seen through
     ``observed_view`` (the one recorded view of its observed samples); an SMPC
     demonstration is predicted in its own scenario. The record's set is the family
@@ -888,7 +886,7 @@ def run_study(
     Raises:
         ValueError: the study's seed is the library's training seed; an observed time no
             lane change of the study serves
-            (:func:`~drivestyle.studies.prediction.check_observed_times`).
+            (:func:`~drivestyle.studies.prediction.observed_times.check_observed_times`).
     """
     if library.meta.get("seed") == config.seed:
         raise ValueError(f"seed {config.seed} is the library's own training seed; use another")

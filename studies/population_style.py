@@ -48,13 +48,8 @@ from drivestyle.irl.driver.driver_style import (
     reproduce,
 )
 from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.recorded.real_data import recorded_view
-from drivestyle.studies.prediction import (
-    DATASETS,
-    SplitRow,
-    check_sample_split,
-    load_recorded,
-)
+from drivestyle.recorded.benchmark import SplitRow, check_sample_split, load_recorded
+from drivestyle.recorded.real_data import DATASETS, recorded_view
 
 __all__ = [
     "CLOSED_LOOP_CAP_M",

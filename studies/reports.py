@@ -1,4 +1,6 @@
-"""Every Markdown report the studies write, and how they print times.
+"""The Markdown reports the studies write, and how they print times.
+
+The prediction study writes its own (:mod:`drivestyle.studies.prediction.report`).
 
 Each function takes a study's typed result and returns the Markdown text (or, for the
 parts of ``evaluation.md``, its lines); the scripts write it beside the JSON.
@@ -23,7 +25,6 @@ if TYPE_CHECKING:
     from drivestyle.studies.identification_study import Evaluation
     from drivestyle.studies.out_of_class import OutOfClassStudy
     from drivestyle.studies.paper import PaperStudy
-    from drivestyle.studies.prediction import PredictionStudy, TrackingSummary
     from drivestyle.studies.real_traffic import DriverTrafficStudy, RealTrafficStudy
 
 __all__ = [
@@ -38,7 +39,6 @@ __all__ = [
     "paper_console",
     "paper_markdown",
     "planning_markdown",
-    "prediction_markdown",
     "real_traffic_markdown",
     "references_markdown",
     "seconds",
@@ -515,175 +515,6 @@ def planning_markdown(study: PlanningStudy) -> str:
     return "\n".join(lines)
 
 
-def _pct(value: float | None) -> str:
-    return "—" if value is None else f"{100 * value:.0f} %"
-
-
-def _ci(stat: Any, kind: str) -> str:
-    """``value [lo, hi]`` of an ErrorStat's mean or median [m]."""
-    v, lo, hi = (getattr(stat, f"{kind}{s}") for s in ("", "_lo", "_hi"))
-    return f"{v:.2f} [{lo:.2f}, {hi:.2f}]"
-
-
-def _benchmark_tables(study: PredictionStudy) -> list[str]:
-    """The recorded benchmark's tables: per set, medians and means with bootstrap intervals."""
-    from drivestyle.studies.prediction import BOOTSTRAP_SAMPLES, ERROR_METRICS
-
-    sets = [s for s in dict.fromkeys(x.set for x in study.summaries) if s != "simulated"]
-    if not sets:
-        return []
-    lines = [
-        f"## Recorded benchmark: split {study.split or '(used episodes)'}",
-        "",
-        "Every error [m] as value [bootstrap 95 % interval] over vehicles "
-        f"({BOOTSTRAP_SAMPLES} replicates); lat = |Δy|, lon = |Δx| in the road frame. "
-        "Physics parameters: "
-        + ", ".join(f"{k} {v:.3g}" for k, v in (study.physics_json()).items())
-        + ".",
-        "",
-    ]
-    for set_name in sets:
-        rows = [s for s in study.summaries if s.set == set_name and s.stats]
-        for kind in ("median", "mean"):
-            lines += [
-                f"### {set_name}: {kind}s",
-                "",
-                "| t_obs | method | n (vehicles) | " + " | ".join(ERROR_METRICS) + " |",
-                "|---|---|---|" + "---|" * len(ERROR_METRICS),
-            ]
-            for s in rows:
-                cells = " | ".join(_ci(s.stats[m], kind) for m in ERROR_METRICS)
-                lines.append(f"| {seconds(s.t_obs)} | {s.method} | {s.n} ({s.n_units}) | {cells} |")
-            lines.append("")
-    return lines
-
-
-def prediction_markdown(study: PredictionStudy, command: str) -> str:
-    """``report.md`` of the prediction comparison (docs/RESULTS.md quotes it).
-
-    Args:
-        study: the study's result.
-        command: the command that produced it.
-    """
-    from drivestyle.studies.prediction import TEST_SEED, VALIDATION_SEED
-
-    n_sim = len(study.vehicles)
-    n_rand = sum(v.scenario is not None for v in study.vehicles)
-    seed_kind = {TEST_SEED: "the test seed", VALIDATION_SEED: "the validation seed"}.get(
-        study.seed, f"neither the validation seed {VALIDATION_SEED} nor the test seed {TEST_SEED}"
-    )
-    lines = [
-        "# Style-aware prediction against constant velocity",
-        "",
-        f"Command: `{command}`",
-        "",
-        f"Seed {study.seed} ({seed_kind}); {n_sim} simulated vehicles "
-        f"({n_rand} random family, {n_sim - n_rand} traffic), risks U[0.5, 0.95]; recorded: "
-        f"{', '.join(study.recorded_sets) or 'none'}"
-        + (
-            " (solver geometries: "
-            + ", ".join(f"{k} {v}" for k, v in study.n_geometries.items())
-            + ")"
-            if study.n_geometries
-            else ""
-        )
-        + f". Predictions: {len(study.records)}; skipped: {len(study.skipped)}.",
-        "",
-        "Wall time: " + ", ".join(f"{k} {seconds(v)}" for k, v in study.seconds.items()) + ".",
-        "",
-    ]
-    sets = list(dict.fromkeys(s.set for s in study.summaries))
-    for set_name in sets:
-        rows = [s for s in study.summaries if s.set == set_name]
-        oracle = any(s.fde_ratio_to_oracle is not None for s in rows)
-        lines += [
-            f"## {set_name}",
-            "",
-            "| t_obs | method | n | ADE mean (median) [m] | FDE mean (median) [m] | "
-            "lateral FDE mean [m] | FDE reduction vs CV |"
-            + (" FDE / oracle | FDE − oracle [m] | share of oracle's gain |" if oracle else ""),
-            "|---|---|---|---|---|---|---|" + ("---|---|---|" if oracle else ""),
-        ]
-        for s in rows:
-            line = (
-                f"| {seconds(s.t_obs)} | {s.method} | {s.n} | {fmt(s.ade_mean_m, 2)} "
-                f"({fmt(s.ade_median_m, 2)}) | {fmt(s.fde_mean_m, 2)} ({fmt(s.fde_median_m, 2)}) "
-                f"| {fmt(s.fde_lat_mean_m, 2)} | {_pct(s.fde_reduction_vs_cv)} |"
-            )
-            if oracle:
-                ratio = s.fde_ratio_to_oracle
-                line += (
-                    f" {'—' if ratio is None else (f'{ratio:.2f}' if ratio < 1e3 else '≫ 1')} | "
-                    f"{fmt(s.fde_gap_to_oracle_m, 2)} | {_pct(s.oracle_gain_share)} |"
-                )
-            lines.append(line)
-        lines.append("")
-    lines += _benchmark_tables(study)
-    lines += [
-        "## Goals",
-        "",
-        "FDE ≥ 30 % below CV on simulated vehicles and ≥ 15 % on recorded ones; within 25 % "
-        "of the oracle (FDE ≤ 1.25 × FDE_oracle) on simulated ones.",
-        "",
-        "| goal | set | t_obs | method | threshold | value | |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for g in study.goals:
-        value = g.value
-        shown = "—" if value is None else (f"{value:.3f}" if abs(value) < 1e3 else "≫ 1")
-        lines.append(
-            f"| {g.goal} | {g.set} | {seconds(g.t_obs)} | {g.method} | {g.threshold:g} | "
-            f"{shown} | {'met' if g.met else 'MISSED'} |"
-        )
-    tr = study.tracking
-    lines.append("")
-    if tr.n:  # no simulated vehicle (--episodes, --no-simulated): no section of nothing
-        lines += _tracking_section(tr)
-    if study.regions:
-        lines += [
-            "## 90 % prediction regions (split-conformal, calibrated on another split)",
-            "",
-            "A disc around the predicted final position, radius = rate × horizon (the "
-            "calibration split's ⌈(n+1)·0.9⌉-th FDE per second); coverage on this split.",
-            "",
-            "| set | t_obs | method | rate [m/s] (n cal.) | median radius [m] | coverage (n) |",
-            "|---|---|---|---|---|---|",
-        ]
-        lines += [
-            f"| {g.set} | {seconds(g.t_obs, 0)} | {g.method} | {fmt(g.rate_m_per_s, 2)} "
-            f"({g.n_calibration}) | {fmt(g.median_radius_m, 1)} | {_pct(g.coverage)} ({g.n}) |"
-            for g in study.regions
-        ] + [""]
-    if study.skipped:
-        lines += ["## Skipped", ""]
-        reasons: dict[str, int] = {}
-        for skip in study.skipped:
-            key = f"{skip.set}: {skip.reason}"
-            reasons[key] = reasons.get(key, 0) + 1
-        lines += [f"- {n} × {r}" for r, n in sorted(reasons.items())] + [""]
-    return "\n".join(lines)
-
-
-def _tracking_section(tr: TrackingSummary) -> list[str]:
-    """The online identification's section (simulated vehicles only)."""
-    from drivestyle.studies.prediction import NARROW_WIDTH
-
-    return [
-        "## Online identification (simulated vehicles, inputs unseen)",
-        "",
-        f"{tr.n} vehicles; the 90 % interval gets narrower than {NARROW_WIDTH:g} for "
-        f"{tr.n_narrow} ({_pct(tr.fraction_narrow)}), first after a median "
-        f"{seconds(tr.t_narrow_median_s)} (10–25–75–90 %: {seconds(tr.t_narrow_q10_s)}, "
-        f"{seconds(tr.t_narrow_q25_s)}, {seconds(tr.t_narrow_q75_s)}, "
-        f"{seconds(tr.t_narrow_q90_s)}); it stays narrow to the end for {tr.n_narrow_stays} "
-        f"(from a median {seconds(tr.t_narrow_stays_median_s)}). Final interval covers the "
-        f"true risk for {_pct(tr.final_coverage)}; final |mean − p| {fmt(tr.final_mae)}. "
-        f"Update: median {fmt(tr.update_ms_median, 1)} ms, p95 {fmt(tr.update_ms_p95, 1)} ms "
-        "(parallel workers on a shared machine).",
-        "",
-    ]
-
-
 def av_human_markdown(comparison: AVHumanComparison, command: str) -> str:
     """``av_vs_human.md``: per quantity the groups' medians and the AV's differences."""
     from drivestyle.studies.av_vs_human import GROUPS, QUANTITIES
@@ -728,6 +559,7 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
         command: the command that produced it (shown in the report).
     """
     from drivestyle.studies.out_of_class import FDE_GOAL, SPEARMAN_GOAL
+    from drivestyle.studies.prediction.report import percent, value_interval
 
     cfg = study.config
     lines = [
@@ -790,9 +622,9 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
         ]
         for s in study.summaries:
             st = s.stats.get("fde")
-            med = f"{s.fde_median_m:.2f}" if st is None else _ci(st, "median")
+            med = f"{s.fde_median_m:.2f}" if st is None else value_interval(st, "median")
             lines.append(f"| {s.set} | {seconds(s.t_obs)} | {s.method} | {s.n} | {med} | "
-                         f"{s.fde_mean_m:.2f} | {_pct(s.fde_reduction_vs_cv)} |")  # fmt: skip
+                         f"{s.fde_mean_m:.2f} | {percent(s.fde_reduction_vs_cv)} |")  # fmt: skip
         lines += [
             "",
             f"## FDE goal: the style ≥ {FDE_GOAL:.0%} below constant velocity",
@@ -805,8 +637,9 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
             lines.append(
                 f"| {g.set} | {seconds(g.t_obs)} | {g.method} | {g.n} | {g.fde_median_m:.2f} "
                 f"[{g.fde_median_ci[0]:.2f}, {g.fde_median_ci[1]:.2f}] | {g.cv_median_m:.2f} "
-                f"[{g.cv_median_ci[0]:.2f}, {g.cv_median_ci[1]:.2f}] | {_pct(g.reduction_median)} "
-                f"| {_pct(g.reduction_mean)} | {'met' if g.met else 'missed'} |"
+                f"[{g.cv_median_ci[0]:.2f}, {g.cv_median_ci[1]:.2f}] | "
+                f"{percent(g.reduction_median)} | {percent(g.reduction_mean)} | "
+                f"{'met' if g.met else 'missed'} |"
             )
     if study.skipped:
         lines += ["", f"Skipped: {len(study.skipped)} (reasons in the JSON)."]

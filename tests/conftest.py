@@ -1,5 +1,6 @@
 import os
 import pickle
+from dataclasses import replace
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless pygame for every test
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -63,3 +64,38 @@ def _the_solver_cache_stays_where_it_was():
     before = os.environ.get("DRIVESTYLE_CACHE")
     yield
     assert os.environ.get("DRIVESTYLE_CACHE") == before, "the test left $DRIVESTYLE_CACHE moved"
+
+
+def _as_recorded(demo):
+    """A simulated demonstration presented as a recorded episode (observed_view applies)."""
+    rng = np.random.default_rng(0)
+    others = np.repeat(demo.tv[:, None, :], 2, axis=1).copy()
+    others[:, 0, 0] += 30.0  # a leader in the target lane, speed varying (as recorded)
+    others[:, 1, 0] += 60.0
+    others[:, 1, 1] -= demo.scenario.lane_width
+    others[:, :, 3] += 0.01 * rng.standard_normal(others.shape[:2])
+    return replace(demo, meta={**demo.meta, "episode_id": "sim-as-recorded"}, others=others)
+
+
+def _change_the_future(demo, k):
+    """The demonstration with its EV, TV and other vehicles moved after sample k."""
+    ev, tv, others = demo.ev.copy(), demo.tv.copy(), demo.other_vehicles.copy()
+    ev[k + 1 :, 0] += np.linspace(0, 30, demo.n - k - 1)
+    ev[k + 1 :, 1] -= 2.0
+    ev[k + 1 :, 3] *= 0.5
+    tv[k + 1 :, :2] += 7.0
+    others[k + 1 :, :, 0] -= 12.0
+    others[k + 1 :, :, 3] += 5.0
+    return replace(demo, ev=ev, tv=tv, others=others)
+
+
+@pytest.fixture(scope="session")
+def as_recorded():
+    """:func:`_as_recorded`: a simulated demonstration presented as a recorded episode."""
+    return _as_recorded
+
+
+@pytest.fixture(scope="session")
+def change_the_future():
+    """:func:`_change_the_future`: a demonstration whose samples after k are moved."""
+    return _change_the_future

@@ -21,7 +21,8 @@ def test_every_design_citation_names_an_existing_section():
     cite = re.compile(r"DESIGN(?:\.md)? *§ *(\d+)")
     files = [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
     folders = (
-        "drivestyle", "envs", "recorded", "planning", "irl", "agents", "studies", "scripts", "tests"
+        "drivestyle", "envs", "recorded", "planning", "irl", "prediction", "agents", "studies",
+        "scripts", "tests",
     )  # fmt: skip
     for folder in folders:
         files += sorted((ROOT / folder).rglob("*.py"))
@@ -40,9 +41,12 @@ def test_the_readme_layout_table_names_every_module_and_only_existing_ones():
     named = {m for line in table for m in re.findall(r"`((?:\w+/)+\w+\.py)`", line.split("|")[1])}
     missing = sorted(m for m in named if not (ROOT / m).is_file())
     assert not missing, f"README names modules that do not exist: {missing}"
+    folders = (
+        "drivestyle", "envs", "recorded", "planning", "irl", "prediction", "agents", "studies"
+    )  # fmt: skip
     modules = {
         str(path.relative_to(ROOT))
-        for folder in ("drivestyle", "envs", "recorded", "planning", "irl", "agents", "studies")
+        for folder in folders
         for path in (ROOT / folder).rglob("*.py")
         if path.name not in ("__init__.py", "__main__.py")
     }

@@ -10,7 +10,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-USER_PACKAGES = ("envs", "recorded", "planning", "agents", "studies", "irl", "scripts", "common")
+USER_PACKAGES = (
+    "envs", "recorded", "planning", "agents", "studies", "irl", "prediction", "scripts", "common"
+)  # fmt: skip
 
 
 def test_a_users_own_envs_folder_neither_shadows_nor_is_shadowed(tmp_path):
@@ -66,5 +68,6 @@ def test_the_wheel_installs_one_root_package(tmp_path):
     assert {t for t in tops if not t.endswith(".dist-info")} == {"drivestyle"}
     for module in ("envs/lane_change.py", "recorded/readers.py", "planning/smpc_problem.py",
                    "planning/plan_solver_driver.c", "irl/paper/learner.py", "studies/paper.py",
+                   "prediction/methods.py", "studies/prediction/study.py",
                    "scripts/learn_style.py", "common/io.py", "py.typed"):  # fmt: skip
         assert f"drivestyle/{module}" in names

@@ -1,4 +1,4 @@
-"""Layers common ← envs ← recorded ← planning ← irl ← agents ← studies ← scripts.
+"""Layers common ← envs ← recorded ← planning ← irl ← prediction ← agents ← studies ← scripts.
 
 Checked on every import, nested ones included.
 """
@@ -16,12 +16,15 @@ LAYERS = {
     "recorded": ROOT / "recorded",
     "planning": ROOT / "planning",
     "irl": ROOT / "irl",
+    "prediction": ROOT / "prediction",
     "agents": ROOT / "agents",
     "studies": ROOT / "studies",
     "scripts": ROOT / "scripts",
 }
 """Lowest first: a layer may import only itself and the layers before it."""
-GENERIC = {"envs", "recorded", "planning", "irl", "agents", "studies", "scripts", "common"}
+GENERIC = {
+    "envs", "recorded", "planning", "irl", "prediction", "agents", "studies", "scripts", "common"
+}  # fmt: skip
 """Top-level names that must never be imported bare: the library is ``drivestyle.*``."""
 
 

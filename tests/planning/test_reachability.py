@@ -21,8 +21,8 @@ from drivestyle.planning.reachability import (
     stage_one_blocked,
     stage_one_box,
 )
+from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.recorded.real_data import RECORDED_DELTA_MAX, recorded_view
-from drivestyle.studies.prediction import DEFAULT_DATA_DIR, recorded_episodes
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 

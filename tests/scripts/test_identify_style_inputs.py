@@ -105,7 +105,7 @@ def test_pooling_several_recorded_vehicles_is_said_and_recorded(tmp_path):
     # before: three vehicles' lane changes pooled into one posterior without a word
     from cli_runner import run_command
 
-    from drivestyle.studies.prediction import recorded_episodes
+    from drivestyle.recorded.benchmark import recorded_episodes
 
     (_, _, first), (_, _, second) = recorded_episodes(str(DATA), "ngsim")[:2]
     save_demonstration(first, tmp_path / "a.npz")

@@ -6,9 +6,9 @@ import pytest
 
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary, load_any_library
+from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, SplitRow, write_split
 from drivestyle.scripts import learn_population
 from drivestyle.studies.population_style import PopulationSettings
-from drivestyle.studies.prediction import DEFAULT_DATA_DIR, SplitRow, write_split
 
 DATA = DEFAULT_DATA_DIR
 needs_data = pytest.mark.skipif(
@@ -18,7 +18,7 @@ needs_data = pytest.mark.skipif(
 
 
 def _one_episode_split(tmp_path):
-    from drivestyle.studies.prediction import recorded_episodes
+    from drivestyle.recorded.benchmark import recorded_episodes
 
     eid, vid, _ = recorded_episodes(str(DATA), "cats")[0]
     split = tmp_path / "split.csv"

@@ -11,7 +11,7 @@ from cli_runner import DATA
 
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.studies.prediction import SPLIT_FILE, read_split, write_split
+from drivestyle.recorded.benchmark import SPLIT_FILE, read_split, write_split
 
 # each test runs a command in its own process, as a user meets the problem (1-6 s each):
 # CI runs them with the slow set, the default run stays within its time

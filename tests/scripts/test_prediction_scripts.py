@@ -8,8 +8,9 @@ import pytest
 
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle
-from drivestyle.irl.forecast import METHODS, ForecastError
 from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.prediction.methods import METHODS
+from drivestyle.prediction.protocol import ForecastError
 from drivestyle.scripts import evaluate_prediction, predict_trajectory
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
@@ -112,7 +113,7 @@ def test_evaluate_prediction_needs_the_data_folders(files):
 @pytest.mark.slow  # compiles the episode's solver on a fresh machine
 @pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
 def test_predict_trajectory_on_a_recorded_episode(tmp_path):
-    from drivestyle.studies.prediction import load_recorded
+    from drivestyle.recorded.benchmark import load_recorded
 
     lib = DriverLibrary(DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.7, 0.9, 0.95))
     (tmp_path / "library.json").write_text(json.dumps(lib.to_json()))
@@ -143,7 +144,7 @@ class _StartedError(Exception):
 )
 def test_evaluate_prediction_refuses_observe_times_before_the_work(files, monkeypatch, observe,
                                                                     match):  # fmt: skip
-    from drivestyle.studies import prediction as study
+    from drivestyle.studies.prediction import study
 
     def started(*args, **kwargs):
         raise _StartedError
@@ -181,7 +182,8 @@ def test_evaluate_prediction_counts_a_repeated_observe_time_once_and_says_so(
 @pytest.mark.slow  # reads every recorded episode: CI runs it (pytest -m slow)
 @pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
 def test_observe_times_reach_the_recorded_episodes():
-    from drivestyle.studies.prediction import check_observed_times, load_recorded
+    from drivestyle.recorded.benchmark import load_recorded
+    from drivestyle.studies.prediction import check_observed_times
 
     recorded = [d for ds in ("ngsim", "cats") for _, d in load_recorded(DATA, ds)]
     assert check_observed_times([7.0, 7.0], recorded) == (7.0,)  # 8 s recorded windows
@@ -219,8 +221,8 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
     import numpy as np
 
     from drivestyle.irl.identification.library import load_driver_library
-    from drivestyle.irl.physics import load_params
-    from drivestyle.studies.prediction import PHYSICS_FILE, predict_vehicle
+    from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
+    from drivestyle.studies.prediction import predict_vehicle
 
     others = np.repeat(paper_demo.tv[:, None, :], 2, axis=1).copy()
     others[:, 0, 0] += 30.0  # a leader in the target lane
@@ -285,8 +287,8 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
 
     from drivestyle.envs.demonstration import load_demonstration
     from drivestyle.irl.identification.library import load_driver_library
-    from drivestyle.irl.physics import load_params
-    from drivestyle.studies.prediction import PHYSICS_FILE, predict_demo
+    from drivestyle.prediction.methods import predict_demo
+    from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
 
     folder = _episodes_folder(tmp_path / "eps", paper_demo)
     out = tmp_path / "bench"
@@ -313,7 +315,7 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
 
 
 def test_evaluate_prediction_splits_an_episodes_folder_by_vehicle(files, paper_demo, tmp_path):
-    from drivestyle.studies.prediction import episodes_split, read_split
+    from drivestyle.recorded.benchmark import episodes_split, read_split
 
     folder = _episodes_folder(tmp_path / "eps", paper_demo, n=5)
     rows = episodes_split(folder)
@@ -349,16 +351,10 @@ def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(f
     import sys
 
     from drivestyle.irl.identification.library import load_driver_library
-    from drivestyle.irl.physics import load_params
+    from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
+    from drivestyle.recorded.benchmark import SPLIT_FILE, read_split, recorded_episodes
     from drivestyle.recorded.readers import read_sample, write_table
-    from drivestyle.studies.prediction import (
-        PHYSICS_FILE,
-        SPLIT_FILE,
-        predict_vehicle,
-        read_split,
-        recorded_episodes,
-        summarise_records,
-    )
+    from drivestyle.studies.prediction import predict_vehicle, summarise_records
 
     write_table(read_sample(DATA / "ngsim"), tmp_path / "tracks.csv", tmp_path / "lanes.json")
     env = {"cwd": tmp_path, "capture_output": True, "text": True, "timeout": 900}

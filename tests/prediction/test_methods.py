@@ -1,20 +1,19 @@
-"""Prediction after t_obs (irl/forecast.py): baselines in closed form, errors, the style methods."""
+"""Prediction after t_obs (prediction/): baselines in closed form, errors, the style methods."""
 
 import numpy as np
 import pytest
 
 from drivestyle.irl.driver.driver_style import DriverStyle, expert_style
-from drivestyle.irl.forecast import (
-    METHODS,
-    ForecastError,
-    constant_acceleration,
-    constant_velocity,
-    displacement_errors,
-    others_at_constant_velocity,
-    predict,
-)
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig
+from drivestyle.prediction.errors import displacement_errors
+from drivestyle.prediction.kinematic import (
+    constant_acceleration,
+    constant_velocity,
+    others_at_constant_velocity,
+)
+from drivestyle.prediction.methods import METHODS, method_predictors, predict
+from drivestyle.prediction.protocol import ForecastError, Observation
 
 LIBRARY = DriverLibrary(
     DriverStyle((0.2, 50.0, 0.2, 1.0, 10.0)), risks=(0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
@@ -119,3 +118,22 @@ def test_the_lateral_final_error_is_the_y_part_of_the_fde(prediction):
         assert m.fde_lat_m == pytest.approx(abs(m.xy[-1, 1] - prediction.actual[-1, 1]))
         assert m.fde_lat_m <= m.fde_m + 1e-12
         assert m.to_json()["fde_lat_m"] == m.fde_lat_m
+
+
+def test_every_method_is_a_predictor_of_the_observation_alone(prediction, paper_demo):
+    # the table predict() runs: each predictor's path from samples 0 … k only is the method's
+    k = round(2.0 / paper_demo.scenario.dt)
+    seen = Observation(paper_demo.ev[: k + 1], paper_demo.vehicles[: k + 1], paper_demo.scenario)
+    table = method_predictors(LIBRARY, physics=None)
+    assert list(table) == ["cv", "ca", "physics", "population"]  # no posterior, no oracle
+    for name, predictor in table.items():
+        path = predictor.predict(seen, paper_demo.n - 1 - k)
+        assert np.array_equal(path.xy, prediction.methods[name].xy), name
+        assert path.risk == prediction.methods[name].risk, name
+
+
+def test_an_observation_of_the_wrong_shape_is_refused(paper_demo):
+    with pytest.raises(ForecastError, match=r"shape \(k \+ 1, 4\)"):
+        Observation(paper_demo.ev[:, :2], paper_demo.vehicles, paper_demo.scenario)
+    with pytest.raises(ForecastError, match="surrounding vehicles"):
+        Observation(paper_demo.ev[:3], paper_demo.vehicles[:2], paper_demo.scenario)

@@ -1,4 +1,4 @@
-"""The physics baseline (irl/physics.py): IDM, the quintic lane change, calibration."""
+"""Calibrating the physics predictor (prediction/physics_calibration.py) and its file."""
 
 import json
 import re
@@ -6,55 +6,14 @@ import re
 import numpy as np
 import pytest
 
-from drivestyle.irl.physics import (
+from drivestyle.prediction.physics import PhysicsParams, physics_forecast
+from drivestyle.prediction.physics_calibration import (
+    PHYSICS_FILE,
     PhysicsCase,
-    PhysicsParams,
     calibrate_physics,
-    idm_acceleration,
-    lateral_forecast,
     load_params,
-    physics_forecast,
-    quintic_progress,
     save_params,
 )
-
-P = PhysicsParams()
-
-
-def test_idm_is_still_at_the_desired_speed_and_brakes_behind_a_close_leader():
-    assert idm_acceleration(20.0, None, 0.0, 20.0, P) == pytest.approx(0.0)
-    assert idm_acceleration(10.0, None, 0.0, 20.0, P) == pytest.approx(P.accel_mps2 * (1 - 0.5**4))
-    assert idm_acceleration(10.0, 5.0, 10.0, 20.0, P) < -P.decel_mps2  # closing on a stopped car
-
-
-def test_the_quintic_runs_from_0_to_1_with_zero_slope_at_both_ends():
-    u = np.linspace(0, 1, 101)
-    s = quintic_progress(u)
-    assert s[0] == 0 and s[-1] == 1 and np.all(np.diff(s) > 0)
-    assert quintic_progress(1e-4) < 1e-10 and 1 - quintic_progress(1 - 1e-4) < 1e-10
-
-
-def test_lateral_keeps_its_line_below_the_trigger_and_else_reaches_the_next_lane():
-    w, dt = 3.7, 0.2
-    still = np.full(11, 1.7) + np.linspace(0, 0.01, 11)
-    assert np.allclose(lateral_forecast(still, dt, 20, w, P), still[-1])
-    moving = np.linspace(1.6, 2.6, 11)  # lane 0, 0.5 m/s to +y
-    y = lateral_forecast(moving, dt, 60, w, P)
-    assert y[0] == moving[-1] and y[-1] == pytest.approx(1.5 * w)
-    assert np.all(np.diff(y) >= 0)
-    down = lateral_forecast(moving[::-1] + 3.7, dt, 60, w, P)  # lane 1, to −y: lane 0's centre
-    assert down[-1] == pytest.approx(0.5 * w)
-    crossed = np.linspace(3.0, 4.2, 11)  # crossed into lane 1 while observed: its centre
-    assert lateral_forecast(crossed, dt, 60, w, P)[-1] == pytest.approx(1.5 * w)
-
-
-def test_physics_follows_a_slow_leader_in_its_lane_only():
-    ev = np.column_stack([np.arange(6) * 2.0, np.full(6, 1.8), np.zeros(6), np.full(6, 10.0)])
-    slow_ahead = np.array([[30.0, 1.8, 0.0, 3.0]])
-    other_lane = np.array([[30.0, 5.5, 0.0, 3.0]])
-    free = physics_forecast(ev, np.zeros((0, 4)), 0.2, 30, 3.7, 4.5, P)
-    assert np.allclose(physics_forecast(ev, other_lane, 0.2, 30, 3.7, 4.5, P), free)
-    assert physics_forecast(ev, slow_ahead, 0.2, 30, 3.7, 4.5, P)[-1, 0] < free[-1, 0] - 5
 
 
 @pytest.mark.slow  # ≈ 4–6 s: two least-squares fits
@@ -74,11 +33,6 @@ def test_calibration_recovers_the_parameters_that_made_the_data(tmp_path):
     assert calibrate_physics(cases) == cal  # deterministic
     save_params(cal, tmp_path / "p.json")
     assert load_params(tmp_path / "p.json") == cal.params
-
-
-def test_parameters_must_be_positive():
-    with pytest.raises(ValueError, match="time_gap_s"):
-        PhysicsParams(time_gap_s=0.0)
 
 
 FULL = PhysicsParams().to_json()
@@ -115,3 +69,7 @@ def test_a_missing_or_folder_parameters_file_is_named(tmp_path):
         load_params(tmp_path / "no.json")
     with pytest.raises(ValueError, match="is a folder, not a physics parameters file"):
         load_params(tmp_path)
+
+
+def test_the_shipped_calibration_loads():
+    assert isinstance(load_params(PHYSICS_FILE), PhysicsParams)

@@ -1,4 +1,4 @@
-"""A physics baseline for highway prediction: IDM car following plus a fitted lane change.
+"""The physics predictor: IDM car following plus a fitted quintic lane change.
 
 What a highway researcher compares a learned predictor with (DESIGN §17). From the observed
 part only — the vehicle's states ξ_0 … ξ_k and the surrounding vehicles' states at sample k —
@@ -32,38 +32,31 @@ y lateral, lanes ``lane_width`` wide with lane i covering [i·w, (i+1)·w)):
 
 The parameters (:class:`PhysicsParams`: ρ, T, s0, a_max, b, D) are calibrated by least
 squares of the displacement errors on the benchmark's train split
-(:func:`calibrate_physics`, deterministic) and stored in a small JSON
-(:func:`save_params` / :func:`load_params`). MOBIL-style timing (when a change starts) is not
-modelled: a change that has not started by t_obs is predicted as lane keeping.
+(:mod:`drivestyle.prediction.physics_calibration`, which also reads and writes their JSON).
+MOBIL-style timing (when a change starts) is not modelled: a change that has not started by
+t_obs is predicted as lane keeping. :class:`PhysicsBaseline` is the model as a
+:class:`~drivestyle.prediction.protocol.Predictor` (``physics``).
 """
 
 from __future__ import annotations
 
-import json
-import math
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, fields
-from pathlib import Path
-from typing import Any
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
 from drivestyle.envs.lanes import LATERAL_WINDOW_S, lane_change_target, leaders
 from drivestyle.envs.traffic import IDMParams
 from drivestyle.envs.traffic import idm_acceleration as _idm
+from drivestyle.prediction.protocol import Observation, PredictedPath
 
 __all__ = [
-    "PhysicsCalibration",
-    "PhysicsCase",
+    "PhysicsBaseline",
     "PhysicsParams",
-    "calibrate_physics",
     "idm_acceleration",
     "lateral_forecast",
-    "load_params",
     "longitudinal_forecast",
     "physics_forecast",
     "quintic_progress",
-    "save_params",
 ]
 
 
@@ -95,19 +88,6 @@ class PhysicsParams:
     def to_json(self) -> dict[str, float]:
         """JSON-ready dict."""
         return {k: float(v) for k, v in asdict(self).items()}
-
-
-CALIBRATED = ("v0_factor", "time_gap_s", "min_gap_m", "accel_mps2", "decel_mps2", "lc_duration_s")
-"""The parameters :func:`calibrate_physics` fits (in this order)."""
-BOUNDS = {
-    "v0_factor": (0.8, 2.0),
-    "time_gap_s": (0.3, 3.0),
-    "min_gap_m": (0.5, 6.0),
-    "accel_mps2": (0.2, 4.0),
-    "decel_mps2": (0.3, 5.0),
-    "lc_duration_s": (2.0, 12.0),
-}
-"""Their bounds in the calibration (the ranges reported for highway traffic, widened)."""
 
 
 # ---------------------------------------------------------------------------- the model
@@ -257,171 +237,16 @@ def physics_forecast(
     return np.column_stack([x, y])
 
 
-# ---------------------------------------------------------------------------- calibration
 @dataclass(frozen=True)
-class PhysicsCase:
-    """One (vehicle, t_obs) of the calibration set: the observed part and the truth."""
+class PhysicsBaseline:
+    """``physics``: :func:`physics_forecast` of the observed vehicle with ``params``."""
 
-    ev: np.ndarray
-    """Observed states ξ_0 … ξ_k, shape (k + 1, 4)."""
-    others: np.ndarray
-    """Surrounding vehicles at sample k, shape (m, 4)."""
-    actual: np.ndarray
-    """True positions at j = 0 … H, shape (H + 1, 2)."""
-    dt: float
-    lane_width: float
-    length: float
+    params: PhysicsParams = field(default_factory=PhysicsParams)
+    """The model's parameters (the benchmark passes the calibrated ones)."""
 
-
-@dataclass(frozen=True)
-class PhysicsCalibration:
-    """The result of :func:`calibrate_physics`."""
-
-    params: PhysicsParams
-    initial: PhysicsParams
-    n_cases: int
-    rmse_m: float
-    """Root mean square displacement over every predicted sample (each case weighted
-    equally) at the fitted parameters [m]."""
-    rmse_initial_m: float
-    """The same at the initial parameters [m]."""
-    message: str
-    """The optimiser's message."""
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict (the file :func:`load_params` reads)."""
-        return {
-            "params": self.params.to_json(),
-            "initial": self.initial.to_json(),
-            "calibrated": list(CALIBRATED),
-            "bounds": {k: list(v) for k, v in BOUNDS.items()},
-            "n_cases": self.n_cases,
-            "rmse_m": self.rmse_m,
-            "rmse_initial_m": self.rmse_initial_m,
-            "message": self.message,
-        }
-
-
-def _residuals(params: PhysicsParams, cases: Sequence[PhysicsCase]) -> np.ndarray:
-    out = []
-    for c in cases:
-        xy = physics_forecast(c.ev, c.others, c.dt, len(c.actual) - 1, c.lane_width, c.length,
-                              params)  # fmt: skip
-        d = (xy[1:] - c.actual[1:]).ravel()
-        out.append(d / np.sqrt(len(c.actual) - 1))
-    return np.concatenate(out) if out else np.zeros(0)
-
-
-def calibrate_physics(
-    cases: Sequence[PhysicsCase], initial: PhysicsParams | None = None
-) -> PhysicsCalibration:
-    """Least squares of the displacement errors over every case (deterministic).
-
-    Minimises Σ_cases (1/H) Σ_j ‖p̂_j − p_j‖² over :data:`CALIBRATED` within :data:`BOUNDS`
-    (``scipy.optimize.least_squares``, trust-region reflective, finite differences) from
-    ``initial`` and from the points a quarter and three quarters into the bounds, keeping
-    the lowest: the mean squared displacement, each (vehicle, t_obs) counted once.
-
-    Args:
-        cases: the calibration cases (the train split's).
-        initial: the start (default :class:`PhysicsParams`'s).
-
-    Raises:
-        ValueError: no case.
-    """
-    from scipy.optimize import least_squares
-
-    if not cases:
-        raise ValueError("need at least one case to calibrate the physics baseline")
-    initial = initial or PhysicsParams()
-    fixed = asdict(initial)
-    lo = np.array([BOUNDS[k][0] for k in CALIBRATED])
-    hi = np.array([BOUNDS[k][1] for k in CALIBRATED])
-    x0 = np.clip([fixed[k] for k in CALIBRATED], lo, hi)
-
-    def make(z: np.ndarray) -> PhysicsParams:
-        return PhysicsParams(**(fixed | {k: float(v) for k, v in zip(CALIBRATED, z, strict=True)}))
-
-    # the displacement errors are piecewise smooth (which vehicle leads changes where a
-    # predicted path crosses a lane line), so trust-region descents can stop at a kink: the
-    # start and two more, a quarter and three quarters into the bounds, and the lowest wins
-    starts = [x0, lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo)]
-
-    def descend(start: np.ndarray) -> Any:
-        return least_squares(
-            lambda z: _residuals(make(z), cases), start, bounds=(lo, hi), method="trf",
-            diff_step=1e-3, x_scale=hi - lo, max_nfev=200,
-        )  # fmt: skip
-
-    runs = [descend(start) for start in starts]
-    res = runs[int(np.argmin([float(r.cost) for r in runs]))]  # the first of equal costs
-    n = len(cases)
-    best = make(res.x)
-    return PhysicsCalibration(
-        params=best,
-        initial=initial,
-        n_cases=n,
-        rmse_m=float(np.sqrt(np.sum(_residuals(best, cases) ** 2) / n)),
-        rmse_initial_m=float(np.sqrt(np.sum(_residuals(make(x0), cases) ** 2) / n)),
-        message=str(res.message),
-    )
-
-
-def save_params(calibration: PhysicsCalibration, path: str | Path) -> None:
-    """Write the calibration as JSON (sorted keys, a trailing newline)."""
-    text = json.dumps(calibration.to_json(), indent=2, sort_keys=True)
-    Path(path).write_text(text + "\n")
-
-
-def load_params(path: str | Path) -> PhysicsParams:
-    """The parameters of a file :func:`save_params` wrote (its ``params`` entry), checked.
-
-    Every parameter of :class:`PhysicsParams` must be there, and no other; each a number,
-    finite and > 0, a calibrated one within :data:`BOUNDS` (what calibration keeps to: a
-    time gap of 30 s is no calibration's).
-
-    Raises:
-        FileNotFoundError: no such file.
-        ValueError: a folder, not UTF-8 JSON, no ``params`` object, a parameter missing,
-            unknown, not a number or out of its range; one line naming the file and the
-            problem.
-    """
-    path = Path(path)
-    if path.is_dir():
-        raise ValueError(f"{path} is a folder, not a physics parameters file")
-    try:
-        raw = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise FileNotFoundError(f"{path}: no such file") from None
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{path}: not a text file (byte {exc.start} is not UTF-8)") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(
-            f"{path}: not JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})"
-        ) from None
-    params = raw.get("params") if isinstance(raw, dict) else None
-    if not isinstance(params, dict):
-        raise ValueError(
-            f'{path}: no "params" object: not a physics parameters file (drivestyle '
-            "evaluate-prediction --calibrate-physics --physics FILE writes one)"
-        )
-    names = [f.name for f in fields(PhysicsParams)]
-    unknown = [k for k in params if k not in names]
-    missing = [k for k in names if k not in params]
-    if unknown or missing:
-        what = [f"unknown {', '.join(unknown)}"] if unknown else []
-        what += [f"no {', '.join(missing)}"] if missing else []
-        raise ValueError(f"{path}: params: {'; '.join(what)} (expected {', '.join(names)})")
-    for name in names:
-        value = params[name]
-        ok = isinstance(value, int | float) and not isinstance(value, bool)
-        if not (ok and math.isfinite(value) and value > 0):
-            raise ValueError(f"{path}: params.{name} {value!r} is not a finite number > 0")
-        lo, hi = BOUNDS.get(name, (0.0, math.inf))
-        slack = 1e-6 * (hi - lo if math.isfinite(hi) else 1.0)  # the optimiser's last digits
-        if not lo - slack <= value <= hi + slack:
-            raise ValueError(
-                f"{path}: params.{name} {value:g} lies outside [{lo:g}, {hi:g}], the range "
-                "calibration keeps to"
-            )
-    return PhysicsParams(**params)
+    def predict(self, seen: Observation, steps: int) -> PredictedPath:
+        """The physics baseline's path (:class:`~drivestyle.prediction.protocol.Predictor`)."""
+        sc = seen.scenario
+        xy = physics_forecast(seen.ev, seen.others, seen.dt, steps, sc.lane_width,
+                              sc.vehicle_length, self.params)  # fmt: skip
+        return PredictedPath(xy)

@@ -1,0 +1,162 @@
+"""The prediction study's figures, and the figure of one prediction.
+
+:func:`plot_prediction` draws one vehicle's observed path, its true future and every
+method's prediction to scale (``example_prediction.png`` of ``evaluate-prediction``,
+``prediction.png`` of ``predict-trajectory``); :func:`plot_prediction_errors` the mean FDE of
+every method against t_obs (``fde_by_method.png``); :func:`plot_posterior_over_time` the
+online posterior of a few vehicles (``posterior_over_time.png``). Colours, lanes and saving
+are :mod:`drivestyle.studies.figures`'s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Polygon
+
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.safety import vehicle_corners
+from drivestyle.prediction.methods import METHODS, Prediction
+from drivestyle.studies.figures import (
+    EV_RED,
+    SCALED_ORANGE,
+    TV_BLUE,
+    draw_lanes,
+    save_figure,
+)
+from drivestyle.studies.prediction.study import PredictionStudy
+from drivestyle.studies.prediction.tracking import TrackingRecord
+from drivestyle.studies.reports import seconds
+
+__all__ = [
+    "METHOD_STYLES",
+    "plot_posterior_over_time",
+    "plot_prediction",
+    "plot_prediction_errors",
+]
+
+
+METHOD_STYLES: dict[str, dict[str, Any]] = {
+    "cv": {"color": "#6b7280", "ls": "--", "lw": 1.4},
+    "ca": {"color": "#a3a3a3", "ls": ":", "lw": 1.4},
+    "physics": {"color": "#7c3aed", "ls": "-", "lw": 1.4},
+    "population": {"color": "#16a34a", "ls": "-.", "lw": 1.4},
+    "mode": {"color": EV_RED, "ls": "-", "lw": 1.8},
+    "mixture": {"color": SCALED_ORANGE, "ls": "--", "lw": 1.6},
+    "oracle": {"color": TV_BLUE, "ls": ":", "lw": 2.0},
+}
+"""Line style per prediction method: one entry for every name of
+:data:`drivestyle.prediction.methods.METHODS` (a test checks it)."""
+
+
+def plot_prediction(
+    prediction: Prediction, demo: Demonstration, path: str | Path, title: str = ""
+) -> Path:
+    """One vehicle's observed path, its true future and every method's prediction, to scale.
+
+    The road panel has equal axes (as
+    :func:`~drivestyle.studies.figures.plot_demonstration`): lanes, the surrounding vehicles'
+    paths over the predicted time, the vehicle and its neighbours at t_obs as rectangles. The
+    x range follows the truth; a prediction that leaves it is cut.
+
+    Args:
+        prediction: :func:`drivestyle.prediction.methods.predict`'s result.
+        demo: the demonstration predicted (its scenario draws the road).
+        path: output PNG.
+        title: figure title.
+    """
+    sc = demo.scenario
+    k = len(prediction.observed) - 1
+    xy_all = np.vstack([prediction.observed, prediction.actual])
+    x_lo = float(xy_all[:, 0].min()) - sc.vehicle_length * 2
+    x_hi = float(xy_all[:, 0].max()) + sc.vehicle_length * 2
+    y_lo, y_hi = -0.5, sc.road_width + 0.5
+    width = 11.0
+    road_h = max(width * 0.9 * (y_hi - y_lo) / (x_hi - x_lo), 1.2)
+    fig, ax = plt.subplots(figsize=(width, road_h + 1.9))
+    draw_lanes(ax, sc)
+    others = demo.vehicles[k:]
+    for j in range(others.shape[1]):
+        ax.plot(others[:, j, 0], others[:, j, 1], "-", color="0.6", lw=1.0,
+                label="other vehicles (truth)" if j == 0 else None)  # fmt: skip
+    for state in demo.vehicles[k]:
+        corners = vehicle_corners(state, sc.vehicle_length, sc.vehicle_width)
+        ax.add_patch(Polygon(corners, closed=True, fc="0.6", ec="k", lw=0.5, alpha=0.7))
+    corners = vehicle_corners(demo.ev[k], sc.vehicle_length, sc.vehicle_width)
+    ax.add_patch(Polygon(corners, closed=True, fc=EV_RED, ec="k", lw=0.5, alpha=0.8))
+    ax.plot(*prediction.observed.T, "-", color="k", lw=2.4,
+            label=f"observed ({seconds(prediction.t_obs)})")  # fmt: skip
+    ax.plot(*prediction.actual.T, "-", color="k", lw=1.2, alpha=0.5, label="truth")
+    for name in METHODS:
+        m = prediction.methods.get(name)
+        if m is None:
+            continue
+        risk = "" if m.risk is None else f", p={m.risk:.2f}"
+        ax.plot(*m.xy.T, **METHOD_STYLES[name], label=f"{name} (FDE {m.fde_m:.2f} m{risk})")
+    ax.set_xlim(x_lo, x_hi)
+    ax.set_ylim(y_lo, y_hi)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m] (to scale)")
+    ax.set_ylabel("y [m]")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.35), fontsize=8, ncol=4, frameon=False)
+    return save_figure(fig, path, title or None)
+
+
+def plot_prediction_errors(study: PredictionStudy, path: str | Path) -> Path:
+    """Mean FDE of every method against t_obs, one panel per set (log scale)."""
+    sets = list(dict.fromkeys(s.set for s in study.summaries))
+    fig, axes = plt.subplots(1, max(len(sets), 1), figsize=(4.2 * max(len(sets), 1), 3.8),
+                             squeeze=False)  # fmt: skip
+    for ax, set_name in zip(axes[0], sets, strict=False):
+        for name in METHODS:
+            rows = [s for s in study.summaries if s.set == set_name and s.method == name]
+            if not rows:
+                continue
+            style = METHOD_STYLES[name]
+            ax.plot([r.t_obs for r in rows], [max(r.fde_mean_m, 1e-3) for r in rows], "o",
+                    color=style["color"], ls=style["ls"], lw=style["lw"], label=name)  # fmt: skip
+        n = max((s.n for s in study.summaries if s.set == set_name), default=0)
+        ax.set_title(f"{set_name} (n ≤ {n} per t_obs)", fontsize=10)
+        ax.set_yscale("log")
+        ax.set_xlabel("observed time t_obs [s]")
+        ax.set_ylabel("mean FDE [m] (floor 1 mm: an exact oracle)")
+        ax.grid(alpha=0.3, which="both")
+    axes[0][0].legend(fontsize=8)
+    return save_figure(fig, path, "Final displacement error by method", dpi=120)
+
+
+def plot_posterior_over_time(
+    tracks: Sequence[TrackingRecord], path: str | Path, title: str = ""
+) -> Path:
+    """The online risk posterior over time: mean and 90 % band, one panel per vehicle.
+
+    Args:
+        tracks: the vehicles to show (e.g. spanning the risk range).
+        path: output PNG.
+        title: figure title.
+    """
+    n = max(len(tracks), 1)
+    fig, axes = plt.subplots(1, n, figsize=(3.3 * n, 3.4), sharey=True, squeeze=False)
+    for ax, tr in zip(axes[0], tracks, strict=False):
+        t = np.asarray(tr.t)
+        ax.fill_between(t, tr.lo, tr.hi, step="post", color=EV_RED, alpha=0.2,
+                        label="90 % interval")  # fmt: skip
+        ax.plot(t, tr.mean, "-", color=EV_RED, lw=1.6, label="posterior mean")
+        ax.axhline(tr.true_risk, color="k", ls="--", lw=1.0, label="true risk")
+        if tr.t_narrow is not None:
+            ax.axvline(tr.t_narrow, color=TV_BLUE, ls=":", lw=1.2,
+                       label="interval < 0.2 first")  # fmt: skip
+        ax.set_title(f"{tr.vehicle_id}: p = {tr.true_risk:.2f}", fontsize=9)
+        ax.set_xlabel("t [s]")
+        ax.set_ylim(0.48, 1.0)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("risk p")
+    axes[0][0].legend(fontsize=7, loc="lower left")
+    return save_figure(fig, path, title or "Online identification: the posterior over time")
