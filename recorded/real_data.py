@@ -264,8 +264,9 @@ def recorded_vehicle(demo: Demonstration) -> RecordedVehicle | None:
     """Which recorded vehicle a demonstration is of; None where its metadata does not say.
 
     A vehicle id is unique within its carriageway of one recording (the rule of
-    :func:`~drivestyle.recorded.episodes.read_episodes`, ``<carriageway>:<vehicle id>``), so a
-    recorded vehicle is (``meta["source"]``, the carriageway, ``meta["vehicle_id"]``). The
+    :func:`~drivestyle.recorded.episode_files.read_episodes`, ``<carriageway>:<vehicle
+    id>``), so a recorded vehicle is (``meta["source"]``, the carriageway,
+    ``meta["vehicle_id"]``). The
     carriageway is read from the extraction's episode id, ``<carriageway>_<vehicle
     id>_<crossing ms>`` (``meta["extraction_id"]`` of a curated episode, else
     ``meta["episode_id"]``). The same car on two carriageways (CATS's vehicle 3 on two days)

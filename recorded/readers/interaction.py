@@ -33,12 +33,8 @@ __all__ = [
 
 INTERACTION_VEHICLES = frozenset({"car", "truck", "bus", "truck_bus", "van", "motorcycle"})
 """INTERACTION ``agent_type`` values kept (pedestrians and bicycles are dropped)."""
-
-
 _AXES = {"x+": 0.0, "y+": math.pi / 2, "x-": math.pi, "y-": -math.pi / 2}
 """Named road directions of :func:`read_interaction` → angle of travel in the map [rad]."""
-
-
 INTERACTION_COLUMNS = (
     "case_id",
     "track_id",

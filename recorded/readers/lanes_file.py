@@ -27,17 +27,11 @@ __all__ = [
 
 DIRECTIONS = ("+x", "-x")
 """The driving directions of a table's carriageways (keys of per-direction lane lines)."""
-
-
 RoadLines = Sequence[float] | Mapping[str, Sequence[float]]
 """One recording's lane lines' y in the table's frame [m], road edges included: one list
 for both directions, or ``{"+x": [...], "-x": [...]}`` (a road with a median)."""
-
-
 LaneLines = Sequence[float] | Mapping[str, RoadLines]
 """Lane lines of a table: one list for every recording, or per recording."""
-
-
 LANES_FILE = "a JSON lanes file: each recording's lane lines' y [m]"
 """What :func:`load_lanes` reads, for messages."""
 

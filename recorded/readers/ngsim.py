@@ -58,16 +58,10 @@ NGSIM_COLUMNS = (
     "Time_Headway",
 )
 """The 18 columns of the classic US-101 / I-80 text files (whitespace separated, no header)."""
-
-
 NGSIM_FREEWAYS = ("i-80", "us-101")
 """``Location`` values kept from the data.transportation.gov CSV (the arterials are not)."""
-
-
 NGSIM_MAIN_LANES = 5
 """US-101's main lanes are Lane_ID 1 (leftmost) to 5 (6 auxiliary, 7 on-ramp, 8 off-ramp)."""
-
-
 NGSIM_MAIN_LANES_BY_FREEWAY = {"i-80": 6, "us-101": NGSIM_MAIN_LANES}
 """Main lanes per freeway: I-80 has six (Lane_ID 1, the HOV lane, to 6; 7 is the on-ramp)."""
 
@@ -87,16 +81,12 @@ def _ngsim_main_lanes(name: str, lane_id: np.ndarray) -> int:
 NGSIM_LANE_FT = 12.0
 """Nominal NGSIM lane width [ft] (``markings="nominal"``: lane k spans 12(k − 1)…12k ft of
 Local_X from the left road edge)."""
-
-
 NGSIM_REUSED_ID_GAP_S = 60.0
 """A vehicle id seen again after a longer gap is another vehicle [s]: NGSIM numbers the
 vehicles of each 15-minute period from 1 again, and a vehicle crosses the study area in
 minutes, so a reused id comes back 10 minutes or more later. A shorter gap is a gap in one
 vehicle's track, the extraction's rule for every reader (``ExtractionConfig.max_gap_s``):
 its lane change is kept unusable, not lost between two tracks."""
-
-
 NGSIM_FILE = "an NGSIM trajectory file (US-101, I-80)"
 """What :func:`read_ngsim` reads, for messages."""
 

@@ -41,18 +41,12 @@ __all__ = [
 
 TABLE_COLUMNS = ("id", "t", "x", "y")
 """Columns every generic table has: vehicle id, time [s], position [m] (centre)."""
-
-
 TABLE_OPTIONAL = ("recording", "v", "heading", "length", "width", "lane", "frame")
 """Columns a generic table may have: the recording's name (vehicle ids are unique within a
 recording and may restart in the next), speed [m/s], heading against +x [rad], vehicle size
 [m], lane id (any numbering), source frame number."""
-
-
 TABLE_TEXT = ("recording", "id")
 """Columns read as text: names, not numbers (``007`` stays ``007``)."""
-
-
 ROAD_LANES_MAX = 50
 """The most lanes the lines every ``lane_width`` may span across a recording's y: a road has
 at most a few dozen (both directions); more is a y in another unit or a wrong row."""

@@ -16,10 +16,7 @@ from drivestyle.recorded.episodes import (
     PHANTOM_GAP_M,
     ExtractionConfig,
     extract_episodes,
-    lateral_move,
     recover_inputs,
-    resample_states,
-    speed_constants,
     write_episodes,
 )
 from drivestyle.recorded.readers import READERS, read_table
@@ -146,37 +143,6 @@ def test_a_drift_across_a_line_is_kept_unusable_with_its_lateral_move(tmp_path, 
     assert _extract(tmp_path, drift, ExtractionConfig(min_lateral_move=0.3))[0].usable
     (half,) = _extract(tmp_path, drift)
     assert not half.usable and "below the minimum lateral move 1.75 m" in half.reasons[0]
-
-
-def test_lateral_move_in_closed_form_robust_to_one_bad_sample():
-    t = np.round(np.arange(0, 8.0 + 1e-9, 0.1), 9)
-    y = 0.5 * t
-    # the medians over the first and last 0.5 s: y(0.25) and y(7.75) on a straight line
-    assert lateral_move(t, y, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
-    spike = y.copy()
-    spike[-1] += 5.0  # one bad fix at the window's end does not decide
-    assert lateral_move(t, spike, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
-    assert abs(spike[-1] - spike[0] - 3.75) > 1  # the end samples alone would
-    sparse = np.arange(0, 8.0 + 1e-9, 0.5)  # 2 Hz: no sample inside a span, interpolated
-    assert lateral_move(sparse, 0.5 * sparse, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
-    assert lateral_move(t, y, 2.0, 2.6) == pytest.approx(0.15, abs=1e-12)  # spans ≤ half
-    assert lateral_move(t, -y, 0.0, 8.0) == pytest.approx(-3.75, abs=1e-12)
-
-
-def test_resampling_a_straight_line_and_a_circle_arc_in_closed_form():
-    t = np.arange(0, 4.0 + 1e-9, 0.1)
-    t_new = np.arange(0, 4.0 + 1e-9, 0.2)
-    phi0, v = 0.1, 20.0
-    line = resample_states(t, v * t * np.cos(phi0), v * t * np.sin(phi0), t_new)
-    np.testing.assert_allclose(line[:, 2], phi0, atol=1e-9)
-    np.testing.assert_allclose(line[:, 3], v, atol=1e-9)
-    r, omega = 200.0, 0.1  # 20 m/s on a 200 m circle
-    arc = resample_states(t, r * np.sin(omega * t), r * (1 - np.cos(omega * t)), t_new)
-    np.testing.assert_allclose(arc[:, 0], r * np.sin(omega * t_new), atol=1e-9)
-    inner = slice(2, -2)  # the spline's free ends bend its derivative at the ends
-    np.testing.assert_allclose(arc[inner, 2], omega * t_new[inner], atol=1e-4)
-    np.testing.assert_allclose(arc[inner, 3], r * omega, atol=1e-3)
-    assert np.max(np.abs(arc[:, 2] - omega * t_new)) < 2e-3
 
 
 def test_recovered_inputs_reproduce_the_states_through_rk4():
@@ -417,11 +383,3 @@ def test_an_implausible_episode_names_the_lane_lines_not_metadata(tmp_path):
     assert problem.endswith(
         "wrong lane_width or tv_lane in the metadata, or y in another frame or unit?"
     )
-
-
-def test_v_max_is_the_road_vehicles_bound_whatever_the_observed_speeds():
-    from drivestyle.envs.units import ROAD_SPEED_MAX_MPS
-
-    for top in (20.0, 60.0, 120.0):
-        level, v_max, _ = speed_constants(np.array([top / 2, top]))
-        assert v_max == ROAD_SPEED_MAX_MPS == 70.0 and level == pytest.approx(0.95 * top)
