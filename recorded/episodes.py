@@ -55,11 +55,9 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.envs.demonstration import (
-    Demonstration,
-    plausibility_problems,
-)
+from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import recover_inputs
+from drivestyle.envs.plausibility import plausibility_problems
 from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS, off_grid
 from drivestyle.recorded.episode_files import (
     EPISODE_COLUMNS,

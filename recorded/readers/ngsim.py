@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
+from drivestyle.envs.plausibility import LANE_WIDTH_RANGE_M
 from drivestyle.envs.units import FOOT
 from drivestyle.recorded.readers.shared import (
     _label,

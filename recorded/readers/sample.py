@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
+from drivestyle.envs.plausibility import LANE_WIDTH_RANGE_M
 from drivestyle.recorded.readers.ngsim import (
     NGSIM_MAIN_LANES,
     NGSIM_MAIN_LANES_BY_FREEWAY,

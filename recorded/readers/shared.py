@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.envs.demonstration import LANE_WIDTH_RANGE_M
+from drivestyle.envs.plausibility import LANE_WIDTH_RANGE_M
 from drivestyle.envs.units import FOOT
 from drivestyle.recorded.tracks import Carriageway, TrackError
 
@@ -196,7 +196,7 @@ def check_lane_lines(markings: np.ndarray, path: Path | str, what: str) -> np.nd
 def _check_lane_width(w: float, path: Path | str, what: str) -> float:
     """A lane width a road has, in metres, or a one-line error.
 
-    :data:`~drivestyle.envs.demonstration.LANE_WIDTH_RANGE_M` is the one range of every lane
+    :data:`~drivestyle.envs.plausibility.LANE_WIDTH_RANGE_M` is the one range of every lane
     width, given or between given lines: checked before any line is computed from it
     (``lane_width=1e308`` would overflow).
     """
