@@ -3,7 +3,15 @@
 On disk a demonstration is an ``.npz`` with arrays ``t`` (n,), ``ev`` (n, 4), ``tv``
 (n, 4) as [x, y, φ, v] in SI units, ``u`` (n−1, 2) as [a, δ], and ``meta``: a JSON string
 with at least the scenario's parameters (``meta["scenario"]``) and, for generated
-demonstrations, the SMPC's risk level ``meta["risk"]`` in (0, 1).
+demonstrations, the SMPC's risk level ``meta["risk"]`` in (0, 1). Optional keys: ``others``
+(n, m, 4), the further surrounding vehicles; ``origin``, a 0-d string, ``"simulated"`` or
+``"recorded"`` (:attr:`Demonstration.origin`); ``observed`` (1 + m, n) bool, which
+surrounding vehicle's states are recorded samples (:attr:`Demonstration.observed`).
+:func:`save_demonstration` writes ``origin`` always and ``observed`` when the demonstration
+carries one. A file written before these keys loads as before: its origin is
+``"recorded"`` when its ``meta`` holds an ``episode_id`` (what the extraction wrote) and
+``"simulated"`` otherwise, and its mask is None (for a recorded episode
+:func:`drivestyle.recorded.observed.observed_mask` derives it by the fallback rule).
 
 Construction checks the arrays' form (shapes, finiteness, time order);
 :func:`~drivestyle.envs.plausibility.check_plausible` checks the physics against the model
@@ -22,7 +30,7 @@ import zipfile
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -72,6 +80,11 @@ __all__ = [
 
 REQUIRED = ("t", "ev", "tv", "u")
 
+Origin = Literal["simulated", "recorded"]
+"""Where a demonstration's states come from (:attr:`Demonstration.origin`)."""
+ORIGINS: tuple[Origin, ...] = get_args(Origin)
+"""The origins a demonstration may have."""
+
 
 class DemonstrationError(ValueError):
     """A demonstration (array set or file) is malformed; the message names the problem."""
@@ -100,6 +113,21 @@ class Demonstration:
     others: np.ndarray | None = None
     """States of the further surrounding vehicles (traffic, besides the TV), shape
     (n, m, 4); None or m = 0: the single-TV setting (files without it load as m = 0)."""
+    origin: Origin = "simulated"
+    """Where the states come from: ``"simulated"`` (an environment's rollout, an SMPC
+    demonstration, a tracker's view of one) or ``"recorded"`` (a lane change extracted
+    from tracks, :func:`drivestyle.recorded.episodes.extract_episodes`: recorded traffic,
+    or a simulator's traffic written as tracks, which is then seen as recorded traffic is).
+    The recorded views read it (:func:`drivestyle.recorded.real_data.is_recorded`)."""
+    observed: np.ndarray | None = None
+    """Per surrounding vehicle (rows in :attr:`vehicles` order: the TV, then ``others``) and
+    sample, whether its state is a recorded sample (True) or the extraction's
+    constant-velocity continuation before the vehicle's first or after its last recorded
+    sample (False), shape (1 + m, n) bool. None: not carried — every state of a simulated
+    demonstration is observed; for a recorded one (a file written before the mask was),
+    :func:`drivestyle.recorded.observed.observed_mask` derives it by the fallback rule.
+    Like ``u``, it belongs to the states: a transformation that changes which vehicle is
+    which carries it along (or passes None)."""
 
     def __post_init__(self) -> None:
         arrays = {}
@@ -148,6 +176,24 @@ class Demonstration:
         for name, a in arrays.items():
             a.setflags(write=False)
             object.__setattr__(self, name, a)
+        if self.origin not in ORIGINS:
+            raise DemonstrationError(
+                f"origin must be one of {', '.join(map(repr, ORIGINS))}, got {self.origin!r}"
+            )
+        if self.observed is not None:
+            mask = np.array(self.observed)
+            if mask.dtype != bool:
+                raise DemonstrationError(
+                    f"'observed' must be a boolean array (True: a recorded sample), got dtype "
+                    f"{mask.dtype}"
+                )
+            if mask.shape != (1 + others.shape[1], n):
+                raise DemonstrationError(
+                    f"'observed' must have shape (1 + m, n) = ({1 + others.shape[1]}, {n}), one "
+                    f"row per surrounding vehicle (TV, then others), got {mask.shape}"
+                )
+            mask.setflags(write=False)
+            object.__setattr__(self, "observed", mask)
         if not isinstance(self.meta, dict):
             raise DemonstrationError(f"meta must be a dict, got {type(self.meta).__name__}")
         risk = self.meta.get("risk")
@@ -209,6 +255,9 @@ def save_demonstration(demo: Demonstration, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     others = demo.other_vehicles
     extra: dict[str, np.ndarray] = {"others": others} if others.shape[1] else {}
+    extra["origin"] = np.array(demo.origin)
+    if demo.observed is not None:
+        extra["observed"] = demo.observed
     np.savez(
         path,
         t=demo.t,
@@ -248,9 +297,13 @@ def _not_npz(path: Path) -> str:
 def load_demonstration(path: str | Path) -> Demonstration:
     """Read and validate a demonstration file.
 
+    A file without ``origin`` (written before the key was) is recorded when its ``meta``
+    holds an ``episode_id`` (the extraction's) and simulated otherwise; one without
+    ``observed`` carries no mask (module docstring).
+
     Args:
-        path: an ``.npz`` written by :func:`save_demonstration` (``meta`` and ``others``
-            are optional).
+        path: an ``.npz`` written by :func:`save_demonstration` (``meta``, ``others``,
+            ``origin`` and ``observed`` are optional).
 
     Returns:
         The demonstration.
@@ -260,8 +313,9 @@ def load_demonstration(path: str | Path) -> Demonstration:
         DemonstrationError: a folder instead of a file, a file of another kind (text, an
             .npy, empty: said as such), an unreadable archive (truncated, failed CRC,
             pickled objects), missing arrays, wrong shapes, NaNs,
-            non-increasing times, fewer than 3 samples or a metadata risk outside (0, 1);
-            the message starts with the path.
+            non-increasing times, fewer than 3 samples, a metadata risk outside (0, 1), an
+            unknown origin or an ``observed`` mask of another shape or not boolean; the
+            message starts with the path.
     """
     path = Path(path)
     if path.is_dir():
@@ -287,10 +341,16 @@ def load_demonstration(path: str | Path) -> Demonstration:
                 raise DemonstrationError(
                     f"{path}: missing array(s) {missing}; a demonstration needs {list(REQUIRED)}"
                 )
-            arrays = {k: data[k] for k in REQUIRED}
+            arrays: dict[str, Any] = {k: data[k] for k in REQUIRED}
             if "others" in data.files:
                 arrays["others"] = data["others"]
             meta = json.loads(str(data["meta"])) if "meta" in data.files else {}
+            if "origin" in data.files:
+                arrays["origin"] = str(data["origin"])
+            else:  # a file written before the origin was: the extraction's metadata says
+                arrays["origin"] = "recorded" if "episode_id" in meta else "simulated"
+            if "observed" in data.files:
+                arrays["observed"] = data["observed"]
     except DemonstrationError:
         raise
     except (

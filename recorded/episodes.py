@@ -478,11 +478,14 @@ def _episode(
     dt = config.dt
     t_grid = np.round(start + np.arange(math.floor((stop - start) / dt + 1e-9) + 1) * dt, 9)
     frame = _Frame(line, 1.0 if b > a else -1.0, w)
-    ev = frame.states(_states_on(track, t_grid))
+    ev = frame.states(_states_on(track, t_grid)[0])  # the window lies within the EV's track
     t_rel = t_grid - t_grid[0]
     observed = t_rel <= config.observe_s + 1e-9
     chosen = interacting_vehicles(track, road, float(t_grid[0]), a, b, config.interaction_range_m)
-    vehicles = [frame.states(_states_on(other, t_grid)) for _, other in chosen]
+    on_grid = [_states_on(other, t_grid) for _, other in chosen]
+    vehicles = [frame.states(states) for states, _ in on_grid]
+    # which states are recorded samples, not the continuation beyond a track's ends
+    recorded = [samples for _, samples in on_grid]
     if vehicles:
         tv, others = vehicles[0], vehicles[1:]
         tv_lane = int(np.clip(math.floor(float(tv[0, 1]) / w), 0, 2))
@@ -491,6 +494,7 @@ def _episode(
         tv[:, 0] += PHANTOM_GAP_M
         tv[:, 1], tv[:, 2] = 1.5 * w, 0.0
         tv_lane = 1
+        recorded = [np.ones(t_grid.size, bool)]  # the phantom continues no track
     first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
     # the interacting vehicles' problems and holes in the window make it unusable too
     flagged += tuple(
@@ -526,7 +530,8 @@ def _episode(
         }
         demo = Demonstration(
             t=t_rel, ev=ev, tv=tv, u=recover_inputs(ev, sc, t_rel), meta=meta,
-            others=np.stack(others, axis=1) if others else None,
+            others=np.stack(others, axis=1) if others else None, origin="recorded",
+            observed=np.stack(recorded),
         )  # fmt: skip
     except ValueError as exc:
         return Episode(**common, first_frame=first, last_frame=last,

@@ -241,8 +241,8 @@ to the heading estimate's error; recorded drivers reach 1.3–5× it)."""
 
 
 def is_recorded(demo: Demonstration) -> bool:
-    """Whether a demonstration is a recorded episode (extracted: ``meta["episode_id"]``)."""
-    return "episode_id" in demo.meta
+    """Whether a demonstration is a recorded episode (``demo.origin``)."""
+    return demo.origin == "recorded"
 
 
 @dataclass(frozen=True)
@@ -389,7 +389,9 @@ def _selected(
     demo = ep.demo
     meta = {**demo.meta, "episode_id": row.episode_id, "extraction_id": ep.episode_id}
     others = demo.others if neighbours else None
-    demo = Demonstration(t=demo.t, ev=demo.ev, tv=demo.tv, u=demo.u, meta=meta, others=others)
+    observed = demo.observed if neighbours or demo.observed is None else demo.observed[:1]
+    demo = Demonstration(t=demo.t, ev=demo.ev, tv=demo.tv, u=demo.u, meta=meta, others=others,
+                         origin=demo.origin, observed=observed)  # fmt: skip
     reasons = [*reasons, *ep.reasons]
     return RecordedEpisode(row.episode_id, dataset, not reasons, tuple(reasons), demo, flags)
 

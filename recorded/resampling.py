@@ -4,7 +4,9 @@
 and speed where the track has them; :func:`time_grid`: the multiples of T_s within a span.
 Beyond a track's first and last samples its states are continued at constant velocity
 (``_states_on``): an interacting vehicle recorded for part of a window still has a state
-at every sample.
+at every sample, and the episode says which are recorded
+(:attr:`~drivestyle.envs.demonstration.Demonstration.observed`,
+:mod:`drivestyle.recorded.observed`).
 """
 
 from __future__ import annotations
@@ -76,8 +78,16 @@ def _constant_velocity(state: np.ndarray, tau: np.ndarray) -> np.ndarray:
     )  # fmt: skip
 
 
-def _states_on(track: Track, t: np.ndarray) -> np.ndarray:
-    """A track's states on ``t``: resampled where recorded, constant velocity beyond."""
+def _states_on(track: Track, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A track's states on ``t``: resampled where recorded, constant velocity beyond.
+
+    Returns:
+        (states, shape (len(t), 4); True where a state is resampled from the track's
+        samples, False where it is the constant-velocity continuation before its first or
+        after its last sample — everywhere when the track covers fewer than two of the
+        times — shape (len(t),) bool: the episode's
+        :attr:`~drivestyle.envs.demonstration.Demonstration.observed`).
+    """
     inside = (t >= track.t[0] - 1e-9) & (t <= track.t[-1] + 1e-9)
     out = np.empty((t.size, 4))
     idx = np.flatnonzero(inside)
@@ -85,8 +95,8 @@ def _states_on(track: Track, t: np.ndarray) -> np.ndarray:
         # (almost) no overlap: the nearest recorded state, carried at constant velocity
         k = 0 if t[0] < track.t[0] else track.n - 1
         edge = resample_states(track.t, track.x, track.y, track.t[[k]], track.v, track.heading)
-        return _constant_velocity(edge[0], t - track.t[k])
+        return _constant_velocity(edge[0], t - track.t[k]), np.zeros(t.size, bool)
     out[idx] = resample_states(track.t, track.x, track.y, t[idx], track.v, track.heading)
     for edge, span in ((idx[0], slice(0, idx[0])), (idx[-1], slice(idx[-1] + 1, None))):
         out[span] = _constant_velocity(out[edge], t[span] - t[edge])
-    return out
+    return out, inside

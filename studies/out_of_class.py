@@ -721,7 +721,7 @@ def predict_episode(
     """Predict one lane change after each t_obs by every method but the oracle.
 
     :func:`~drivestyle.studies.prediction.predict_vehicle`: a highway-env lane
-    change is a recorded episode (``meta["episode_id"]``) and is seen through
+    change is extracted as a recorded episode (``origin == "recorded"``) and is seen through
     ``observed_view`` (the one recorded view of its observed samples); an SMPC
     demonstration is predicted in its own scenario. The record's set is the family
     (:func:`run_study` sets its bootstrap unit to ``<group>:<episode>``: every episode is

@@ -383,3 +383,20 @@ def test_an_implausible_episode_names_the_lane_lines_not_metadata(tmp_path):
     assert problem.endswith(
         "wrong lane_width or tv_lane in the metadata, or y in another frame or unit?"
     )
+
+
+def test_an_episode_is_recorded_and_says_which_states_continue_a_track(tmp_path):
+    df = _table()
+    # the target-lane follower's track ends at 7 s, inside the window (2 s to 10 s)
+    (ep,) = _extract(tmp_path, df[(df.id != "f") | (df.t <= 7.0)])
+    demo = ep.demo
+    assert demo.origin == "recorded" and dict(ep.interacting)["target_follower"] == "f"
+    assert demo.observed.shape == (1 + demo.other_vehicles.shape[1], demo.n)
+    t_source = demo.t + 2.0  # the window starts at 2 s
+    np.testing.assert_array_equal(demo.observed[0], t_source <= 7.0 + 1e-9)
+    assert demo.observed[1:].all()  # the leaders are recorded throughout
+    # beyond its last sample the follower is continued at its last heading and speed
+    after = ~demo.observed[0]
+    assert after.sum() == 15 and np.all(demo.tv[after, 3] == demo.tv[~after][-1, 3])
+    (alone,) = _extract(tmp_path, df[df.id == "ev"])
+    np.testing.assert_array_equal(alone.demo.observed, np.ones((1, alone.demo.n), bool))
