@@ -328,6 +328,9 @@ def with_recorded_bounds(demo: Demonstration) -> Demonstration:
     The heading and steering bounds become :data:`RECORDED_PHI_MAX` and
     :data:`RECORDED_DELTA_MAX`, and the inputs are recovered within them
     (:func:`~drivestyle.envs.dynamics.recover_inputs`); states and vehicles are unchanged.
+    This is a recovery of its own, not the extraction's inputs clipped: the bounded
+    inverse step's path depends on the bounds, and on the shipped samples the two differ
+    at 1044 of 4673 steps, 24 of them with the wider δ inside the scenario's bound.
 
     Args:
         demo: a recorded episode.
