@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -249,18 +248,6 @@ def test_lanes_in_feet_and_parquet_without_pyarrow_are_refused_clearly(tmp_path)
     except ImportError:
         with pytest.raises(ValueError, match=r"needs pyarrow.*pip install pyarrow"):
             read_table(pq, lane_width=W)
-
-
-def test_the_config_refuses_an_observed_part_past_the_crossing():
-    with pytest.raises(ValueError, match="observed part must end before the lane crossing"):
-        ExtractionConfig(observe_s=3.5)
-    assert math.isclose(ExtractionConfig().dt, 0.2)
-
-
-@pytest.mark.parametrize("value", [-0.1, 1.5, math.nan])
-def test_the_config_refuses_a_min_lateral_move_outside_a_lane(value):
-    with pytest.raises(ValueError, match=r"min_lateral_move must be a fraction of the lane width"):
-        ExtractionConfig(min_lateral_move=value)
 
 
 def _ten_hz(states, u, sc):
