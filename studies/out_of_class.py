@@ -399,8 +399,8 @@ class OutOfClassEpisode:
     """The known caution: the class's rank (highway-env) or p (SMPC)."""
     episode_id: str
     demo: Demonstration = field(repr=False, compare=False)
-    """The lane change (highway-env: as extracted, ``meta["episode_id"]`` set; SMPC: as
-    generated)."""
+    """The lane change (highway-env: as extracted, origin ``"recorded"``; SMPC: as
+    generated, origin ``"simulated"``)."""
 
 
 def highway_episodes(
