@@ -35,9 +35,12 @@ rules (the numbers are :class:`ExtractionConfig` fields):
   target lane and ahead in the origin lane (own-lane leader). The TV is the first present
   of follower, leader, own-lane leader (the paper's TV is the target-lane follower); the
   others become the demonstration's ``others``. Where a vehicle's track ends inside the
-  window it is continued at constant velocity. Without any, the TV is a phantom 1 km
-  behind in the target lane (:data:`PHANTOM_GAP_M`, the CATS loader's convention): the
-  episode is kept and flagged ``no_interaction`` — its risk cannot be identified.
+  window it is continued at constant velocity, and the demonstration's ``observed`` mask
+  says which states are recorded samples (:mod:`drivestyle.recorded.observed`). Without
+  any, the TV is a phantom 1 km behind in the target lane (:data:`PHANTOM_GAP_M`, the CATS
+  loader's convention; its mask row is True: it continues no track): the episode is kept
+  and flagged ``no_interaction`` — its risk cannot be identified. The demonstration's
+  origin is ``"recorded"``.
 - **Resampling** to T_s = ``dt`` (:func:`resample_states`): cubic splines through the
   recorded positions; the recorded heading and speed where the track has them, else the
   direction and norm of the splines' velocity.
@@ -48,32 +51,54 @@ rules (the numbers are :class:`ExtractionConfig` fields):
 
 from __future__ import annotations
 
-import csv
-import hashlib
 import math
-import re
 import sys
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drivestyle.envs.demonstration import (
-    Demonstration,
-    plausibility_problems,
-    save_demonstration,
-)
+from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import recover_inputs
-from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.envs.units import MAX_GAP_S, ROAD_SPEED_MAX_MPS, off_grid
+from drivestyle.envs.plausibility import plausibility_problems
+from drivestyle.recorded.episode_files import (
+    EPISODE_COLUMNS,
+    FILE_NAME_HASH,
+    FILE_NAME_MAX,
+    FILE_NAME_UNSAFE,
+    episode_file_name,
+    episode_file_names,
+    read_episodes,
+    write_episodes,
+)
+from drivestyle.recorded.episode_scenario import observed_scenario, speed_constants
+from drivestyle.recorded.extraction_config import (
+    FINE_DT_RATIO,
+    SECONDS_PER_SAMPLE,
+    WINDOW_SAMPLES_MAX,
+    ExtractionConfig,
+    check_sampling,
+    sampling_note,
+)
+from drivestyle.recorded.lane_changes import (
+    LATERAL_MOVE_SPAN_S,
+    LaneChange,
+    _crossings,
+    find_lane_changes,
+    lateral_move,
+)
+from drivestyle.recorded.resampling import _states_on, resample_states, time_grid
 from drivestyle.recorded.tracks import Carriageway, Recording, Track
 
 __all__ = [
     "EPISODE_COLUMNS",
+    "FILE_NAME_HASH",
+    "FILE_NAME_MAX",
+    "FILE_NAME_UNSAFE",
     "FINE_DT_RATIO",
     "LATERAL_MOVE_SPAN_S",
     "PHANTOM_GAP_M",
+    "ROLES",
     "SECONDS_PER_SAMPLE",
     "WINDOW_SAMPLES_MAX",
     "Episode",
@@ -100,213 +125,9 @@ PHANTOM_GAP_M = -1000.0
 """Gap x_TV − x_EV of the phantom TV of an episode without a target vehicle [m]."""
 ROLES = ("target_follower", "target_leader", "own_leader")
 """Interacting vehicles' roles, in the order the TV is chosen from."""
-WINDOW_SAMPLES_MAX = 2000
-"""The most samples an episode's window may hold (``(before_s + after_s) / dt``): each costs
-≈ :data:`SECONDS_PER_SAMPLE` of input recovery, so the bound is ≈ 1.2 s per lane change
-(the model's T_s of 0.2 s gives 40 samples over 8 s; 25 Hz data at its own rate 200)."""
-SECONDS_PER_SAMPLE = 6e-4
-"""Rough time one demonstration sample costs on one core [s] (:func:`recover_inputs`'s step
-inversion dominates), said with :data:`WINDOW_SAMPLES_MAX`."""
-FINE_DT_RATIO = 2.0
-"""A T_s finer than the data's median time step by more than this factor is said in a note
-(:func:`sampling_note`): most samples of a demonstration are then the splines', not the
-data's."""
-LATERAL_MOVE_SPAN_S = 0.5
-"""The window's first and last this many seconds give its lateral positions (their median,
-:func:`lateral_move`) [s]: 5 samples at 10 Hz, so one noisy fix does not decide; short
-against a lane change's 3–6 s, so the median stays near the window's ends."""
-
-
-# --------------------------------------------------------------------------- shared helpers
-def time_grid(t: np.ndarray, dt: float) -> np.ndarray:
-    """The multiples of ``dt`` within [min t, max t] (rounded to 1e-9 s), shape (m,) [s]."""
-    t = np.asarray(t, float)
-    start = math.ceil(t.min() / dt - 1e-9) * dt
-    stop = math.floor(t.max() / dt + 1e-9) * dt
-    return np.round(np.arange(start, stop + dt / 2, dt), 9)
-
-
-def resample_states(
-    t_src: np.ndarray,
-    x: np.ndarray,
-    y: np.ndarray,
-    t_new: np.ndarray,
-    v: np.ndarray | None = None,
-    heading: np.ndarray | None = None,
-) -> np.ndarray:
-    """States [x, y, φ, v] at ``t_new`` from recorded positions (and speed, heading).
-
-    Positions: cubic splines through the samples (they pass through them). Heading: the
-    recorded one (unwrapped, interpolated linearly) or φ = atan2(ẏ, ẋ) of the splines.
-    Speed: the recorded one (linear) or ‖(ẋ, ẏ)‖ of the splines.
-
-    Args:
-        t_src: sample times, shape (n,) [s], increasing, n ≥ 2.
-        x: positions along the road, shape (n,) [m].
-        y: lateral positions, shape (n,) [m].
-        t_new: query times within [t_src[0], t_src[-1]], shape (m,) [s].
-        v: recorded speeds, shape (n,) [m/s], or None.
-        heading: recorded headings, shape (n,) [rad], or None.
-
-    Returns:
-        States, shape (m, 4) [m, m, rad, m/s].
-    """
-    from scipy.interpolate import CubicSpline
-
-    sx, sy = CubicSpline(t_src, x), CubicSpline(t_src, y)
-    dx, dy = sx(t_new, 1), sy(t_new, 1)
-    phi = (
-        np.arctan2(dy, dx)
-        if heading is None
-        else np.interp(t_new, t_src, np.unwrap(np.asarray(heading, float)))
-    )
-    speed = np.hypot(dx, dy) if v is None else np.interp(t_new, t_src, v)
-    return np.column_stack([sx(t_new), sy(t_new), phi, speed])
-
-
-# --------------------------------------------------------------------------------- the config
-@dataclass(frozen=True)
-class ExtractionConfig:
-    """How lane changes are found and turned into demonstrations (module docstring)."""
-
-    dt: float = 0.2
-    """T_s of the demonstrations [s]."""
-    before_s: float = 4.0
-    """Window before the crossing, as far as the track goes [s]."""
-    after_s: float = 4.0
-    """Window after the crossing, as far as the track goes [s]."""
-    min_before_s: float = 3.0
-    """Track the window must keep before the crossing [s]."""
-    min_after_s: float = 2.0
-    """Track the window must keep after the crossing [s]."""
-    min_stay_s: float = 1.0
-    """Time in the old lane before and in the new lane after a crossing [s] (shorter is a
-    wobble on the line, not a lane change)."""
-    min_lateral_move: float = 0.5
-    """The least lateral move towards the new lane across the window, in lane widths (w,
-    the mean width of the two lanes; :func:`lateral_move`): less is a drift along the line,
-    kept unusable. 0 turns the rule off. Half a lane: a change from lane centre to lane
-    centre moves about w, and a window cut short (3 s before, 2 s after) still holds most
-    of it (the shipped samples' usable changes move 0.55–1.6 w; CATS's converter keeps
-    changes that move 0.5 w over its window)."""
-    max_gap_s: float = MAX_GAP_S
-    """The longest time between two samples a window may hold [s]
-    (:data:`~drivestyle.envs.units.MAX_GAP_S`): the window is cut at a longer gap of the
-    lane changer's track, a crossing inside one is unusable, and so is an episode whose
-    interacting vehicle has one in the window (the spline would invent its motion)."""
-    observe_s: float = 2.0
-    """The observed part: the window's first ``observe_s`` [s] (≤ ``min_before_s``), a whole
-    number of ``dt`` (:func:`~drivestyle.envs.units.off_grid`)."""
-    interaction_range_m: float = 100.0
-    """Leaders and followers farther along x at the window's start do not interact [m]."""
-    v_ref: float | None = None
-    """The EV's desired speed when known (e.g. the speed limit) [m/s]; None: from the
-    observed part (:func:`observed_scenario`)."""
-    l_a: float | None = 15.0
-    """The safety ellipse's semi-major axis [m]. The ellipse is the style model's constant,
-    not a property of the data: every library is trained with the paper's 15 m (DESIGN §1),
-    and scaling it with the observed speed moved a simulated SMPC(0.9) identified from its
-    10 Hz CSV to 0.82 (15 m: 0.90). None: scaled with the observed speed level
-    (:func:`observed_scenario`)."""
-
-    def __post_init__(self) -> None:
-        for name in (
-            "dt",
-            "before_s",
-            "after_s",
-            "min_before_s",
-            "min_after_s",
-            "min_stay_s",
-            "observe_s",
-            "interaction_range_m",
-            "max_gap_s",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-        if self.min_before_s > self.before_s or self.min_after_s > self.after_s:
-            raise ValueError(
-                f"the window ({self.before_s:g} s before, {self.after_s:g} s after: before_s, "
-                f"after_s, --before, --after) is shorter than its minimum "
-                f"({self.min_before_s:g} s, {self.min_after_s:g} s: --min-before, --min-after)"
-            )
-        if self.observe_s > self.min_before_s:
-            raise ValueError(
-                f"observe_s (--observe) = {self.observe_s:g} s exceeds min_before_s "
-                f"(--min-before) = {self.min_before_s:g} s: the observed part must end before "
-                "the lane crossing"
-            )
-        # T_s against the windows: every episode needs an observed part of two samples or
-        # more and three samples at least (what a Demonstration holds)
-        if self.dt > self.observe_s:
-            raise ValueError(
-                f"dt (--dt) = {self.dt:g} s, T_s of the demonstrations, is longer than the "
-                f"observed part observe_s (--observe) = {self.observe_s:g} s, which would hold "
-                f"a single sample: T_s is a fraction of a second (the model's is 0.2 s)"
-            )
-        # the window's samples bounded before any is allocated (--dt 1e-9: 8e9 samples)
-        most = (self.before_s + self.after_s) / self.dt
-        if most > WINDOW_SAMPLES_MAX:
-            each = SECONDS_PER_SAMPLE
-            least = (self.before_s + self.after_s) / WINDOW_SAMPLES_MAX
-            advice = (
-                f"T_s is a fraction of a second (the model's is 0.2 s): give --dt {least:.2g} s "
-                "or more"
-                if least <= 0.2
-                else "a lane change's window is a few seconds (a change takes 3–6 s)"
-            )
-            said = f"{most:,.0f}" if most < 1e6 else f"{most:.3g}"
-            raise ValueError(
-                f"dt (--dt) = {self.dt:g} s gives a window of {self.before_s + self.after_s:g} s "
-                f"(--before {self.before_s:g} + --after {self.after_s:g}) {said} samples, more "
-                f"than {WINDOW_SAMPLES_MAX:,} (≈ {each * 1e3:.2g} ms of work each: the bound "
-                f"alone is ≈ {WINDOW_SAMPLES_MAX * each:.2g} s per lane change); {advice}"
-            )
-        # the observed part ends on a sample: never rounded silently (--observe 0.3 at
-        # T_s 0.2 would observe 0.2 s), the rule every observed time of the project keeps
-        miss = off_grid(self.observe_s, self.dt, "T_s = dt (--dt)")
-        if miss:
-            raise ValueError(f"observe_s (--observe) = {self.observe_s:g} s {miss}")
-        shortest = self.min_before_s + self.min_after_s
-        if 2 * self.dt > shortest:
-            raise ValueError(
-                f"dt (--dt) = {self.dt:g} s leaves the shortest window ({shortest:g} s: "
-                f"--min-before {self.min_before_s:g} + --min-after {self.min_after_s:g}) fewer "
-                "than 3 samples: T_s is a fraction of a second (the model's is 0.2 s)"
-            )
-        f = self.min_lateral_move
-        if not (isinstance(f, (int, float)) and math.isfinite(f) and 0 <= f <= 1):
-            raise ValueError(
-                f"min_lateral_move must be a fraction of the lane width in [0, 1] (0: no "
-                f"minimum), got {f!r}"
-            )
-        bound = ROAD_SPEED_MAX_MPS
-        if self.v_ref is not None and not (math.isfinite(self.v_ref) and 0 < self.v_ref <= bound):
-            raise ValueError(
-                f"v_ref (--v-ref) must be in (0, {bound:g}] m/s ({bound:g} m/s = "
-                f"{bound * 3.6:.0f} km/h, the fastest a road vehicle drives), got {self.v_ref!r}"
-                + (": km/h given as m/s?" if self.v_ref > bound else "")
-            )
-        if self.l_a is not None and not (math.isfinite(self.l_a) and self.l_a > 0):
-            raise ValueError(f"l_a must be a finite number > 0 [m], got {self.l_a!r}")
 
 
 # --------------------------------------------------------------------------------- the types
-@dataclass(frozen=True)
-class LaneChange:
-    """One lane change of a track (before any window or usability check)."""
-
-    vehicle_id: str
-    from_lane: int
-    """Lane before, in the carriageway's numbering (0 rightmost)."""
-    to_lane: int
-    """Lane after."""
-    t_cross: float
-    """When the centre crosses the line [s] (the source's time)."""
-    index: int
-    """The last sample before the crossing."""
-
-
 @dataclass(frozen=True)
 class Episode:
     """One extracted lane change, usable or not (then with the reasons)."""
@@ -358,87 +179,6 @@ class Episode:
         return "left" if self.to_lane > self.from_lane else "right"
 
 
-# ---------------------------------------------------------------------------- finding changes
-def _lanes(track: Track, road: Carriageway) -> np.ndarray:
-    """Lane index per sample: the track's own, else from y and the markings."""
-    if track.lane is not None:
-        return np.round(track.lane).astype(int)
-    return np.asarray(road.lane_of(track.y), int)
-
-
-def find_lane_changes(track: Track, road: Carriageway, min_stay_s: float) -> list[LaneChange]:
-    """Every change of lane by one that holds ``min_stay_s`` before and after.
-
-    Args:
-        track: one vehicle.
-        road: its carriageway (markings).
-        min_stay_s: time in the old lane before and the new one after [s].
-
-    Returns:
-        The lane changes in time order.
-    """
-    lane = _lanes(track, road)
-    t, y = track.t, track.y
-    changes = []
-    n_lanes = len(road.markings) - 1
-    for k in np.flatnonzero(lane[1:] != lane[:-1]):
-        a, b = int(lane[k]), int(lane[k + 1])
-        if abs(b - a) != 1 or not (0 <= a < n_lanes and 0 <= b < n_lanes):
-            continue
-        line = road.markings[max(a, b)]
-        if (y[k] - line) * (y[k + 1] - line) <= 0 and y[k + 1] != y[k]:
-            t_c = float(t[k] + (line - y[k]) / (y[k + 1] - y[k]) * (t[k + 1] - t[k]))
-        else:
-            t_c = float((t[k] + t[k + 1]) / 2)
-        before = (t >= t_c - min_stay_s) & (t < t_c)
-        after = (t > t_c) & (t <= t_c + min_stay_s)
-        if t[0] > t_c - min_stay_s or t[-1] < t_c + min_stay_s:
-            continue
-        if np.all(lane[before] == a) and np.all(lane[after] == b):
-            changes.append(LaneChange(track.vehicle_id, a, b, t_c, int(k)))
-    return changes
-
-
-def _crossings(track: Track, road: Carriageway) -> np.ndarray:
-    """Sample index k of every lane-index change of a track (between k and k + 1)."""
-    lane = _lanes(track, road)
-    return np.flatnonzero(lane[1:] != lane[:-1])
-
-
-def lateral_move(
-    t: np.ndarray, y: np.ndarray, start: float, stop: float, span_s: float = LATERAL_MOVE_SPAN_S
-) -> float:
-    """How far a track moves laterally across a window: its y at the end minus at the start.
-
-    Each end's y is the median over the window's first (last) ``span_s`` seconds: the
-    recorded samples inside and y interpolated at the span's bounds (so a sparse track
-    still has a value). Why the window's ends, not the lanes held around the crossing
-    (``min_stay_s``): a lane change takes 3–6 s, and the second before and after the
-    crossing hold only its middle (0.2–0.3 w on the shipped samples' real changes, as
-    little as a drift's), while the window (≥ ``min_before_s`` before, ≥ ``min_after_s``
-    after) holds most of it. Why a median over a span, not the end samples: one noisy fix
-    (GNSS, video transcription) would decide alone.
-
-    Args:
-        t: sample times, shape (n,) [s], increasing.
-        y: lateral positions, shape (n,) [m].
-        start: the window's start, within [t[0], t[-1]] [s].
-        stop: the window's end, within [start, t[-1]] [s].
-        span_s: the span at each end [s] (at most half the window).
-
-    Returns:
-        y(end) − y(start) [m]: positive to +y.
-    """
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    span = min(span_s, (stop - start) / 2)
-
-    def level(a: float, b: float) -> float:
-        inside = t[(t > a) & (t < b)]
-        return float(np.median(np.interp(np.concatenate([[a], inside, [b]]), t, y)))
-
-    return level(stop - span, stop) - level(start, start + span)
-
-
 # -------------------------------------------------------------------------------- the frame
 @dataclass(frozen=True)
 class _Frame:
@@ -453,31 +193,6 @@ class _Frame:
         out[:, 1] = self.w + self.sign * (s[:, 1] - self.line)
         out[:, 2] = self.sign * s[:, 2]
         return out
-
-
-def _constant_velocity(state: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """States [x, y, φ, v] ``tau`` seconds from ``state`` at constant velocity, shape (m, 4)."""
-    x, y, phi, v = state
-    return np.column_stack(
-        [x + v * np.cos(phi) * tau, y + v * np.sin(phi) * tau, np.full_like(tau, phi),
-         np.full_like(tau, v)]
-    )  # fmt: skip
-
-
-def _states_on(track: Track, t: np.ndarray) -> np.ndarray:
-    """A track's states on ``t``: resampled where recorded, constant velocity beyond."""
-    inside = (t >= track.t[0] - 1e-9) & (t <= track.t[-1] + 1e-9)
-    out = np.empty((t.size, 4))
-    idx = np.flatnonzero(inside)
-    if idx.size < 2:
-        # (almost) no overlap: the nearest recorded state, carried at constant velocity
-        k = 0 if t[0] < track.t[0] else track.n - 1
-        edge = resample_states(track.t, track.x, track.y, track.t[[k]], track.v, track.heading)
-        return _constant_velocity(edge[0], t - track.t[k])
-    out[idx] = resample_states(track.t, track.x, track.y, t[idx], track.v, track.heading)
-    for edge, span in ((idx[0], slice(0, idx[0])), (idx[-1], slice(idx[-1] + 1, None))):
-        out[span] = _constant_velocity(out[edge], t[span] - t[edge])
-    return out
 
 
 def _position_at(track: Track, t: float) -> tuple[float, float] | None:
@@ -528,85 +243,6 @@ def interacting_vehicles(
         if role is not None and (role not in best or abs(dx) < best[role][0]):
             best[role] = (abs(dx), other)
     return [(role, best[role][1]) for role in ROLES if role in best]
-
-
-# ------------------------------------------------------------------------------ the scenario
-def speed_constants(speeds: np.ndarray) -> tuple[float, float, float]:
-    """The scenario constants a vehicle's observed speeds give (DESIGN §10).
-
-    Args:
-        speeds: the EV's observed speeds, shape (k,) [m/s].
-
-    Returns:
-        (v̄, v_max, l_a): the speed level v̄ = the 90th percentile (≥ 1 m/s), the desired
-        speed when none is known [m/s]; v_max = the fixed bound of every road vehicle,
-        :data:`~drivestyle.envs.units.ROAD_SPEED_MAX_MPS` (70 m/s), never one the data
-        raises — a speed beyond it is a unit slip, and :func:`plausibility_problems` says
-        so [m/s]; the speed-scaled ellipse l_a = max(5 m, 15 m · v̄ / 27.5 m/s).
-    """
-    level = float(np.percentile(speeds, 90))
-    return max(level, 1.0), ROAD_SPEED_MAX_MPS, max(5.0, 15.0 * level / 27.5)
-
-
-def observed_scenario(
-    ev_observed: np.ndarray,
-    tv0: np.ndarray,
-    tv_lane: int,
-    lane_width: float,
-    dt: float,
-    n: int,
-    length: float,
-    width: float,
-    v_ref: float | None = None,
-    l_a: float | None = None,
-) -> ScenarioConfig:
-    """An episode's scenario from its observed part only (the loaders' rule, DESIGN §10).
-
-    Lane width from the markings; the speed level v̄ = the 90th percentile of the observed
-    EV speeds; v_ref = ``v_ref`` if known, else v̄ (≥ 1 m/s); the ellipse l_a = max(5 m,
-    15 m · v̄ / 27.5 m/s), l_b = 3 m · w / 5.25 m; v_max = 70 m/s, the bound of every road
-    vehicle (:func:`speed_constants`); l_f = l_r = 0.4 · length; initial states from the
-    first sample (the speed clamped to [0, v_max]: a faster EV is refused by the
-    plausibility check, which names the speed).
-
-    Args:
-        ev_observed: EV states of the observed part, shape (k, 4), k ≥ 1.
-        tv0: the TV's first state, shape (4,).
-        tv_lane: the TV's lane in the episode's frame.
-        lane_width: w [m].
-        dt: T_s [s].
-        n: samples of the whole episode.
-        length: EV length [m].
-        width: EV width [m].
-        v_ref: known desired speed [m/s], or None.
-        l_a: known semi-major axis of the ellipse [m], or None.
-
-    Returns:
-        The scenario (start-inside-ellipse check off: recorded traffic may start closer).
-    """
-    v_level, v_max, l_a_rule = speed_constants(ev_observed[:, 3])
-    return ScenarioConfig(
-        lane_width=lane_width,
-        n_lanes=3,
-        vehicle_length=length,
-        vehicle_width=min(width, 0.9 * lane_width),
-        l_f=0.4 * length,
-        l_r=0.4 * length,
-        v_max=v_max,
-        ev_lane=0,
-        target_lane=1,
-        tv_lane=tv_lane,
-        ev_x=float(ev_observed[0, 0]),
-        ev_speed=min(max(float(ev_observed[0, 3]), 0.0), v_max),
-        tv_gap=float(tv0[0] - ev_observed[0, 0]),
-        tv_speed=max(float(tv0[3]), 0.0),
-        v_ref=v_ref if v_ref is not None else v_level,
-        dt=dt,
-        horizon_s=round((n - 1) * dt, 9),
-        l_a=l_a if l_a is not None else l_a_rule,
-        l_b=3.0 * lane_width / 5.25,
-        check_start=False,
-    )
 
 
 # ----------------------------------------------------------------------------- the episodes
@@ -714,11 +350,14 @@ def _episode(
     dt = config.dt
     t_grid = np.round(start + np.arange(math.floor((stop - start) / dt + 1e-9) + 1) * dt, 9)
     frame = _Frame(line, 1.0 if b > a else -1.0, w)
-    ev = frame.states(_states_on(track, t_grid))
+    ev = frame.states(_states_on(track, t_grid)[0])  # the window lies within the EV's track
     t_rel = t_grid - t_grid[0]
     observed = t_rel <= config.observe_s + 1e-9
     chosen = interacting_vehicles(track, road, float(t_grid[0]), a, b, config.interaction_range_m)
-    vehicles = [frame.states(_states_on(other, t_grid)) for _, other in chosen]
+    on_grid = [_states_on(other, t_grid) for _, other in chosen]
+    vehicles = [frame.states(states) for states, _ in on_grid]
+    # which states are recorded samples, not the continuation beyond a track's ends
+    recorded = [samples for _, samples in on_grid]
     if vehicles:
         tv, others = vehicles[0], vehicles[1:]
         tv_lane = int(np.clip(math.floor(float(tv[0, 1]) / w), 0, 2))
@@ -727,6 +366,7 @@ def _episode(
         tv[:, 0] += PHANTOM_GAP_M
         tv[:, 1], tv[:, 2] = 1.5 * w, 0.0
         tv_lane = 1
+        recorded = [np.ones(t_grid.size, bool)]  # the phantom continues no track
     first, last = _frame_near(track, start, "after"), _frame_near(track, stop, "before")
     # the interacting vehicles' problems and holes in the window make it unusable too
     flagged += tuple(
@@ -762,7 +402,8 @@ def _episode(
         }
         demo = Demonstration(
             t=t_rel, ev=ev, tv=tv, u=recover_inputs(ev, sc, t_rel), meta=meta,
-            others=np.stack(others, axis=1) if others else None,
+            others=np.stack(others, axis=1) if others else None, origin="recorded",
+            observed=np.stack(recorded),
         )  # fmt: skip
     except ValueError as exc:
         return Episode(**common, first_frame=first, last_frame=last,
@@ -781,68 +422,6 @@ def _episode(
         demo=demo,
         observed_until_s=float(t_rel[observed][-1]),
         flags={"observed_samples": int(observed.sum())},
-    )
-
-
-def check_sampling(recording: Recording, config: ExtractionConfig) -> None:
-    """Refuse settings the recording's sampling cannot meet, before any work.
-
-    Against the recording's median time step (over every track's steps): ``max_gap_s``
-    must not be shorter (every step would be a gap, every episode unusable) and neither
-    must ``min_stay_s`` (the lanes held around a crossing would hold no sample, so the rule
-    would hold for any wobble on a line).
-
-    Args:
-        recording: the tracks (any reader).
-        config: the extraction's numbers.
-
-    Raises:
-        ValueError: one line naming the setting (and its option), its value and the step.
-    """
-    steps = [np.diff(tr.t) for road in recording.carriageways for tr in road.tracks]
-    if not steps:
-        return
-    step = float(np.median(np.concatenate(steps)))
-    where = f"{recording.source}: the data's median time step is {step:.3g} s"
-    if config.max_gap_s < step:
-        raise ValueError(
-            f"{where}, longer than max_gap_s (--max-gap) = {config.max_gap_s:g} s: every step "
-            "would be a gap; give --max-gap at least the time step"
-        )
-    if config.min_stay_s < step:
-        raise ValueError(
-            f"{where}, longer than min_stay_s (--min-stay) = {config.min_stay_s:g} s: no "
-            "sample would show the lanes held around a crossing; give --min-stay at least the "
-            "time step"
-        )
-
-
-def sampling_note(recording: Recording, config: ExtractionConfig) -> str | None:
-    """A note when T_s is much finer than the recording's own sampling, or None.
-
-    Legal (cubic splines pass through the samples), but surprising: with ``dt`` more than
-    :data:`FINE_DT_RATIO` times finer than the data's median time step, most of a
-    demonstration's samples, and the inputs recovered between them, are the splines'.
-
-    Args:
-        recording: the tracks (any reader).
-        config: the extraction's numbers.
-
-    Returns:
-        ``note: …`` naming ``--dt``, the step and the share of interpolated samples.
-    """
-    steps = [np.diff(tr.t) for road in recording.carriageways for tr in road.tracks]
-    if not steps:
-        return None
-    step = float(np.median(np.concatenate(steps)))
-    ratio = step / config.dt
-    if ratio <= FINE_DT_RATIO:
-        return None
-    return (
-        f"note: {recording.source}: dt (--dt) = {config.dt:g} s is {ratio:.3g}× finer than the "
-        f"data's median time step {step:.3g} s: {1 - 1 / ratio:.0%} of a demonstration's "
-        "samples lie between recorded ones (the splines', not the data's; so are the inputs "
-        "recovered there); the demonstrations are written as asked"
     )
 
 
@@ -883,227 +462,3 @@ def extract_episodes(
             crossings = _crossings(track, road)
             episodes.extend(_episode(track, road, c, crossings, config) for c in changes)
     return episodes
-
-
-# ---------------------------------------------------------------------------------- writing
-EPISODE_COLUMNS = (
-    "episode_id",
-    "file",
-    "source",
-    "carriageway",
-    "vehicle_id",
-    "direction",
-    "mirrored",
-    "from_lane",
-    "to_lane",
-    "t_cross_s",
-    "first_frame",
-    "last_frame",
-    "lane_width_m",
-    "lateral_move_m",
-    "tv_id",
-    "tv_role",
-    "interacting",
-    "no_interaction",
-    "observed_until_s",
-    "usable",
-    "reason",
-)
-"""Columns of ``episodes.csv`` (``interacting``: ``role:id`` joined by ``;``)."""
-
-
-def _cell(value: float | None) -> str:
-    if value is None:
-        return ""
-    return str(int(value)) if float(value).is_integer() else f"{value:g}"
-
-
-FILE_NAME_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]")
-"""Characters a file name built from data may not hold: everything outside
-``[A-Za-z0-9._+-]`` (a path separator, ``..`` as a name, NUL, spaces, non-ASCII letters a
-file system may normalise or refuse) is replaced by ``_``."""
-FILE_NAME_MAX = 120
-"""Most characters of a file name built from data, before ``.npz``: file systems take 255
-bytes, and an id is data (a 300-character id must not end the run with ``File name too
-long``)."""
-FILE_NAME_HASH = 12
-"""Hex digits of the id's SHA-256 appended to a name that had to change (two ids that
-differ only in replaced or cut characters keep distinct names)."""
-
-
-def episode_file_name(episode_id: str, taken: set[str] | None = None) -> str:
-    """The demonstration file's name of an episode: ``<episode_id>.npz`` where that is safe.
-
-    An episode id holds data (the carriageway's and the vehicle's ids), so it may hold a
-    path separator, ``..``, NUL or hundreds of characters. The name keeps the id where it
-    is made of ``[A-Za-z0-9._+-]``, does not start with ``.``, has at most
-    :data:`FILE_NAME_MAX` characters and is not in ``taken`` (ignoring case); otherwise
-    every other character becomes ``_``, a leading ``.`` too, the result is cut to leave
-    room for ``-`` and the first :data:`FILE_NAME_HASH` hex digits of the id's SHA-256,
-    which are appended. The name is always one path component, so a file stays inside its
-    folder; two ids get two names (unless their hashes agree, which
-    :func:`write_episodes` refuses).
-
-    Args:
-        episode_id: the episode's id (``episodes.csv`` keeps it as it is).
-        taken: names already given in the folder, casefolded (ids that differ only in case
-            would share one file on macOS and Windows file systems).
-
-    Returns:
-        The file name, e.g. ``+x_car_3973.npz`` or ``+x_.._.._etc_3973-1f0c25e1a2b9.npz``.
-    """
-    name = FILE_NAME_UNSAFE.sub("_", episode_id)
-    if name.startswith("."):
-        name = "_" + name[1:]  # never a hidden file, "." or ".."
-    changed = name != episode_id or len(name) > FILE_NAME_MAX
-    if changed or (taken is not None and f"{name}.npz".casefold() in taken):
-        digest = hashlib.sha256(episode_id.encode("utf-8", "surrogatepass")).hexdigest()
-        name = f"{name[: FILE_NAME_MAX - FILE_NAME_HASH - 1]}-{digest[:FILE_NAME_HASH]}"
-    return f"{name}.npz"
-
-
-def episode_file_names(episodes: list[Episode], out_dir: str | Path) -> dict[str, str]:
-    """The demonstration file's name of every usable episode (:func:`episode_file_name`).
-
-    Call it with the folder the user named before writing into a temporary one (as
-    ``extract-episodes`` does): its error then names the final path, never the temporary.
-
-    Args:
-        episodes: from :func:`extract_episodes`.
-        out_dir: the output folder, for the message.
-
-    Returns:
-        Episode id → file name, for the usable episodes.
-
-    Raises:
-        ValueError: two usable episodes of one id (their files would be one); the message
-            names the id and the file.
-    """
-    names: dict[str, str] = {}  # episode id → file name
-    taken: set[str] = set()
-    for ep in episodes:
-        if ep.usable and ep.demo is not None:
-            name = names.get(ep.episode_id) or episode_file_name(ep.episode_id, taken)
-            if ep.episode_id in names or name.casefold() in taken:
-                raise ValueError(
-                    f"two episodes would be written to {Path(out_dir) / name} (episode "
-                    f"{ep.episode_id!r} twice): an episode id is unique in a folder"
-                )
-            names[ep.episode_id] = name
-            taken.add(name.casefold())
-    return names
-
-
-def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
-    """Each usable episode's demonstration in ``out_dir`` and every episode in ``episodes.csv``.
-
-    A demonstration's file is named by :func:`episode_file_name` (``<episode_id>.npz``
-    where the id is a safe file name, else a safe name with the id's hash;
-    ``episodes.csv``'s ``file`` column says which): no id places a file outside
-    ``out_dir``, and ids that differ only in case get different names.
-
-    Args:
-        episodes: from :func:`extract_episodes` (unusable ones appear only in the index).
-        out_dir: the folder (created).
-
-    Returns:
-        The path of ``episodes.csv``.
-
-    Raises:
-        ValueError: two usable episodes of one id (their files would be one); the message
-            names the id.
-    """
-    out_dir = Path(out_dir)
-    names = episode_file_names(episodes, out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / "episodes.csv"
-    with path.open("w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(EPISODE_COLUMNS)
-        for ep in episodes:
-            name = ""
-            if ep.usable and ep.demo is not None:
-                name = names[ep.episode_id]
-                save_demonstration(ep.demo, out_dir / name)
-            tv_role, tv_id = ep.interacting[0] if ep.interacting else ("phantom", "")
-            writer.writerow(
-                [
-                    ep.episode_id,
-                    name,
-                    ep.source,
-                    ep.carriageway,
-                    ep.vehicle_id,
-                    ep.direction,
-                    ep.mirrored,
-                    ep.from_lane,
-                    ep.to_lane,
-                    f"{ep.t_cross:.3f}",
-                    _cell(ep.first_frame),
-                    _cell(ep.last_frame),
-                    f"{ep.lane_width:.3f}",
-                    f"{ep.lateral_move:.3f}",
-                    tv_id,
-                    tv_role,
-                    ";".join(f"{role}:{vid}" for role, vid in ep.interacting),
-                    ep.no_interaction,
-                    f"{ep.observed_until_s:g}",
-                    ep.usable,
-                    "; ".join(ep.reasons),
-                ]
-            )
-    return path
-
-
-def read_episodes(folder: str | Path) -> list[tuple[str, str, Demonstration]]:
-    """The usable episodes of a folder :func:`write_episodes` wrote, in ``episodes.csv`` order.
-
-    Args:
-        folder: the folder (``drivestyle extract-episodes --out``).
-
-    Returns:
-        (episode id, vehicle, demonstration) per usable episode; the vehicle is
-        ``<carriageway>:<vehicle id>`` (a vehicle id is unique within its carriageway).
-
-    Raises:
-        FileNotFoundError: no such folder, or no ``episodes.csv`` in it.
-        ValueError: a malformed ``episodes.csv`` (missing columns, an id twice), a usable
-            row whose file is missing or not a demonstration; the message names the file
-            and the row.
-    """
-    from drivestyle.envs.demonstration import DemonstrationError, load_demonstration
-
-    folder = Path(folder)
-    index = folder / "episodes.csv"
-    if not folder.is_dir():
-        raise FileNotFoundError(f"{folder}: no such folder (an extract-episodes output folder)")
-    if not index.is_file():
-        raise FileNotFoundError(
-            f"{folder} has no episodes.csv: pass a folder written by drivestyle extract-episodes"
-        )
-    with index.open(newline="", encoding="utf-8", errors="replace") as f:
-        reader = csv.DictReader(f)
-        need = {"episode_id", "file", "carriageway", "vehicle_id", "usable"}
-        missing = sorted(need - set(reader.fieldnames or ()))
-        if missing:
-            raise ValueError(f"{index}: missing column(s) {', '.join(missing)}")
-        rows = list(reader)
-    out, seen = [], set()
-    for n, row in enumerate(rows, start=2):
-        eid = row["episode_id"] or ""
-        if eid in seen:
-            raise ValueError(f"{index}:{n}: episode {eid!r} appears twice")
-        seen.add(eid)
-        if row["usable"] != "True":
-            continue
-        path = folder / (row["file"] or "")
-        if not row["file"] or Path(row["file"]).name != row["file"] or not path.is_file():
-            raise ValueError(
-                f"{index}:{n}: usable episode {eid!r} names the file {row['file']!r}, which is "
-                f"not in {folder}"
-            )
-        try:
-            demo = load_demonstration(path)
-        except DemonstrationError as exc:
-            raise ValueError(f"{index}:{n}: {exc}") from None
-        out.append((eid, f"{row['carriageway']}:{row['vehicle_id']}", demo))
-    return out

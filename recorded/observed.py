@@ -1,4 +1,6 @@
-"""A recorded episode as an observer knows it after t_obs: the no-leak view (DESIGN §17).
+"""What an observer has seen of a recorded episode: its observed states, its no-leak view.
+
+DESIGN §15 (the observed mask), §17 (the view after t_obs).
 
 :func:`observed_view` (tested by perturbing the future). After t_obs a recorded episode is
 seen as: the scenario's v_ref and v_max from the observed speeds, the ellipse l_a from the
@@ -11,7 +13,8 @@ the neighbouring one in the direction of the observed lateral velocity
 vehicle it reacts to first (the TV slot) the nearest observed vehicle in that lane, not the
 episode's target (chosen at the recorded crossing); a vehicle not yet recorded at t_obs (the
 loader continues it backwards at constant velocity from its first recorded state, i.e. from
-the future) is replaced by a phantom :data:`PHANTOM_BEHIND_M` behind. Residual leaks, in the
+the future; :func:`observed_mask` says which) is replaced by a phantom
+:data:`PHANTOM_BEHIND_M` behind. Residual leaks, in the
 loader (``recorded/real_data.py``): the resampling splines are global (a state at t ≤ t_obs
 moves by a decaying amount with the later recorded positions); NGSIM's lane grid is placed at
 the recorded crossing; the episode's window is centred on the recorded crossing (the lane
@@ -19,6 +22,25 @@ change is known to happen).
 
 :func:`observer_view` is the view every prediction is made in: this one of a recorded
 episode, a simulated demonstration as it is.
+
+*Observed states* (:func:`observed_mask`).
+The extraction resamples each interacting vehicle from its recorded samples where the
+window overlaps its track and continues it at constant velocity before its first and
+after its last recorded sample (:mod:`drivestyle.recorded.resampling`); it says which is
+which in :attr:`~drivestyle.envs.demonstration.Demonstration.observed` (True: a recorded
+sample). :func:`observed_mask` is what every consumer calls: that mask where the
+demonstration carries one, all True for a simulated demonstration, and for a recorded one
+written before the mask was carried the mask :func:`mask_from_repeats` derives — the
+fallback rule, in this one function.
+
+The fallback rule: the continuation holds the heading φ and the speed v of the edge state
+exactly (bitwise), while recorded states never repeat both bitwise from one sample to the
+next; so the leading samples that repeat the first state's (φ, v) are continued up to the
+last of them (the first recorded sample, whose state the continuation copies), and the
+trailing samples that repeat the last state's are continued after the first of them. On
+every shipped episode it gives the extraction's mask exactly (tested); it would take a
+vehicle standing still with a recorded heading and speed that repeat bitwise for a
+continuation.
 """
 
 from __future__ import annotations
@@ -36,6 +58,8 @@ from drivestyle.recorded.real_data import is_recorded, recorded_view
 
 __all__ = [
     "PHANTOM_BEHIND_M",
+    "mask_from_repeats",
+    "observed_mask",
     "observed_view",
     "observer_view",
 ]
@@ -49,15 +73,56 @@ def _observed_index(demo: Demonstration, t_obs: float) -> int:
     return min(max(round(t_obs / dt), 0), demo.n - 2)
 
 
-def _not_yet_observed(states: np.ndarray, k: int) -> bool:
-    """Whether a vehicle's states 0 … k are the loader's backward continuation.
+def mask_from_repeats(vehicles: np.ndarray) -> np.ndarray:
+    """The fallback rule: a vehicle's states are observed unless they repeat an edge's (φ, v).
 
-    The loader holds φ and v exactly before a vehicle's first recorded sample; recorded
-    states never repeat bitwise over k + 1 samples (a vehicle first recorded at sample k
-    counts as not yet observed).
+    For each vehicle, the leading samples whose (φ, v) equal the first sample's bitwise
+    are the continuation before its first recorded sample (the last of them is that
+    sample); the trailing samples whose (φ, v) equal the last sample's are the
+    continuation after its last recorded sample (the first of them is that sample). A
+    vehicle whose (φ, v) never change is a continuation throughout (the extraction's
+    vehicle recorded at most once in the window).
+
+    Args:
+        vehicles: the surrounding vehicles' states [x, y, φ, v], shape (n, m, 4)
+            (:attr:`~drivestyle.envs.demonstration.Demonstration.vehicles`).
+
+    Returns:
+        True where a state is a recorded sample, shape (m, n) bool.
     """
-    head = states[: k + 1]
-    return bool(np.all(head[:, 2] == head[0, 2]) and np.all(head[:, 3] == head[0, 3]))
+    vehicles = np.asarray(vehicles, float)
+    n, m = vehicles.shape[:2]
+    mask = np.ones((m, n), bool)
+    for j in range(m):
+        heading_speed = vehicles[:, j, 2:4]
+        as_first = np.all(heading_speed == heading_speed[0], axis=1)
+        if as_first.all():
+            mask[j] = False
+            continue
+        lead = int(np.argmin(as_first))  # samples repeating the first state
+        trail = int(np.argmin(np.all(heading_speed == heading_speed[-1], axis=1)[::-1]))
+        mask[j, : lead - 1] = False
+        mask[j, n - trail + 1 :] = False
+    return mask
+
+
+def observed_mask(demo: Demonstration) -> np.ndarray:
+    """Which surrounding vehicle's states are recorded samples, per sample.
+
+    Args:
+        demo: a demonstration (recorded or simulated).
+
+    Returns:
+        Shape (1 + m, n) bool, rows in ``demo.vehicles`` order (TV first): the
+        demonstration's own mask where it carries one; all True for a simulated one; the
+        fallback rule (:func:`mask_from_repeats`) for a recorded one without a mask (a
+        file written before the mask was carried).
+    """
+    if demo.observed is not None:
+        return demo.observed
+    if demo.origin == "recorded":
+        return mask_from_repeats(demo.vehicles)
+    return np.ones((demo.vehicles.shape[1], demo.n), bool)
 
 
 def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, ScenarioConfig]:
@@ -85,8 +150,10 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
     w, dt = sc.lane_width, float(demo.t[1] - demo.t[0])
     ev = demo.ev.copy()
     vehicles = demo.vehicles.copy()  # (n, 1 + m, 4), the episode's TV first
+    mask = observed_mask(demo).copy()  # (1 + m, n), rows as vehicles'
     for j in range(vehicles.shape[1]):
-        if _not_yet_observed(vehicles[:, j], k):
+        if not mask[j, :k].any():  # first recorded at k or later: continued from the future
+            mask[j] = False  # a phantom, recorded nowhere
             vehicles[:, j, 0] = ev[0, 0] - PHANTOM_BEHIND_M + ev[0, 3] * demo.t
             vehicles[:, j, 1] = ev[0, 1]
             vehicles[:, j, 2] = 0.0
@@ -125,6 +192,8 @@ def observed_view(demo: Demonstration, t_obs: float) -> tuple[Demonstration, Sce
         u=demo.u,
         meta={**demo.meta, "scenario": observed.to_dict(), "observed_shift_m": shift},
         others=vehicles[:, 1:] if vehicles.shape[1] > 1 else None,
+        origin=demo.origin,
+        observed=mask[order],
     )
     return out, observed
 

@@ -31,7 +31,7 @@ The rules (their bounds are :mod:`drivestyle.envs.units`' and this module's cons
   skips it and lists it in ``meta[SINGLE_SAMPLE]``, and a note on stderr counts them (most
   of a file's vehicles so: refused, the ids are not per vehicle);
 - **overlap**: no two vehicles of a carriageway overlap at any time (their rectangles,
-  shrunk to :data:`~drivestyle.envs.demonstration.OVERLAP_SHRINK` as the demonstration's
+  shrunk to :data:`~drivestyle.envs.plausibility.OVERLAP_SHRINK` as the demonstration's
   check shrinks them, on a common time grid; :func:`overlaps`): both are kept unusable,
   each naming the other. A pair is never a unit of the file, so this rule marks only.
 """
@@ -44,7 +44,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drivestyle.envs.demonstration import OVERLAP_SHRINK
+from drivestyle.envs.plausibility import OVERLAP_SHRINK
 from drivestyle.envs.safety import vehicles_overlap
 from drivestyle.envs.units import (
     FOOT,

@@ -397,8 +397,8 @@ class OutOfClassEpisode:
     """The known caution: the class's rank (highway-env) or p (SMPC)."""
     episode_id: str
     demo: Demonstration = field(repr=False, compare=False)
-    """The lane change (highway-env: as extracted, ``meta["episode_id"]`` set; SMPC: as
-    generated)."""
+    """The lane change (highway-env: as extracted, origin ``"recorded"``; SMPC: as
+    generated, origin ``"simulated"``)."""
 
 
 def highway_episodes(
@@ -719,7 +719,7 @@ def predict_episode(
     """Predict one lane change after each t_obs by every method but the oracle.
 
     :func:`~drivestyle.studies.prediction.records.predict_vehicle`: a highway-env lane
-    change is a recorded episode (``meta["episode_id"]``) and is seen through
+    change is extracted as a recorded episode (``origin == "recorded"``) and is seen through
     ``observed_view`` (the one recorded view of its observed samples); an SMPC
     demonstration is predicted in its own scenario. The record's set is the family
     (:func:`run_study` sets its bootstrap unit to ``<group>:<episode>``: every episode is

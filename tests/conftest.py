@@ -74,7 +74,9 @@ def _as_recorded(demo):
     others[:, 1, 0] += 60.0
     others[:, 1, 1] -= demo.scenario.lane_width
     others[:, :, 3] += 0.01 * rng.standard_normal(others.shape[:2])
-    return replace(demo, meta={**demo.meta, "episode_id": "sim-as-recorded"}, others=others)
+    return replace(
+        demo, meta={**demo.meta, "episode_id": "sim-as-recorded"}, others=others, origin="recorded"
+    )
 
 
 def _change_the_future(demo, k):

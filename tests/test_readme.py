@@ -27,7 +27,7 @@ WRITES = {
 WRITTEN_BY = {
     "reproduce-paper": ("studies/paper.py", ('"demo" / "demo.npz"', '"style.json"')),
     "build-style-library": ("scripts/build_style_library.py", ('f"p{p:g}_s{i}.npz"',)),
-    "extract-episodes": ("recorded/episodes.py", ('return f"{name}.npz"', "episodes.csv")),
+    "extract-episodes": ("recorded/episode_files.py", ('return f"{name}.npz"', "episodes.csv")),
 }
 """Where the code writes :data:`WRITES` (the test fails if the code stops writing them)."""
 OUTPUT_OPTIONS = ("--out", "--video")

@@ -20,7 +20,7 @@ posterior after sample k equals the offline identification of the first k + 1 sa
 
 A sample no vehicle can produce — a speed beyond v_max, a position jump, an implied
 acceleration beyond any car's, a vehicle on top of the tracked one — is refused before it
-touches anything (:func:`~drivestyle.envs.demonstration.step_problems` on it and the two
+touches anything (:func:`~drivestyle.envs.plausibility.step_problems` on it and the two
 samples before it, the offline check): its residual would otherwise dwarf every other and,
 through the residual scale s² it sets, flatten the posterior the earlier samples built. A
 refused update, and one whose planning fails, leaves the tracker as it was.
@@ -33,8 +33,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from drivestyle.envs.demonstration import Demonstration, step_problems
+from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.dynamics import inverse_step
+from drivestyle.envs.plausibility import step_problems
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.driver.driver_style import (

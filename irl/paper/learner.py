@@ -30,7 +30,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from drivestyle.envs.demonstration import Demonstration, DemonstrationError, check_plausible
+from drivestyle.envs.demonstration import Demonstration, DemonstrationError
+from drivestyle.envs.plausibility import check_plausible
 from drivestyle.irl.metrics import trajectory_errors
 from drivestyle.irl.paper.features import X_FEATURES, FeatureConfig
 from drivestyle.irl.paper.inner import InnerProblem, InnerSolution, InnerSolveError
@@ -119,7 +120,7 @@ def check_learnable(demo: Demonstration) -> None:
 
     A learnable demonstration has a scenario in its metadata, is sampled on that
     scenario's grid T_s (the features' event times, windows and the reward's steps are in
-    seconds), is physically plausible (:func:`~drivestyle.envs.demonstration.check_plausible`:
+    seconds), is physically plausible (:func:`~drivestyle.envs.plausibility.check_plausible`:
     no overlap at t = 0, forward driving, lateral speed within the heading bound, lanes that
     fit the data, one lane change to +y), shows the EV moving, and shows a lane change:
     enough lateral progress towards the target lane (:data:`MIN_LANE_CHANGE_PROGRESS`; an

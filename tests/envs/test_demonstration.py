@@ -120,3 +120,64 @@ def test_other_vehicles_is_the_validated_array():
     assert single.other_vehicles.shape == (5, 0, 4)
     others = np.zeros((5, 2, 4))
     assert Demonstration(**_arrays(), others=others).other_vehicles.shape == (5, 2, 4)
+
+
+# ------------------------------------------------------------- origin and observed mask
+def test_a_demonstration_is_simulated_unless_said_and_carries_no_mask():
+    demo = Demonstration(**_arrays())
+    assert demo.origin == "simulated" and demo.observed is None
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        ({"origin": "real"}, r"origin must be one of 'simulated', 'recorded', got 'real'"),
+        ({"observed": np.ones((1, 5))}, r"'observed' must be a boolean array .* dtype float64"),
+        (
+            {"observed": np.ones((2, 5), bool)},
+            r"'observed' must have shape \(1 \+ m, n\) = \(1, 5\)",
+        ),
+        ({"observed": np.ones((1, 4), bool)}, r"got \(1, 4\)"),
+    ],
+)
+def test_an_unknown_origin_or_a_mask_of_another_shape_or_type_is_refused(fields, match):
+    with pytest.raises(DemonstrationError, match=match) as info:
+        Demonstration(**_arrays(), **fields)
+    assert "\n" not in str(info.value)
+
+
+def test_origin_and_mask_round_trip_read_only(tmp_path):
+    others = np.zeros((5, 2, 4))
+    others[:, :, 0] = [[200.0, 300.0]]
+    observed = np.array([[True] * 5, [False, False, True, True, True], [True] * 4 + [False]])
+    demo = Demonstration(**_arrays(), others=others, origin="recorded", observed=observed)
+    assert not demo.observed.flags.writeable
+    back = load_demonstration(save_demonstration(demo, tmp_path / "rec.npz"))
+    assert back.origin == "recorded"
+    np.testing.assert_array_equal(back.observed, observed)
+    with np.load(tmp_path / "rec.npz") as data:
+        assert str(data["origin"]) == "recorded" and data["observed"].dtype == bool
+    simulated = load_demonstration(
+        save_demonstration(Demonstration(**_arrays()), tmp_path / "s.npz")
+    )
+    assert simulated.origin == "simulated" and simulated.observed is None
+
+
+@pytest.mark.parametrize(
+    ("meta", "origin"), [({"episode_id": "a_1_2000"}, "recorded"), ({}, "simulated")]
+)
+def test_a_file_written_before_the_origin_takes_it_from_the_extractions_metadata(
+    tmp_path, meta, origin
+):
+    np.savez(tmp_path / "old.npz", **_arrays(), meta=np.array(json.dumps(meta)))
+    demo = load_demonstration(tmp_path / "old.npz")
+    assert demo.origin == origin and demo.observed is None
+
+
+def test_a_file_with_an_unknown_origin_or_a_mask_of_numbers_is_refused(tmp_path):
+    np.savez(tmp_path / "a.npz", **_arrays(), origin=np.array("measured"))
+    with pytest.raises(DemonstrationError, match=r"a\.npz: origin must be one of"):
+        load_demonstration(tmp_path / "a.npz")
+    np.savez(tmp_path / "b.npz", **_arrays(), observed=np.ones((1, 5)))
+    with pytest.raises(DemonstrationError, match=r"b\.npz: 'observed' must be a boolean array"):
+        load_demonstration(tmp_path / "b.npz")

@@ -6,12 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivestyle.envs.demonstration import (
-    Demonstration,
-    DemonstrationError,
-    check_plausible,
-    plausibility_problems,
-)
+from drivestyle.envs.demonstration import Demonstration, DemonstrationError
+from drivestyle.envs.plausibility import check_plausible, plausibility_problems
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 
@@ -231,7 +227,7 @@ def test_metadata_risk_7_in_a_file_names_the_file(tmp_path, paper_demo):
 
 def test_tracked_demonstrations_pass_the_step_checks(paper_demo):
     """The RTS tracker's view, even with 1 m of position noise, is within every step limit."""
-    from drivestyle.envs.demonstration import step_problems
+    from drivestyle.envs.plausibility import step_problems
     from drivestyle.envs.tracking import observe
 
     rng = np.random.default_rng(3)
@@ -243,7 +239,7 @@ def test_tracked_demonstrations_pass_the_step_checks(paper_demo):
 @pytest.mark.slow  # reads every recorded episode: CI runs it (pytest -m slow)
 @pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not beside the checkout")
 def test_every_recorded_episode_passes_the_step_checks():
-    from drivestyle.envs.demonstration import step_problems
+    from drivestyle.envs.plausibility import step_problems
     from drivestyle.recorded.real_data import load_cats, load_ngsim
 
     episodes = [*load_ngsim(DATA / "ngsim"), *load_cats(DATA / "cats-av-lanechange")]
@@ -254,7 +250,7 @@ def test_every_recorded_episode_passes_the_step_checks():
 
 
 def test_step_messages_count_from_the_window_start(paper_demo):
-    from drivestyle.envs.demonstration import step_problems
+    from drivestyle.envs.plausibility import step_problems
 
     demo = _ev_jumps(50.0, k=2)(paper_demo)
     (msg,) = [m for m in step_problems(demo.t[:3], demo.ev[:3], demo.vehicles[:3],

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -16,10 +15,7 @@ from drivestyle.recorded.episodes import (
     PHANTOM_GAP_M,
     ExtractionConfig,
     extract_episodes,
-    lateral_move,
     recover_inputs,
-    resample_states,
-    speed_constants,
     write_episodes,
 )
 from drivestyle.recorded.readers import READERS, read_table
@@ -148,37 +144,6 @@ def test_a_drift_across_a_line_is_kept_unusable_with_its_lateral_move(tmp_path, 
     assert not half.usable and "below the minimum lateral move 1.75 m" in half.reasons[0]
 
 
-def test_lateral_move_in_closed_form_robust_to_one_bad_sample():
-    t = np.round(np.arange(0, 8.0 + 1e-9, 0.1), 9)
-    y = 0.5 * t
-    # the medians over the first and last 0.5 s: y(0.25) and y(7.75) on a straight line
-    assert lateral_move(t, y, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
-    spike = y.copy()
-    spike[-1] += 5.0  # one bad fix at the window's end does not decide
-    assert lateral_move(t, spike, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
-    assert abs(spike[-1] - spike[0] - 3.75) > 1  # the end samples alone would
-    sparse = np.arange(0, 8.0 + 1e-9, 0.5)  # 2 Hz: no sample inside a span, interpolated
-    assert lateral_move(sparse, 0.5 * sparse, 0.0, 8.0) == pytest.approx(3.75, abs=1e-12)
-    assert lateral_move(t, y, 2.0, 2.6) == pytest.approx(0.15, abs=1e-12)  # spans ≤ half
-    assert lateral_move(t, -y, 0.0, 8.0) == pytest.approx(-3.75, abs=1e-12)
-
-
-def test_resampling_a_straight_line_and_a_circle_arc_in_closed_form():
-    t = np.arange(0, 4.0 + 1e-9, 0.1)
-    t_new = np.arange(0, 4.0 + 1e-9, 0.2)
-    phi0, v = 0.1, 20.0
-    line = resample_states(t, v * t * np.cos(phi0), v * t * np.sin(phi0), t_new)
-    np.testing.assert_allclose(line[:, 2], phi0, atol=1e-9)
-    np.testing.assert_allclose(line[:, 3], v, atol=1e-9)
-    r, omega = 200.0, 0.1  # 20 m/s on a 200 m circle
-    arc = resample_states(t, r * np.sin(omega * t), r * (1 - np.cos(omega * t)), t_new)
-    np.testing.assert_allclose(arc[:, 0], r * np.sin(omega * t_new), atol=1e-9)
-    inner = slice(2, -2)  # the spline's free ends bend its derivative at the ends
-    np.testing.assert_allclose(arc[inner, 2], omega * t_new[inner], atol=1e-4)
-    np.testing.assert_allclose(arc[inner, 3], r * omega, atol=1e-3)
-    assert np.max(np.abs(arc[:, 2] - omega * t_new)) < 2e-3
-
-
 def test_recovered_inputs_reproduce_the_states_through_rk4():
     sc = replace(PAPER, delta_max=0.05)
     rng = np.random.default_rng(0)
@@ -283,18 +248,6 @@ def test_lanes_in_feet_and_parquet_without_pyarrow_are_refused_clearly(tmp_path)
     except ImportError:
         with pytest.raises(ValueError, match=r"needs pyarrow.*pip install pyarrow"):
             read_table(pq, lane_width=W)
-
-
-def test_the_config_refuses_an_observed_part_past_the_crossing():
-    with pytest.raises(ValueError, match="observed part must end before the lane crossing"):
-        ExtractionConfig(observe_s=3.5)
-    assert math.isclose(ExtractionConfig().dt, 0.2)
-
-
-@pytest.mark.parametrize("value", [-0.1, 1.5, math.nan])
-def test_the_config_refuses_a_min_lateral_move_outside_a_lane(value):
-    with pytest.raises(ValueError, match=r"min_lateral_move must be a fraction of the lane width"):
-        ExtractionConfig(min_lateral_move=value)
 
 
 def _ten_hz(states, u, sc):
@@ -419,9 +372,18 @@ def test_an_implausible_episode_names_the_lane_lines_not_metadata(tmp_path):
     )
 
 
-def test_v_max_is_the_road_vehicles_bound_whatever_the_observed_speeds():
-    from drivestyle.envs.units import ROAD_SPEED_MAX_MPS
-
-    for top in (20.0, 60.0, 120.0):
-        level, v_max, _ = speed_constants(np.array([top / 2, top]))
-        assert v_max == ROAD_SPEED_MAX_MPS == 70.0 and level == pytest.approx(0.95 * top)
+def test_an_episode_is_recorded_and_says_which_states_continue_a_track(tmp_path):
+    df = _table()
+    # the target-lane follower's track ends at 7 s, inside the window (2 s to 10 s)
+    (ep,) = _extract(tmp_path, df[(df.id != "f") | (df.t <= 7.0)])
+    demo = ep.demo
+    assert demo.origin == "recorded" and dict(ep.interacting)["target_follower"] == "f"
+    assert demo.observed.shape == (1 + demo.other_vehicles.shape[1], demo.n)
+    t_source = demo.t + 2.0  # the window starts at 2 s
+    np.testing.assert_array_equal(demo.observed[0], t_source <= 7.0 + 1e-9)
+    assert demo.observed[1:].all()  # the leaders are recorded throughout
+    # beyond its last sample the follower is continued at its last heading and speed
+    after = ~demo.observed[0]
+    assert after.sum() == 15 and np.all(demo.tv[after, 3] == demo.tv[~after][-1, 3])
+    (alone,) = _extract(tmp_path, df[df.id == "ev"])
+    np.testing.assert_array_equal(alone.demo.observed, np.ones((1, alone.demo.n), bool))

@@ -235,6 +235,8 @@ def test_recorded_neighbours_become_others(ngsim, cats):
         assert d.others.shape[1] == len(roles) - 1, with_n.episode_id
         assert without.demo.others.shape[1] == 0
         np.testing.assert_array_equal(d.ev, without.demo.ev)  # the EV is untouched
+        assert d.origin == without.demo.origin == "recorded"
+        np.testing.assert_array_equal(without.demo.observed, d.observed[:1])  # the TV's row
     used = [e for e in cats if e.used]
     assert max(e.demo.others.shape[1] for e in used) >= 1
 

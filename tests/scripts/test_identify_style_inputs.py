@@ -96,7 +96,7 @@ def _recorded(demo, vehicle: str, carriageway: str = "i80_1600", source: str = "
     """``demo`` as an extracted episode of ``vehicle`` (the metadata extraction writes)."""
     meta = {**demo.meta, "episode_id": f"{carriageway}_{vehicle}_4000", "vehicle_id": vehicle,
             "source": source}  # fmt: skip
-    return replace(demo, meta=meta)
+    return replace(demo, meta=meta, origin="recorded")
 
 
 @pytest.mark.slow  # extracts NGSIM and identifies in a fresh process (≈ 6 s)

@@ -109,7 +109,9 @@ def _episodes(folder: Path, paper_demo, episodes: list[tuple[str, int]]) -> Path
     for i, (episode, vehicle) in enumerate(episodes):
         others = paper_demo.tv[:, None, :].copy()
         others[:, 0, 0] += 30.0 + 5 * i  # a leader in the target lane
-        demo = replace(paper_demo, others=others, meta={**meta, "episode_id": episode})
+        demo = replace(
+            paper_demo, others=others, meta={**meta, "episode_id": episode}, origin="recorded"
+        )
         save_demonstration(demo, folder / f"{episode}.npz")
         lines.append(f"{episode},{episode}.npz,r,{vehicle},True")
     (folder / "episodes.csv").write_text("\n".join(lines) + "\n")

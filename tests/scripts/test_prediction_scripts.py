@@ -229,7 +229,9 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
     others[:, 1, 0] += 60.0
     others[:, 1, 1] -= paper_demo.scenario.lane_width  # one ahead in the own lane
     meta = {k: v for k, v in paper_demo.meta.items() if k not in ("risk", "smpc")}
-    recorded = replace(paper_demo, others=others, meta={**meta, "episode_id": "as-recorded"})
+    recorded = replace(
+        paper_demo, others=others, meta={**meta, "episode_id": "as-recorded"}, origin="recorded"
+    )
     save_demonstration(recorded, files / "recorded.npz")
     out = files / "recorded_out"
     run = subprocess.run(
@@ -269,7 +271,9 @@ def _episodes_folder(folder: Path, paper_demo, n: int = 2) -> Path:
         others = paper_demo.tv[:, None, :].copy()
         others[:, 0, 0] += 30.0 + 5 * i  # a leader in the target lane
         meta = {k: v for k, v in paper_demo.meta.items() if k not in ("risk", "smpc")}
-        demo = replace(paper_demo, others=others, meta={**meta, "episode_id": f"r_{i}_1000"})
+        demo = replace(
+            paper_demo, others=others, meta={**meta, "episode_id": f"r_{i}_1000"}, origin="recorded"
+        )
         save_demonstration(demo, folder / f"r_{i}_1000.npz")
         rows.append([f"r_{i}_1000", f"r_{i}_1000.npz", "r", str(i), "True"])
     rows.append(["r_9_2000", "", "r", "9", "False"])  # unusable rows have no file

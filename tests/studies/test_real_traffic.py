@@ -140,7 +140,8 @@ def _recorded_like(
         [ev[0, 0] - 60 + 6.0 * t, np.full(n, sc.lane_centres[1]), np.zeros(n), np.full(n, 6.0)]
     )
     meta = {"scenario": sc.to_dict(), "episode_id": "synthetic"}
-    return Demonstration(t=t, ev=ev, tv=tv, u=np.zeros((n - 1, 2)), meta=meta), u
+    demo = Demonstration(t=t, ev=ev, tv=tv, u=np.zeros((n - 1, 2)), meta=meta, origin="recorded")
+    return demo, u
 
 
 def test_recorded_inputs_recover_the_applied_inputs():

@@ -170,7 +170,9 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
 
     # a recording that turns 3× the scenario's heading bound (as recorded drivers do)
     ev = paper_demo.ev * [1.0, 1.0, 3.0, 1.0]
-    recorded = dc_replace(paper_demo, ev=ev, meta={**paper_demo.meta, "episode_id": "e1"})
+    recorded = dc_replace(
+        paper_demo, ev=ev, meta={**paper_demo.meta, "episode_id": "e1"}, origin="recorded"
+    )
     prepared = recorded_view(recorded)
     sc = prepared.scenario
     assert (sc.phi_max, sc.delta_max) == (RECORDED_PHI_MAX, RECORDED_DELTA_MAX)
@@ -187,7 +189,7 @@ def test_a_recorded_episode_beyond_its_heading_bound_is_identified_under_the_rec
     )  # fmt: skip
     # within its bounds a recording keeps its scenario: an SMPC written to a file is
     # identified like its .npz
-    within = dc_replace(paper_demo, meta={**paper_demo.meta, "episode_id": "e2"})
+    within = dc_replace(paper_demo, meta={**paper_demo.meta, "episode_id": "e2"}, origin="recorded")
     identify_driver(within, library)
     assert seen[2].scenario.phi_max == paper_demo.scenario.phi_max < RECORDED_PHI_MAX
     assert seen[2].u.tolist() == paper_demo.u.tolist()

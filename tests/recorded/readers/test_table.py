@@ -22,7 +22,7 @@ from drivestyle.recorded.tracks import Carriageway, Recording, Track, TrackError
 
 W = 3.5
 T = np.round(np.arange(0, 12.0 + 1e-9, 0.1), 9)  # 10 Hz, 12 s
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+DATA = Path(__file__).resolve().parents[4] / "shared" / "data"
 
 
 def _move(t_c: float, y_from: float, y_to: float, duration: float = 4.0) -> np.ndarray:
