@@ -23,7 +23,7 @@ risks (:func:`posterior_from_scores`, DESIGN §8): its mode is ``risk_estimate``
 (:class:`Identification`).
 
 The library (its type, file and learning) lives in :mod:`drivestyle.irl.identification.library`; the
-held-out evaluation in :mod:`drivestyle.studies.identification_study`.
+held-out evaluation in :mod:`drivestyle.studies.identification.study`.
 """
 
 from __future__ import annotations

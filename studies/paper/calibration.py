@@ -4,7 +4,7 @@ The paper gives no covariance for its TV prediction, yet the covariance decides 
 risk p changes the behaviour at all. :func:`uncertainty_scan` runs the SMPC closed loop on
 the paper scenario for every (scale, p) pair, the scale multiplying
 :data:`drivestyle.planning.tv_gaussian.PAPER_TV_UNCERTAINTY`;
-:func:`drivestyle.studies.figures.plot_risk_sweep` draws the EV paths and s_e per risk.
+:func:`drivestyle.studies.paper.figures.plot_risk_sweep` draws the EV paths and s_e per risk.
 """
 
 from __future__ import annotations

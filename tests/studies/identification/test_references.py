@@ -8,8 +8,7 @@ from drivestyle.agents.demo_generation import (
     generate_demonstrations,
     smpc_robustness,
 )
-from drivestyle.studies.ceiling import ceiling_identify
-from drivestyle.studies.identification_study import knn_baseline
+from drivestyle.studies.identification.references import ceiling_identify, knn_baseline
 
 
 def test_the_ceiling_recovers_the_expert_risk():

@@ -7,10 +7,12 @@ import pytest
 
 from drivestyle.agents.demo_generation import draw_interactive_scenarios, generate_demonstrations
 from drivestyle.irl.identification.posterior import DEFAULT_SCORER, SCORERS
-from drivestyle.studies.ceiling import CeilingSummary, References
-from drivestyle.studies.identification_study import evaluate_identification, noise_curve_json
-from drivestyle.studies.reports import (
+from drivestyle.studies.identification import (
+    CeilingSummary,
+    References,
+    evaluate_identification,
     evaluation_markdown,
+    noise_curve_json,
     noise_markdown,
     references_markdown,
 )
@@ -78,45 +80,19 @@ def test_markdown_is_written_from_the_typed_results(evaluation):
 from drivestyle.envs.scenario import get_scenario  # noqa: E402
 from drivestyle.irl.driver.driver_style import DriverStyle  # noqa: E402
 from drivestyle.irl.identification.library import DriverLibrary  # noqa: E402
-from drivestyle.studies.ceiling import ceiling_identify  # noqa: E402
-from drivestyle.studies.identification_study import (  # noqa: E402
+from drivestyle.studies.identification import (  # noqa: E402
     CONTINUOUS_RANGE,
     IDENTIFIABLE_GAP_M,
+    ceiling_identify,
     continuous_demonstrations,
     draw_continuous_risks,
-    is_identifiable,
-    neighbour_gap,
-    path_distance,
+    driver_evaluation_markdown,
     pooled_accuracy,
 )
-from drivestyle.studies.reports import driver_evaluation_markdown  # noqa: E402
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's own cost: a driver library with it must identify SMPC demonstrations."""
 DRIVER_GRID = (0.5, 0.7, 0.9)
-
-
-def _path(y: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.arange(len(y), dtype=float), y])
-
-
-def test_the_identifiable_rule_uses_the_rms_gap_to_both_neighbours():
-    n = 25
-    flat = np.zeros(n)
-    spike = flat.copy()
-    spike[10] = 0.1  # parts for one step only: max 10 cm, RMS 2 cm
-    paths = {0.5: _path(flat), 0.6: _path(spike), 0.7: _path(flat + 0.2), 0.8: _path(flat + 0.25)}
-    grid = [0.5, 0.6, 0.7, 0.8]
-    assert path_distance(paths[0.5], paths[0.6]) == pytest.approx(0.1 / np.sqrt(n))
-    assert neighbour_gap(paths, 0.6, grid) == pytest.approx(0.02)  # nearer neighbour 0.5
-    assert not is_identifiable(neighbour_gap(paths, 0.5, grid))  # its one neighbour is 0.6
-    assert neighbour_gap(paths, 0.7, grid) == pytest.approx(0.05)  # 0.8 is 5 cm away
-    assert is_identifiable(0.05) and not is_identifiable(0.0499) and not is_identifiable(None)
-    assert IDENTIFIABLE_GAP_M == 0.05
-    assert neighbour_gap(paths, 0.65, grid) is None  # off the grid
-    assert neighbour_gap({0.5: paths[0.5], 0.6: paths[0.6]}, 0.6, grid) is None  # 0.7 missing
-    # paths of unequal length are compared over their common part (as the ceiling does)
-    assert path_distance(_path(flat + 0.2), _path(np.zeros(10))) == pytest.approx(0.2)
 
 
 def test_continuous_risks_are_uniform_seeded_and_leave_the_scenario_draws_alone():

@@ -27,13 +27,11 @@ from drivestyle.irl.paper.features import FeatureConfig, feature_basis, feature_
 from drivestyle.irl.paper.learner import IRLConfig, LearningResult
 from drivestyle.irl.paper.spline import demo_control_points
 from drivestyle.irl.paper.style import fit_style, locate_demos
-from drivestyle.studies.figures import (
-    plot_comparison,
-    plot_demonstration,
-    plot_lateral,
-    plot_reproductions,
-)
-from drivestyle.studies.reports import comparison_markdown, paper_markdown
+from drivestyle.studies.compare.figures import plot_comparison
+from drivestyle.studies.compare.report import comparison_markdown
+from drivestyle.studies.paper.figures import plot_lateral, plot_reproductions
+from drivestyle.studies.paper.report import paper_markdown
+from drivestyle.studies.plotting import plot_demonstration
 
 __all__ = [
     "PAPER_REPORTED",
@@ -315,7 +313,7 @@ def baseline_study(
     from drivestyle.agents.sb3_baseline import TrainConfig, train_baseline
     from drivestyle.envs.video import write_video
     from drivestyle.irl.paper.style import load_style
-    from drivestyle.studies.compare import compare_methods, policy_frames
+    from drivestyle.studies.compare.study import compare_methods, policy_frames
 
     out = Path(out)
     style = load_style(style_path)

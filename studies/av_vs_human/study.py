@@ -40,7 +40,7 @@ from drivestyle.irl.identification.posterior import (
     OUT_OF_CLASS,
     recorded_verdict_label,
 )
-from drivestyle.studies.real_traffic import lane_change_stats
+from drivestyle.studies.real_traffic.study import lane_change_stats
 
 AV_VEHICLE = "cats:AV:3"
 """The computer-driven car (CATS vehicle 3 on its AV days)."""

@@ -5,6 +5,11 @@ scenario and pick the risk whose trajectory is closest (RMS position distance). 
 expert is deterministic, so this is as good as identification can get when the expert
 and its scenario are known; it cannot be applied to a vehicle whose controller is unknown,
 which is what the IRL route is for (docs/RESULTS.md §6).
+
+The other reference, :func:`knn_baseline`, is supervised and without IRL: the k nearest
+training demonstrations by feature values and scenario. :func:`identification_references`
+runs both on the identification study's grid demonstrations (``evaluate-identification
+--references``).
 """
 
 from __future__ import annotations
@@ -20,7 +25,8 @@ from drivestyle.agents.demo_generation import generate_demonstration
 from drivestyle.agents.smpc import SMPCConfig
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.identification.library import StyleLibrary
-from drivestyle.studies.identification_study import knn_baseline
+from drivestyle.irl.paper.features import FeatureConfig
+from drivestyle.irl.paper.inner import InnerProblem
 
 __all__ = [
     "CeilingResult",
@@ -29,6 +35,7 @@ __all__ = [
     "References",
     "ceiling_identify",
     "identification_references",
+    "knn_baseline",
 ]
 
 
@@ -100,6 +107,44 @@ def ceiling_identify(demo: Demonstration, risks: Sequence[float]) -> CeilingResu
         distances=dist,
         tied=tuple(p for p, d in dist.items() if d <= dist[best] + 0.01),
     )
+
+
+def knn_baseline(
+    train: Sequence[Demonstration],
+    test: Sequence[Demonstration],
+    features: FeatureConfig | None = None,
+    k: int = 3,
+) -> list[float]:
+    """A supervised reference without IRL: k-nearest neighbours on features and scenario.
+
+    Each demonstration is described by its scaled feature values Ω f(r_D) and its scenario
+    (EV speed, TV speed, TV gap), each column standardised on the training set; a test
+    demonstration gets the median true risk of its k nearest training demonstrations.
+
+    Args:
+        train: demonstrations with ``meta["risk"]`` (e.g. the library's own).
+        test: demonstrations to classify.
+        features: feature configuration (default: the reactive set).
+        k: neighbours.
+
+    Returns:
+        The estimated risk of each test demonstration.
+    """
+    fc = features or FeatureConfig()
+
+    def describe(d: Demonstration) -> np.ndarray:
+        sc = d.scenario
+        return np.concatenate([InnerProblem(d, fc).f_demo, [sc.ev_speed, sc.tv_speed, sc.tv_gap]])
+
+    X = np.array([describe(d) for d in train])
+    y = np.array([float(d.meta["risk"]) for d in train])
+    mu, sd = X.mean(0), X.std(0) + 1e-9
+    Xs = (X - mu) / sd
+    out = []
+    for d in test:
+        dist = np.linalg.norm(Xs - (describe(d) - mu) / sd, axis=1)
+        out.append(float(np.median(y[np.argsort(dist)[:k]])))
+    return out
 
 
 def identification_references(

@@ -1,4 +1,4 @@
-"""The CATS automated car against human drivers (studies/av_vs_human.py)."""
+"""The CATS automated car against human drivers (studies/av_vs_human/)."""
 
 from __future__ import annotations
 
@@ -13,15 +13,15 @@ from drivestyle.envs.scenario import PAPER
 from drivestyle.irl.identification import mining
 from drivestyle.studies.av_vs_human import (
     MinedRow,
+    av_human_markdown,
     closest_distance,
     compare_av_human,
     group_of,
     read_mined,
     time_gaps,
 )
-from drivestyle.studies.reports import av_human_markdown
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"  # beside a checkout
+DATA = Path(__file__).resolve().parents[3].parent / "shared" / "data"  # beside a checkout
 W = PAPER.lane_width
 
 
