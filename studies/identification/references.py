@@ -1,8 +1,9 @@
-"""The identification ceiling: an identifier that knows the expert (a reference, not IRL).
+"""The identification study's references: the ceiling that knows the expert, and k-NN.
 
-For a demonstration in a known scenario, simulate SMPC(p) for every grid risk in that same
-scenario and pick the risk whose trajectory is closest (RMS position distance). The
-expert is deterministic, so this is as good as identification can get when the expert
+The ceiling (:func:`ceiling_identify`) is an identifier that knows the expert (a reference,
+not IRL): for a demonstration in a known scenario, simulate SMPC(p) for every grid risk in
+that same scenario and pick the risk whose trajectory is closest (RMS position distance).
+The expert is deterministic, so this is as good as identification can get when the expert
 and its scenario are known; it cannot be applied to a vehicle whose controller is unknown,
 which is what the IRL route is for (docs/RESULTS.md §6).
 

@@ -1,20 +1,18 @@
 """Fixtures of the studies' tests."""
 
 import importlib
+from pathlib import Path
 
 import pytest
 
-FIGURE_MODULES = (
-    "drivestyle.studies.plotting",
-    "drivestyle.studies.figures",
-    "drivestyle.studies.paper.figures",
-    "drivestyle.studies.compare.figures",
-    "drivestyle.studies.identification.figures",
-    "drivestyle.studies.real_traffic.figures",
-    "drivestyle.studies.cut_in.figures",
-    "drivestyle.studies.av_vs_human.figures",
-)
-"""Every module that saves a figure through ``save_figure``."""
+STUDIES = Path(__file__).resolve().parents[2] / "studies"
+
+
+def _figure_modules() -> list[str]:
+    """Every figure module of the studies: plotting.py and each (study's) figures.py."""
+    paths = [STUDIES / "plotting.py", *STUDIES.rglob("figures.py")]
+    return ["drivestyle." + ".".join(p.relative_to(STUDIES.parent).with_suffix("").parts)
+            for p in paths]  # fmt: skip
 
 
 @pytest.fixture
@@ -28,8 +26,10 @@ def drawn(monkeypatch):
         kept.append(fig)
         return path
 
-    for name in FIGURE_MODULES:
-        monkeypatch.setattr(importlib.import_module(name), "save_figure", keep)
+    for name in _figure_modules():
+        module = importlib.import_module(name)
+        if hasattr(module, "save_figure"):
+            monkeypatch.setattr(module, "save_figure", keep)
     yield kept
     for fig in kept:
         plt.close(fig)
