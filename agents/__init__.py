@@ -2,9 +2,10 @@
 
 The stochastic MPC expert's closed-loop shell (``smpc``; its NLP is
 :mod:`drivestyle.planning`'s), its demonstrations (``demo_generation``), the style-aware
-ego (``aware_planner``) and SB3 policies on a learned reward (``sb3_baseline``). The
-planning names re-exported here (``SMPCProblem``, ``chance_margin``, …) live in
-:mod:`drivestyle.planning`.
+ego (``aware_planner``), SB3 policies on a learned reward (``sb3_baseline``) and other
+drivers simulated by highway-env (IDM + MOBIL classes) and recorded as tracks
+(``highway_drivers``). The planning names re-exported here (``SMPCProblem``,
+``chance_margin``, …) live in :mod:`drivestyle.planning`.
 """
 
 from drivestyle.agents.demo_generation import demo_summary, generate_demonstration, rollout_expert

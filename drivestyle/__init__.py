@@ -10,8 +10,10 @@ One installable root with its layers, each importing only those before it:
 - :mod:`drivestyle.planning`: the receding-horizon planner every driver and style solves;
 - :mod:`drivestyle.irl`: learning styles from trajectories (splines, features, ME-IRL,
   style libraries, identification, the learned reward);
-- :mod:`drivestyle.agents`: drivers (the SMPC expert, the style-aware ego, SB3 policies);
-- :mod:`drivestyle.studies`: the evaluations that combine the layers before it;
+- :mod:`drivestyle.agents`: drivers (the SMPC expert, the style-aware ego, SB3 policies,
+  highway-env's IDM + MOBIL drivers);
+- :mod:`drivestyle.studies`: the evaluations that combine the layers before it, each study
+  a sub-package with its report and figures;
 - :mod:`drivestyle.scripts`: the command-line entry points (``drivestyle --help``).
 
 Importing ``drivestyle`` registers the Gymnasium ids (``drivestyle/LaneChange-v0`` and

@@ -26,7 +26,7 @@ from drivestyle.envs.units import off_grid
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import StyleTracker
-from drivestyle.irl.identification.posterior import Identification
+from drivestyle.irl.identification.result import Identification
 from drivestyle.prediction.errors import error_parts
 from drivestyle.prediction.kinematic import ConstantAcceleration, ConstantVelocity
 from drivestyle.prediction.physics import PhysicsBaseline, PhysicsParams

@@ -38,7 +38,7 @@ from drivestyle.irl.driver.driver_style import (
 )
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import StyleTracker
-from drivestyle.irl.identification.posterior import Identification
+from drivestyle.irl.identification.result import Identification
 from drivestyle.planning.description import PrimalDual, SMPCConfig
 from drivestyle.prediction.kinematic import others_at_constant_velocity
 from drivestyle.prediction.protocol import Observation, PredictedPath

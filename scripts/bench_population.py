@@ -1,7 +1,7 @@
 r"""Benchmark mining a simulated population: throughput, scaling, Ray's overhead, per-demo cost.
 
-Simulates N vehicles (``drivestyle.studies.population``), or takes a folder of
-demonstrations (``--demos``), then mines them (with a driver library — the default model — or
+Simulates N vehicles (``drivestyle.studies.identification.population``), or takes a folder
+of demonstrations (``--demos``), then mines them (with a driver library — the default model — or
 a paper-model one) once per ``--runs`` entry — by default the local engine with 1 worker and
 with 2, and Ray with 2 actors; ``--runs ray:1,ray:2`` is the scale-out check — the workers
 loading each file as ``mine-styles`` does. It reports demonstrations per second (and per core),
@@ -38,7 +38,7 @@ from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.irl.identification.library import StyleLibrary, load_any_library
 from drivestyle.irl.identification.mining import mine
 from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
-from drivestyle.studies.population import simulate_population
+from drivestyle.studies.identification.population import simulate_population
 
 TARGET_VEHICLES = 110_000
 """A drone-recorded highway dataset's size: the scale mining is projected to."""

@@ -42,7 +42,7 @@ from drivestyle.envs.tracking import observe
 from drivestyle.irl.driver.driver_style import RISK_RANGE
 from drivestyle.irl.identification.library import LibraryError, learn_driver_library, learn_library
 from drivestyle.irl.identification.posterior import calibrate_temperature
-from drivestyle.studies.figures import plot_theta_vs_risk
+from drivestyle.studies.plotting import plot_theta_vs_risk
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

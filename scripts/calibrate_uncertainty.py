@@ -19,8 +19,8 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, positive_list, risk_list, run_cli, seed
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.studies.calibration import uncertainty_scan
-from drivestyle.studies.figures import plot_risk_sweep
+from drivestyle.studies.paper import uncertainty_scan
+from drivestyle.studies.paper.figures import plot_risk_sweep
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -25,8 +25,8 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
-from drivestyle.studies.capacity import RiskCapacity, capacity_study
-from drivestyle.studies.reports import capacity_markdown, seconds
+from drivestyle.studies.capacity import RiskCapacity, capacity_markdown, capacity_study
+from drivestyle.studies.formatting import seconds
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -7,7 +7,7 @@ shows on the trajectory itself (least time gap to the vehicle ahead, closest app
 speed, peak lateral speed, lane-change duration). The computer-driven car
 (``cats:AV:3``) is compared with the same car driven by a human (``cats:HV:3``) and with
 the other, human-driven vehicles: medians with bootstrap 95 % intervals over lane changes
-and the differences of medians (studies/av_vs_human.py). Writes
+and the differences of medians (studies/av_vs_human/study.py). Writes
 ``OUT/av_vs_human.json`` (with the command), ``OUT/av_vs_human.md`` and
 ``OUT/av_vs_human.png``.
 
@@ -33,9 +33,8 @@ from drivestyle.common.io import (
 )
 from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.recorded.real_data import check_data_dir
-from drivestyle.studies.av_vs_human import compare_av_human, read_mined, unmined
-from drivestyle.studies.figures import plot_av_human
-from drivestyle.studies.reports import av_human_markdown
+from drivestyle.studies.av_vs_human import av_human_markdown, compare_av_human, read_mined, unmined
+from drivestyle.studies.av_vs_human.figures import plot_av_human
 
 SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)
 """``--samples``: a replicate holds the resampled indices of a group's lane changes for every

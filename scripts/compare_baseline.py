@@ -40,9 +40,13 @@ from drivestyle.common.io import (
 from drivestyle.envs import load_demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.paper.style import Style, StyleError, load_style
-from drivestyle.studies.compare import LABELS, compare_methods, heldout_comparison
-from drivestyle.studies.figures import plot_comparison, plot_heldout
-from drivestyle.studies.reports import comparison_markdown
+from drivestyle.studies.compare import (
+    LABELS,
+    compare_methods,
+    comparison_markdown,
+    heldout_comparison,
+)
+from drivestyle.studies.compare.figures import plot_comparison, plot_heldout
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

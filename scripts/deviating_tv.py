@@ -3,9 +3,9 @@ r"""A TV that deviates from its prediction: SMPC, an SB3 policy and the spline p
 In the style's scenario the TV brakes (or, with a positive ``--accel``, accelerates) from
 ``--t-start`` for ``--duration`` seconds. Compares the SMPC (re-plans every step), an SB3
 policy (closed loop, ``--model``), the spline reproduction planned once and executed
-open-loop, and the spline re-planned every ``--replan-every`` samples (studies/deviation.py).
-Writes ``OUT/deviation.json`` (per driver: collision, min d_k, rmse_y against the SMPC)
-and a gif per driver.
+open-loop, and the spline re-planned every ``--replan-every`` samples
+(studies/compare/deviation.py). Writes ``OUT/deviation.json`` (per driver: collision, min
+d_k, rmse_y against the SMPC) and a gif per driver.
 
 Example:
     python scripts/deviating_tv.py --style runs/paper/reactive/style.json \\
@@ -31,7 +31,7 @@ from drivestyle.common.io import atomic_output_dir, check_output_dir, fmt, write
 from drivestyle.envs.demonstration import load_demonstration
 from drivestyle.envs.lane_change import TVDeviation
 from drivestyle.irl.paper.style import load_style
-from drivestyle.studies.deviation import deviating_tv_study, write_videos
+from drivestyle.studies.compare.deviation import deviating_tv_study, write_videos
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

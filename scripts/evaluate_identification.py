@@ -57,26 +57,20 @@ from drivestyle.irl.identification.library import (
     StyleLibrary,
     load_any_library,
 )
-from drivestyle.studies.ceiling import identification_references
-from drivestyle.studies.figures import (
-    plot_confusion,
-    plot_noise_curve,
-    plot_population,
-    plot_theta_vs_risk,
-)
-from drivestyle.studies.identification_study import (
+from drivestyle.studies.identification import (
     Evaluation,
     continuous_demonstrations,
     draw_continuous_risks,
-    evaluate_identification,
-    noise_curve_json,
-)
-from drivestyle.studies.reports import (
     driver_evaluation_markdown,
+    evaluate_identification,
     evaluation_markdown,
+    identification_references,
+    noise_curve_json,
     noise_markdown,
     references_markdown,
 )
+from drivestyle.studies.identification.figures import plot_confusion, plot_noise_curve
+from drivestyle.studies.plotting import plot_population, plot_theta_vs_risk
 
 DRIVER = "driver"
 """The name a driver library is evaluated and reported under."""

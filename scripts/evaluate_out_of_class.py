@@ -1,14 +1,14 @@
 r"""Identify and predict drivers outside the style class whose caution order is known.
 
-Simulates highway-env 1.12 traffic of four IDM + MOBIL driver classes of increasing
-caution (studies/out_of_class.py, ``HIGHWAY_CLASSES``) on a straight three-lane
-road, recorded at 10 Hz and extracted like recorded traffic, until each class has
-``--per-class`` lane changes (at most ``--max-runs`` runs); generates SMPC drivers of
-another horizon, TV uncertainty and weights at the ``--risks`` in ``--scenarios``
+Simulates highway-env 1.12 traffic of four IDM + MOBIL driver classes of increasing caution
+(agents/highway_drivers.py, ``HIGHWAY_CLASSES``; the study: studies/out_of_class/) on a
+straight three-lane road, recorded at 10 Hz and extracted like recorded traffic, until each
+class has ``--per-class`` lane changes (at most ``--max-runs`` runs); generates SMPC drivers
+of another horizon, TV uncertainty and weights at the ``--risks`` in ``--scenarios``
 interactive scenarios each; identifies every lane change's risk p with the driver library
 (posterior mean, 90 % interval, verdict) and predicts it after 1, 2 and 3 s (CV, CA,
-physics, population, mode, mixture). Writes ``OUT/out_of_class.json`` (every episode,
-group, Spearman check, prediction record and summary, with the command) and
+physics, population, mode, mixture). Writes ``OUT/out_of_class.json`` (every episode, group,
+Spearman check, prediction record and summary, with the command) and
 ``OUT/out_of_class.md``. One process.
 
 Example:
@@ -42,9 +42,13 @@ from drivestyle.common.io import (
 )
 from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
-from drivestyle.studies.out_of_class import StudyConfig, run_study, vehicle_spans
+from drivestyle.studies.out_of_class import (
+    StudyConfig,
+    out_of_class_markdown,
+    run_study,
+    vehicle_spans,
+)
 from drivestyle.studies.prediction.observed_times import check_observed_times
-from drivestyle.studies.reports import out_of_class_markdown
 
 _D = StudyConfig()
 SMPC_RISKS = (0.5, 1.0)

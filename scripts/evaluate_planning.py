@@ -1,7 +1,7 @@
 r"""Plan around a cut-in: an SMPC ego predicting the lane changer by CV, its style or the truth.
 
 Drives ``--scenes`` scenes of ``drivestyle/CutIn-v0`` (the study's family,
-``studies/cut_in_study.py``; the lane changer is SMPC(p) with p drawn per scene) with
+``studies/cut_in/study.py``; the lane changer is SMPC(p) with p drawn per scene) with
 the ego's three predictors — constant velocity (today's SMPC), the style identified
 online with ``--library``, the cutter's true model — and writes ``OUT/planning.json``
 (every run and the summaries, with the command), ``OUT/planning.md``,
@@ -27,15 +27,15 @@ from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.video import write_video
 from drivestyle.irl.identification.library import load_driver_library
-from drivestyle.studies.cut_in_study import (
+from drivestyle.studies.cut_in import (
     CUT_IN_RANGES,
     PlanningStudy,
     cut_in_study,
+    planning_markdown,
     predictor_for,
     run_scene,
 )
-from drivestyle.studies.figures import plot_planning
-from drivestyle.studies.reports import planning_markdown
+from drivestyle.studies.cut_in.figures import plot_planning
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

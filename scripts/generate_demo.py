@@ -29,8 +29,8 @@ from drivestyle.common.cli import (
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs import SCENARIOS, get_scenario, save_demonstration
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC
-from drivestyle.studies.figures import plot_demonstration
-from drivestyle.studies.reports import seconds
+from drivestyle.studies.formatting import seconds
+from drivestyle.studies.plotting import plot_demonstration
 
 TRAFFIC_CHOICES = ("traffic", "traffic-random")
 

@@ -203,7 +203,8 @@ def _plot(
     path: Path,
 ) -> None:
     """identify.png: posterior and prior, and the reproduction at the identified risk."""
-    from drivestyle.studies.figures import plot_identification  # matplotlib: on demand
+    # matplotlib: on demand
+    from drivestyle.studies.identification.figures import plot_identification
 
     reproductions: list[Reproduction | None] = []
     for demo in demos:

@@ -27,7 +27,7 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, for_option, positive_int, run_cli
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.irl.driver.driver_learning import DriverFit
+from drivestyle.irl.driver.driver_fit import DriverFit
 from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.recorded.benchmark import (
     DEFAULT_DATA_DIR,

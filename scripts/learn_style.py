@@ -61,7 +61,7 @@ from drivestyle.irl.paper.inner import InnerSolveError
 from drivestyle.irl.paper.learner import UPDATE_RULES, IterationRecord, check_learnable
 from drivestyle.irl.paper.spline import CONTROL_POINT_RULES, demo_control_points
 from drivestyle.irl.paper.style import fit_style, locate_demos
-from drivestyle.studies.figures import plot_lateral, plot_reproductions
+from drivestyle.studies.paper.figures import plot_lateral, plot_reproductions
 
 EXIT_POOR_FIT = 3
 """Exit status when the driver model's fit is ``poor_fit`` (``style.json`` is written)."""

@@ -53,7 +53,7 @@ from drivestyle.irl.identification.mining import (
 from drivestyle.irl.identification.mining_output import MiningOutput, RunFingerprint
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.recorded.readers import read_sample
-from drivestyle.studies.figures import plot_population
+from drivestyle.studies.plotting import plot_population
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -4,7 +4,7 @@ For every used episode: a personal style (reactive and base features), a general
 learned from the other episodes (leave-one-out) and constant-velocity extrapolation are
 compared with the recording (rmse_y, rmse_xy, final displacement error). Writes
 ``OUT/real_traffic.json``, ``OUT/real_traffic.md`` and one figure per episode under
-``OUT/episodes/`` (the study itself: studies/real_traffic.py; deterministic, so
+``OUT/episodes/`` (the study itself: studies/real_traffic/; deterministic, so
 there is no ``--seed``). On CATS it also compares the
 computer-driven (AV) and human-driven (HV) lane changes and runs a leave-one-out
 classifier on the learned styles.
@@ -35,9 +35,14 @@ from drivestyle.common.cli import HelpFormatter, positive_int, run_cli, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.irl.driver.driver_learning import RESTARTS, SCREEN_CANDIDATES
 from drivestyle.recorded.real_data import load_cats, load_ngsim
-from drivestyle.studies.figures import plot_driver_traffic
-from drivestyle.studies.real_traffic import DriverSettings, run_driver_study, run_study
-from drivestyle.studies.reports import driver_traffic_markdown, real_traffic_markdown
+from drivestyle.studies.real_traffic import (
+    DriverSettings,
+    driver_traffic_markdown,
+    real_traffic_markdown,
+    run_driver_study,
+    run_study,
+)
+from drivestyle.studies.real_traffic.figures import plot_driver_traffic
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -32,11 +32,11 @@ from drivestyle.common.cli import (
 from drivestyle.common.io import atomic_output_dir, check_output_dir
 from drivestyle.studies.paper import (
     baseline_study,
+    paper_console,
     paper_study,
     write_paper_results,
     write_paper_study,
 )
-from drivestyle.studies.reports import paper_console
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -20,7 +20,7 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, count, run_cli, seed, workers
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
-from drivestyle.studies.population import simulate_population
+from drivestyle.studies.identification.population import simulate_population
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

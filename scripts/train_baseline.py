@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> dict:
     check_output_dir(args.out, inputs=[args.style])
     try:
         from drivestyle.agents.sb3_baseline import TrainConfig, load_reward_style, train_baseline
-        from drivestyle.studies.figures import plot_learning_curve
+        from drivestyle.studies.plotting import plot_learning_curve
     except ImportError as exc:
         raise RuntimeError(
             f"{exc}; install the rl extra: pip install -c constraints-cpu.txt -e '.[rl]'"

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.irl.driver.driver_fit import DriverFit
 from drivestyle.irl.driver.driver_learning import (
-    DriverFit,
     learn_driver,
     step_residuals,
     style_from_coordinates,

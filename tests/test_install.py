@@ -67,7 +67,7 @@ def test_the_wheel_installs_one_root_package(tmp_path):
     tops = {n.split("/")[0] for n in names}
     assert {t for t in tops if not t.endswith(".dist-info")} == {"drivestyle"}
     for module in ("envs/lane_change.py", "recorded/readers/table.py", "planning/smpc_problem.py",
-                   "planning/plan_solver_driver.c", "irl/paper/learner.py", "studies/paper.py",
-                   "prediction/methods.py", "studies/prediction/study.py",
+                   "planning/plan_solver_driver.c", "irl/paper/learner.py",
+                   "studies/paper/study.py", "prediction/methods.py", "studies/prediction/study.py",
                    "scripts/learn_style.py", "common/io.py", "py.typed"):  # fmt: skip
         assert f"drivestyle/{module}" in names

@@ -25,7 +25,7 @@ WRITES = {
 }
 """Files inside its --out folder that a command writes and the README reads."""
 WRITTEN_BY = {
-    "reproduce-paper": ("studies/paper.py", ('"demo" / "demo.npz"', '"style.json"')),
+    "reproduce-paper": ("studies/paper/study.py", ('"demo" / "demo.npz"', '"style.json"')),
     "build-style-library": ("scripts/build_style_library.py", ('f"p{p:g}_s{i}.npz"',)),
     "extract-episodes": ("recorded/episode_files.py", ('return f"{name}.npz"', "episodes.csv")),
 }

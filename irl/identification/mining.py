@@ -48,7 +48,7 @@ from drivestyle.common.parallel import EXIT_TERMINATED, parallel_map, sigterm_st
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
 from drivestyle.irl.driver.driver_style import reproduce
 from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
-from drivestyle.irl.identification.mined_row import COLUMNS, MinedRow, one_line
+from drivestyle.irl.identification.mined_row import MinedRow, one_line
 from drivestyle.irl.identification.posterior import identify
 from drivestyle.irl.identification.result import Identification
 from drivestyle.irl.identification.verdict import (
@@ -60,13 +60,10 @@ from drivestyle.irl.identification.verdict import (
 from drivestyle.irl.paper.learner import IRLConfig, MaxEntIRL
 from drivestyle.recorded.real_data import recorded_view
 
-# MinedRow and COLUMNS (mined_row's) are still imported from here by studies/ and its tests.
 __all__ = [
-    "COLUMNS",
     "CONNECT_TIMEOUT_S",
     "ENGINES",
     "RAY_TASK_RETRIES",
-    "MinedRow",
     "Miner",
     "MiningTask",
     "mine",

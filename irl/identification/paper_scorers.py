@@ -26,7 +26,7 @@ The library (its type, file and learning) lives in
 :mod:`drivestyle.irl.identification.library`; the driver library's continuous posterior and
 the entry point :func:`~drivestyle.irl.identification.posterior.identify` in
 :mod:`drivestyle.irl.identification.posterior`; the held-out evaluation in
-:mod:`drivestyle.studies.identification_study`.
+:mod:`drivestyle.studies.identification.study`.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ library's risks. Either way the answer is an
 :class:`~drivestyle.irl.identification.result.Identification` with its
 :class:`~drivestyle.irl.identification.verdict.Verdict`.
 
-The held-out evaluation is :mod:`drivestyle.studies.identification_study`.
+The held-out evaluation is :mod:`drivestyle.studies.identification.study`.
 """
 
 from __future__ import annotations
@@ -34,8 +34,6 @@ from drivestyle.irl.identification.paper_scorers import (
     NEAREST_MEMBERS,
     SCORERS,
     demo_scores,
-    posterior_from_scores,
-    risk_interval,
     summarise,
 )
 from drivestyle.irl.identification.result import (
@@ -46,47 +44,26 @@ from drivestyle.irl.identification.result import (
     check_identifiable,
 )
 from drivestyle.irl.identification.verdict import (
-    ENTERS_REGION,
-    OUT_OF_CLASS,
-    VERDICT_LABELS,
     fit_verdict,
-    recorded_verdict_label,
 )
 from drivestyle.recorded.real_data import recorded_view
 
-# Besides its own names, this module still hands out some of paper_scorers' (DEFAULT_SCORER,
-# SCORERS, demo_scores, posterior_from_scores, risk_interval, summarise), result's
-# (INTERVAL_MASS, DemoScores) and verdict's (ENTERS_REGION, OUT_OF_CLASS, VERDICT_LABELS,
-# recorded_verdict_label): modules outside irl/ (studies/, irl/forecast.py) import them from
-# here until they import them from their homes.
 __all__ = [
-    "DEFAULT_SCORER",
     "DENSITY_STEP",
-    "ENTERS_REGION",
-    "INTERVAL_MASS",
     "LIKELIHOOD",
-    "OUT_OF_CLASS",
-    "SCORERS",
     "TEMPERATURES",
-    "VERDICT_LABELS",
     "Calibration",
-    "DemoScores",
     "Identification",
     "LibraryError",
     "StyleLibrary",
     "calibrate_temperature",
     "constraint_binds",
-    "demo_scores",
     "density_grid",
     "driver_posterior",
     "identify",
     "identify_all",
     "identify_driver",
-    "posterior_from_scores",
-    "recorded_verdict_label",
-    "risk_interval",
     "risk_log_likelihood",
-    "summarise",
 ]
 
 LIKELIHOOD = "likelihood"

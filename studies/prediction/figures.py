@@ -5,7 +5,7 @@ method's prediction to scale (``example_prediction.png`` of ``evaluate-predictio
 ``prediction.png`` of ``predict-trajectory``); :func:`plot_prediction_errors` the mean FDE of
 every method against t_obs (``fde_by_method.png``); :func:`plot_posterior_over_time` the
 online posterior of a few vehicles (``posterior_over_time.png``). Colours, lanes and saving
-are :mod:`drivestyle.studies.figures`'s.
+are :mod:`drivestyle.studies.plotting`'s.
 """
 
 from __future__ import annotations
@@ -14,9 +14,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Polygon
@@ -24,7 +21,8 @@ from matplotlib.patches import Polygon
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import vehicle_corners
 from drivestyle.prediction.methods import METHODS, Prediction
-from drivestyle.studies.figures import (
+from drivestyle.studies.formatting import seconds
+from drivestyle.studies.plotting import (
     EV_RED,
     SCALED_ORANGE,
     TV_BLUE,
@@ -33,7 +31,6 @@ from drivestyle.studies.figures import (
 )
 from drivestyle.studies.prediction.study import PredictionStudy
 from drivestyle.studies.prediction.tracking import TrackingRecord
-from drivestyle.studies.reports import seconds
 
 __all__ = [
     "METHOD_STYLES",
@@ -62,7 +59,7 @@ def plot_prediction(
     """One vehicle's observed path, its true future and every method's prediction, to scale.
 
     The road panel has equal axes (as
-    :func:`~drivestyle.studies.figures.plot_demonstration`): lanes, the surrounding vehicles'
+    :func:`~drivestyle.studies.plotting.plot_demonstration`): lanes, the surrounding vehicles'
     paths over the predicted time, the vehicle and its neighbours at t_obs as rectangles. The
     x range follows the truth; a prediction that leaves it is cut.
 

@@ -2,34 +2,20 @@
 
 :func:`prediction_markdown` writes the study's tables (per set, t_obs and method; the
 recorded benchmark's with bootstrap intervals; the goals; online identification; the
-prediction regions' coverage). :func:`percent` and :func:`value_interval` format its shares
-and intervals (the out-of-class study's report uses them too); times read as
-:func:`drivestyle.studies.reports.seconds` prints them.
+prediction regions' coverage). Shares, intervals and times are formatted as every study's
+report formats them (:mod:`drivestyle.studies.formatting`).
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 from drivestyle.common.io import fmt
 from drivestyle.prediction.errors import ERROR_METRICS
+from drivestyle.studies.formatting import percent, seconds, value_interval
 from drivestyle.studies.prediction.study import TEST_SEED, VALIDATION_SEED, PredictionStudy
 from drivestyle.studies.prediction.summaries import BOOTSTRAP_SAMPLES
 from drivestyle.studies.prediction.tracking import NARROW_WIDTH, TrackingSummary
-from drivestyle.studies.reports import seconds
 
-__all__ = ["percent", "prediction_markdown", "value_interval"]
-
-
-def percent(value: float | None) -> str:
-    """A share for people to read: ``42 %``, ``—`` for None."""
-    return "—" if value is None else f"{100 * value:.0f} %"
-
-
-def value_interval(stat: Any, kind: str) -> str:
-    """``value [lo, hi]`` of an ErrorStat's mean or median [m]."""
-    v, lo, hi = (getattr(stat, f"{kind}{s}") for s in ("", "_lo", "_hi"))
-    return f"{v:.2f} [{lo:.2f}, {hi:.2f}]"
+__all__ = ["prediction_markdown"]
 
 
 def _benchmark_tables(study: PredictionStudy) -> list[str]:

@@ -17,7 +17,7 @@ from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.irl.driver.driver_style import DriverStyle, expert_style
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig, nlp_parameters
-from drivestyle.studies.cut_in_study import (
+from drivestyle.studies.cut_in import (
     CUT_IN_RANGES,
     PlanningStudy,
     cut_in_study,

@@ -180,7 +180,7 @@ def test_scripts_train_compare_render(tmp_path, style_file):
 def test_heldout_comparison_scores_every_method(style_file, tmp_path):
     from drivestyle.irl.paper.style import load_style
     from drivestyle.studies.compare import HeldoutComparison, heldout_comparison
-    from drivestyle.studies.figures import plot_heldout
+    from drivestyle.studies.compare.figures import plot_heldout
 
     res = heldout_comparison(load_style(style_file), {}, k=2, seed=3000, risk=0.7)
     assert isinstance(res, HeldoutComparison)
@@ -210,7 +210,7 @@ def test_a_deviating_tv_brakes_as_documented_and_the_smpc_reacts(style_file):
     from drivestyle.agents import generate_demonstration
     from drivestyle.envs.lane_change import LaneChangeEnv, TVDeviation
     from drivestyle.irl.paper.style import load_style
-    from drivestyle.studies.deviation import deviating_tv_study
+    from drivestyle.studies.compare.deviation import deviating_tv_study
 
     with pytest.raises(ValueError, match="duration"):
         TVDeviation(duration=0.0)

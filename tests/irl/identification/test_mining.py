@@ -22,7 +22,7 @@ from drivestyle.irl.identification.mined_row import MinedRow
 from drivestyle.irl.identification.mining import mine, summary_numbers
 from drivestyle.irl.identification.mining_output import read_rows
 from drivestyle.irl.paper.features import FeatureConfig
-from drivestyle.studies.population import draw_vehicle, simulate_population
+from drivestyle.studies.identification.population import draw_vehicle, simulate_population
 
 ROOT = Path(__file__).resolve().parents[3]
 
