@@ -10,7 +10,7 @@ import pytest
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.identification import mining
+from drivestyle.irl.identification import mined_row
 from drivestyle.studies.av_vs_human import (
     MinedRow,
     av_human_markdown,
@@ -120,14 +120,14 @@ def test_without_the_av_or_without_humans_it_refuses():
 def _styles_csv(folder, *rows) -> None:
     """``folder/styles.csv`` as mine-styles writes it."""
     with (folder / "styles.csv").open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=mining.COLUMNS)
+        writer = csv.DictWriter(fh, fieldnames=mined_row.COLUMNS)
         writer.writeheader()
         writer.writerows(r.to_csv() for r in rows)
 
 
 def _mined_row(i, mean, lo, hi, informative, out_of_class, binds=None, enters=None):
     """An ok row of a mining run (the columns the comparison reads as given)."""
-    return mining.MinedRow(
+    return mined_row.MinedRow(
         i, "cats", "ok", risk_estimate=mean, risk_lo=lo, risk_hi=hi, risk_mean=mean,
         informative=informative, out_of_class=out_of_class, theta_normalised=(1.0,),
         constraint_binds=binds, enters_region=enters,
@@ -138,7 +138,7 @@ def test_the_mined_table_is_read_and_a_foreign_table_refused(tmp_path):
     _styles_csv(
         tmp_path,
         _mined_row("x", 0.7, 0.6, 0.8, True, False),
-        mining.MinedRow.failed("y", "cats", "DemonstrationError: y: no lane change"),
+        mined_row.MinedRow.failed("y", "cats", "DemonstrationError: y: no lane change"),
     )
     assert read_mined(tmp_path) == {"x": MinedRow(0.7, 0.6, 0.8, True, False)}
     assert read_mined(tmp_path)["x"].verdict == "informative"
