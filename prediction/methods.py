@@ -256,6 +256,7 @@ def predict_demo(
     oracle: DriverStyle | None = None,
     physics: PhysicsParams | None = None,
     methods: Sequence[str] = METHODS,
+    view: tuple[Demonstration, ScenarioConfig | None] | None = None,
 ) -> Prediction:
     """One vehicle predicted after ``t_obs`` by every method, as the benchmark predicts it.
 
@@ -271,6 +272,8 @@ def predict_demo(
         oracle: its true style (None: no oracle).
         physics: the physics baseline's parameters (None: the defaults).
         methods: the methods to run.
+        view: ``observer_view(demo, t_obs)`` where the caller has it already (a command
+            that also draws the view), so that the episode is seen once; None: made here.
 
     Returns:
         The :class:`Prediction` (paths in the frame of the view: a recorded episode's is
@@ -280,6 +283,6 @@ def predict_demo(
     Raises:
         ForecastError: an observation window the demonstration cannot serve.
     """
-    seen, sc = observer_view(demo, t_obs)
+    seen, sc = observer_view(demo, t_obs) if view is None else view
     return predict(seen, library, t_obs, oracle=oracle, scenario=sc, methods=methods,
                    physics=physics)  # fmt: skip

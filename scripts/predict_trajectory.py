@@ -76,8 +76,10 @@ def main(argv: list[str] | None = None) -> dict:
     library = load_driver_library(args.library, "prediction")
     raw = load_demonstration(args.demo)
     check_plausible(raw)  # every step, the future the prediction is scored on included
-    pred = predict_demo(raw, library, args.observe, oracle_style(raw.meta), physics)
-    seen, scenario = observer_view(raw, args.observe)
+    seen, scenario = observer_view(raw, args.observe)  # seen once: predicted and drawn in it
+    pred = predict_demo(
+        raw, library, args.observe, oracle_style(raw.meta), physics, view=(seen, scenario)
+    )
     payload = pred.to_json() | {
         "demo": str(args.demo),
         "library": str(args.library),
