@@ -40,6 +40,7 @@ from drivestyle.prediction.style import (
 from drivestyle.recorded.observed import observer_view
 
 __all__ = [
+    "LIBRARY_METHODS",
     "METHODS",
     "MethodPrediction",
     "Prediction",
@@ -53,6 +54,8 @@ METHODS = ("cv", "ca", "physics", "population", "mode", "mixture", "oracle")
 POSTERIOR_METHODS = ("mode", "mixture")
 """The methods that need the online posterior
 (:func:`~drivestyle.prediction.style.online_posterior`)."""
+LIBRARY_METHODS = ("population", *POSTERIOR_METHODS)
+"""The methods that need a driver library (its style and risk grid)."""
 
 
 @dataclass(frozen=True)
@@ -157,7 +160,7 @@ def _observed_samples(demo: Demonstration, t_obs: float) -> int:
 
 
 def method_predictors(
-    library: DriverLibrary,
+    library: DriverLibrary | None,
     oracle: DriverStyle | None = None,
     physics: PhysicsParams | None = None,
     posterior: StyleTracker | None = None,
@@ -165,7 +168,8 @@ def method_predictors(
     """Method name → its predictor, for the methods these inputs serve (in :data:`METHODS` order).
 
     Args:
-        library: the driver library (the population style; the mixture's style).
+        library: the driver library (the population style; the mixture's style; None: no
+            ``population``).
         oracle: the vehicle's true style (None: no ``oracle``).
         physics: the physics baseline's parameters (default: :class:`PhysicsParams`'s).
         posterior: the online posterior after the observed samples
@@ -176,9 +180,10 @@ def method_predictors(
         "cv": ConstantVelocity(),
         "ca": ConstantAcceleration(),
         "physics": PhysicsBaseline(physics or PhysicsParams()),
-        "population": StyleRollout(population_style(library)),
     }
-    if posterior is not None:
+    if library is not None:
+        table["population"] = StyleRollout(population_style(library))
+    if posterior is not None and library is not None:
         table["mode"] = StyleRollout(posterior.style("mode"))
         if posterior.estimate is not None:
             table["mixture"] = PosteriorMixture(library.style, posterior.estimate)
@@ -189,7 +194,7 @@ def method_predictors(
 
 def predict(
     demo: Demonstration,
-    library: DriverLibrary,
+    library: DriverLibrary | None,
     t_obs: float,
     oracle: DriverStyle | None = None,
     scenario: ScenarioConfig | None = None,
@@ -204,7 +209,8 @@ def predict(
 
     Args:
         demo: the vehicle's demonstration (its EV is the predicted vehicle).
-        library: the driver library (the style's cost and risk grid).
+        library: the driver library (the style's cost and risk grid; None: the methods
+            without a style only — cv, ca, physics, and the oracle's own).
         t_obs: observed time [s], a whole number of T_s, less than the demonstration.
         oracle: the vehicle's true style (None: no ``oracle`` method).
         scenario: the scenario the methods predict in (default: the demonstration's;
@@ -223,10 +229,17 @@ def predict(
     unknown = sorted(set(methods) - set(METHODS))
     if unknown:
         raise ForecastError(f"unknown prediction method(s) {unknown}; known: {list(METHODS)}")
+    styled = [m for m in methods if m in LIBRARY_METHODS]
+    if library is None and styled:
+        raise ForecastError(f"prediction method(s) {styled} need a driver library; none given")
     k = _observed_samples(demo, t_obs)
     seen = Observation(demo.ev[: k + 1], demo.vehicles[: k + 1], scenario or demo.scenario)
     steps = demo.n - 1 - k
-    posterior = online_posterior(library, seen) if set(POSTERIOR_METHODS) & set(methods) else None
+    posterior = (
+        online_posterior(library, seen)
+        if library is not None and set(POSTERIOR_METHODS) & set(methods)
+        else None
+    )
     predictors = method_predictors(library, oracle, physics, posterior)
     actual = demo.ev[k:, :2]
     out = {}
@@ -251,7 +264,7 @@ def predict(
 
 def predict_demo(
     demo: Demonstration,
-    library: DriverLibrary,
+    library: DriverLibrary | None,
     t_obs: float,
     oracle: DriverStyle | None = None,
     physics: PhysicsParams | None = None,
@@ -267,7 +280,7 @@ def predict_demo(
 
     Args:
         demo: the demonstration (a recorded episode as extracted, or a simulated one).
-        library: the driver library.
+        library: the driver library (None: the methods without a style only, :func:`predict`).
         t_obs: observed time [s].
         oracle: its true style (None: no oracle).
         physics: the physics baseline's parameters (None: the defaults).

@@ -113,6 +113,17 @@ def test_an_unknown_method_is_refused(paper_demo):
         predict(paper_demo, LIBRARY, 1.0, methods=("cv", "kalman"))
 
 
+def test_without_a_library_the_methods_without_a_style_run_and_the_styled_are_refused(
+    paper_demo, prediction
+):
+    alone = predict(paper_demo, None, 2.0, methods=("cv", "ca", "physics"))
+    assert set(alone.methods) == {"cv", "ca", "physics"}
+    for name in alone.methods:  # the same paths as with a library: no style enters them
+        assert np.array_equal(alone.methods[name].xy, prediction.methods[name].xy)
+    with pytest.raises(ForecastError, match=r"\['mode'\] need a driver library"):
+        predict(paper_demo, None, 1.0, methods=("cv", "mode"))
+
+
 def test_the_lateral_final_error_is_the_y_part_of_the_fde(prediction):
     for m in prediction.methods.values():
         assert m.fde_lat_m == pytest.approx(abs(m.xy[-1, 1] - prediction.actual[-1, 1]))
