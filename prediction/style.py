@@ -29,13 +29,8 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver.driver_style import (
-    DriverStyle,
-    StylePlanner,
-    closed_loop,
-    expert_style,
-    planner_for,
-)
+from drivestyle.irl.driver.driver_style import DriverStyle, closed_loop, expert_style
+from drivestyle.irl.driver.style_planner import StylePlanner, planner_for
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.irl.identification.result import Identification
