@@ -18,7 +18,7 @@ their future either). The style is what tells the predictors apart:
   :func:`~drivestyle.irl.driver.driver_style.expert_style` of its SMPC).
 
 Each but the mixture is a :class:`StyleRollout` of its style. :func:`rollout_from` is the same
-rollout from a given warm start (the style-aware planner's predictor re-plans with it).
+rollout from a given warm start (the online style predictors of :mod:`.online` re-plan with it).
 """
 
 from __future__ import annotations
