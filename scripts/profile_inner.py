@@ -26,7 +26,7 @@ The timers are wrappers installed around the solvers' functions for the profiled
 only (the solvers' code is not changed); ``instrumentation_overhead`` compares with
 uninstrumented runs of the same work.
 
-The script is one concept at ≈ 690 lines, a measurement, and nothing in it belongs in the
+The script is one concept at ≈ 700 lines, a measurement, and nothing in it belongs in the
 library: its timers (``_Clock``, ``_patched``, ``_SolverProbe``) are wrappers around
 private functions of the code measured (``InnerProblem``'s Newton loop and Cholesky calls,
 ``BufferedFunction``, ``SMPCProblem._solver_call`` and fatrop's stats, the module globals of
