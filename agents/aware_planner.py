@@ -3,18 +3,10 @@
 Today's SMPC predicts every other vehicle at constant velocity inside its NLP. Here the
 ego of ``drivestyle/CutIn-v0`` (:mod:`drivestyle.envs.cut_in`) plans with the same cost,
 chance constraint and covariance, but the other vehicle's *mean* path over the horizon
-comes from a :class:`Predictor` (the NLP built with
-:attr:`~drivestyle.planning.description.SMPCConfig.predicted_paths`):
-
-- :class:`ConstantVelocityPredictor` — what the SMPC assumes today (the ego then plans
-  exactly as :class:`~drivestyle.agents.smpc.SMPCExpert` does, tested);
-- :class:`StylePredictor` — the style identified online: a
-  :class:`~drivestyle.irl.identification.online.StyleTracker` updated with every observed state of
-  the vehicle, and the library's style at the posterior mean risk driven in closed loop over
-  the horizon from the vehicle's current state, the ego at constant velocity (what the
-  vehicle's own SMPC assumes of it), each rollout's first solve warm-started from the
-  previous rollout's first plan (:func:`~drivestyle.prediction.style.rollout_from`);
-- :class:`OraclePredictor` — the same rollout with the vehicle's true style.
+comes from an :class:`~drivestyle.prediction.online.OnlinePredictor` (the NLP built with
+:attr:`~drivestyle.planning.description.SMPCConfig.predicted_paths`): constant velocity
+(today's SMPC), the style identified online, or the vehicle's true style — the online
+predictors of :mod:`drivestyle.prediction.online`.
 
 The scenario is the cut-in env's, in the lane changer's frame (its EV is the cutter, its
 TV the ego); :func:`ego_scenario` turns it into the ego's own (its lane, its speed).
@@ -23,27 +15,17 @@ TV the ego); :func:`ego_scenario` turns it into the ego's own (its lane, its spe
 from __future__ import annotations
 
 import dataclasses
-from typing import Protocol
 
 import numpy as np
 
 from drivestyle.agents.smpc import SMPCConfig, SMPCExpert
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver.driver_style import DriverStyle
-from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.irl.identification.online import StyleTracker
-from drivestyle.planning.description import PrimalDual
-from drivestyle.prediction.kinematic import constant_velocity
-from drivestyle.prediction.style import rollout_from
+from drivestyle.prediction.online import OnlinePredictor
 
 __all__ = [
     "EGO_RISK",
     "PREDICTORS",
     "AwareSMPC",
-    "ConstantVelocityPredictor",
-    "OraclePredictor",
-    "Predictor",
-    "StylePredictor",
     "ego_scenario",
 ]
 
@@ -72,118 +54,14 @@ def ego_scenario(scenario: ScenarioConfig) -> ScenarioConfig:
     )  # fmt: skip
 
 
-class Predictor(Protocol):
-    """A model of the other vehicle's mean path over the ego's horizon."""
-
-    def reset(self, scenario: ScenarioConfig, risk: float) -> None:
-        """Start an episode of a cut-in scenario (cutter's frame) with the cutter's true risk.
-
-        Only the oracle may use the risk.
-        """
-
-    def predict(self, cutter: np.ndarray, ego: np.ndarray, steps: int) -> np.ndarray:
-        """Observe the states at t_k; return the cutter's next ``steps`` positions.
-
-        Returns:
-            Positions at t_{k+1} … t_{k+steps}, shape (steps, 2).
-        """
-
-
-class _Rollout:
-    """A style's closed-loop rollout with the ego at constant velocity, warm-started.
-
-    The first solve starts from the previous rollout's first plan — the driver's own warm
-    start: the NLP is not convex, and a cold start may find another plan than the one the
-    driver follows.
-    """
-
-    def __init__(self) -> None:
-        self.previous: PrimalDual | None = None
-
-    def __call__(
-        self, style: DriverStyle, cutter: np.ndarray, ego: np.ndarray, sc: ScenarioConfig,
-        steps: int,
-    ) -> np.ndarray:  # fmt: skip
-        xs, self.previous = rollout_from(style, cutter, ego[None, :], sc, steps, self.previous)
-        return xs[1:, :2]
-
-
-class ConstantVelocityPredictor:
-    """The cutter's last velocity held (today's SMPC)."""
-
-    def __init__(self) -> None:
-        self._dt = 0.2
-
-    def reset(self, scenario: ScenarioConfig, risk: float) -> None:
-        """Start an episode (only T_s is used)."""
-        self._dt = scenario.dt
-
-    def predict(self, cutter: np.ndarray, ego: np.ndarray, steps: int) -> np.ndarray:
-        """Constant-velocity positions, shape (steps, 2)."""
-        return constant_velocity(cutter, self._dt, steps)[1:]
-
-
-class StylePredictor:
-    """The cutter's style identified online, rolled out at the posterior mean risk.
-
-    Args:
-        library: the driver library whose cost the cutter is assumed to share.
-    """
-
-    def __init__(self, library: DriverLibrary) -> None:
-        self.library = library
-        self.tracker: StyleTracker | None = None
-        self._scenario: ScenarioConfig | None = None
-        self._rollout = _Rollout()
-
-    def reset(self, scenario: ScenarioConfig, risk: float) -> None:
-        """Start an episode: a fresh posterior (the true risk is not used)."""
-        self._scenario = scenario
-        self.tracker = StyleTracker(self.library, scenario)
-        self._rollout = _Rollout()
-
-    def predict(self, cutter: np.ndarray, ego: np.ndarray, steps: int) -> np.ndarray:
-        """Update the posterior with (cutter, ego) and roll the style out, shape (steps, 2)."""
-        if self.tracker is None or self._scenario is None:
-            raise RuntimeError("StylePredictor.predict() before reset()")
-        self.tracker.update(cutter, ego[None, :])
-        style = self.tracker.style("mean")
-        return self._rollout(style, cutter, ego, self._scenario, steps)
-
-
-class OraclePredictor:
-    """The cutter's true model (its weights and the episode's true risk) rolled out.
-
-    Args:
-        style: the cutter's weights (its risk is replaced by each episode's).
-    """
-
-    def __init__(self, style: DriverStyle) -> None:
-        self.style = style
-        self._scenario: ScenarioConfig | None = None
-        self._rollout = _Rollout()
-
-    def reset(self, scenario: ScenarioConfig, risk: float) -> None:
-        """Start an episode with the cutter's true risk."""
-        self._scenario = scenario
-        self.style = dataclasses.replace(self.style, risk=float(risk))
-        self._rollout = _Rollout()
-
-    def predict(self, cutter: np.ndarray, ego: np.ndarray, steps: int) -> np.ndarray:
-        """The true model's closed-loop path, shape (steps, 2)."""
-        if self._scenario is None:
-            raise RuntimeError("OraclePredictor.predict() before reset()")
-        return self._rollout(self.style, cutter, ego, self._scenario, steps)
-
-
 class AwareSMPC(SMPCExpert):
-    """The ego's SMPC with the cutter's mean path from a :class:`Predictor`.
+    """The ego's SMPC with the cutter's mean path from an online predictor.
 
     Acts on ``drivestyle/CutIn-v0`` observations ([ego, cutter]); call :meth:`start` at
     every reset with the env's scenario and the cutter's risk.
 
     Args:
-        predictor: the model of the cutter.
+        predictor: the model of the cutter (:mod:`drivestyle.prediction.online`).
         config: the ego's SMPC (default: the paper's weights at :data:`EGO_RISK`); it is
             built with ``predicted_paths`` and one constrained vehicle.
         scenario: a cut-in scenario (cutter's frame) for the NLP's geometry.
@@ -191,7 +69,7 @@ class AwareSMPC(SMPCExpert):
 
     def __init__(
         self,
-        predictor: Predictor,
+        predictor: OnlinePredictor,
         config: SMPCConfig | None = None,
         scenario: ScenarioConfig | None = None,
     ) -> None:

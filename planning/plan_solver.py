@@ -25,7 +25,7 @@ the batch (shifted by one stage, as the driver's own re-planning does, or unshif
 same step at a neighbouring risk), so a whole teacher-forced pass is one call from Python.
 Inertia is corrected by a growing primal regularisation δ (IPOPT's rule); a problem that
 does not converge is reported as failed and solved by the generic solvers
-(:class:`drivestyle.irl.driver.driver_style.StylePlanner`).
+(:class:`drivestyle.irl.driver.style_planner.StylePlanner`).
 
 As a solver it is experimental and off by default: without a line search it fails on many
 rows whose chance constraint is violated, and from some guesses it reaches another local

@@ -2,9 +2,9 @@
 
 A layer of its own between the learners (:mod:`drivestyle.irl`, whose styles and online
 posterior the style predictors use) and the drivers (:mod:`drivestyle.agents`, whose
-style-aware planner re-plans with the style rollout). DESIGN §17.
+style-aware planner re-plans with the online predictors' path). DESIGN §17.
 
-- :mod:`.protocol`: what every method is — a :class:`Predictor` takes an
+- :mod:`.protocol`: what every method of :data:`METHODS` is — a :class:`Predictor` takes an
   :class:`Observation` (the vehicle's and its neighbours' samples 0 … k, nothing later) and
   a horizon and returns a :class:`PredictedPath`; :class:`ForecastError`.
 - The predictors, one per method of :data:`METHODS`:
@@ -19,6 +19,11 @@ style-aware planner re-plans with the style rollout). DESIGN §17.
     :class:`StyleRollout`; ``mixture`` :class:`PosteriorMixture` (the rollouts averaged
     with the posterior's mass).
 
+- :mod:`.online`: the online predictors of a vehicle cutting in, fed one step at a time (an
+  :class:`OnlinePredictor`: reset per episode, then the path over the horizon at every
+  step) — :class:`ConstantVelocityPredictor`, :class:`StylePredictor` (the style identified
+  online) and :class:`OraclePredictor` (the true style); the style-aware ego
+  (:class:`~drivestyle.agents.aware_planner.AwareSMPC`) plans around their path.
 - :mod:`.methods`: :func:`predict` runs every method by name
   (:func:`~drivestyle.prediction.methods.method_predictors`) and scores it
   (:class:`Prediction` of :class:`MethodPrediction`); :func:`predict_demo` is the
@@ -45,6 +50,12 @@ from drivestyle.prediction.methods import (
     predict,
     predict_demo,
 )
+from drivestyle.prediction.online import (
+    ConstantVelocityPredictor,
+    OnlinePredictor,
+    OraclePredictor,
+    StylePredictor,
+)
 from drivestyle.prediction.physics import PhysicsBaseline, PhysicsParams, physics_forecast
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, calibrate_physics, load_params
 from drivestyle.prediction.protocol import ForecastError, Observation, PredictedPath, Predictor
@@ -63,9 +74,12 @@ __all__ = [
     "PHYSICS_FILE",
     "ConstantAcceleration",
     "ConstantVelocity",
+    "ConstantVelocityPredictor",
     "ForecastError",
     "MethodPrediction",
     "Observation",
+    "OnlinePredictor",
+    "OraclePredictor",
     "PhysicsBaseline",
     "PhysicsParams",
     "PosteriorMixture",
@@ -73,6 +87,7 @@ __all__ = [
     "Prediction",
     "Predictor",
     "RegionCheck",
+    "StylePredictor",
     "StyleRollout",
     "calibrate_physics",
     "constant_acceleration",

@@ -18,7 +18,7 @@ their future either). The style is what tells the predictors apart:
   :func:`~drivestyle.irl.driver.driver_style.expert_style` of its SMPC).
 
 Each but the mixture is a :class:`StyleRollout` of its style. :func:`rollout_from` is the same
-rollout from a given warm start (the style-aware planner's predictor re-plans with it).
+rollout from a given warm start (the online style predictors of :mod:`.online` re-plan with it).
 """
 
 from __future__ import annotations
@@ -29,13 +29,8 @@ from typing import Any
 import numpy as np
 
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver.driver_style import (
-    DriverStyle,
-    StylePlanner,
-    closed_loop,
-    expert_style,
-    planner_for,
-)
+from drivestyle.irl.driver.driver_style import DriverStyle, closed_loop, expert_style
+from drivestyle.irl.driver.style_planner import StylePlanner, planner_for
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.irl.identification.result import Identification

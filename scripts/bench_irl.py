@@ -45,7 +45,8 @@ from drivestyle.envs import load_demonstration, save_demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
 from drivestyle.irl.driver.driver_learning import learn_driver
-from drivestyle.irl.driver.driver_style import DriverStyle, StylePlanner
+from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.driver.style_planner import StylePlanner
 from drivestyle.irl.identification.library import DriverLibrary, load_any_library
 from drivestyle.irl.identification.posterior import identify
 from drivestyle.planning.plan_solver import IPMOptions, bounds_vector, compiled_solver

@@ -50,16 +50,9 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl.driver.driver_learning import teacher_forced
-from drivestyle.irl.driver.driver_style import (
-    INPUT_SCALE,
-    DriverStyle,
-    Link,
-    PlanRow,
-    StylePlanner,
-    check_demo,
-    n_vehicles,
-)
+from drivestyle.irl.driver.driver_style import INPUT_SCALE, DriverStyle, check_demo, n_vehicles
 from drivestyle.irl.driver.risk_profile import RISK_EVAL, risk_profile
+from drivestyle.irl.driver.style_planner import Link, PlanRow, StylePlanner
 from drivestyle.planning import smpc_problem as sp
 from drivestyle.planning.description import SMPCConfig
 

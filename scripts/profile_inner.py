@@ -26,6 +26,14 @@ The timers are wrappers installed around the solvers' functions for the profiled
 only (the solvers' code is not changed); ``instrumentation_overhead`` compares with
 uninstrumented runs of the same work.
 
+The script is one concept at ≈ 700 lines, a measurement, and nothing in it belongs in the
+library: its timers (``_Clock``, ``_patched``, ``_SolverProbe``) are wrappers around
+private functions of the code measured (``InnerProblem``'s Newton loop and Cholesky calls,
+``BufferedFunction``, ``SMPCProblem._solver_call`` and fatrop's stats, the module globals of
+:mod:`drivestyle.irl.driver.style_planner`), correct only for those call graphs and used by
+no library code or other command, and its breakdowns and tables name this profile's own
+categories.
+
 Example:
     python scripts/profile_inner.py --out runs/profile_inner.json
 """
@@ -54,9 +62,9 @@ from drivestyle.common.io import check_output_file, write_json
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
 from drivestyle.irl import FeatureConfig, IRLConfig, MaxEntIRL
-from drivestyle.irl.driver import driver_style as ds
+from drivestyle.irl.driver import style_planner as splan
 from drivestyle.irl.driver.driver_learning import step_residuals
-from drivestyle.irl.driver.driver_style import DriverStyle
+from drivestyle.irl.driver.driver_style import DriverStyle, n_vehicles
 from drivestyle.irl.driver.risk_profile import refined_profile
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.posterior import identify_driver
@@ -386,14 +394,18 @@ class _SolverProbe:
 
 
 def _driver_patches(clock: _Clock, probe: _SolverProbe) -> list[tuple[Any, str, Callable]]:
-    planner = ds.StylePlanner
+    planner = splan.StylePlanner
     return [
         (planner, "plan", clock.timed(planner.plan, "python_plan")),
         (planner, "bounds", clock.timed(planner.bounds, "bounds")),
-        (ds, "constrained_vehicles", clock.timed(ds.constrained_vehicles, "parameters")),
-        (ds, "nlp_parameters", clock.timed(ds.nlp_parameters, "parameters")),
-        (ds, "warm_start", clock.timed(ds.warm_start, "warm_start")),
-        (ds, "constraint_violation", clock.timed(ds.constraint_violation, "constraint_violation")),
+        (splan, "constrained_vehicles", clock.timed(splan.constrained_vehicles, "parameters")),
+        (splan, "nlp_parameters", clock.timed(splan.nlp_parameters, "parameters")),
+        (splan, "warm_start", clock.timed(splan.warm_start, "warm_start")),
+        (
+            splan,
+            "constraint_violation",
+            clock.timed(splan.constraint_violation, "constraint_violation"),
+        ),
         (sp.SMPCProblem, "solve", clock.timed(sp.SMPCProblem.solve, "python_smpc_solve")),
         (sp.SMPCProblem, "_solver_call", probe.solver_call(sp.SMPCProblem._solver_call)),
     ]
@@ -472,7 +484,7 @@ def profile_step_residuals(
     """(b1): ``step_residuals`` of ``style`` on ``demo`` with the planner of ``jit``."""
     t0 = time.perf_counter()
     # the interpreted fatrop (compiled=False): its stats carry the iteration counts and timers
-    planner = ds.StylePlanner(demo.scenario, style.horizon, 1, jit=jit, compiled=False)
+    planner = splan.StylePlanner(demo.scenario, style.horizon, 1, jit=jit, compiled=False)
     build_s = time.perf_counter() - t0
     step_residuals(style, demo, planner)  # warm-up
     plain = []
@@ -508,14 +520,14 @@ def profile_identification(
 ) -> dict[str, Any]:
     """(b2): ``identify_driver`` of each demonstration (refined profile, ``jit``'s planner)."""
     planners = [
-        ds.StylePlanner(d.scenario, library.style.horizon, ds.n_vehicles(d), jit=jit,
-                        compiled=False)
+        splan.StylePlanner(d.scenario, library.style.horizon, n_vehicles(d), jit=jit,
+                           compiled=False)
         for d in demos
     ]  # fmt: skip
 
     identify = [identify_driver]  # timed as "posterior" while profiled
 
-    def identification(demo: Demonstration, planner: ds.StylePlanner) -> None:
+    def identification(demo: Demonstration, planner: splan.StylePlanner) -> None:
         profile = refined_profile(library.style, demo, planner=planner)
         identify[0](demo, library, profiles=[profile])
 

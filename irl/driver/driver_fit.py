@@ -24,9 +24,9 @@ from drivestyle.irl.driver.driver_style import (
     DRIVER_STYLE_KIND,
     RESIDUAL_FLOOR,
     DriverStyle,
-    StylePlanner,
     reproduce,
 )
+from drivestyle.irl.driver.style_planner import StylePlanner
 
 __all__ = [
     "POOR_FIT_RATIO",

@@ -42,15 +42,11 @@ from drivestyle.irl.driver.driver_style import (
     TIME_GAP_RANGE,
     DriverStyle,
     DriverStyleError,
-    Link,
-    PlanRow,
-    RowsResult,
-    StylePlanner,
     check_demo,
     initial_weights,
     n_vehicles,
-    planner_for,
 )
+from drivestyle.irl.driver.style_planner import Link, PlanRow, RowsResult, StylePlanner, planner_for
 from drivestyle.planning.description import N_WEIGHTS
 
 __all__ = [

@@ -18,13 +18,10 @@ from drivestyle.irl.driver.driver_style import (
     INPUT_SCALE,
     DriverStyle,
     DriverStyleError,
-    Link,
-    PlanRow,
-    StylePlanner,
     check_demo,
     n_vehicles,
-    planner_for,
 )
+from drivestyle.irl.driver.style_planner import Link, PlanRow, StylePlanner, planner_for
 from drivestyle.planning.description import PrimalDual
 
 __all__ = ["REFINE_PER_SIDE", "RISK_EVAL", "RiskProfile", "refined_profile", "risk_profile"]

@@ -38,16 +38,9 @@ from drivestyle.envs.dynamics import inverse_step
 from drivestyle.envs.plausibility import step_problems
 from drivestyle.envs.safety import elliptical_index
 from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.irl.driver.driver_style import (
-    INPUT_SCALE,
-    RISK_RANGE,
-    DriverStyle,
-    Link,
-    PlanRow,
-    StylePlanner,
-    planner_for,
-)
+from drivestyle.irl.driver.driver_style import INPUT_SCALE, RISK_RANGE, DriverStyle
 from drivestyle.irl.driver.risk_profile import RISK_EVAL, RiskProfile
+from drivestyle.irl.driver.style_planner import Link, PlanRow, StylePlanner, planner_for
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.posterior import driver_posterior
 from drivestyle.irl.identification.result import Identification

@@ -19,20 +19,19 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.agents.aware_planner import (
-    PREDICTORS,
-    AwareSMPC,
-    ConstantVelocityPredictor,
-    OraclePredictor,
-    Predictor,
-    StylePredictor,
-)
+from drivestyle.agents.aware_planner import PREDICTORS, AwareSMPC
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.irl.driver.driver_style import expert_style
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig
+from drivestyle.prediction.online import (
+    ConstantVelocityPredictor,
+    OnlinePredictor,
+    OraclePredictor,
+    StylePredictor,
+)
 
 __all__ = [
     "CUT_IN_RANGES",
@@ -99,7 +98,7 @@ class SceneRun:
         }
 
 
-def predictor_for(method: str, library: DriverLibrary) -> Predictor:
+def predictor_for(method: str, library: DriverLibrary) -> OnlinePredictor:
     """The ego's predictor named ``method`` (:data:`PREDICTORS`).
 
     Raises:

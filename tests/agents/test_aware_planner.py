@@ -5,18 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drivestyle.agents.aware_planner import (
-    AwareSMPC,
-    ConstantVelocityPredictor,
-    OraclePredictor,
-    StylePredictor,
-    ego_scenario,
-)
+from drivestyle.agents.aware_planner import AwareSMPC, ego_scenario
 from drivestyle.agents.smpc import SMPCExpert
 from drivestyle.envs.cut_in import CutInEnv
 from drivestyle.irl.driver.driver_style import DriverStyle, expert_style
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.planning.description import SMPCConfig, nlp_parameters
+from drivestyle.prediction.online import ConstantVelocityPredictor
 from drivestyle.studies.cut_in import (
     CUT_IN_RANGES,
     PlanningStudy,
@@ -62,34 +57,6 @@ def test_ego_scenario_swaps_the_roles():
     assert ego.target_lane == sc.tv_lane and ego.tv_lane == sc.ev_lane
     assert ego.ev_x == pytest.approx(sc.ev_x + sc.tv_gap)
     assert ego.v_ref == pytest.approx(sc.tv_speed) and ego.ev_speed == pytest.approx(sc.tv_speed)
-
-
-def test_the_oracle_predicts_the_cutter_exactly_while_the_ego_holds_its_speed():
-    # with the ego at constant velocity (what the cutter's SMPC assumes), the cutter's true
-    # model rolled out is the cutter's future
-    env = CutInEnv(randomize=CUT_IN_RANGES, risk=0.6)
-    obs, info = env.reset(seed=5)
-    oracle = OraclePredictor(expert_style(SMPCConfig()))
-    oracle.reset(info["scenario"], info["cutter_risk"])
-    path = oracle.predict(obs[4:], obs[:4], 10)
-    actual = []
-    for _ in range(10):
-        obs, *_ = env.step(np.zeros(2))
-        actual.append(obs[4:6])
-    np.testing.assert_allclose(path, np.array(actual), atol=0.05)
-
-
-def test_the_style_predictor_tracks_and_refuses_use_before_reset():
-    pred = StylePredictor(LIBRARY)
-    with pytest.raises(RuntimeError, match="before reset"):
-        pred.predict(np.zeros(4), np.zeros(4), 10)
-    env = CutInEnv(randomize=CUT_IN_RANGES, risk=0.7)
-    obs, info = env.reset(seed=1)
-    pred.reset(info["scenario"], 0.0)  # the true risk is not used
-    for _ in range(3):
-        path = pred.predict(obs[4:], obs[:4], 10)
-        obs, *_ = env.step(np.zeros(2))
-    assert path.shape == (10, 2) and pred.tracker is not None and pred.tracker.n_samples == 3
 
 
 @pytest.fixture(scope="module")

@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivestyle.irl.driver.driver_style import DriverStyle, Link, PlanRow, StylePlanner, reproduce
+from drivestyle.irl.driver.driver_style import DriverStyle, reproduce
 from drivestyle.irl.driver.risk_profile import risk_profile
+from drivestyle.irl.driver.style_planner import Link, PlanRow, StylePlanner
 from drivestyle.planning import compiled
 from drivestyle.planning.compiled import verify_library
 

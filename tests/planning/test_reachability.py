@@ -7,8 +7,9 @@ import pytest
 
 from drivestyle.envs.dynamics import rk4_step
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.driver.driver_style import _PLANNERS, DriverStyle, StylePlanner
+from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.driver.risk_profile import risk_profile
+from drivestyle.irl.driver.style_planner import _PLANNERS, StylePlanner
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.posterior import identify_driver
 from drivestyle.planning.reachability import (

@@ -114,7 +114,7 @@ def test_bench_smpc_json(tmp_path):
     not (DATA / "ngsim" / "tracks.csv.gz").is_file(), reason="the NGSIM sample is absent"
 )
 def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
-    from drivestyle.irl.driver import driver_style
+    from drivestyle.irl.driver import style_planner
     from drivestyle.irl.paper import inner
     from drivestyle.planning import smpc_problem
     from drivestyle.planning.buffered import BufferedFunction
@@ -126,8 +126,8 @@ def test_profile_inner_json_shares_add_up_and_patches_are_undone(tmp_path):
             (BufferedFunction, "__call__"),
             (inner, "cho_factor"),
             (inner, "newton_minimize"),
-            (driver_style.StylePlanner, "plan"),
-            (driver_style, "warm_start"),
+            (style_planner.StylePlanner, "plan"),
+            (style_planner, "warm_start"),
             (smpc_problem.SMPCProblem, "solve"),
             (smpc_problem.SMPCProblem, "_solver_call"),
         )

@@ -7,13 +7,9 @@ import numpy as np
 import pytest
 
 from drivestyle.envs.scenario import PAPER
-from drivestyle.irl.driver.driver_style import (
-    DriverStyle,
-    DriverStyleError,
-    StylePlanner,
-    planner_for,
-)
+from drivestyle.irl.driver.driver_style import DriverStyle, DriverStyleError
 from drivestyle.irl.driver.risk_profile import REFINE_PER_SIDE, refined_profile, risk_profile
+from drivestyle.irl.driver.style_planner import StylePlanner, planner_for
 from drivestyle.planning.description import nlp_parameters
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
