@@ -1,8 +1,10 @@
 """drivestyle environments: the simulated world and its data.
 
 The three-lane highway (scenarios, the bicycle dynamics and the inputs that carry one
-state to the next, safety geometry, lanes, the Gymnasium envs, rendering and videos),
-demonstrations and their plausibility, the physical bounds of road vehicles (``units``)
+state to the next, safety geometry, lanes, the Gymnasium envs and their reward models
+(``reward_model``), episodes run by any policy (``rollout``), rendering and videos),
+demonstrations (simulated or recorded, with the observed states) and their plausibility
+(``plausibility``), the physical bounds of road vehicles (``units``)
 and a tracker's noise model (``tracking``). Recorded traffic (tracks, readers, episodes,
 the shipped samples) is the layer above, :mod:`drivestyle.recorded`.
 

@@ -5,12 +5,14 @@
   (``learner``), its styles (``style``) and the style as the env's reward
   (``style_reward``).
 - :mod:`drivestyle.irl.driver`, the default style model, a receding-horizon driver on
-  :mod:`drivestyle.planning`'s NLP: the model and its closed loop (``driver_style``),
-  teacher-forced learning (``driver_learning``, ``descent``, ``driver_fit``), the risk
-  profile S(p) (``risk_profile``), its cost as the env's reward (``driver_cost``).
+  :mod:`drivestyle.planning`'s NLP: the model and its closed loop (``driver_style``), its
+  planner (``style_planner``), teacher-forced learning (``driver_learning``, ``descent``,
+  ``driver_fit``), the risk profile S(p) (``risk_profile``), its cost as the env's reward
+  (``driver_cost``).
 - :mod:`drivestyle.irl.identification`, identifying styles: libraries (``library``), the
-  posterior over the risk (``posterior``), online tracking (``online``), many vehicles
-  (``mining``, ``mining_output``).
+  posterior over the risk (``posterior``; the paper model's ``paper_scorers``), what it
+  returns (``result``) and its verdict (``verdict``), online tracking (``online``), many
+  vehicles (``mining``, a row ``mined_row``, the run's folder ``mining_output``).
 - Here: where the env's ``style=`` finds the learned reward (``reward``), error metrics
   (``metrics``).
 

@@ -20,5 +20,5 @@
   DESIGN §16).
 
 Its two users are the SMPC expert (:mod:`drivestyle.agents.smpc`) and the style model
-(:mod:`drivestyle.irl.driver.driver_style`). It builds on ``envs`` (dynamics, scenario) only.
+(:mod:`drivestyle.irl.driver.style_planner`). It builds on ``envs`` (dynamics, scenario) only.
 """
