@@ -265,11 +265,16 @@ def closed_loop(
     scenario: ScenarioConfig,
     planner: StylePlanner,
     previous: PrimalDual | None = None,
+    *,
+    deviation: np.ndarray | None = None,
+    y_refs: np.ndarray | None = None,
 ) -> tuple[np.ndarray, list[PrimalDual | None], np.ndarray, int]:
     """Drive ``style`` from ξ0 past the vehicles' given states, re-planning every T_s.
 
     A failed solve applies the previous plan's next input while one remains, else brakes
-    at a_min/2 (as the expert does).
+    at a_min/2 (as the expert does). With a ``deviation`` the applied input is
+    clip(u_k + e_k) to the input bounds and the next plan starts from the state it leads to
+    (the stochastic driver, :mod:`drivestyle.irl.driver.stochastic`).
 
     Args:
         style: the driver style.
@@ -281,9 +286,12 @@ def closed_loop(
         previous: the plan of the step before ξ0, the first solve's warm start (None:
             cold; the NLP is not convex, so a cold start mid-drive may find another plan
             than the driver's warm-started one).
+        deviation: e_k added to each applied input [m/s², rad], shape (n−1, 2); None: none.
+        y_refs: the lateral position each step's plan aims for [m], shape (n−1,); None:
+            the scenario's target lane throughout.
 
     Returns:
-        (states (n, 4), each step's plan or None, inputs (n−1, 2), failed solves).
+        (states (n, 4), each step's plan or None, inputs (n−1, 2) as applied, failed solves).
     """
     n = vehicles.shape[0]
     xs = np.empty((n, 4))
@@ -293,8 +301,10 @@ def closed_loop(
     spare = np.empty((0, 2))
     failures = 0
     sc = scenario
+    lo, hi = np.array([sc.a_min, -sc.delta_max]), np.array([sc.a_max, sc.delta_max])
     for k in range(n - 1):
-        res = planner.plan(xs[k], vehicles[k], style, sc, previous)
+        y_ref = None if y_refs is None else float(y_refs[k])
+        res = planner.plan(xs[k], vehicles[k], style, sc, previous, y_ref=y_ref)
         if res.ok and res.point is not None:
             us[k] = res.u0
             previous = res.point
@@ -306,6 +316,8 @@ def closed_loop(
                 us[k], spare = spare[0], spare[1:]
             else:
                 us[k] = res.u0  # braking
+        if deviation is not None:
+            us[k] = np.clip(us[k] + deviation[k], lo, hi)
         plans.append(previous)
         xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
     return xs, plans, us, failures
