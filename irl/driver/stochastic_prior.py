@@ -6,7 +6,9 @@ ratio to the EV's start speed, so a driver in stop-and-go traffic does not want 
 T, s_0, the lateral factor (log-uniform), t_on, σ_a, σ_δ, τ — and for scenes: the EV's
 start speed from stop-and-go to free flow (2–35 m/s), the TV in the target lane beside or
 behind it, and with some probability a slower leader in the EV's lane and a leader in the
-target lane, all at constant velocity; and the measurement noise on positions (0–0.2 m).
+target lane, all at constant velocity, under the heading and steering bounds the driver
+model has on recorded traffic and a speed limit above the driver's desired speed; and the
+measurement noise on positions (0–0.2 m).
 Every parameter is drawn uniformly from its range (the lateral factor and τ
 log-uniformly). :meth:`StochasticPrior.draw` gives n :class:`EpisodeParams`, deterministic
 given the seed; :meth:`StochasticPrior.simulate` (:func:`simulate_params`) drives one
@@ -26,6 +28,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import TrafficScene, VehicleSpec
 from drivestyle.irl.driver.stochastic import StochasticStyle, simulate_episode
+from drivestyle.recorded.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX
 
 __all__ = ["EpisodeParams", "StochasticPrior", "simulate_params"]
 
@@ -106,6 +109,17 @@ class StochasticPrior:
     """σ of the position noise [m]."""
     horizon_s: float = 8.0
     """Episode length [s]."""
+    phi_max: float = RECORDED_PHI_MAX
+    """The scenes' heading bound [rad]: the driver model's on recorded traffic (the
+    paper's 0.05 rad allows 0.1 m/s of lateral speed at 2 m/s: no lane change in stop-and-go)."""
+    delta_max: float = RECORDED_DELTA_MAX
+    """The scenes' steering bound [rad] (the driver model's on recorded traffic)."""
+    speed_limit_factor: float = 1.3
+    """The scenes' speed bound v_max = this × max(v_ref, the EV's start speed) (≤ 70 m/s).
+    Without it a cautious driver with a long time gap beside a TV can run away: its region
+    l_a = s_0 + T·v grows with its own speed, each plan holds it over the horizon, so each
+    plan sees accelerating as the way out (one driver of T = 1.9 s went from 18 to 58 m/s
+    in 8 s)."""
 
     def __post_init__(self) -> None:
         bounds = {
@@ -124,6 +138,12 @@ class StochasticPrior:
         if not 0 <= self.leader_probability <= 1:
             p = self.leader_probability
             raise ValueError(f"leader_probability must lie in [0, 1], got {p!r}")
+        if not (isinstance(self.speed_limit_factor, (int, float)) and self.speed_limit_factor >= 1):
+            raise ValueError(f"speed_limit_factor must be >= 1, got {self.speed_limit_factor!r}")
+        for name, hi in (("phi_max", 1.0), ("delta_max", 1.0)):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 < value <= hi):
+                raise ValueError(f"{name} must lie in (0, {hi:g}] rad, got {value!r}")
         if not (isinstance(self.horizon_s, (int, float)) and 0.4 <= self.horizon_s <= 60):
             raise ValueError(f"horizon_s must lie in [0.4, 60] s, got {self.horizon_s!r}")
 
@@ -145,13 +165,17 @@ class StochasticPrior:
         self, rng: np.random.Generator, ev_speed: float, style: StochasticStyle
     ) -> TrafficScene:
         u = rng.uniform
+        v_ref = float(style.v_ref or ev_speed)
         base = dataclasses.replace(
             ScenarioConfig(),
+            v_max=float(min(self.speed_limit_factor * max(v_ref, ev_speed), 70.0)),
             ev_speed=ev_speed,
             tv_speed=float(ev_speed * u(*self.tv_speed_ratio)),
             tv_gap=float((5.0 + ev_speed) * u(*self.tv_gap_headways)),
-            v_ref=float(style.v_ref or ev_speed),
+            v_ref=v_ref,
             horizon_s=float(self.horizon_s),
+            phi_max=float(self.phi_max),
+            delta_max=float(self.delta_max),
         )
         region = max(style.driver_style().region(ev_speed, base), base.l_a)
         others = []
