@@ -69,12 +69,13 @@ def _simulate(raw: dict[str, Any], episode_seed: int) -> dict[str, Any]:
     demo = simulate_params(params, episode_seed)
     seconds = time.perf_counter() - t0
     sc = demo.scenario
+    problems = plausibility_problems(demo)
     return {
         "seconds": seconds,
         "failures": int(demo.meta["failures"]),
         "steps": int(demo.n - 1),
         "in_target_lane": bool(demo.ev[-1, 1] > sc.lane_width * sc.target_lane),
-        "implausible": (plausibility_problems(demo) or [None])[0],
+        "implausible": problems[0] if problems else None,
         "ev_speed": float(sc.ev_speed),
         "vehicles": int(demo.vehicles.shape[1]),
     }
