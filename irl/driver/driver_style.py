@@ -258,6 +258,12 @@ class Reproduction:
         return float(np.sqrt(np.mean(d[:, 1] ** 2))), float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
 
 
+def _inside_bounds(xi: np.ndarray, scenario: ScenarioConfig) -> bool:
+    """Whether a state lies inside the planner's road (y) and heading bounds."""
+    lo, hi = scenario.y_bounds
+    return bool(lo <= xi[1] <= hi and abs(xi[2]) <= scenario.phi_max)
+
+
 def closed_loop(
     style: DriverStyle,
     xi0: np.ndarray,
@@ -273,8 +279,11 @@ def closed_loop(
 
     A failed solve applies the previous plan's next input while one remains, else brakes
     at a_min/2 (as the expert does). With a ``deviation`` the applied input is
-    clip(u_k + e_k) to the input bounds and the next plan starts from the state it leads to
-    (the stochastic driver, :mod:`drivestyle.irl.driver.stochastic`).
+    clip(u_k + e_k) to the input bounds, its acceleration no lower than −v_k/T_s (braking
+    stops the car, never reverses it), and the next plan starts from the state it leads to
+    (the stochastic driver, :mod:`drivestyle.irl.driver.stochastic`) — unless that state
+    lies outside the planner's road and heading bounds, from where no plan exists: then the
+    driver applies the plan's input (it corrects rather than leave the road).
 
     Args:
         style: the driver style.
@@ -316,9 +325,16 @@ def closed_loop(
                 us[k], spare = spare[0], spare[1:]
             else:
                 us[k] = res.u0  # braking
-        if deviation is not None:
-            us[k] = np.clip(us[k] + deviation[k], lo, hi)
         plans.append(previous)
+        if deviation is not None:
+            deviated = np.clip(us[k] + deviation[k], lo, hi)
+            # a driver's foot on the brake stops the car; it never reverses it
+            deviated[0] = max(deviated[0], min(-xs[k, 3] / sc.dt, 0.0))
+            nxt = rk4_step(xs[k], deviated, sc.dt, sc.l_f, sc.l_r)
+            if _inside_bounds(nxt, sc):
+                us[k] = deviated
+                xs[k + 1] = nxt
+                continue
         xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
     return xs, plans, us, failures
 

@@ -6,9 +6,9 @@ ratio to the EV's start speed, so a driver in stop-and-go traffic does not want 
 T, s_0, the lateral factor (log-uniform), t_on, σ_a, σ_δ, τ — and for scenes: the EV's
 start speed from stop-and-go to free flow (2–35 m/s), the TV in the target lane beside or
 behind it, and with some probability a slower leader in the EV's lane and a leader in the
-target lane, all at constant velocity, under the heading and steering bounds the driver
-model has on recorded traffic and a speed limit above the driver's desired speed; and the
-measurement noise on positions (0–0.2 m).
+target lane, all at constant velocity, under heading and steering bounds that narrow with
+speed from the driver model's on recorded traffic to the paper's, and a speed limit above
+the driver's desired speed; and the measurement noise on positions (0–0.2 m).
 Every parameter is drawn uniformly from its range (the lateral factor and τ
 log-uniformly). :meth:`StochasticPrior.draw` gives n :class:`EpisodeParams`, deterministic
 given the seed; :meth:`StochasticPrior.simulate` (:func:`simulate_params`) drives one
@@ -109,11 +109,16 @@ class StochasticPrior:
     """σ of the position noise [m]."""
     horizon_s: float = 8.0
     """Episode length [s]."""
-    phi_max: float = RECORDED_PHI_MAX
-    """The scenes' heading bound [rad]: the driver model's on recorded traffic (the
-    paper's 0.05 rad allows 0.1 m/s of lateral speed at 2 m/s: no lane change in stop-and-go)."""
-    delta_max: float = RECORDED_DELTA_MAX
-    """The scenes' steering bound [rad] (the driver model's on recorded traffic)."""
+    lateral_speed_max: float = 2.5
+    """The scenes' heading bound is φ_max = this / v [rad] at the scene's speed v =
+    max(v_ref, the EV's start speed) [m/s], between the paper's 0.05 rad and the driver
+    model's on recorded traffic (0.3 rad): a car at 2 m/s turns harder than one at 30 m/s
+    (under the paper's 0.05 rad it moves sideways at 0.1 m/s at 2 m/s: no lane change in
+    stop-and-go)."""
+    lateral_accel_max: float = 8.0
+    """The scenes' steering bound is δ_max = this · (l_f + l_r) / v² [rad] at the scene's
+    speed, between the paper's 0.05 rad and the recorded 0.25 rad: the recorded bound at
+    34 m/s lets the planner swerve at 70 m/s² of lateral acceleration."""
     speed_limit_factor: float = 1.3
     """The scenes' speed bound v_max = this × max(v_ref, the EV's start speed) (≤ 70 m/s).
     Without it a cautious driver with a long time gap beside a TV can run away: its region
@@ -140,10 +145,10 @@ class StochasticPrior:
             raise ValueError(f"leader_probability must lie in [0, 1], got {p!r}")
         if not (isinstance(self.speed_limit_factor, (int, float)) and self.speed_limit_factor >= 1):
             raise ValueError(f"speed_limit_factor must be >= 1, got {self.speed_limit_factor!r}")
-        for name, hi in (("phi_max", 1.0), ("delta_max", 1.0)):
+        for name in ("lateral_speed_max", "lateral_accel_max"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 < value <= hi):
-                raise ValueError(f"{name} must lie in (0, {hi:g}] rad, got {value!r}")
+            if not (isinstance(value, (int, float)) and 0 < value <= 20):
+                raise ValueError(f"{name} must lie in (0, 20], got {value!r}")
         if not (isinstance(self.horizon_s, (int, float)) and 0.4 <= self.horizon_s <= 60):
             raise ValueError(f"horizon_s must lie in [0.4, 60] s, got {self.horizon_s!r}")
 
@@ -166,16 +171,23 @@ class StochasticPrior:
     ) -> TrafficScene:
         u = rng.uniform
         v_ref = float(style.v_ref or ev_speed)
+        v = max(v_ref, ev_speed)
+        paper = ScenarioConfig()
+        wheelbase = paper.l_f + paper.l_r
         base = dataclasses.replace(
-            ScenarioConfig(),
-            v_max=float(min(self.speed_limit_factor * max(v_ref, ev_speed), 70.0)),
+            paper,
+            v_max=float(min(self.speed_limit_factor * v, 70.0)),
             ev_speed=ev_speed,
             tv_speed=float(ev_speed * u(*self.tv_speed_ratio)),
             tv_gap=float((5.0 + ev_speed) * u(*self.tv_gap_headways)),
             v_ref=v_ref,
             horizon_s=float(self.horizon_s),
-            phi_max=float(self.phi_max),
-            delta_max=float(self.delta_max),
+            phi_max=float(np.clip(self.lateral_speed_max / v, paper.phi_max, RECORDED_PHI_MAX)),
+            delta_max=float(
+                np.clip(
+                    self.lateral_accel_max * wheelbase / v**2, paper.delta_max, RECORDED_DELTA_MAX
+                )
+            ),
         )
         region = max(style.driver_style().region(ev_speed, base), base.l_a)
         others = []

@@ -123,14 +123,28 @@ def test_the_member_with_no_deviation_and_no_onset_is_the_planners_closed_loop(p
 
 def test_the_deviation_is_added_to_the_applied_input_and_replanned_from(paper_vehicles):
     planner = planner_for(PAPER, 10, 1)
-    style = dataclasses.replace(StochasticStyle.expert(), sigma_a=1.0, sigma_delta=0.01, tau=1.0)
-    _, plans, us, _ = closed_loop_stochastic(style, PAPER.ev_initial_state, paper_vehicles,
+    style = dataclasses.replace(StochasticStyle.expert(), sigma_a=1.0, sigma_delta=0.004, tau=1.0)
+    xs, plans, us, _ = closed_loop_stochastic(style, PAPER.ev_initial_state, paper_vehicles,
                                               PAPER, planner, np.random.default_rng(1))  # fmt: skip
     e = ar1_deviation(PAPER.n_steps, PAPER.dt, style.sigma, style.tau, np.random.default_rng(1))
     planned = np.array([p.w[planner.layout.iu[0]] for p in plans])
     lo, hi = [PAPER.a_min, -PAPER.delta_max], [PAPER.a_max, PAPER.delta_max]
-    assert np.allclose(us, np.clip(np.clip(planned, lo, hi) + e, lo, hi), atol=1e-12)
+    plan_u = np.clip(planned, lo, hi)
+    deviated = np.all(np.abs(us - np.clip(plan_u + e, lo, hi)) < 1e-12, axis=1)
+    kept = np.all(np.abs(us - plan_u) < 1e-12, axis=1)
+    assert np.all(deviated | kept) and deviated.mean() > 0.5  # the plan rides φ_max early
+    # a step keeps the plan's input only where the deviated one would leave the bounds
+    y_lo, y_hi = PAPER.y_bounds
+    on_road = (y_lo <= xs[:, 1]) & (xs[:, 1] <= y_hi)
+    assert np.all(on_road & (np.abs(xs[:, 2]) <= PAPER.phi_max + 1e-6))
     assert np.all(us >= lo) and np.all(us <= hi)
+
+
+def test_braking_by_the_deviation_stops_the_car_and_never_reverses_it():
+    slow = dataclasses.replace(PAPER, ev_speed=1.0, tv_speed=1.0, v_ref=1.0)
+    style = StochasticStyle(risk=0.5, sigma_a=3.0, tau=5.0, onset=30.0)
+    speeds = np.concatenate([simulate_episode(style, slow, seed=s).ev[:, 3] for s in range(4)])
+    assert speeds.min() >= -1e-12 and np.any(speeds < 0.05)
 
 
 def test_an_episode_is_deterministic_given_its_seed():
