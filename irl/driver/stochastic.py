@@ -257,11 +257,14 @@ def closed_loop_stochastic(
 ) -> tuple[np.ndarray, list[PrimalDual | None], np.ndarray, int]:
     """Drive a stochastic style from ξ0 past the vehicles' given states, re-planning every T_s.
 
-    u_k^applied = clip(u_k^plan + e_k) to the input bounds, e = :func:`ar1_deviation`; the
-    next plan starts from the state the applied input leads to, warm-started from the
-    previous plan. Before t_on the plans aim at the start lane (:func:`lane_targets`). With
-    σ = 0 and t_on = 0 this is :func:`~drivestyle.irl.driver.driver_style.closed_loop`
-    exactly (no deviation is drawn, no clip is applied).
+    u_k^applied = clip(u_k^plan + e_k) to the input bounds, e = :func:`ar1_deviation`, with
+    a ≥ −v_k/T_s (braking stops the car, never reverses it); the next plan starts from the
+    state the applied input leads to, warm-started from the previous plan. Where that state
+    would leave the planner's road or heading bounds (from where no plan exists) the
+    plan's input is applied instead (DESIGN §21). Before t_on the plans aim at the start
+    lane (:func:`lane_targets`). With σ = 0 and t_on = 0 this is
+    :func:`~drivestyle.irl.driver.driver_style.closed_loop` exactly (no deviation is
+    drawn, no clip is applied).
 
     Args:
         style: the stochastic style.
