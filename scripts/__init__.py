@@ -41,6 +41,7 @@ COMMANDS: dict[str, str] = {
     "bench-tracker": "benchmark online identification: latency of one StyleTracker update",
     "bench-solver-paths": "faster solver paths against the product: their time, how far S(p) moves",
     "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
+    "bench-stochastic": "benchmark simulating stochastic drivers from the prior: episodes/s/core",
     "profile-inner": "profile the inner solvers: where a solve's time goes",
 }
 """Subcommand → what it does; the module is the name with ``_`` for ``-``."""

@@ -258,6 +258,12 @@ class Reproduction:
         return float(np.sqrt(np.mean(d[:, 1] ** 2))), float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
 
 
+def _inside_bounds(xi: np.ndarray, scenario: ScenarioConfig) -> bool:
+    """Whether a state lies inside the planner's road (y) and heading bounds."""
+    lo, hi = scenario.y_bounds
+    return bool(lo <= xi[1] <= hi and abs(xi[2]) <= scenario.phi_max)
+
+
 def closed_loop(
     style: DriverStyle,
     xi0: np.ndarray,
@@ -265,11 +271,19 @@ def closed_loop(
     scenario: ScenarioConfig,
     planner: StylePlanner,
     previous: PrimalDual | None = None,
+    *,
+    deviation: np.ndarray | None = None,
+    y_refs: np.ndarray | None = None,
 ) -> tuple[np.ndarray, list[PrimalDual | None], np.ndarray, int]:
     """Drive ``style`` from ξ0 past the vehicles' given states, re-planning every T_s.
 
     A failed solve applies the previous plan's next input while one remains, else brakes
-    at a_min/2 (as the expert does).
+    at a_min/2 (as the expert does). With a ``deviation`` the applied input is
+    clip(u_k + e_k) to the input bounds, its acceleration no lower than −v_k/T_s (braking
+    stops the car, never reverses it), and the next plan starts from the state it leads to
+    (the stochastic driver, :mod:`drivestyle.irl.driver.stochastic`) — unless that state
+    lies outside the planner's road and heading bounds, from where no plan exists: then the
+    driver applies the plan's input (it corrects rather than leave the road).
 
     Args:
         style: the driver style.
@@ -281,9 +295,12 @@ def closed_loop(
         previous: the plan of the step before ξ0, the first solve's warm start (None:
             cold; the NLP is not convex, so a cold start mid-drive may find another plan
             than the driver's warm-started one).
+        deviation: e_k added to each applied input [m/s², rad], shape (n−1, 2); None: none.
+        y_refs: the lateral position each step's plan aims for [m], shape (n−1,); None:
+            the scenario's target lane throughout.
 
     Returns:
-        (states (n, 4), each step's plan or None, inputs (n−1, 2), failed solves).
+        (states (n, 4), each step's plan or None, inputs (n−1, 2) as applied, failed solves).
     """
     n = vehicles.shape[0]
     xs = np.empty((n, 4))
@@ -293,8 +310,10 @@ def closed_loop(
     spare = np.empty((0, 2))
     failures = 0
     sc = scenario
+    lo, hi = np.array([sc.a_min, -sc.delta_max]), np.array([sc.a_max, sc.delta_max])
     for k in range(n - 1):
-        res = planner.plan(xs[k], vehicles[k], style, sc, previous)
+        y_ref = None if y_refs is None else float(y_refs[k])
+        res = planner.plan(xs[k], vehicles[k], style, sc, previous, y_ref=y_ref)
         if res.ok and res.point is not None:
             us[k] = res.u0
             previous = res.point
@@ -307,6 +326,15 @@ def closed_loop(
             else:
                 us[k] = res.u0  # braking
         plans.append(previous)
+        if deviation is not None:
+            deviated = np.clip(us[k] + deviation[k], lo, hi)
+            # a driver's foot on the brake stops the car; it never reverses it
+            deviated[0] = max(deviated[0], min(-xs[k, 3] / sc.dt, 0.0))
+            nxt = rk4_step(xs[k], deviated, sc.dt, sc.l_f, sc.l_r)
+            if _inside_bounds(nxt, sc):
+                us[k] = deviated
+                xs[k + 1] = nxt
+                continue
         xs[k + 1] = rk4_step(xs[k], us[k], sc.dt, sc.l_f, sc.l_r)
     return xs, plans, us, failures
 

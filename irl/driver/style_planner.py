@@ -93,6 +93,8 @@ class PlanRow:
     others: np.ndarray
     style: DriverStyle
     link: Link = field(default_factory=Link)
+    y_ref: float | None = None
+    """The lateral position the plan aims for [m]; None: the scenario's target lane."""
 
 
 _NO_PLAN = 4
@@ -230,6 +232,7 @@ class StylePlanner:
         scenario: ScenarioConfig,
         previous: PrimalDual | None = None,
         warm: PrimalDual | None = None,
+        y_ref: float | None = None,
     ) -> PlanResult:
         """Plan from ξ0 against the surrounding vehicles ``others`` (m, 4).
 
@@ -242,25 +245,37 @@ class StylePlanner:
             previous: the previous step's solution (shifted: the warm start) or None.
             warm: a solution of the same step (another risk or style) used unshifted as
                 the warm start; overrides ``previous``.
+            y_ref: the lateral position to aim for [m] (a driver not yet changing lane: its
+                own lane's centre); None: the scenario's target lane.
 
         Returns:
             The first input and whether the plan is trustworthy.
         """
         if self.fast is not None:
             link = Link(given=warm if warm is not None else self.guess(xi0, previous))
-            out = self.solve_rows([PlanRow(xi0, others, style, link)], scenario)
+            out = self.solve_rows([PlanRow(xi0, others, style, link, y_ref)], scenario)
             return out.result(0)
         guess = warm if warm is not None else self.guess(xi0, previous)
-        return self._plan_generic(self.parameters(xi0, others, style, scenario), scenario, guess)
+        p = self.parameters(xi0, others, style, scenario, y_ref)
+        return self._plan_generic(p, scenario, guess)
 
     def parameters(
-        self, xi0: np.ndarray, others: np.ndarray, style: DriverStyle, scenario: ScenarioConfig
+        self,
+        xi0: np.ndarray,
+        others: np.ndarray,
+        style: DriverStyle,
+        scenario: ScenarioConfig,
+        y_ref: float | None = None,
     ) -> np.ndarray:
-        """The NLP's parameter vector of one plan (the M nearest vehicles constrained)."""
+        """The NLP's parameter vector of one plan (the M nearest vehicles constrained).
+
+        ``y_ref`` [m] replaces the scenario's target-lane centre when given.
+        """
         cfg = self.config
         vehicles = constrained_vehicles(xi0, others, cfg.max_vehicles, cfg.vehicle_range)
         v_ref = scenario.v_ref if style.v_ref is None else style.v_ref
-        return nlp_parameters(xi0, vehicles, scenario.y_ref, v_ref, style.kappa, style.weights,
+        target = scenario.y_ref if y_ref is None else y_ref
+        return nlp_parameters(xi0, vehicles, target, v_ref, style.kappa, style.weights,
                               style.region(xi0[3], scenario))  # fmt: skip
 
     def _plan_generic(
@@ -340,10 +355,10 @@ class StylePlanner:
             for row in rows:
                 j = row.link.shift if row.link.shift is not None else row.link.copy
                 guess = self._link_guess(row, None if j is None else results[j].point)
-                p = self.parameters(row.xi0, row.others, row.style, scenario)
+                p = self.parameters(row.xi0, row.others, row.style, scenario, row.y_ref)
                 results.append(self._plan_generic(p, scenario, guess))
             return RowsResult.from_results(results)
-        P = np.array([self.parameters(r.xi0, r.others, r.style, scenario) for r in rows])
+        P = np.array([self.parameters(r.xi0, r.others, r.style, scenario, r.y_ref) for r in rows])
         bnd = np.tile(bounds_vector(scenario), (n, 1))
         states = np.zeros((n, fast.layout.n_state))
         src = np.full(n, -1, np.int32)

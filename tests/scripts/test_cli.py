@@ -194,6 +194,7 @@ WRITES = {
     "bench_population": ("--out", "b.json", ["--library", MISSING]),
     "bench_smpc": ("--out", "b.json", []),
     "bench_solver_paths": ("--out", "b.json", []),
+    "bench_stochastic": ("--out", "b.json", []),
     "bench_tracker": ("--out", "b.json", ["--library", MISSING]),
     "build_style_library": ("--out", "lib", []),
     "calibrate_uncertainty": ("--out", "cal", []),

@@ -144,6 +144,17 @@ def test_bench_env_counts_every_step_it_times(tmp_path):
         assert case["episodes_per_trial"] * case["mean_episode_steps"] == pytest.approx(200)
 
 
+def test_bench_stochastic_simulates_every_episode_it_times(tmp_path):
+    _drivestyle(tmp_path, "bench-stochastic", "--episodes", "2", "--workers", "1",
+                "--out", "stochastic.json")  # fmt: skip
+    bench = _json(tmp_path / "stochastic.json")
+    assert bench["episodes"] == len(bench["per_episode"]) == 2
+    assert bench["steps"] == 2 * 40  # 8 s at T_s = 0.2 s
+    assert 0 <= bench["failed_solves_share"] <= 1 and 0 <= bench["plausible_share"] <= 1
+    assert bench["simulations_per_s_per_core"] == pytest.approx(2 / bench["wall_s"])
+    assert 0 < bench["episode_s_median"] <= bench["episode_s_p95"]
+
+
 def test_bench_smpc_times_every_step_of_its_closed_loops(tmp_path):
     _drivestyle(tmp_path, "bench-smpc", "--repeats", "1", "--random", "1", "--trials", "1",
                 "--no-jit", "--out", "smpc.json")  # fmt: skip
@@ -514,6 +525,7 @@ COVERAGE = {
     "bench-tracker": "test_bench_tracker_times_one_update_per_sample",
     "bench-solver-paths": "test_bench_solver_paths_the_interpreted_fatrop_path_equals_the_product",
     "bench-env": "test_bench_env_counts_every_step_it_times",
+    "bench-stochastic": "test_bench_stochastic_simulates_every_episode_it_times",
     "profile-inner": "test_profile_inner_accounts_for_every_second",
 }
 """Command → the test that runs it in its own process: here, or ``path::test`` elsewhere."""
