@@ -48,7 +48,7 @@ def _position(theta: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarra
 
 
 def to_unconstrained(theta: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """z = logit((θ − low) / (high − low)), coordinate-wise; shape of ``theta`` (..., D)."""
+    """Unconstrained z = logit((θ − low) / (high − low)) of ``theta`` (..., D), per coordinate."""
     u = _position(theta, low, high)
     return np.log(u) - np.log1p(-u)
 

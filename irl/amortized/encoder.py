@@ -14,8 +14,13 @@ Two parts, kept apart so that the data side needs no torch:
   offset and an unobserved vehicle are told apart.
 - :func:`build_encoder`, the torch module: per-sample inputs standardised (mean and
   scale of the training inputs, carried in the module's state), a GRU over the packed
-  sequences (every length in one batch, no padding read), its last hidden state mapped by
-  a linear layer to the embedding the flow is conditioned on.
+  sequences (every length in one batch, no padding read), and a linear map of its last
+  hidden state beside the mean of its outputs over the sequence's samples to the
+  embedding the flow is conditioned on. The mean matters: a statistic of the whole
+  series (a variance, a correlation over one step) is an average of per-sample terms the
+  GRU computes from its state, which its last state alone forgets (on the AR(1) toy of
+  the tests the correlation time's error fell from that of the prior to near the exact
+  posterior's).
 
 Torch is imported inside :func:`build_encoder` only: importing this module does not need it.
 """
@@ -145,7 +150,8 @@ def build_encoder(config: EncoderConfig) -> torch.nn.Module:
     """The torch encoder: standardisation, a GRU over packed sequences, a linear map.
 
     Its ``forward(x, lengths)`` takes a padded batch ``x`` of shape (B, T_max, input_dim)
-    and the true ``lengths`` (B,) (int64, >= 1) and returns (B, embedding); the samples
+    and the true ``lengths`` (B,) (int64, >= 1) and returns (B, embedding): a linear map
+    of [last hidden state, mean hidden output over the T_i samples]; the samples
     beyond a sequence's length are never read (packed sequences), so a sequence's
     embedding does not depend on the batch it is in. Its ``set_scaling(mean, scale)``
     stores the input standardisation (buffers: saved with the weights).
@@ -158,9 +164,12 @@ def build_encoder(config: EncoderConfig) -> torch.nn.Module:
     """
     import torch
     from torch import nn
-    from torch.nn.utils.rnn import pack_padded_sequence
+    from torch.nn.utils.rnn import pack_padded_sequence, pad_packed_sequence
 
     class TrajectoryEncoder(nn.Module):
+        mean: torch.Tensor
+        scale: torch.Tensor
+
         def __init__(self) -> None:
             super().__init__()
             self.register_buffer("mean", torch.zeros(config.input_dim))
@@ -168,7 +177,7 @@ def build_encoder(config: EncoderConfig) -> torch.nn.Module:
             self.gru = nn.GRU(
                 config.input_dim, config.hidden, num_layers=config.layers, batch_first=True
             )
-            self.out = nn.Linear(config.hidden, config.embedding)
+            self.out = nn.Linear(2 * config.hidden, config.embedding)
 
         def set_scaling(self, mean: np.ndarray, scale: np.ndarray) -> None:
             self.mean.copy_(torch.as_tensor(mean, dtype=torch.float32))
@@ -177,7 +186,9 @@ def build_encoder(config: EncoderConfig) -> torch.nn.Module:
         def forward(self, x: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
             z = (x - self.mean) / self.scale
             packed = pack_padded_sequence(z, lengths.cpu(), batch_first=True, enforce_sorted=False)
-            _, h = self.gru(packed)
-            return self.out(torch.tanh(h[-1]))
+            outputs, h = self.gru(packed)
+            padded, _ = pad_packed_sequence(outputs, batch_first=True)  # zeros past each length
+            mean = padded.sum(dim=1) / lengths.to(padded.dtype)[:, None]
+            return self.out(torch.cat([h[-1], mean], dim=1))
 
     return TrajectoryEncoder()

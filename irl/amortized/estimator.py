@@ -39,7 +39,7 @@ import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 
 import numpy as np
 
@@ -239,7 +239,7 @@ class TrainingResult:
         }
 
 
-def _build_network(config: EstimatorConfig) -> torch.nn.Module:
+def _build_network(config: EstimatorConfig) -> torch.nn.ModuleDict:
     """The encoder and the flow as one module (``.encoder``, ``.flow``)."""
     import zuko
     from torch import nn
@@ -280,7 +280,7 @@ class NeuralPosterior:
     network (in evaluation mode).
     """
 
-    def __init__(self, config: EstimatorConfig, network: torch.nn.Module) -> None:
+    def __init__(self, config: EstimatorConfig, network: torch.nn.ModuleDict) -> None:
         self.config = config
         self.network = network.eval()
         self._low, self._high = check_box(np.array(config.low), np.array(config.high))
@@ -321,7 +321,7 @@ class NeuralPosterior:
         return self.sample_batch([x], n, seed)[0]
 
     def log_prob(self, x: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """log q(θ | x) of parameter rows ``theta`` (K, D) inside the box: shape (K,)."""
+        """Density log q(θ | x) of parameter rows ``theta`` (K, D) in the box: shape (K,)."""
         import torch
 
         x = self._check(x)
@@ -357,7 +357,7 @@ class NeuralPosterior:
         arrays = {f"w:{k}": v for k, v in weights.items()}
         path = Path(path)
         with atomic_output_file(path, option="the estimator file") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)  # type: ignore[arg-type]
+            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
         return path
 
 
@@ -438,7 +438,9 @@ def train(
 
     training = training or TrainingConfig()
     if simulations.theta.shape[1] != config.dim:
-        raise ValueError(f"simulations have {simulations.theta.shape[1]} parameters, not {config.dim}")
+        raise ValueError(
+            f"simulations have {simulations.theta.shape[1]} parameters, not {config.dim}"
+        )
     if simulations.x[0].shape[1] != config.encoder.input_dim:
         raise ValueError(
             f"series have width {simulations.x[0].shape[1]}, the encoder reads "
@@ -448,7 +450,7 @@ def train(
     outside = np.any((simulations.theta < low) | (simulations.theta > high), axis=1)
     if outside.any():
         raise ValueError(f"{int(outside.sum())} simulation(s) outside the box")
-    n_val = int(round(training.validation_fraction * simulations.n))
+    n_val = round(training.validation_fraction * simulations.n)
     if n_val < 1 or n_val >= simulations.n:
         raise ValueError(f"{simulations.n} simulations leave none to validate or to train on")
 
@@ -461,7 +463,7 @@ def train(
         val, fit = simulations.subset(order[:n_val]), simulations.subset(order[n_val:])
         torch.manual_seed(training.seed)
         network = _build_network(config)
-        network["encoder"].set_scaling(*_scaling(fit.x))
+        cast(Any, network["encoder"]).set_scaling(*_scaling(fit.x))
         z_fit = torch.as_tensor(to_unconstrained(fit.theta, low, high), dtype=torch.float32)
         z_val = torch.as_tensor(to_unconstrained(val.theta, low, high), dtype=torch.float32)
         optimiser = torch.optim.Adam(network.parameters(), lr=training.learning_rate)

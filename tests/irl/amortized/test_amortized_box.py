@@ -32,7 +32,7 @@ def test_log_abs_det_is_the_jacobian(rng):
     for d in range(3):
         step = np.zeros(3)
         step[d] = h * (HIGH - LOW)[d]
-        fd = (to_unconstrained(theta + step, LOW, HIGH) - to_unconstrained(theta - step, LOW, HIGH))
+        fd = to_unconstrained(theta + step, LOW, HIGH) - to_unconstrained(theta - step, LOW, HIGH)
         assert np.all(fd[:, [x for x in range(3) if x != d]] == pytest.approx(0.0, abs=1e-9))
         theta_d = theta[:, d]
         deriv = fd[:, d] / (2 * step[d])

@@ -24,8 +24,8 @@ def _demo(shift_unseen: float = 0.0, shift_seen: float = 0.0, late: float = 0.0)
     tv[:, 0] += 30
     tv[:, 1] = 3.5
     tv[:, 3] = 18
-    behind = ev + [-20.0, 3.5, 0.0, 1.0]
-    ahead = ev + [50.0, 0.0, 0.0, -2.0]
+    behind = ev + np.array([-20.0, 3.5, 0.0, 1.0])
+    ahead = ev + np.array([50.0, 0.0, 0.0, -2.0])
     ahead[:5, 0] += shift_unseen
     ahead[5:, 0] += shift_seen
     observed = np.ones((3, N), bool)
