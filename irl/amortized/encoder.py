@@ -16,11 +16,10 @@ Two parts, kept apart so that the data side needs no torch:
   scale of the training inputs, carried in the module's state), a GRU over the packed
   sequences (every length in one batch, no padding read), and a linear map of its last
   hidden state beside the mean of its outputs over the sequence's samples to the
-  embedding the flow is conditioned on. The mean matters: a statistic of the whole
-  series (a variance, a correlation over one step) is an average of per-sample terms the
-  GRU computes from its state, which its last state alone forgets (on the AR(1) toy of
-  the tests the correlation time's error fell from that of the prior to near the exact
-  posterior's).
+  embedding the flow is conditioned on. The mean is there because a statistic of the
+  whole series (a variance, a correlation over one step) is an average of per-sample
+  terms, which the last state alone forgets; on the AR(1) toy of the tests it has not yet
+  been shown to help the correlation time (DESIGN §22).
 
 Torch is imported inside :func:`build_encoder` only: importing this module does not need it.
 """

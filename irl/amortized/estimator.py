@@ -241,8 +241,14 @@ class TrainingResult:
 
 def _build_network(config: EstimatorConfig) -> torch.nn.ModuleDict:
     """The encoder and the flow as one module (``.encoder``, ``.flow``)."""
-    import zuko
-    from torch import nn
+    try:
+        import zuko
+        from torch import nn
+    except ImportError as exc:
+        raise ImportError(
+            f"the amortized posterior needs the sbi extra ({exc}): "
+            "pip install -c constraints-cpu.txt -e '.[sbi]'"
+        ) from None
 
     flow_cls = zuko.flows.NSF if config.flow == "nsf" else zuko.flows.MAF
     flow = flow_cls(
