@@ -4,8 +4,9 @@
   (``episode_features``, numpy) and the trajectory encoder (``build_encoder``, torch);
 - :mod:`~drivestyle.irl.amortized.box`: the parameters' box and its logit map to
   unconstrained space;
-- :mod:`~drivestyle.irl.amortized.estimator`: neural posterior estimation (the encoder and
-  a zuko flow), its training, sampling, densities and its verified file;
+- :mod:`~drivestyle.irl.amortized.estimator`: the neural posterior (the encoder and a zuko
+  flow): sampling, densities and its verified file;
+- :mod:`~drivestyle.irl.amortized.training`: its training on simulations (``train``);
 - :mod:`~drivestyle.irl.amortized.calibration`: simulation-based calibration (SBC ranks,
   coverage of central intervals).
 

@@ -9,14 +9,8 @@ import pytest
 
 from drivestyle.irl.amortized.calibration import calibrate
 from drivestyle.irl.amortized.encoder import EncoderConfig
-from drivestyle.irl.amortized.estimator import (
-    EstimatorConfig,
-    EstimatorFileError,
-    Simulations,
-    TrainingConfig,
-    load_posterior,
-    train,
-)
+from drivestyle.irl.amortized.estimator import EstimatorConfig, EstimatorFileError, load_posterior
+from drivestyle.irl.amortized.training import Simulations, TrainingConfig, train
 
 pytest.importorskip("zuko")
 
@@ -175,7 +169,8 @@ def test_importing_the_package_does_not_import_torch():
     code = (
         "import sys, drivestyle, drivestyle.irl, drivestyle.irl.amortized, "
         "drivestyle.irl.amortized.encoder, drivestyle.irl.amortized.estimator, "
-        "drivestyle.irl.amortized.calibration, drivestyle.irl.amortized.box\n"
+        "drivestyle.irl.amortized.calibration, drivestyle.irl.amortized.box, "
+        "drivestyle.irl.amortized.training\n"
         "assert 'torch' not in sys.modules and 'zuko' not in sys.modules, 'torch imported'"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
