@@ -42,6 +42,7 @@ COMMANDS: dict[str, str] = {
     "bench-solver-paths": "faster solver paths against the product: their time, how far S(p) moves",
     "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
     "bench-stochastic": "benchmark simulating stochastic drivers from the prior: episodes/s/core",
+    "build-posterior": "the amortized posterior over a stochastic driver's parameters, calibrated",
     "profile-inner": "profile the inner solvers: where a solve's time goes",
 }
 """Subcommand → what it does; the module is the name with ``_`` for ``-``."""

@@ -155,6 +155,34 @@ def test_bench_stochastic_simulates_every_episode_it_times(tmp_path):
     assert 0 < bench["episode_s_median"] <= bench["episode_s_p95"]
 
 
+def test_build_posterior_writes_a_verified_estimator_and_its_calibration(tmp_path):
+    pytest.importorskip("zuko")
+    from drivestyle.irl.amortized.estimator import EstimatorFileError, load_posterior
+
+    _drivestyle(tmp_path, "build-posterior", "--simulations", "8", "--held-out", "4",
+                "--epochs", "2", "--hidden", "4", "--embedding", "4", "--transforms", "1",
+                "--flow-hidden", "8", "--samples", "20", "--out", "post")  # fmt: skip
+    build, cal = _json(tmp_path / "post/build.json"), _json(tmp_path / "post/calibration.json")
+    assert build["simulations"] == 8 and build["held_out"] == 4
+    assert build["training_rows"] == 16  # each episode whole and one prefix
+    assert _finite(build["simulations_per_s_per_core"], build["training"]["validation_loss"],
+                   build["training"]["seconds"])  # fmt: skip
+    assert set(build["versions"]) >= {"drivestyle", "torch", "zuko"}
+    assert cal["n_simulations"] == 4 and len(cal["parameters"]) == 9
+    for row in cal["parameters"].values():
+        assert _finite(row["mae"], row["mae_relative"], row["prior_mean_mae"], row["uniformity_p"])
+        assert 0 <= row["coverage"] <= 1 and sum(row["rank_histogram"]) == 4
+    assert 0 < cal["identification_ms"]["median"] <= cal["identification_ms"]["p95"]
+    posterior = load_posterior(tmp_path / "post/posterior.npz")
+    assert posterior.config.names[0] == "risk"
+    # the file verifies: one flipped byte inside it is refused
+    raw = bytearray((tmp_path / "post/posterior.npz").read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    (tmp_path / "bad.npz").write_bytes(bytes(raw))
+    with pytest.raises(EstimatorFileError, match=r"bad\.npz"):
+        load_posterior(tmp_path / "bad.npz")
+
+
 def test_bench_smpc_times_every_step_of_its_closed_loops(tmp_path):
     _drivestyle(tmp_path, "bench-smpc", "--repeats", "1", "--random", "1", "--trials", "1",
                 "--no-jit", "--out", "smpc.json")  # fmt: skip
@@ -526,6 +554,7 @@ COVERAGE = {
     "bench-solver-paths": "test_bench_solver_paths_the_interpreted_fatrop_path_equals_the_product",
     "bench-env": "test_bench_env_counts_every_step_it_times",
     "bench-stochastic": "test_bench_stochastic_simulates_every_episode_it_times",
+    "build-posterior": "test_build_posterior_writes_a_verified_estimator_and_its_calibration",
     "profile-inner": "test_profile_inner_accounts_for_every_second",
 }
 """Command → the test that runs it in its own process: here, or ``path::test`` elsewhere."""

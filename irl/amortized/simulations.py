@@ -1,0 +1,220 @@
+"""The amortized posterior's training data: stochastic drivers simulated from a prior (DESIGN §22).
+
+The estimator of :mod:`~drivestyle.irl.amortized.training` learns from pairs (θ_i, x_i).
+Here θ_i are the parameters :class:`~drivestyle.irl.driver.stochastic_prior.StochasticPrior`
+varies of a :class:`~drivestyle.irl.driver.stochastic.StochasticStyle` (:data:`PARAMETERS`:
+the risk p, the desired speed as its ratio to the EV's start speed — the prior draws it so,
+and a box must not depend on the scene —, T, s_0, the lateral factor, the onset, σ_a, σ_δ,
+τ) and x_i the episode the driver produced as an observer records it
+(:func:`episode_series`: the encoder's input, :func:`~drivestyle.irl.amortized.encoder.
+episode_features` with the mask channels, for the TV and up to :data:`NEIGHBOURS` − 1
+further vehicles), measurement noise included.
+
+:func:`simulate_set` draws n parameter sets from the prior with a seed (episode i is
+simulated with seed ``seed + i``) and runs them on worker processes
+(:func:`~drivestyle.common.parallel.parallel_map`); every episode is kept, failed solves
+and implausible courses included — they are the simulator's. :func:`with_prefixes` turns
+full episodes into training rows: each episode whole, and ``prefixes`` more of its
+prefixes 0 … k with k uniform over the allowed lengths, so the estimator learns to read an
+episode observed for any time (a prefix of a simulated episode's series is the series of
+the episode observed up to k: every feature is per sample, x measured from the first).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drivestyle.common.parallel import parallel_map
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.amortized.encoder import encoder_input, episode_features, input_dim
+from drivestyle.irl.amortized.training import Simulations
+from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
+from drivestyle.irl.driver.style_planner import planner_for
+
+__all__ = [
+    "NEIGHBOURS",
+    "PARAMETERS",
+    "SimulatedSet",
+    "episode_series",
+    "parameter_box",
+    "parameters_of",
+    "series_width",
+    "simulate_set",
+    "with_prefixes",
+]
+
+PARAMETERS: tuple[str, ...] = (
+    "risk", "speed_ratio", "time_gap", "min_gap", "lateral", "onset", "sigma_a",
+    "sigma_delta", "tau",
+)  # fmt: skip
+"""The inferred parameters, in order (names of :class:`StochasticPrior`'s ranges)."""
+
+NEIGHBOURS = 3
+"""Surrounding vehicles the encoder reads: the TV and the prior's two possible leaders."""
+
+
+def parameter_box(prior: StochasticPrior) -> tuple[np.ndarray, np.ndarray]:
+    """The box of :data:`PARAMETERS` under ``prior``: its ranges, (low, high) each (D,).
+
+    Raises:
+        ValueError: a range is a single value (the prior does not vary it; the box needs
+            low < high).
+    """
+    low = np.array([getattr(prior, name)[0] for name in PARAMETERS], float)
+    high = np.array([getattr(prior, name)[1] for name in PARAMETERS], float)
+    fixed = [name for name, lo, hi in zip(PARAMETERS, low, high, strict=True) if lo >= hi]
+    if fixed:
+        raise ValueError(f"the prior does not vary {fixed}: nothing to infer there")
+    return low, high
+
+
+def parameters_of(params: EpisodeParams) -> np.ndarray:
+    """θ of one drawn episode, in :data:`PARAMETERS`' order: shape (D,).
+
+    A style's unset v_ref and s_0 are the scene's (as its planner reads them).
+    """
+    s = params.style
+    v_ref = s.v_ref if s.v_ref is not None else params.scene.base.v_ref
+    ratio = float(v_ref) / float(params.scene.base.ev_speed)
+    min_gap = s.min_gap if s.min_gap is not None else params.scene.base.l_a
+    values = {
+        "risk": s.risk, "speed_ratio": ratio, "time_gap": s.time_gap, "min_gap": min_gap,
+        "lateral": s.lateral, "onset": s.onset, "sigma_a": s.sigma_a,
+        "sigma_delta": s.sigma_delta, "tau": s.tau,
+    }  # fmt: skip
+    return np.array([float(values[name]) for name in PARAMETERS])
+
+
+def episode_series(demo: Demonstration, k: int | None = None) -> np.ndarray:
+    """The encoder's input of samples 0 … k of an episode (all: ``k`` None): (k + 1, C)."""
+    last = demo.n - 1 if k is None else k
+    return encoder_input(*episode_features(demo, last, NEIGHBOURS))
+
+
+@dataclass(frozen=True)
+class SimulatedSet:
+    """Simulated episodes: their parameters, their observed series and what they cost."""
+
+    theta: np.ndarray
+    """θ per episode, shape (n, D), :data:`PARAMETERS`' order."""
+    series: tuple[np.ndarray, ...]
+    """Per episode its whole series (:func:`episode_series`), shape (T_i, C)."""
+    seconds: np.ndarray
+    """Per episode its simulation's time on its worker [s], shape (n,)."""
+    failures: np.ndarray
+    """Per episode its failed solves, shape (n,)."""
+    wall_s: float
+    """Wall time of the whole batch, the workers' planner loading included [s]."""
+
+    @property
+    def n(self) -> int:
+        """Number of episodes."""
+        return int(self.theta.shape[0])
+
+    def subset(self, index: np.ndarray | range) -> SimulatedSet:
+        """The episodes at ``index`` (``wall_s`` kept: the batch's)."""
+        idx = np.asarray(index, int)
+        return SimulatedSet(self.theta[idx], tuple(self.series[i] for i in idx),
+                            self.seconds[idx], self.failures[idx], self.wall_s)  # fmt: skip
+
+
+def _load_planners() -> None:
+    """Worker initializer: the planners of both geometries (TV alone, traffic) built once."""
+    sc = ScenarioConfig()
+    planner_for(sc, 10, 1)
+    planner_for(sc, 10, 4)
+
+
+def _simulate(raw: dict[str, Any], episode_seed: int) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Worker: one episode's θ, series, time and failed solves."""
+    params = EpisodeParams.from_json(raw)
+    t0 = time.perf_counter()
+    demo = simulate_params(params, episode_seed)
+    seconds = time.perf_counter() - t0
+    return parameters_of(params), episode_series(demo), seconds, int(demo.meta["failures"])
+
+
+def simulate_set(
+    prior: StochasticPrior,
+    n: int,
+    seed: int,
+    workers: int = 1,
+    on_result: Callable[[int, Any], None] | None = None,
+) -> SimulatedSet:
+    """Draw n episodes from ``prior`` (seed ``seed``) and simulate them (module docstring).
+
+    Args:
+        prior: the prior over drivers and scenes.
+        n: episodes (>= 1).
+        seed: seeds the draws; episode i is simulated with seed ``seed + i``.
+        workers: worker processes (1: in this process).
+        on_result: called as each episode finishes (a progress bar).
+
+    Returns:
+        The episodes in draw order: deterministic given ``prior``, ``n`` and ``seed`` (not
+        on ``workers``).
+    """
+    if not (isinstance(n, int) and n >= 1):
+        raise ValueError(f"n must be an integer >= 1, got {n!r}")
+    parameter_box(prior)
+    draws = prior.draw(n, seed)
+    tasks = [(d.to_json(), seed + i) for i, d in enumerate(draws)]
+    t0 = time.perf_counter()
+    rows = parallel_map(_simulate, tasks, workers, on_result, initializer=_load_planners)
+    wall = time.perf_counter() - t0
+    return SimulatedSet(
+        theta=np.stack([r[0] for r in rows]),
+        series=tuple(r[1] for r in rows),
+        seconds=np.array([r[2] for r in rows]),
+        failures=np.array([r[3] for r in rows], int),
+        wall_s=wall,
+    )
+
+
+def with_prefixes(
+    sims: SimulatedSet, prefixes: int, min_samples: int, seed: int, low: np.ndarray,
+    high: np.ndarray,
+) -> Simulations:  # fmt: skip
+    """Training rows: every episode whole, then ``prefixes`` random prefixes of each.
+
+    Args:
+        sims: simulated episodes.
+        prefixes: prefixes per episode (0: whole episodes only).
+        min_samples: shortest prefix [samples] (>= 1); an episode no longer than it adds
+            no prefix.
+        seed: seeds the prefixes' lengths.
+        low: the parameters' box's lower bounds; θ is clipped into the box (a ratio
+            computed from a clipped v_ref may sit a rounding error outside).
+        high: its upper bounds.
+
+    Returns:
+        (θ, series) rows: the n whole episodes first, then their prefixes episode by
+        episode; each prefix's θ is its episode's.
+    """
+    if prefixes < 0 or min_samples < 1:
+        raise ValueError(
+            f"prefixes must be >= 0 and min_samples >= 1, got {prefixes}, {min_samples}"
+        )
+    rng = np.random.default_rng(seed)
+    theta = np.clip(sims.theta, low, high)
+    rows_theta = list(theta)
+    rows_x = list(sims.series)
+    for i, x in enumerate(sims.series):
+        t = x.shape[0]
+        if t <= min_samples:
+            continue
+        for length in rng.integers(min_samples, t, size=prefixes):  # shorter than whole
+            rows_theta.append(theta[i])
+            rows_x.append(x[: int(length)])
+    return Simulations(np.array(rows_theta), tuple(rows_x))
+
+
+def series_width() -> int:
+    """Width C of :func:`episode_series`."""
+    return input_dim(NEIGHBOURS)
