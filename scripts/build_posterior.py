@@ -55,8 +55,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line arguments."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter)
     p.add_argument("--out", type=Path, default=Path("runs/posterior"), help="output folder")
-    p.add_argument("--simulations", type=count(1_000_000, 0.1, "simulations", least=2),
-                   default=3000, help="training simulations N")  # fmt: skip
+    p.add_argument("--simulations", type=count(1_000_000, 0.1, "simulations", least=8),
+                   default=3000, help="training simulations N (10 %% validate)")  # fmt: skip
     p.add_argument("--held-out", type=count(100_000, 0.1, "held-out simulations", least=2),
                    default=200, help="held-out simulations M (calibration)")  # fmt: skip
     p.add_argument("--prefixes", type=count(100, 0.0, "prefixes", least=0), default=1,

@@ -196,6 +196,7 @@ WRITES = {
     "bench_solver_paths": ("--out", "b.json", []),
     "bench_stochastic": ("--out", "b.json", []),
     "bench_tracker": ("--out", "b.json", ["--library", MISSING]),
+    "build_posterior": ("--out", "post", []),
     "build_style_library": ("--out", "lib", []),
     "calibrate_uncertainty": ("--out", "cal", []),
     "capacity_study": ("--out", "cap", []),
