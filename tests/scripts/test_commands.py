@@ -155,6 +155,7 @@ def test_bench_stochastic_simulates_every_episode_it_times(tmp_path):
     assert 0 < bench["episode_s_median"] <= bench["episode_s_p95"]
 
 
+@pytest.mark.slow  # ≈ 6 s: torch's import, 12 episodes, training
 def test_build_posterior_writes_a_verified_estimator_and_its_calibration(tmp_path):
     pytest.importorskip("zuko")
     from drivestyle.irl.amortized.estimator import EstimatorFileError, load_posterior
