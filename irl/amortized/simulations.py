@@ -195,7 +195,9 @@ def with_prefixes(
 
     Returns:
         (θ, series) rows: the n whole episodes first, then their prefixes episode by
-        episode; each prefix's θ is its episode's.
+        episode; each prefix's θ is its episode's, its group its episode's index (training
+        validates on whole episodes: a prefix never validates the episode it was cut
+        from).
     """
     if prefixes < 0 or min_samples < 1:
         raise ValueError(
@@ -205,6 +207,7 @@ def with_prefixes(
     theta = np.clip(sims.theta, low, high)
     rows_theta = list(theta)
     rows_x = list(sims.series)
+    groups = list(range(sims.n))
     for i, x in enumerate(sims.series):
         t = x.shape[0]
         if t <= min_samples:
@@ -212,7 +215,8 @@ def with_prefixes(
         for length in rng.integers(min_samples, t, size=prefixes):  # shorter than whole
             rows_theta.append(theta[i])
             rows_x.append(x[: int(length)])
-    return Simulations(np.array(rows_theta), tuple(rows_x))
+            groups.append(i)
+    return Simulations(np.array(rows_theta), tuple(rows_x), np.array(groups))
 
 
 def series_width() -> int:

@@ -42,6 +42,10 @@ class Simulations:
     """Parameters, shape (N, D), inside the estimator's box."""
     x: tuple[np.ndarray, ...]
     """Per simulation its series, shape (T_i, C): T_i >= 1 samples of one width C."""
+    groups: np.ndarray | None = None
+    """Per row the simulation it was cut from (rows of one episode: the whole and its
+    prefixes), shape (N,) int; training validates on whole groups, so no row validates
+    an episode another row trains on. None: every row its own group."""
 
     def __post_init__(self) -> None:
         theta = np.array(self.theta, float)
@@ -55,6 +59,12 @@ class Simulations:
             raise ValueError("every series must have shape (T_i, C), T_i >= 1, one width C")
         if not np.all(np.isfinite(theta)) or not all(np.all(np.isfinite(x)) for x in xs):
             raise ValueError("simulations must be finite")
+        if self.groups is not None:
+            groups = np.array(self.groups, int)
+            if groups.shape != (theta.shape[0],):
+                raise ValueError(f"groups must have shape ({theta.shape[0]},), got {groups.shape}")
+            groups.setflags(write=False)
+            object.__setattr__(self, "groups", groups)
         theta.setflags(write=False)
         for x in xs:
             x.setflags(write=False)
@@ -69,7 +79,8 @@ class Simulations:
     def subset(self, index: Sequence[int] | np.ndarray) -> Simulations:
         """The simulations at ``index``, in that order."""
         idx = np.asarray(index, int)
-        return Simulations(self.theta[idx], tuple(self.x[i] for i in idx))
+        groups = None if self.groups is None else self.groups[idx]
+        return Simulations(self.theta[idx], tuple(self.x[i] for i in idx), groups)
 
 
 @dataclass(frozen=True)
@@ -185,8 +196,19 @@ def train(
     torch.set_num_threads(training.threads)
     try:
         rng = np.random.default_rng(training.seed)
-        order = rng.permutation(simulations.n)
-        val, fit = simulations.subset(order[:n_val]), simulations.subset(order[n_val:])
+        if simulations.groups is None:
+            order = rng.permutation(simulations.n)
+            val, fit = simulations.subset(order[:n_val]), simulations.subset(order[n_val:])
+        else:  # whole groups validate: the first groups of a random order, ≈ n_val rows
+            names = np.unique(simulations.groups)
+            picked = rng.permutation(names)
+            sizes = np.array([np.sum(simulations.groups == g) for g in picked])
+            taken = picked[: max(1, int(np.searchsorted(np.cumsum(sizes), n_val)) + 1)]
+            held = np.isin(simulations.groups, taken)
+            if held.all():
+                raise ValueError(f"{names.size} group(s) leave none to train on")
+            val = simulations.subset(np.flatnonzero(held))
+            fit = simulations.subset(np.flatnonzero(~held))
         torch.manual_seed(training.seed)
         network = _build_network(config)
         cast(Any, network["encoder"]).set_scaling(*_scaling(fit.x))

@@ -174,3 +174,15 @@ def test_importing_the_package_does_not_import_torch():
         "assert 'torch' not in sys.modules and 'zuko' not in sys.modules, 'torch imported'"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_groups_give_one_group_per_row_and_validate_whole():
+    with pytest.raises(ValueError, match="groups"):
+        Simulations(np.zeros((2, 2)), (np.zeros((3, 1)),) * 2, np.array([0]))
+    sims = simulate(20, seed=3)
+    one_group = Simulations(sims.theta, sims.x, np.zeros(20, int))
+    with pytest.raises(ValueError, match="none to train on"):
+        train(one_group, config(), TrainingConfig(epochs=1), progress=False)
+    grouped = Simulations(sims.theta, sims.x, np.arange(20) // 2)
+    _, result = train(grouped, config(), TrainingConfig(epochs=1), progress=False)
+    assert len(result.validation_loss) == 1 and np.isfinite(result.validation_loss[0])

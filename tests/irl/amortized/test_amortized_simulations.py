@@ -56,6 +56,7 @@ def test_prefixes_are_the_episodes_observed_for_less_time(sims):
             assert 6 <= t < 41
             np.testing.assert_array_equal(rows.x[j], sims.series[i][:t])
             np.testing.assert_array_equal(rows.theta[j], rows.theta[i])
+    np.testing.assert_array_equal(rows.groups, [0, 1, 2, 0, 0, 1, 1, 2, 2])  # validated whole
     again = with_prefixes(sims, 2, 6, 0, low, high)
     assert [x.shape for x in again.x] == [x.shape for x in rows.x]
     assert with_prefixes(sims, 0, 6, 0, low, high).n == 3
