@@ -4,7 +4,8 @@ The loss is the mean −log q(z | s(x)) over a batch of simulations (θ_i, x_i),
 parameters in unconstrained space (the Jacobian term of q(θ | x) does not depend on the
 network): maximum likelihood of the simulated parameters, whose minimiser over a rich
 family is the posterior under the prior that drew them (Papamakarios & Murray 2016).
-Adam; a held-out share of the simulations stops training when its loss has not improved
+Adam; a held-out share of the simulations (whole groups, where the rows carry them:
+an episode and its prefixes) stops training when its loss has not improved
 for ``patience`` epochs, and the best epoch's weights are kept. Training is deterministic
 given its seed on one thread (weights from ``torch.manual_seed``, the split and the batch
 order from the seed). Torch is imported inside :func:`train` only.
