@@ -34,9 +34,8 @@ from drivestyle.common.cli import HelpFormatter, count, run_cli, seed, workers
 from drivestyle.common.io import check_output_file, write_json
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.plausibility import plausibility_problems
-from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.driver.stochastic import load_planners
 from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
-from drivestyle.irl.driver.style_planner import planner_for
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -53,13 +52,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--workers", type=workers, default=1, help="worker processes")
     p.add_argument("--seed", type=seed, default=0, help="seed of the prior's draws")
     return p.parse_args(argv)
-
-
-def _load_planners() -> None:
-    """Worker initializer: the planners of both geometries (TV alone, traffic) built once."""
-    sc = ScenarioConfig()
-    planner_for(sc, 10, 1)
-    planner_for(sc, 10, 4)
 
 
 def _simulate(raw: dict[str, Any], episode_seed: int) -> dict[str, Any]:
@@ -88,7 +80,7 @@ def run(episodes: int, n_workers: int, base_seed: int) -> dict[str, Any]:
     with tqdm(total=episodes, desc="stochastic episodes", unit="ep") as bar:
         t0 = time.perf_counter()
         rows = parallel_map(_simulate, tasks, n_workers, lambda _i, _r: bar.update(1),
-                            initializer=_load_planners)  # fmt: skip
+                            initializer=load_planners)  # fmt: skip
         wall = time.perf_counter() - t0
     seconds = np.array([r["seconds"] for r in rows])
     failures = sum(r["failures"] for r in rows)

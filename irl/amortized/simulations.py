@@ -31,11 +31,10 @@ import numpy as np
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.amortized.encoder import encoder_input, episode_features, input_dim
 from drivestyle.irl.amortized.training import Simulations
+from drivestyle.irl.driver.stochastic import load_planners
 from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
-from drivestyle.irl.driver.style_planner import planner_for
 
 __all__ = [
     "NEIGHBOURS",
@@ -124,13 +123,6 @@ class SimulatedSet:
                             self.seconds[idx], self.failures[idx], self.wall_s)  # fmt: skip
 
 
-def _load_planners() -> None:
-    """Worker initializer: the planners of both geometries (TV alone, traffic) built once."""
-    sc = ScenarioConfig()
-    planner_for(sc, 10, 1)
-    planner_for(sc, 10, 4)
-
-
 def _simulate(raw: dict[str, Any], episode_seed: int) -> tuple[np.ndarray, np.ndarray, float, int]:
     """Worker: one episode's θ, series, time and failed solves."""
     params = EpisodeParams.from_json(raw)
@@ -166,7 +158,7 @@ def simulate_set(
     draws = prior.draw(n, seed)
     tasks = [(d.to_json(), seed + i) for i, d in enumerate(draws)]
     t0 = time.perf_counter()
-    rows = parallel_map(_simulate, tasks, workers, on_result, initializer=_load_planners)
+    rows = parallel_map(_simulate, tasks, workers, on_result, initializer=load_planners)
     wall = time.perf_counter() - t0
     return SimulatedSet(
         theta=np.stack([r[0] for r in rows]),

@@ -45,6 +45,7 @@ __all__ = [
     "EXPERT_WEIGHTS",
     "LATERAL_RANGE",
     "ONSET_RANGE",
+    "PLANNER_SLOTS",
     "SIGMA_A_MAX",
     "SIGMA_DELTA_MAX",
     "TAU_MAX",
@@ -54,6 +55,8 @@ __all__ = [
     "closed_loop_stochastic",
     "constant_velocity",
     "lane_targets",
+    "load_planners",
+    "planner_slots",
     "simulate_episode",
 ]
 
@@ -297,6 +300,31 @@ def constant_velocity(states: np.ndarray, n: int, dt: float) -> np.ndarray:
     return out
 
 
+PLANNER_SLOTS = (1, 4)
+"""The vehicle slots of the planners :func:`simulate_episode` uses (:func:`planner_slots`)."""
+
+
+def planner_slots(m: int) -> int:
+    """The planner's vehicle slots for m surrounding vehicles: the TV alone, else four.
+
+    One NLP serves every scene of up to four vehicles (:data:`PLANNER_SLOTS`), so a worker
+    builds two planners, not one per count.
+    """
+    return 1 if m == 1 else PLANNER_SLOTS[-1]
+
+
+def load_planners(horizon: int = 10) -> None:
+    """Build the planners :func:`simulate_episode` uses, once in this process.
+
+    A worker's initializer (:func:`~drivestyle.common.parallel.parallel_map`): the NLPs are
+    built before the first episode rather than inside its timing. The planners are keyed by
+    geometry only (:func:`~drivestyle.irl.driver.style_planner.planner_for`), so the
+    default scenario's serve every scene.
+    """
+    for slots in PLANNER_SLOTS:
+        planner_for(ScenarioConfig(), horizon, slots)
+
+
 def simulate_episode(
     style: StochasticStyle,
     scene: ScenarioConfig | TrafficScene,
@@ -354,7 +382,7 @@ def simulate_episode(
         raise ValueError(f"vehicles must have shape (n, m >= 1, 4), got {vehicles.shape}")
     n = vehicles.shape[0]
     m = vehicles.shape[1]
-    planner = planner or planner_for(sc, style.horizon, 1 if m == 1 else 4)
+    planner = planner or planner_for(sc, style.horizon, planner_slots(m))
     rng = np.random.default_rng(seed)
     xs, _, us, failures = closed_loop_stochastic(style, sc.ev_initial_state, vehicles, sc,
                                                  planner, rng)  # fmt: skip
