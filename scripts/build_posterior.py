@@ -14,8 +14,11 @@ the SBC χ² p-value, from ``--samples`` posterior draws each; and the time to i
 one episode (``--samples`` draws on one core).
 
 Writes OUT/posterior.npz (the verified estimator file), OUT/build.json (command, counts,
-seeds, simulations/s/core, training time and validation loss, versions) and
-OUT/calibration.json. An existing OUT written by drivestyle is replaced as a whole.
+seeds, simulations/s/core, training time and validation loss, versions),
+OUT/calibration.json and OUT/simulations.npz (the simulated set, so that another network
+is trained on it without simulating again: ``--reuse-simulations OUT/simulations.npz``,
+read only if made with the same prior, seed and features). An existing OUT written by
+drivestyle is replaced as a whole.
 
 Example:
     python scripts/build_posterior.py --simulations 3000 --held-out 200 --workers 2 \
@@ -42,7 +45,10 @@ from drivestyle.irl.amortized.estimator import EstimatorConfig
 from drivestyle.irl.amortized.evaluation import evaluate_posterior
 from drivestyle.irl.amortized.simulations import (
     PARAMETERS,
+    SimulationsFileError,
+    load_simulated,
     parameter_box,
+    save_simulated,
     series_width,
     simulate_set,
     with_prefixes,
@@ -77,6 +83,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--transforms", type=positive_int, default=4, help="flow transforms")
     p.add_argument("--flow-hidden", type=positive_int, default=128,
                    help="width of the flow's two hidden layers")  # fmt: skip
+    p.add_argument("--passes", type=int, choices=(2,), default=None,
+                   help="2: coupling transforms (faster draws); else autoregressive")  # fmt: skip
+    p.add_argument("--reuse-simulations", type=Path, default=None, metavar="FILE",
+                   help="train on a kept OUT/simulations.npz of the same prior and seed "
+                   "instead of simulating")  # fmt: skip
     p.add_argument("--samples", type=count(100_000, 0.001, "samples", least=2), default=200,
                    help="posterior draws per held-out episode (SBC, timing)")  # fmt: skip
     return p.parse_args(argv)
@@ -99,8 +110,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     low, high = parameter_box(prior)
     total = args.simulations + args.held_out
     load_before = [round(x, 2) for x in os.getloadavg()]
-    with tqdm(total=total, desc="simulating drivers", unit="ep") as bar:
-        sims = simulate_set(prior, total, args.seed, args.workers, lambda _i, _r: bar.update(1))
+    if args.reuse_simulations is not None:
+        try:
+            kept = load_simulated(args.reuse_simulations, prior, args.seed)
+        except SimulationsFileError as exc:
+            raise SystemExit(f"--reuse-simulations: {exc}") from None
+        if kept.n < total:
+            raise SystemExit(
+                f"--reuse-simulations {args.reuse_simulations}: holds {kept.n} episodes, "
+                f"--simulations + --held-out need {total}"
+            )
+        sims = kept.subset(range(total))
+    else:
+        with tqdm(total=total, desc="simulating drivers", unit="ep") as bar:
+            kept = sims = simulate_set(prior, total, args.seed, args.workers,
+                                       lambda _i, _r: bar.update(1))  # fmt: skip
     fit = sims.subset(range(args.simulations))
     held = sims.subset(range(args.simulations, total))
     rows = with_prefixes(fit, args.prefixes, args.min_samples, args.training_seed, low, high)
@@ -108,6 +132,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         names=PARAMETERS, low=tuple(low), high=tuple(high),
         encoder=EncoderConfig(series_width(), hidden=args.hidden, embedding=args.embedding),
         transforms=args.transforms, flow_hidden=(args.flow_hidden, args.flow_hidden),
+        passes=args.passes,
     )  # fmt: skip
     training = TrainingConfig(epochs=args.epochs, batch_size=args.batch_size,
                               patience=args.patience, seed=args.training_seed)  # fmt: skip
@@ -125,8 +150,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "seed": args.seed,
         "training_seed": args.training_seed,
         "workers": args.workers,
+        "simulations_from": None if args.reuse_simulations is None else str(args.reuse_simulations),
         "simulation_wall_s": sims.wall_s,
-        "simulations_per_s_per_core": total / sims.wall_s / args.workers,
+        # a reused set's wall time is another run's, on workers this one does not know
+        "simulations_per_s_per_core": (
+            total / sims.wall_s / args.workers if args.reuse_simulations is None else None
+        ),
         "simulations_per_s_per_core_episodes_only": float(1.0 / sims.seconds.mean()),
         "failed_solves": int(sims.failures.sum()),
         "parameters": list(PARAMETERS),
@@ -155,13 +184,18 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     calibration["seed"] = args.seed
     with atomic_output_dir(out) as tmp:
         posterior.save(tmp / "posterior.npz")
+        save_simulated(kept, prior, args.seed, tmp / "simulations.npz")
         write_json(tmp / "build.json", build, command)
         write_json(tmp / "calibration.json", calibration, command)
     risk = calibration["parameters"]["risk"]
     ident = calibration["identification_ms"]
     print(
-        f"{total} simulations on {args.workers} worker(s) in {sims.wall_s:.0f} s "
-        f"({build['simulations_per_s_per_core']:.2f}/s/core); trained on {rows.n} rows in "
+        (
+            f"{total} simulations on {args.workers} worker(s) in {sims.wall_s:.0f} s "
+            if args.reuse_simulations is None
+            else f"{total} simulations reused from {args.reuse_simulations} "
+        )
+        + f"({1.0 / sims.seconds.mean():.2f}/s/core, episodes only); trained on {rows.n} rows in "
         f"{result.seconds:.0f} s (validation loss {build['training']['validation_loss']:.3f}); "
         f"held out {args.held_out}: risk MAE {risk['mae']:.3f} (prior mean "
         f"{risk['prior_mean_mae']:.3f}), 90 % coverage "

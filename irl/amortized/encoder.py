@@ -5,8 +5,12 @@ Two parts, kept apart so that the data side needs no torch:
 - :func:`episode_features`, a pure numpy function: the samples 0 … k of a demonstration
   as the encoder reads them, per sample the EV's [x − x_0, y, φ, v] (x from the EV's first
   sample: the road frame's origin along travel is arbitrary; y is the road frame's, whose
-  lanes matter) and, for each of up to ``m`` surrounding vehicles (the TV first, then
-  ``others``), its position and speed relative to the EV [x_j − x, y_j − y, v_j − v] —
+  lanes matter), the input [a, δ] that led into the sample (u_{j−1}, zero at the first:
+  u_j itself is known only at sample j + 1, so reading it would leak the next sample) —
+  the deviation's scale and correlation time are properties of the input series, which a
+  network reading states must otherwise learn to difference twice — and, for each of up
+  to ``m`` surrounding vehicles (the TV first, then ``others``), its position and speed
+  relative to the EV [x_j − x, y_j − y, v_j − v] —
   zero where the vehicle is not observed (:func:`~drivestyle.recorded.observed.observed_mask`:
   a recorded episode's constant-velocity continuation, or a vehicle missing from a
   demonstration with fewer than ``m``), so that nothing the observer has not seen reaches
@@ -47,8 +51,9 @@ __all__ = [
     "input_dim",
 ]
 
-EV_FEATURES = 4
-"""Per-sample EV features: [x − x_0, y, φ, v] [m, m, rad, m/s]."""
+EV_FEATURES = 6
+"""Per-sample EV features: [x − x_0, y, φ, v, a, δ] [m, m, rad, m/s, m/s², rad] (the input
+that led into the sample)."""
 NEIGHBOUR_FEATURES = 3
 """Per-sample features of one surrounding vehicle: [x_j − x, y_j − y, v_j − v] [m, m, m/s]."""
 
@@ -70,9 +75,10 @@ def episode_features(demo: Demonstration, k: int, m: int = 1) -> tuple[np.ndarra
             vehicles beyond ``demo``'s are padding, never observed.
 
     Returns:
-        (features, mask): features shape (k + 1, 4 + 3 m) — the EV's [x − x_0, y, φ, v],
-        then per vehicle [Δx, Δy, Δv], zero where it is not observed; mask shape
-        (k + 1, m) bool, whether each vehicle's state at each sample is observed.
+        (features, mask): features shape (k + 1, 6 + 3 m) — the EV's [x − x_0, y, φ, v],
+        the input [a, δ] of the step into each sample (zero at sample 0), then per vehicle
+        [Δx, Δy, Δv], zero where it is not observed; mask shape (k + 1, m) bool, whether each
+        vehicle's state at each sample is observed.
 
     Raises:
         ValueError: ``k`` outside the demonstration or ``m`` negative.
@@ -82,8 +88,10 @@ def episode_features(demo: Demonstration, k: int, m: int = 1) -> tuple[np.ndarra
     if m < 0:
         raise ValueError(f"m must be >= 0, got {m}")
     ev = demo.ev[: k + 1]
-    own = ev.copy()
+    own = np.zeros((k + 1, EV_FEATURES))
+    own[:, :4] = ev
     own[:, 0] -= ev[0, 0]
+    own[1:, 4:] = demo.u[:k]
     vehicles = demo.vehicles[: k + 1]  # (k + 1, 1 + m_demo, 4)
     seen = observed_mask(demo)[:, : k + 1].T  # (k + 1, 1 + m_demo)
     m_read = min(m, vehicles.shape[1])

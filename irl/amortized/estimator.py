@@ -89,6 +89,11 @@ class EstimatorConfig:
     """Autoregressive transforms in the flow."""
     flow_hidden: tuple[int, ...] = (64, 64)
     """Hidden widths of each transform's network."""
+    passes: int | None = None
+    """Passes to invert one transform (zuko's ``passes``): None, autoregressive — sampling
+    runs each transform's network once per coordinate (D times); 2, a coupling transform
+    — half the coordinates condition the other half, sampling runs it twice. Coupling
+    is the faster to sample; autoregressive the more expressive per transform."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "names", tuple(str(n) for n in self.names))
@@ -102,6 +107,12 @@ class EstimatorConfig:
             raise ValueError(f"flow must be one of {FLOWS}, got {self.flow!r}")
         if self.transforms < 1 or not self.flow_hidden or min(self.flow_hidden) < 1:
             raise ValueError("transforms and flow_hidden widths must be >= 1")
+        if self.passes is not None and not (
+            isinstance(self.passes, int) and 2 <= self.passes <= len(self.names)
+        ):
+            raise ValueError(
+                f"passes must be None or an integer in [2, {len(self.names)}], got {self.passes!r}"
+            )
 
     @property
     def dim(self) -> int:
@@ -118,6 +129,7 @@ class EstimatorConfig:
             "flow": self.flow,
             "transforms": self.transforms,
             "flow_hidden": list(self.flow_hidden),
+            "passes": self.passes,
         }
 
     @classmethod
@@ -131,6 +143,7 @@ class EstimatorConfig:
             flow=data["flow"],
             transforms=int(data["transforms"]),
             flow_hidden=tuple(data["flow_hidden"]),
+            passes=data.get("passes"),  # absent in files written before it existed
         )
 
 
@@ -151,6 +164,7 @@ def _build_network(config: EstimatorConfig) -> torch.nn.ModuleDict:
         config.encoder.embedding,
         transforms=config.transforms,
         hidden_features=list(config.flow_hidden),
+        passes=config.passes,
     )
     return nn.ModuleDict({"encoder": build_encoder(config.encoder), "flow": flow})
 

@@ -18,17 +18,28 @@ full episodes into training rows: each episode whole, and ``prefixes`` more of i
 prefixes 0 … k with k uniform over the allowed lengths, so the estimator learns to read an
 episode observed for any time (a prefix of a simulated episode's series is the series of
 the episode observed up to k: every feature is per sample, x measured from the first).
+
+Simulating is most of a build's time, so a set is kept: :func:`save_simulated` writes it
+to one ``.npz`` with what made it (the prior's ranges, the seed, the series' width and
+the features' version), and :func:`load_simulated` reads it back only for the same
+prior, seed and features (a set drawn otherwise would silently train another posterior).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import time
+import zipfile
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from drivestyle.common.io import atomic_output_file
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.encoder import encoder_input, episode_features, input_dim
@@ -37,12 +48,16 @@ from drivestyle.irl.driver.stochastic import load_planners
 from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
 
 __all__ = [
+    "FEATURES_VERSION",
     "NEIGHBOURS",
     "PARAMETERS",
     "SimulatedSet",
+    "SimulationsFileError",
     "episode_series",
+    "load_simulated",
     "parameter_box",
     "parameters_of",
+    "save_simulated",
     "series_width",
     "simulate_set",
     "with_prefixes",
@@ -56,6 +71,10 @@ PARAMETERS: tuple[str, ...] = (
 
 NEIGHBOURS = 3
 """Surrounding vehicles the encoder reads: the TV and the prior's two possible leaders."""
+
+FEATURES_VERSION = 2
+"""The version of :func:`episode_series`' per-sample features (2: the EV's inputs added);
+a kept simulation set of another version is not reused."""
 
 
 def parameter_box(prior: StochasticPrior) -> tuple[np.ndarray, np.ndarray]:
@@ -214,3 +233,91 @@ def with_prefixes(
 def series_width() -> int:
     """Width C of :func:`episode_series`."""
     return input_dim(NEIGHBOURS)
+
+
+class SimulationsFileError(ValueError):
+    """A kept simulation set cannot be used here; the message (one line) says why."""
+
+
+def _provenance(prior: StochasticPrior, seed: int) -> dict[str, Any]:
+    return {
+        "format": "drivestyle-simulated-drivers",
+        "prior": dataclasses.asdict(prior),
+        "seed": int(seed),
+        "features_version": FEATURES_VERSION,
+        "series_width": series_width(),
+        "parameters": list(PARAMETERS),
+    }
+
+
+def save_simulated(sims: SimulatedSet, prior: StochasticPrior, seed: int, path: str | Path) -> Path:
+    """Write a simulated set to one ``.npz`` (atomically) with what made it (module docstring).
+
+    Args:
+        sims: the set, drawn from ``prior`` with ``seed`` (:func:`simulate_set`).
+        prior: its prior.
+        seed: its seed.
+        path: the file.
+
+    Returns:
+        The path written.
+    """
+    lengths = np.array([x.shape[0] for x in sims.series], np.int64)
+    meta = {**_provenance(prior, seed), "n": sims.n, "wall_s": sims.wall_s}
+    path = Path(path)
+    with atomic_output_file(path, option="the simulations file") as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, meta=np.array(json.dumps(meta)), theta=sims.theta, lengths=lengths,
+                 series=np.concatenate(sims.series), seconds=sims.seconds,
+                 failures=sims.failures)  # fmt: skip
+    return path
+
+
+def load_simulated(
+    path: str | Path, prior: StochasticPrior, seed: int, n: int | None = None
+) -> SimulatedSet:
+    """The first ``n`` episodes of a set :func:`save_simulated` wrote, if made as asked.
+
+    Args:
+        path: the file.
+        prior: the prior the caller would draw from.
+        seed: the seed it would draw with.
+        n: the episodes it needs (None: all the file holds).
+
+    Returns:
+        Its first ``n`` episodes: the same as :func:`simulate_set` (prior, n, seed) returns
+        (episode i's draw and seed do not depend on n).
+
+    Raises:
+        SimulationsFileError: the file is missing or unreadable, made with another prior,
+            seed or features, or holds fewer than ``n`` episodes (one line, naming it).
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"][()]))
+            theta, lengths, series = data["theta"], data["lengths"], data["series"]
+            seconds, failures = data["seconds"], data["failures"]
+    except FileNotFoundError:
+        raise SimulationsFileError(f"{path}: no such simulations file") from None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SimulationsFileError(f"{path}: not a readable simulations file ({reason})") from None
+    want = _provenance(prior, seed)
+    # JSON turns the prior's tuples into lists: compare as JSON.
+    differ = [k for k in want if json.dumps(meta.get(k)) != json.dumps(want[k])]
+    if differ:
+        raise SimulationsFileError(
+            f"{path}: made with another {', '.join(differ)} than this build asks for; not reused"
+        )
+    n = theta.shape[0] if n is None else n
+    if int(meta.get("n", 0)) < n or theta.shape[0] < n:
+        raise SimulationsFileError(f"{path}: holds {theta.shape[0]} episodes, this build needs {n}")
+    ends = np.cumsum(lengths)
+    starts = ends - lengths
+    return SimulatedSet(
+        theta=np.array(theta[:n]),
+        series=tuple(np.array(series[a:b]) for a, b in zip(starts[:n], ends[:n], strict=True)),
+        seconds=np.array(seconds[:n]),
+        failures=np.array(failures[:n], int),
+        wall_s=float(meta.get("wall_s", float("nan"))),
+    )

@@ -182,6 +182,23 @@ def test_build_posterior_writes_a_verified_estimator_and_its_calibration(tmp_pat
     (tmp_path / "bad.npz").write_bytes(bytes(raw))
     with pytest.raises(EstimatorFileError, match=r"bad\.npz"):
         load_posterior(tmp_path / "bad.npz")
+    # another network on the kept simulations: the same set, not simulated again
+    again = _drivestyle(tmp_path, "build-posterior", "--simulations", "8", "--held-out", "4",
+                        "--epochs", "2", "--hidden", "4", "--embedding", "4", "--passes", "2",
+                        "--flow-hidden", "8", "--samples", "20", "--out", "coupled",
+                        "--reuse-simulations", "post/simulations.npz")  # fmt: skip
+    assert "reused from post/simulations.npz" in again.stdout
+    coupled = _json(tmp_path / "coupled/calibration.json")
+    assert coupled["n_simulations"] == 4
+    assert load_posterior(tmp_path / "coupled/posterior.npz").config.passes == 2
+    refused = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "build-posterior", "--simulations", "8",
+         "--held-out", "4", "--seed", "1", "--out", "other",
+         "--reuse-simulations", "post/simulations.npz"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert refused.returncode != 0 and "Traceback" not in refused.stderr
+    assert "--reuse-simulations" in refused.stderr and "another seed" in refused.stderr
 
 
 def test_bench_smpc_times_every_step_of_its_closed_loops(tmp_path):

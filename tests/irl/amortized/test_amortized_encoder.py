@@ -39,13 +39,27 @@ def _demo(shift_unseen: float = 0.0, shift_seen: float = 0.0, late: float = 0.0)
 def test_features_read_the_road_frame_relative_to_the_ev():
     feats, mask = episode_features(_demo(), k=7, m=4)
     assert feats.shape == (8, input_dim(4) - 4) and mask.shape == (8, 4)
-    assert feats[0, :4].tolist() == [0.0, 0.0, 0.0, 20.0]  # x from the EV's first sample
+    assert feats[0, :6].tolist() == [0.0, 0.0, 0.0, 20.0, 0.0, 0.0]  # x from the first sample
     assert feats[3, 0] == pytest.approx(6.0)
-    assert feats[0, 4:7].tolist() == [30.0, 3.5, -2.0]  # the TV first
-    assert feats[0, 7:10].tolist() == [-20.0, 3.5, 1.0]
+    assert feats[0, 6:9].tolist() == [30.0, 3.5, -2.0]  # the TV first
+    assert feats[0, 9:12].tolist() == [-20.0, 3.5, 1.0]
     assert mask[:, 2].tolist() == [False] * 5 + [True] * 3
-    assert np.all(feats[:5, 10:13] == 0) and feats[6, 10] == pytest.approx(50.0)
-    assert not mask[:, 3].any() and np.all(feats[:, 13:] == 0)  # padding: no fourth vehicle
+    assert np.all(feats[:5, 12:15] == 0) and feats[6, 12] == pytest.approx(50.0)
+    assert not mask[:, 3].any() and np.all(feats[:, 15:] == 0)  # padding: no fourth vehicle
+
+
+def test_each_sample_reads_the_input_that_led_into_it_never_the_next():
+    demo = _demo()
+    inputs = np.column_stack([np.arange(N - 1) * 0.1, np.arange(N - 1) * 0.001])
+    demo = Demonstration(demo.t, demo.ev, demo.tv, inputs, others=demo.others,
+                         observed=demo.observed, origin="recorded")  # fmt: skip
+    feats, _ = episode_features(demo, k=5, m=1)
+    assert feats[0, 4:6].tolist() == [0.0, 0.0]
+    assert np.allclose(feats[1:, 4:6], inputs[:5])  # u_0 … u_4: u_5 needs sample 6
+    later = inputs + (np.arange(N - 1) >= 5)[:, None]  # u_5 onwards: not yet known at k = 5
+    changed = Demonstration(demo.t, demo.ev, demo.tv, later, others=demo.others,
+                            observed=demo.observed, origin="recorded")  # fmt: skip
+    assert np.array_equal(episode_features(changed, k=5, m=1)[0], feats)
 
 
 def test_what_is_not_observed_never_reaches_the_features():

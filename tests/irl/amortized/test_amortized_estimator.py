@@ -186,3 +186,19 @@ def test_groups_give_one_group_per_row_and_validate_whole():
     grouped = Simulations(sims.theta, sims.x, np.arange(20) // 2)
     _, result = train(grouped, config(), TrainingConfig(epochs=1), progress=False)
     assert len(result.validation_loss) == 1 and np.isfinite(result.validation_loss[0])
+
+
+def test_a_coupling_flow_trains_saves_and_loads_as_itself(tmp_path):
+    sims = simulate(60, seed=4)
+    quick = TrainingConfig(epochs=2, batch_size=32, seed=3)
+    post, _ = train(sims, config(passes=2), quick, progress=False)
+    loaded = load_posterior(post.save(tmp_path / "coupling.npz"))
+    assert loaded.config.passes == 2 and loaded.config == post.config
+    x = sims.x[0]
+    assert np.array_equal(loaded.sample(x, 10, seed=1), post.sample(x, 10, seed=1))
+    with pytest.raises(ValueError, match="passes must be"):
+        config(passes=3)  # D = 2: a transform has at most 2 passes
+    assert EstimatorConfig.from_dict({**config().to_dict()} | {"passes": None}).passes is None
+    legacy = config().to_dict()
+    del legacy["passes"]  # a file written before the field existed
+    assert EstimatorConfig.from_dict(legacy) == config()

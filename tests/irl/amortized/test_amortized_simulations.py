@@ -1,12 +1,17 @@
 """The amortized posterior's training set: stochastic drivers simulated from their prior."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from drivestyle.irl.amortized.simulations import (
     PARAMETERS,
+    SimulationsFileError,
+    load_simulated,
     parameter_box,
     parameters_of,
+    save_simulated,
     series_width,
     simulate_set,
     with_prefixes,
@@ -26,7 +31,7 @@ def test_the_training_set_has_one_row_of_every_parameter_and_one_series_per_epis
     assert sims.theta.shape == (3, len(PARAMETERS)) == (3, 9)
     assert np.all(sims.theta >= low - 1e-12) and np.all(sims.theta <= high + 1e-12)
     assert [x.shape for x in sims.series] == [(41, series_width())] * 3  # 8 s at 0.2 s
-    assert series_width() == 4 + 4 * 3  # EV, then per vehicle [Δx, Δy, Δv] and its mask
+    assert series_width() == 6 + 4 * 3  # EV, then per vehicle [Δx, Δy, Δv] and its mask
     assert all(np.all(np.isfinite(x)) for x in sims.series)
     assert sims.seconds.shape == sims.failures.shape == (3,) and sims.wall_s > 0
     # θ is the drawn driver's, the desired speed as its ratio to the EV's start speed
@@ -65,3 +70,24 @@ def test_prefixes_are_the_episodes_observed_for_less_time(sims):
 def test_a_parameter_the_prior_does_not_vary_is_refused():
     with pytest.raises(ValueError, match="risk"):
         parameter_box(StochasticPrior(risk=(0.7, 0.7)))
+
+
+def test_a_kept_set_reads_back_as_simulated_and_only_for_what_made_it(sims, tmp_path):
+    path = save_simulated(sims, PRIOR, 5, tmp_path / "simulations.npz")
+    back = load_simulated(path, PRIOR, 5, 2)
+    np.testing.assert_array_equal(back.theta, sims.theta[:2])
+    for a, b in zip(back.series, sims.series[:2], strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(back.failures, sims.failures[:2])
+    assert load_simulated(path, PRIOR, 5).n == 3
+    with pytest.raises(SimulationsFileError, match="another seed"):
+        load_simulated(path, PRIOR, 6, 2)
+    with pytest.raises(SimulationsFileError, match="another prior"):
+        load_simulated(path, dataclasses.replace(PRIOR, risk=(0.6, 0.99)), 5, 2)
+    with pytest.raises(SimulationsFileError, match="holds 3 episodes, this build needs 4"):
+        load_simulated(path, PRIOR, 5, 4)
+    with pytest.raises(SimulationsFileError, match="no such"):
+        load_simulated(tmp_path / "none.npz", PRIOR, 5, 1)
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(SimulationsFileError, match="not a readable"):
+        load_simulated(tmp_path / "bad.npz", PRIOR, 5, 1)
