@@ -13,9 +13,10 @@ Two parts, kept apart so that the data side needs no torch:
   relative to the EV [x_j − x, y_j − y, v_j − v] —
   zero where the vehicle is not observed (:func:`~drivestyle.recorded.observed.observed_mask`:
   a recorded episode's constant-velocity continuation, or a vehicle missing from a
-  demonstration with fewer than ``m``), so that nothing the observer has not seen reaches
-  the network. :func:`encoder_input` appends the mask as channels of its own: a zero
-  offset and an unobserved vehicle are told apart.
+  demonstration with fewer than ``m``, or farther than :data:`SIGHT_M` — the extraction's
+  phantom TV), so that nothing the observer has not seen reaches the network.
+  :func:`encoder_input` appends the mask as channels of its own: a zero offset and an
+  unobserved vehicle are told apart.
 - :func:`build_encoder`, the torch module: per-sample inputs standardised (mean and
   scale of the training inputs, carried in the module's state), a GRU over the packed
   sequences (every length in one batch, no padding read), and a linear map of its last
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
 __all__ = [
     "EV_FEATURES",
     "NEIGHBOUR_FEATURES",
+    "SIGHT_M",
     "EncoderConfig",
     "build_encoder",
     "encoder_input",
@@ -56,6 +58,12 @@ EV_FEATURES = 6
 that led into the sample)."""
 NEIGHBOUR_FEATURES = 3
 """Per-sample features of one surrounding vehicle: [x_j − x, y_j − y, v_j − v] [m, m, m/s]."""
+SIGHT_M = 500.0
+"""A surrounding vehicle farther than this along the road [m] is out of sight: masked as
+not observed. The extraction stands for "no vehicle" by a phantom TV 1 km behind
+(:data:`~drivestyle.recorded.episodes.PHANTOM_GAP_M`), recorded as a vehicle for the
+planner (far away, it constrains nothing); read as an offset of −1000 m it would be an
+input no simulation shows (the prior's scenes stay within ≈ 450 m)."""
 
 
 def input_dim(m: int) -> int:
@@ -100,7 +108,7 @@ def episode_features(demo: Demonstration, k: int, m: int = 1) -> tuple[np.ndarra
     rel[:, :m_read, 0] = vehicles[:, :m_read, 0] - ev[:, None, 0]
     rel[:, :m_read, 1] = vehicles[:, :m_read, 1] - ev[:, None, 1]
     rel[:, :m_read, 2] = vehicles[:, :m_read, 3] - ev[:, None, 3]
-    mask[:, :m_read] = seen[:, :m_read]
+    mask[:, :m_read] = seen[:, :m_read] & (np.abs(rel[:, :m_read, 0]) <= SIGHT_M)
     rel[~mask] = 0.0
     return np.concatenate([own, rel.reshape(k + 1, -1)], axis=1), mask
 

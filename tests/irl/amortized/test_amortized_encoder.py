@@ -116,3 +116,14 @@ def test_the_mask_changes_the_output_only_where_it_should(encoder):
     flipped = base.copy()
     flipped[2, -1] = 1.0  # the third vehicle said observed at sample 2
     assert not np.allclose(_embed(encoder, base), _embed(encoder, flipped))
+
+
+def test_a_phantom_far_behind_is_no_vehicle():
+    demo = _demo()
+    tv = demo.tv.copy()
+    tv[:, 0] = demo.ev[:, 0] - 1000.0  # the extraction's phantom TV: "no target vehicle"
+    phantom = Demonstration(demo.t, demo.ev, tv, demo.u, others=demo.others,
+                            observed=demo.observed, origin="recorded")  # fmt: skip
+    feats, mask = episode_features(phantom, k=7, m=3)
+    assert not mask[:, 0].any() and np.all(feats[:, 6:9] == 0)
+    assert mask[:, 1].all()  # the others are read as before
