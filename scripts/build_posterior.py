@@ -44,6 +44,7 @@ from drivestyle.irl.amortized.encoder import EncoderConfig
 from drivestyle.irl.amortized.estimator import EstimatorConfig
 from drivestyle.irl.amortized.evaluation import evaluate_posterior
 from drivestyle.irl.amortized.simulations import (
+    EPISODE_FEATURES,
     PARAMETERS,
     SimulationsFileError,
     load_simulated,
@@ -132,7 +133,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         names=PARAMETERS, low=tuple(low), high=tuple(high),
         encoder=EncoderConfig(series_width(), hidden=args.hidden, embedding=args.embedding),
         transforms=args.transforms, flow_hidden=(args.flow_hidden, args.flow_hidden),
-        passes=args.passes,
+        passes=args.passes, features=EPISODE_FEATURES,
     )  # fmt: skip
     training = TrainingConfig(epochs=args.epochs, batch_size=args.batch_size,
                               patience=args.patience, seed=args.training_seed)  # fmt: skip

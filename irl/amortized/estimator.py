@@ -89,6 +89,11 @@ class EstimatorConfig:
     """Autoregressive transforms in the flow."""
     flow_hidden: tuple[int, ...] = (64, 64)
     """Hidden widths of each transform's network."""
+    features: str = ""
+    """What the series are (a name and version, e.g. the episode features'
+    ``"episode-v2"``); a reader of another kind refuses the file
+    (:func:`~drivestyle.irl.amortized.simulations.check_episode_estimator`). Empty: not
+    stated (the toy series of the tests)."""
     passes: int | None = None
     """Passes to invert one transform (zuko's ``passes``): None, autoregressive — sampling
     runs each transform's network once per coordinate (D times); 2, a coupling transform
@@ -130,6 +135,7 @@ class EstimatorConfig:
             "transforms": self.transforms,
             "flow_hidden": list(self.flow_hidden),
             "passes": self.passes,
+            "features": self.features,
         }
 
     @classmethod
@@ -144,6 +150,7 @@ class EstimatorConfig:
             transforms=int(data["transforms"]),
             flow_hidden=tuple(data["flow_hidden"]),
             passes=data.get("passes"),  # absent in files written before it existed
+            features=str(data.get("features", "")),
         )
 
 

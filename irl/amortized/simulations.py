@@ -43,16 +43,19 @@ from drivestyle.common.io import atomic_output_file
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.encoder import encoder_input, episode_features, input_dim
+from drivestyle.irl.amortized.estimator import EstimatorFileError, NeuralPosterior
 from drivestyle.irl.amortized.training import Simulations
 from drivestyle.irl.driver.stochastic import load_planners
 from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
 
 __all__ = [
+    "EPISODE_FEATURES",
     "FEATURES_VERSION",
     "NEIGHBOURS",
     "PARAMETERS",
     "SimulatedSet",
     "SimulationsFileError",
+    "check_episode_estimator",
     "episode_series",
     "load_simulated",
     "parameter_box",
@@ -73,8 +76,11 @@ NEIGHBOURS = 3
 """Surrounding vehicles the encoder reads: the TV and the prior's two possible leaders."""
 
 FEATURES_VERSION = 2
-"""The version of :func:`episode_series`' per-sample features (2: the EV's inputs added);
-a kept simulation set of another version is not reused."""
+"""The version of :func:`episode_series`' per-sample features (2: the EV's inputs added,
+vehicles beyond sight masked); a kept simulation set of another version is not reused."""
+EPISODE_FEATURES = f"episode-v{FEATURES_VERSION}"
+"""The ``features`` an estimator trained on :func:`episode_series` states
+(:class:`~drivestyle.irl.amortized.estimator.EstimatorConfig`)."""
 
 
 def parameter_box(prior: StochasticPrior) -> tuple[np.ndarray, np.ndarray]:
@@ -228,6 +234,28 @@ def with_prefixes(
             rows_x.append(x[: int(length)])
             groups.append(i)
     return Simulations(np.array(rows_theta), tuple(rows_x), np.array(groups))
+
+
+def check_episode_estimator(posterior: NeuralPosterior, path: str | Path) -> NeuralPosterior:
+    """The estimator if it reads this drivestyle's :func:`episode_series` of :data:`PARAMETERS`.
+
+    Raises:
+        EstimatorFileError: it was trained on other features or other parameters (one
+            line, naming ``path``: build it again).
+    """
+    config = posterior.config
+    if config.features != EPISODE_FEATURES or config.encoder.input_dim != series_width():
+        raise EstimatorFileError(
+            f"{path}: an estimator of features {config.features or 'unstated'!r} "
+            f"({config.encoder.input_dim} channels); this drivestyle reads {EPISODE_FEATURES!r} "
+            f"({series_width()} channels): build it again (drivestyle build-posterior)"
+        )
+    if config.names != PARAMETERS:
+        raise EstimatorFileError(
+            f"{path}: an estimator of {list(config.names)}, not of {list(PARAMETERS)}: "
+            "build it again (drivestyle build-posterior)"
+        )
+    return posterior
 
 
 def series_width() -> int:

@@ -91,3 +91,32 @@ def test_a_kept_set_reads_back_as_simulated_and_only_for_what_made_it(sims, tmp_
     (tmp_path / "bad.npz").write_bytes(b"not a zip")
     with pytest.raises(SimulationsFileError, match="not a readable"):
         load_simulated(tmp_path / "bad.npz", PRIOR, 5, 1)
+
+
+def test_an_estimator_of_other_features_or_parameters_is_refused(sims, tmp_path):
+    pytest.importorskip("zuko")
+    from drivestyle.irl.amortized.encoder import EncoderConfig
+    from drivestyle.irl.amortized.estimator import (
+        EstimatorConfig,
+        EstimatorFileError,
+        load_posterior,
+    )
+    from drivestyle.irl.amortized.simulations import EPISODE_FEATURES, check_episode_estimator
+    from drivestyle.irl.amortized.training import Simulations, TrainingConfig, train
+
+    low, high = parameter_box(PRIOR)
+    rows = Simulations(np.clip(np.tile(sims.theta, (4, 1)), low, high), sims.series * 4)
+    quick = TrainingConfig(epochs=1, batch_size=4, seed=0)
+
+    def build(**kw):
+        enc = EncoderConfig(series_width(), hidden=4, embedding=4)
+        config = EstimatorConfig(PARAMETERS, tuple(low), tuple(high), enc, transforms=1,
+                                 flow_hidden=(8,), **kw)  # fmt: skip
+        trained = train(rows, config, quick, progress=False)[0]
+        return load_posterior(trained.save(tmp_path / "p.npz"))
+
+    assert check_episode_estimator(build(features=EPISODE_FEATURES), "p.npz").config.dim == 9
+    with pytest.raises(EstimatorFileError, match=r"p\.npz: an estimator of features 'unstated'"):
+        check_episode_estimator(build(), "p.npz")
+    with pytest.raises(EstimatorFileError, match="build it again"):
+        check_episode_estimator(build(features="episode-v1"), "p.npz")
