@@ -3,14 +3,15 @@
 Two parts, kept apart so that the data side needs no torch:
 
 - :func:`episode_features`, a pure numpy function: the samples 0 … k of a demonstration
-  as the encoder reads them, per sample the EV's [x − x_0, y, φ, v] (x from the EV's first
-  sample: the road frame's origin along travel is arbitrary; y is the road frame's, whose
-  lanes matter), the input [a, δ] that led into the sample (u_{j−1}, zero at the first:
+  as the encoder reads them, per sample the EV's [x − x_0, y / w, φ, v] (x from the EV's
+  first sample: the road frame's origin along travel is arbitrary; y is the road frame's,
+  whose lanes matter, in lane widths w: a lane is a lane on a 3.6 m freeway and on the
+  paper's 5.25 m road), the input [a, δ] that led into the sample (u_{j−1}, zero at the first:
   u_j itself is known only at sample j + 1, so reading it would leak the next sample) —
   the deviation's scale and correlation time are properties of the input series, which a
   network reading states must otherwise learn to difference twice — and, for each of up
   to ``m`` surrounding vehicles (the TV first, then ``others``), its position and speed
-  relative to the EV [x_j − x, y_j − y, v_j − v] —
+  relative to the EV [x_j − x, (y_j − y) / w, v_j − v] —
   zero where the vehicle is not observed (:func:`~drivestyle.recorded.observed.observed_mask`:
   a recorded episode's constant-velocity continuation, or a vehicle missing from a
   demonstration with fewer than ``m``, or farther than :data:`SIGHT_M` — the extraction's
@@ -54,10 +55,11 @@ __all__ = [
 ]
 
 EV_FEATURES = 6
-"""Per-sample EV features: [x − x_0, y, φ, v, a, δ] [m, m, rad, m/s, m/s², rad] (the input
-that led into the sample)."""
+"""Per-sample EV features: [x − x_0, y / w, φ, v, a, δ] [m, lanes, rad, m/s, m/s², rad]
+(the input that led into the sample)."""
 NEIGHBOUR_FEATURES = 3
-"""Per-sample features of one surrounding vehicle: [x_j − x, y_j − y, v_j − v] [m, m, m/s]."""
+"""Per-sample features of one surrounding vehicle: [x_j − x, (y_j − y) / w, v_j − v]
+[m, lanes, m/s]."""
 SIGHT_M = 500.0
 """A surrounding vehicle farther than this along the road [m] is out of sight: masked as
 not observed. The extraction stands for "no vehicle" by a phantom TV 1 km behind
@@ -83,9 +85,10 @@ def episode_features(demo: Demonstration, k: int, m: int = 1) -> tuple[np.ndarra
             vehicles beyond ``demo``'s are padding, never observed.
 
     Returns:
-        (features, mask): features shape (k + 1, 6 + 3 m) — the EV's [x − x_0, y, φ, v],
+        (features, mask): features shape (k + 1, 6 + 3 m) — the EV's [x − x_0, y / w, φ, v]
+        (w the scenario's lane width),
         the input [a, δ] of the step into each sample (zero at sample 0), then per vehicle
-        [Δx, Δy, Δv], zero where it is not observed; mask shape (k + 1, m) bool, whether each
+        [Δx, Δy / w, Δv], zero where it is not observed; mask shape (k + 1, m) bool, whether each
         vehicle's state at each sample is observed.
 
     Raises:
@@ -99,6 +102,8 @@ def episode_features(demo: Demonstration, k: int, m: int = 1) -> tuple[np.ndarra
     own = np.zeros((k + 1, EV_FEATURES))
     own[:, :4] = ev
     own[:, 0] -= ev[0, 0]
+    width = float(demo.scenario.lane_width)
+    own[:, 1] /= width
     own[1:, 4:] = demo.u[:k]
     vehicles = demo.vehicles[: k + 1]  # (k + 1, 1 + m_demo, 4)
     seen = observed_mask(demo)[:, : k + 1].T  # (k + 1, 1 + m_demo)
@@ -106,7 +111,7 @@ def episode_features(demo: Demonstration, k: int, m: int = 1) -> tuple[np.ndarra
     rel = np.zeros((k + 1, m, NEIGHBOUR_FEATURES))
     mask = np.zeros((k + 1, m), bool)
     rel[:, :m_read, 0] = vehicles[:, :m_read, 0] - ev[:, None, 0]
-    rel[:, :m_read, 1] = vehicles[:, :m_read, 1] - ev[:, None, 1]
+    rel[:, :m_read, 1] = (vehicles[:, :m_read, 1] - ev[:, None, 1]) / width
     rel[:, :m_read, 2] = vehicles[:, :m_read, 3] - ev[:, None, 3]
     mask[:, :m_read] = seen[:, :m_read] & (np.abs(rel[:, :m_read, 0]) <= SIGHT_M)
     rel[~mask] = 0.0

@@ -6,10 +6,10 @@ ratio to the EV's start speed, so a driver in stop-and-go traffic does not want 
 T, s_0, the lateral factor (log-uniform), t_on, σ_a, σ_δ, τ — and for scenes: the EV's
 start speed from stop-and-go to free flow (2–35 m/s), the TV in the target lane beside or
 behind it, and with some probability a slower leader in the EV's lane and a leader in the
-target lane, all at constant velocity, under heading and steering bounds that narrow with
-speed from the driver model's on recorded traffic to the paper's, and a speed limit above
-the driver's desired speed; and the measurement noise on positions (0–0.2 m).
-Every parameter is drawn uniformly from its range (the lateral factor and τ
+target lane, all at constant velocity, on lanes 3.2–5.25 m wide, under heading and
+steering bounds that narrow with speed from the driver model's on recorded traffic to the
+paper's, and a speed limit above the driver's desired speed; and the measurement noise on
+positions (0–0.2 m). Every parameter is drawn uniformly from its range (the lateral factor and τ
 log-uniformly). :meth:`StochasticPrior.draw` gives n :class:`EpisodeParams`, deterministic
 given the seed; :meth:`StochasticPrior.simulate` (:func:`simulate_params`) drives one
 (:func:`~drivestyle.irl.driver.stochastic.simulate_episode`).
@@ -107,6 +107,10 @@ class StochasticPrior:
     """The EV-lane leader's speed / the EV's."""
     noise: Range = (0.0, 0.2)
     """σ of the position noise [m]."""
+    lane_width: Range = (3.2, 5.25)
+    """The lanes' width [m]: from a US freeway's (NGSIM 3.6–3.7 m; the CATS test track's
+    ≈ 3.5 m) to the paper's 5.25 m. A lane change across 3.5 m is another motion than one
+    across 5.25 m; a prior of one width would teach the estimator only the paper's."""
     horizon_s: float = 8.0
     """Episode length [s]."""
     lateral_speed_max: float = 2.5
@@ -133,7 +137,7 @@ class StochasticPrior:
             "sigma_a": (0.0, 3.0), "sigma_delta": (0.0, 0.05), "tau": (0.0, 60.0),
             "ev_speed": (0.5, 60.0), "tv_speed_ratio": (0.1, 3.0),
             "tv_gap_headways": (-20.0, 20.0), "leader_gap_regions": (1.0, 20.0),
-            "leader_speed_ratio": (0.1, 2.0), "noise": (0.0, 5.0),
+            "leader_speed_ratio": (0.1, 2.0), "noise": (0.0, 5.0), "lane_width": (2.5, 8.0),
         }  # fmt: skip
         for name, (lo, hi) in bounds.items():
             _check_range(name, getattr(self, name), lo, hi)
@@ -176,6 +180,7 @@ class StochasticPrior:
         wheelbase = paper.l_f + paper.l_r
         base = dataclasses.replace(
             paper,
+            lane_width=float(u(*self.lane_width)),
             v_max=float(min(self.speed_limit_factor * v, 70.0)),
             ev_speed=ev_speed,
             tv_speed=float(ev_speed * u(*self.tv_speed_ratio)),

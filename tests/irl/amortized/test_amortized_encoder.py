@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.amortized.encoder import (
     EncoderConfig,
     build_encoder,
@@ -11,6 +12,7 @@ from drivestyle.irl.amortized.encoder import (
 )
 
 N = 12
+META = {"scenario": ScenarioConfig(lane_width=3.5).to_dict()}  # lateral features in lanes
 
 
 def _demo(shift_unseen: float = 0.0, shift_seen: float = 0.0, late: float = 0.0) -> Demonstration:
@@ -31,7 +33,7 @@ def _demo(shift_unseen: float = 0.0, shift_seen: float = 0.0, late: float = 0.0)
     observed = np.ones((3, N), bool)
     observed[2, :5] = False
     return Demonstration(
-        t, ev, tv, np.zeros((N - 1, 2)), others=np.stack([behind, ahead], 1),
+        t, ev, tv, np.zeros((N - 1, 2)), META, others=np.stack([behind, ahead], 1),
         observed=observed, origin="recorded",
     )  # fmt: skip
 
@@ -41,23 +43,32 @@ def test_features_read_the_road_frame_relative_to_the_ev():
     assert feats.shape == (8, input_dim(4) - 4) and mask.shape == (8, 4)
     assert feats[0, :6].tolist() == [0.0, 0.0, 0.0, 20.0, 0.0, 0.0]  # x from the first sample
     assert feats[3, 0] == pytest.approx(6.0)
-    assert feats[0, 6:9].tolist() == [30.0, 3.5, -2.0]  # the TV first
-    assert feats[0, 9:12].tolist() == [-20.0, 3.5, 1.0]
+    assert feats[0, 6:9].tolist() == [30.0, 1.0, -2.0]  # the TV first, a lane to the left
+    assert feats[0, 9:12].tolist() == [-20.0, 1.0, 1.0]
     assert mask[:, 2].tolist() == [False] * 5 + [True] * 3
     assert np.all(feats[:5, 12:15] == 0) and feats[6, 12] == pytest.approx(50.0)
     assert not mask[:, 3].any() and np.all(feats[:, 15:] == 0)  # padding: no fourth vehicle
 
 
+def test_lateral_positions_are_read_in_lane_widths():
+    wide = _demo()
+    wide = Demonstration(wide.t, wide.ev * [1, 1.5, 1, 1], wide.tv * [1, 1.5, 1, 1], wide.u,
+                         {"scenario": ScenarioConfig(lane_width=5.25).to_dict()},
+                         others=wide.others * [1, 1.5, 1, 1], observed=wide.observed,
+                         origin="recorded")  # fmt: skip
+    np.testing.assert_allclose(episode_features(wide, 7, 3)[0], episode_features(_demo(), 7, 3)[0])
+
+
 def test_each_sample_reads_the_input_that_led_into_it_never_the_next():
     demo = _demo()
     inputs = np.column_stack([np.arange(N - 1) * 0.1, np.arange(N - 1) * 0.001])
-    demo = Demonstration(demo.t, demo.ev, demo.tv, inputs, others=demo.others,
+    demo = Demonstration(demo.t, demo.ev, demo.tv, inputs, META, others=demo.others,
                          observed=demo.observed, origin="recorded")  # fmt: skip
     feats, _ = episode_features(demo, k=5, m=1)
     assert feats[0, 4:6].tolist() == [0.0, 0.0]
     assert np.allclose(feats[1:, 4:6], inputs[:5])  # u_0 … u_4: u_5 needs sample 6
     later = inputs + (np.arange(N - 1) >= 5)[:, None]  # u_5 onwards: not yet known at k = 5
-    changed = Demonstration(demo.t, demo.ev, demo.tv, later, others=demo.others,
+    changed = Demonstration(demo.t, demo.ev, demo.tv, later, META, others=demo.others,
                             observed=demo.observed, origin="recorded")  # fmt: skip
     assert np.array_equal(episode_features(changed, k=5, m=1)[0], feats)
 
@@ -122,7 +133,7 @@ def test_a_phantom_far_behind_is_no_vehicle():
     demo = _demo()
     tv = demo.tv.copy()
     tv[:, 0] = demo.ev[:, 0] - 1000.0  # the extraction's phantom TV: "no target vehicle"
-    phantom = Demonstration(demo.t, demo.ev, tv, demo.u, others=demo.others,
+    phantom = Demonstration(demo.t, demo.ev, tv, demo.u, META, others=demo.others,
                             observed=demo.observed, origin="recorded")  # fmt: skip
     feats, mask = episode_features(phantom, k=7, m=3)
     assert not mask[:, 0].any() and np.all(feats[:, 6:9] == 0)

@@ -193,6 +193,8 @@ def test_the_priors_draws_lie_inside_their_ranges():
     assert np.all((0.9 - 1e-9 <= ratio) & (ratio <= 1.3 + 1e-9))
     noise = np.array([d.noise for d in draws])
     assert np.all((0 <= noise) & (noise <= 0.2))
+    widths = np.array([d.scene.base.lane_width for d in draws])
+    assert widths.min() >= 3.2 and widths.max() <= 5.25 and widths.min() < 3.5 < 5.0 < widths.max()
     assert {len(d.scene.others) for d in draws} == {0, 1, 2}
     assert EpisodeParams.from_json(draws[0].to_json()) == draws[0]
 
