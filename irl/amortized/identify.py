@@ -22,7 +22,8 @@ errors. Torch is imported only where the estimator is used.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -43,6 +44,7 @@ __all__ = [
     "identify_amortized",
     "identify_amortized_batch",
     "observed_series",
+    "one_thread",
     "open_posterior",
     "summarise_draws",
 ]
@@ -172,9 +174,11 @@ def identify_amortized_batch(
 ) -> list[AmortizedStyle]:
     """:func:`identify_amortized` of many episodes, ``batch`` at a time in one sampling call.
 
-    Chunk j (episodes j·batch …) is drawn with seed ``seed + j``: deterministic given the
-    episodes, their order and the seed (an episode's draws depend on its chunk, not its
-    posterior).
+    Chunk j (episodes j·batch …) is drawn with seed ``seed + j``, on one torch thread (as
+    training, and the build's timing: the numbers do not depend on the machine's cores, and
+    small batches gain nothing from more threads, which on a busy machine only wait on each
+    other): deterministic given the episodes, their order and the seed (an episode's draws
+    depend on its chunk, not its posterior).
 
     Args:
         posterior: the estimator.
@@ -196,13 +200,26 @@ def identify_amortized_batch(
     digest = posterior.weights_sha256()
     names = posterior.config.names
     out: list[AmortizedStyle] = []
-    for j, start in enumerate(range(0, len(series), batch)):
-        chunk = series[start : start + batch]
-        draws = posterior.sample_batch(chunk, samples, seed=seed + j)
-        out += [
-            summarise_draws(d, names, x.shape[0], digest) for d, x in zip(draws, chunk, strict=True)
-        ]
+    with one_thread():
+        for j, start in enumerate(range(0, len(series), batch)):
+            chunk = series[start : start + batch]
+            draws = posterior.sample_batch(chunk, samples, seed=seed + j)
+            for d, x in zip(draws, chunk, strict=True):
+                out.append(summarise_draws(d, names, x.shape[0], digest))
     return out
+
+
+@contextmanager
+def one_thread() -> Iterator[None]:
+    """Torch on one thread inside the block (its thread count restored after)."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
 
 
 def identify_amortized(

@@ -2,6 +2,8 @@
 
 - :mod:`.study`: identified risk and observed caution per lane change, medians with
   bootstrap intervals per group, the AV's differences (``compare-av-human``);
+- :mod:`.amortized`: the lane changes' amortized posteriors, the AV told apart from the
+  humans by them (AUROC) and their consistency across runs (``--posterior``);
 - :mod:`.report`: ``av_vs_human.md``;
 - :mod:`.figures`: each quantity's lane changes per group.
 

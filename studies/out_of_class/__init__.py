@@ -5,6 +5,8 @@
   prediction against constant velocity, the study (``evaluate-out-of-class``);
 - :mod:`.caution_order`: each lane change identified, and the identified risk against the
   known caution order (Spearman's ρ);
+- :mod:`.amortized`: the lane changes on the amortized posterior and its caution orders
+  (``--posterior``);
 - :mod:`.report`: ``out_of_class.md``.
 
 The study's, the order check's and the report's names are re-exported here; the

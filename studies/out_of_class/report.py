@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 from drivestyle.common.io import fmt
 from drivestyle.irl.identification.verdict import VERDICT_LABELS
 from drivestyle.studies.formatting import percent, seconds, value_interval
+from drivestyle.studies.out_of_class.amortized import amortized_markdown
 from drivestyle.studies.out_of_class.caution_order import SPEARMAN_GOAL
 from drivestyle.studies.out_of_class.study import FDE_GOAL
 
@@ -105,4 +106,5 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
             )
     if study.skipped:
         lines += ["", f"Skipped: {len(study.skipped)} (reasons in the JSON)."]
-    return "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n"
+    return text if study.amortized is None else text + amortized_markdown(study.amortized)
