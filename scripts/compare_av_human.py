@@ -42,8 +42,14 @@ from drivestyle.common.io import (
 from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.recorded.real_data import check_data_dir
-from drivestyle.studies.av_vs_human import av_human_markdown, compare_av_human, read_mined, unmined
-from drivestyle.studies.av_vs_human.amortized import amortized_comparison, amortized_markdown
+from drivestyle.studies.av_vs_human import (
+    amortized_markdown,
+    av_human_markdown,
+    compare_av_human,
+    read_mined,
+    unmined,
+)
+from drivestyle.studies.av_vs_human.amortized import amortized_comparison
 from drivestyle.studies.av_vs_human.figures import plot_av_human
 
 SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)

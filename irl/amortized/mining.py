@@ -91,7 +91,7 @@ def amortized_rows(
             demos[i] = demo
             continue
         try:
-            demos[i] = load_demonstration(demo)
+            demos[i] = load_demonstration(os.fspath(demo))
         except Exception as exc:  # the demonstration's row, never the job's
             where = os.fspath(demo)
             said = str(exc) if where in str(exc) else f"{where}: {exc}"

@@ -10,7 +10,7 @@
 The study's and the report's names are re-exported here.
 """
 
-from drivestyle.studies.av_vs_human.report import av_human_markdown
+from drivestyle.studies.av_vs_human.report import amortized_markdown, av_human_markdown
 from drivestyle.studies.av_vs_human.study import (
     AV_VEHICLE,
     BOOTSTRAP_SAMPLES,
@@ -52,6 +52,7 @@ __all__ = [
     "EpisodeCaution",
     "GroupStat",
     "MinedRow",
+    "amortized_markdown",
     "av_human_markdown",
     "closest_distance",
     "compare_av_human",

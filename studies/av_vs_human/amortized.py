@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from drivestyle.common.io import fmt
 from drivestyle.common.stats import auroc, auroc_interval, icc_oneway
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.estimator import NeuralPosterior
@@ -59,7 +58,6 @@ __all__ = [
     "RunConsistency",
     "Separation",
     "amortized_comparison",
-    "amortized_markdown",
 ]
 
 HUMANS = "humans"
@@ -210,64 +208,14 @@ def amortized_comparison(
             separations.append(Separation(q, against, len(av), len(other), auroc(av, other),
                                           lo, hi))  # fmt: skip
     consistency = []
-    for who in ("AV", group_of(SAME_CAR_HUMAN), ALL_VEHICLES):
-        rows = changes if who == ALL_VEHICLES else [c for c in changes if c.group == who]
-        labels = [c.vehicle if who == ALL_VEHICLES else c.run for c in rows]
+    for name_of in ("AV", group_of(SAME_CAR_HUMAN), ALL_VEHICLES):
+        rows = changes if name_of == ALL_VEHICLES else [c for c in changes if c.group == name_of]
+        labels = [c.vehicle if name_of == ALL_VEHICLES else c.run for c in rows]
         for d, n in enumerate(names):
             icc = icc_oneway([c.style.mean[d] for c in rows], labels) if rows else None
             consistency.append(RunConsistency(
-                who, n, len(set(labels)), len(rows), None if icc is None else icc.icc,
+                name_of, n, len(set(labels)), len(rows), None if icc is None else icc.icc,
                 None if icc is None else icc.lo, None if icc is None else icc.hi,
             ))  # fmt: skip
     return AmortizedComparison(estimator, posterior.weights_sha256(), tuple(changes),
                                tuple(separations), tuple(consistency), samples, seed)  # fmt: skip
-
-
-def _meaning(quantity: str) -> str:
-    if quantity.startswith(AMORTIZED):
-        return f"amortized posterior mean of {quantity.removeprefix(AMORTIZED)}"
-    return QUANTITIES[quantity]
-
-
-def amortized_markdown(amortized: AmortizedComparison) -> str:
-    """The report's section on the amortized posterior (appended to ``av_vs_human.md``)."""
-
-    def cell(value: float | None, lo: float | None, hi: float | None) -> str:
-        return "—" if value is None else f"{fmt(value, 3)} [{fmt(lo, 3)}, {fmt(hi, 3)}]"
-
-    lines = [
-        "",
-        "## The amortized posterior",
-        "",
-        f"Every lane change identified by the amortized posterior `{amortized.estimator}` "
-        f"(weights SHA-256 {amortized.estimator_sha256[:12]}…, {SAMPLES} draws; DESIGN §22).",
-        "",
-        "AUROC of the AV against each group: P(AV > other) + ½ P(tie), 0.5 = no separation; "
-        f"percentile-bootstrap 95 % intervals ({amortized.samples} replicates of the lane "
-        "changes within each group).",
-        "",
-        "| quantity | " + " | ".join(f"AV vs {a}" for a in AGAINST) + " |",
-        "|---|" + "---|" * len(AGAINST),
-    ]
-    quantities = list(dict.fromkeys(s.quantity for s in amortized.separations))
-    for q in quantities:
-        row = {s.against: s for s in amortized.separations if s.quantity == q}
-        cells = [cell(row[a].auroc, row[a].lo, row[a].hi) for a in AGAINST]
-        lines.append(f"| {_meaning(q)} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "Consistency across runs: the intra-class correlation ICC(1) of each posterior mean "
-        "over one vehicle's lane changes grouped by run (near 0: the runs agree; near 1: each "
-        f"run its own), and over the vehicles ({ALL_VEHICLES}: the share that is the "
-        "vehicle's); 95 % intervals from the F distribution.",
-        "",
-        "| parameter | " + " | ".join(dict.fromkeys(c.group for c in amortized.consistency)) + " |",
-        "|---|" + "---|" * len({c.group for c in amortized.consistency}),
-    ]
-    groups = list(dict.fromkeys(c.group for c in amortized.consistency))
-    for name in dict.fromkeys(c.parameter for c in amortized.consistency):
-        row_c = {c.group: c for c in amortized.consistency if c.parameter == name}
-        cells = [f"{cell(row_c[g].icc, row_c[g].lo, row_c[g].hi)} (k {row_c[g].classes}, "
-                 f"n {row_c[g].lane_changes})" for g in groups]  # fmt: skip
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"

@@ -23,7 +23,7 @@ from drivestyle.studies.out_of_class.caution_order import (
     order_checks,
     spearman,
 )
-from drivestyle.studies.out_of_class.report import out_of_class_markdown
+from drivestyle.studies.out_of_class.report import amortized_markdown, out_of_class_markdown
 from drivestyle.studies.out_of_class.study import (
     FDE_GOAL,
     HIGHWAY_EXTRACTION,
@@ -58,6 +58,7 @@ __all__ = [
     "OutOfClassStudy",
     "SMPCVariant",
     "StudyConfig",
+    "amortized_markdown",
     "fde_goals",
     "group_summaries",
     "highway_episodes",

@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from drivestyle.common.io import fmt
 from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.amortized.identify import SAMPLES, AmortizedStyle, identify_amortized_batch
 from drivestyle.studies.out_of_class.caution_order import (
@@ -39,7 +38,6 @@ __all__ = [
     "AmortizedEpisode",
     "AmortizedOrder",
     "AmortizedOutOfClass",
-    "amortized_markdown",
     "amortized_orders",
     "amortized_out_of_class",
 ]
@@ -149,40 +147,3 @@ def amortized_out_of_class(
                   for e, s in zip(episodes, styles, strict=True))  # fmt: skip
     return AmortizedOutOfClass(estimator, posterior.weights_sha256(), found,
                                tuple(amortized_orders(found, exact)))  # fmt: skip
-
-
-def amortized_markdown(amortized: AmortizedOutOfClass) -> str:
-    """The report's section on the amortized posterior (appended to ``out_of_class.md``)."""
-    lines = [
-        "",
-        f"## Caution order by the amortized posterior (goal ≥ {SPEARMAN_GOAL:g})",
-        "",
-        f"Every lane change identified by the amortized posterior `{amortized.estimator}` "
-        f"(weights SHA-256 {amortized.estimator_sha256[:12]}…, {SAMPLES} draws; DESIGN §22); "
-        "Spearman ρ between the known caution and each parameter's posterior mean, beside the "
-        "exact identification's ρ of p over the same episodes.",
-        "",
-        "| scope | parameter | n | ρ (episodes) | p-value | ρ (medians) | goal | exact ρ of p |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for o in amortized.orders:
-        pv = "—" if o.p_value is None else f"{o.p_value:.2g}"
-        lines.append(f"| {o.scope} | {o.parameter} | {o.n} | {fmt(o.rho_episodes)} | {pv} | "
-                     f"{fmt(o.rho_medians)} | {'met' if o.met else 'missed'} | "
-                     f"{fmt(o.rho_exact)} |")  # fmt: skip
-    groups = list(dict.fromkeys((e.family, e.group, e.caution) for e in amortized.episodes))
-    if amortized.episodes:
-        names = [n for n in ORDERED if n in amortized.episodes[0].style.names]
-        lines += [
-            "",
-            "Median posterior means per group:",
-            "",
-            "| family | group | caution | n | " + " | ".join(names) + " |",
-            "|---|---|---|---|" + "---|" * len(names),
-        ]
-        for fam, grp, c in groups:
-            eps = [e for e in amortized.episodes if (e.family, e.group, e.caution) == (fam, grp, c)]
-            meds = [fmt(float(np.median([e.style.mean[e.style.index(n)] for e in eps])))
-                    for n in names]  # fmt: skip
-            lines.append(f"| {fam} | {grp} | {c:g} | {len(eps)} | " + " | ".join(meds) + " |")
-    return "\n".join(lines) + "\n"
