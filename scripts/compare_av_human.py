@@ -11,6 +11,14 @@ and the differences of medians (studies/av_vs_human/study.py). Writes
 ``OUT/av_vs_human.json`` (with the command), ``OUT/av_vs_human.md`` and
 ``OUT/av_vs_human.png``.
 
+``--posterior FILE`` (an estimator ``drivestyle build-posterior`` wrote, its
+``posterior.npz``) also identifies every lane change with the amortized posterior over the
+stochastic driver's parameters (studies/av_vs_human/amortized.py): per lane change every
+parameter's posterior mean and 90 % interval, the AUROC of the AV against the humans on each
+parameter's posterior mean beside the descriptors' AUROCs (bootstrap 95 % intervals), and the
+intra-class correlation of each parameter across the AV's runs (F interval), in
+``av_vs_human.json``'s ``amortized`` and a section of ``av_vs_human.md``.
+
 Example:
     drivestyle mine-styles --dataset cats --data ../shared/data/cats-av-lanechange \
         --library runs/library --out runs/mined_cats
@@ -31,9 +39,17 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, recorded_episodes
 from drivestyle.recorded.real_data import check_data_dir
-from drivestyle.studies.av_vs_human import av_human_markdown, compare_av_human, read_mined, unmined
+from drivestyle.studies.av_vs_human import (
+    amortized_markdown,
+    av_human_markdown,
+    compare_av_human,
+    read_mined,
+    unmined,
+)
+from drivestyle.studies.av_vs_human.amortized import amortized_comparison
 from drivestyle.studies.av_vs_human.figures import plot_av_human
 
 SAMPLES = count(100_000, 2e-5, "bootstrap replicates", bytes_each=1.5e3)
@@ -53,6 +69,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )  # fmt: skip
     p.add_argument("--samples", type=SAMPLES, default=2000, help="bootstrap replicates")
     p.add_argument("--out", type=Path, default=Path("runs/av_vs_human"), help="output folder")
+    p.add_argument(
+        "--posterior", type=Path, default=None,
+        help="an amortized posterior (build-posterior's posterior.npz): also compare the "
+        "lane changes' amortized driver parameters (AUROC, consistency across runs)",
+    )  # fmt: skip
     return p.parse_args(argv)
 
 
@@ -60,8 +81,10 @@ def main(argv: list[str] | None = None) -> dict:
     """Compare; returns av_vs_human.json's payload."""
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
-    check_output_dir(args.out, inputs=[args.data_dir] + ([args.mined] if args.mined else []))
+    given = [f for f in (args.mined, args.posterior) if f is not None]
+    check_output_dir(args.out, inputs=[args.data_dir, *given])
     mined = read_mined(args.mined) if args.mined is not None else None
+    posterior = open_posterior(args.posterior) if args.posterior is not None else None
     check_data_dir(args.data_dir, ("cats",), DEFAULT_DATA_DIR)
     episodes = recorded_episodes(str(args.data_dir), "cats")
     if mined is not None:
@@ -87,6 +110,11 @@ def main(argv: list[str] | None = None) -> dict:
     comparison = compare_av_human(episodes, mined, samples=args.samples)
     payload = comparison.to_json()
     markdown = av_human_markdown(comparison, command_line(argv_used))
+    if posterior is not None:
+        amortized = amortized_comparison(episodes, comparison, posterior, str(args.posterior),
+                                         samples=args.samples)  # fmt: skip
+        payload["amortized"] = amortized.to_json()
+        markdown += amortized_markdown(amortized)
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "av_vs_human.json", payload, argv_used)
         write_text(tmp / "av_vs_human.md", markdown)

@@ -11,6 +11,14 @@ physics, population, mode, mixture). Writes ``OUT/out_of_class.json`` (every epi
 Spearman check, prediction record and summary, with the command) and
 ``OUT/out_of_class.md``. One process.
 
+``--posterior FILE`` (an estimator ``drivestyle build-posterior`` wrote, its
+``posterior.npz``) also identifies every lane change with the amortized posterior over the
+stochastic driver's parameters and checks the caution order on the posterior means of p, T
+and s_0 (Spearman's ρ over the episodes and the classes' medians, beside the exact ρ of p;
+studies/out_of_class/amortized.py): ``out_of_class.json``'s ``amortized`` (every episode's
+posterior mean and 90 % interval of every parameter, the checks) and a section of
+``out_of_class.md``.
+
 Example:
     drivestyle evaluate-out-of-class --library runs/library --out runs/out_of_class
 """
@@ -40,6 +48,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
 from drivestyle.studies.out_of_class import (
@@ -105,6 +114,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help=f"the physics baseline's parameters (default: {PHYSICS_FILE.name} shipped with "
         "the package)",
     )
+    p.add_argument(
+        "--posterior",
+        type=Path,
+        default=None,
+        help="an amortized posterior (build-posterior's posterior.npz): also identify every "
+        "lane change with it and check the caution order on its p, T and s_0",
+    )
     args = p.parse_args(argv)
     # options of the prediction, which --no-prediction skips: refused, not silently ignored
     given = [f"--{name}" for name in ("observe", "physics") if getattr(args, name) is not None]
@@ -163,10 +179,12 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     config = _config(args)
-    check_output_dir(args.out, inputs=[args.library, args.physics])
+    estimator = [args.posterior] if args.posterior is not None else []
+    check_output_dir(args.out, inputs=[args.library, args.physics, *estimator])
     with for_option("--physics"):
         physics = load_params(args.physics)
     library = load_driver_library(args.library, "identification")
+    posterior = open_posterior(args.posterior) if args.posterior is not None else None
     bars: dict[str, tqdm] = {}
 
     def on_plan(stage: str, n: int) -> None:
@@ -175,7 +193,8 @@ def main(argv: list[str] | None = None) -> dict:
     t0 = time.perf_counter()
     try:
         study = run_study(library, config, physics, progress=lambda s, k: bars[s].update(k),
-                          on_plan=on_plan)  # fmt: skip
+                          on_plan=on_plan, posterior=posterior,
+                          estimator=str(args.posterior or ""))  # fmt: skip
     finally:
         for bar in bars.values():
             bar.close()

@@ -22,7 +22,12 @@ class does not describe; ``constraint_binds``, ``enters_region``), the numbers (
 ``reason``. The printed summary says the verdict first; only an informative one is headed by a risk
 estimate. ``--plot`` also writes ``OUT/identify.png``: the posterior with the prior and the 90 %
 interval, and the library's style driven in closed loop at the identified risk over each
-recorded path (driver libraries). Several
+recorded path (driver libraries). ``--posterior FILE`` (an estimator ``drivestyle
+build-posterior`` wrote, its ``posterior.npz``) also identifies each demonstration with the
+amortized posterior over the stochastic driver's parameters (DESIGN §22; each demonstration
+on its own: an amortized posterior does not pool): ``identify.json``'s ``amortized`` holds,
+per demonstration, every parameter's posterior mean, median and 90 % interval (the risk p
+first) from 200 draws, with the estimator's checksum, and the summary prints them. Several
 demonstrations of one vehicle pool into one posterior; a file given twice, or two files of
 the same content, count once (one would weigh as two), and a line on stderr says which.
 Demonstrations of several recorded vehicles pool too, but a note on stderr names the
@@ -49,6 +54,12 @@ from drivestyle.common.cli import HelpFormatter, run_cli
 from drivestyle.common.inputs import distinct_files
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.irl.amortized.identify import (
+    SAMPLES,
+    AmortizedStyle,
+    identify_amortized_batch,
+    open_posterior,
+)
 from drivestyle.irl.driver.driver_style import DriverStyleError, Reproduction, reproduce
 from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary, load_any_library
 from drivestyle.irl.identification.paper_scorers import DEFAULT_SCORER, SCORERS
@@ -83,14 +94,23 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="also write identify.png: the posterior with the prior and the 90 %% interval, "
         "and the style's reproduction at the identified risk over the recorded path",
     )
+    p.add_argument(
+        "--posterior",
+        type=Path,
+        default=None,
+        help="an amortized posterior (build-posterior's posterior.npz): also each "
+        "demonstration's posterior mean and 90 %% interval of every driver parameter",
+    )
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Identify; returns identify.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out, inputs=[*args.demos, args.library])
+    estimator = [args.posterior] if args.posterior is not None else []
+    check_output_dir(args.out, inputs=[*args.demos, args.library, *estimator])
     library = load_any_library(args.library)
+    posterior = open_posterior(args.posterior) if args.posterior is not None else None
     files = distinct_files(args.demos)
     if files.note:
         print(files.note, file=sys.stderr)
@@ -109,6 +129,20 @@ def main(argv: list[str] | None = None) -> dict:
         "vehicles": vehicles,
         "pools_several_vehicles": pooled is not None,
     }
+    amortized: list[AmortizedStyle] = []
+    if posterior is not None:
+        t0 = time.perf_counter()
+        amortized = identify_amortized_batch(posterior, demos)
+        payload["amortized"] = {
+            "estimator": str(args.posterior),
+            "estimator_sha256": amortized[0].estimator_sha256,
+            "samples": SAMPLES,
+            "seed": 0,
+            "seconds": time.perf_counter() - t0,
+            "demos": [
+                {"demo": str(p)} | a.to_json() for p, a in zip(paths, amortized, strict=True)
+            ],
+        }
     with atomic_output_dir(args.out) as tmp:
         write_json(tmp / "identify.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         if args.plot:
@@ -120,6 +154,8 @@ def main(argv: list[str] | None = None) -> dict:
     )
     if not ident.trigger_fired and not isinstance(library, DriverLibrary):
         print("  note: the trigger never fired (the reactive features are inactive)")
+    for path, style in zip(paths, amortized, strict=True) if amortized else ():
+        print(f"  amortized posterior of {path.name} (mean [90 % interval]): {style.describe()}")
     wrote = "identify.json" + (" and identify.png" if args.plot else "")
     print(f"  {payload['identify_s']:.2f} s; wrote {wrote} in {args.out}")
     return payload

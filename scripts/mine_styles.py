@@ -23,6 +23,15 @@ starts over. A run locks OUT; a second run into the same OUT is refused while it
 within ``--connect-timeout``, else Ray on this machine); install the extra with
 ``pip install -e '.[ray]'``.
 
+``--posterior FILE`` (an estimator ``drivestyle build-posterior`` wrote, its
+``posterior.npz``) also identifies every demonstration with the amortized posterior over the
+stochastic driver's parameters (DESIGN §22), in this process after the mining: it writes
+``OUT/amortized.csv`` (one row per demonstration: per parameter the posterior mean, median
+and 90 % interval, the risk p first; a demonstration that cannot be read is a failed row),
+whole on every such run, and ``summary.json``'s ``amortized`` (counts, the estimator's
+checksum, each parameter's median posterior mean and, where the true risk is known, the
+posterior mean's MAE and the intervals' coverage).
+
 Examples:
     python scripts/mine_styles.py runs/population --library runs/library_reactive --out runs/mined
     python scripts/mine_styles.py runs/population --library runs/library_reactive \\
@@ -40,7 +49,9 @@ from tqdm import tqdm
 
 from drivestyle.common.cli import HelpFormatter, Interrupted, positive_float, run_cli, workers
 from drivestyle.common.inputs import distinct_files
-from drivestyle.common.io import check_output_dir, write_json
+from drivestyle.common.io import check_output_dir, write_json, write_text
+from drivestyle.irl.amortized.identify import open_posterior
+from drivestyle.irl.amortized.mining import amortized_rows, amortized_summary, amortized_table
 from drivestyle.irl.identification.library import load_any_library
 from drivestyle.irl.identification.mined_row import MinedRow
 from drivestyle.irl.identification.mining import (
@@ -50,7 +61,11 @@ from drivestyle.irl.identification.mining import (
     mine,
     summary_numbers,
 )
-from drivestyle.irl.identification.mining_output import MiningOutput, RunFingerprint
+from drivestyle.irl.identification.mining_output import (
+    AMORTIZED_TABLE,
+    MiningOutput,
+    RunFingerprint,
+)
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
 from drivestyle.recorded.readers import read_sample
 from drivestyle.studies.plotting import plot_population
@@ -80,6 +95,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="start over: delete the rows and results of an earlier run in OUT (needed when "
         "OUT was mined from another input or library)",
+    )
+    p.add_argument(
+        "--posterior",
+        type=Path,
+        default=None,
+        help="an amortized posterior (build-posterior's posterior.npz): also write "
+        "amortized.csv, every demonstration's posterior over the driver's parameters",
     )
     return p.parse_args(argv)
 
@@ -129,9 +151,10 @@ def main(argv: list[str] | None = None) -> dict:
     if args.address and args.engine != "ray":
         raise ValueError("--address needs --engine ray")
     # rows are appended: the folder is resumed
-    inputs = [args.input, args.data, args.library]
+    inputs = [args.input, args.data, args.library, args.posterior]
     check_output_dir(args.out, replace=False, inputs=inputs)
     library = load_any_library(args.library)
+    posterior = open_posterior(args.posterior) if args.posterior is not None else None
     tasks, input_id = _tasks(args)
     fingerprint = RunFingerprint.of(input_id, args.library, library)
     with MiningOutput(args.out, fingerprint, force=args.force, ids=[t[0] for t in tasks]) as store:
@@ -207,6 +230,17 @@ def main(argv: list[str] | None = None) -> dict:
                 if r.status == "failed"
             ],
         }
+        amortized = None
+        if posterior is not None:
+            t0 = time.perf_counter()
+            found = amortized_rows(tasks, posterior)
+            names = posterior.config.names
+            write_text(args.out / AMORTIZED_TABLE, amortized_table(found, names))
+            amortized = amortized_summary(found, names) | {
+                "estimator": str(args.posterior),
+                "seconds": time.perf_counter() - t0,
+            }
+            payload["amortized"] = amortized
         write_json(args.out / "summary.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         plot_population(
             [r.to_json() for r in rows],
@@ -221,7 +255,27 @@ def main(argv: list[str] | None = None) -> dict:
     if payload["n_ok"]:
         counts = ", ".join(f"{label} {n}" for label, n in payload["verdicts"].items())
         print(f"verdicts of the {payload['n_ok']} ok rows: {counts} (summary.json: the ranges)")
+    if amortized is not None:
+        print(amortized_line(amortized))
     return payload
+
+
+def amortized_line(summary: dict) -> str:
+    """The printed line of the amortized identification (``summary.json``'s ``amortized``)."""
+    medians = ", ".join(f"{n} {v:.3g}" for n, v in summary["median_posterior_mean"].items()
+                        if v is not None)  # fmt: skip
+    line = (
+        f"amortized posterior: wrote {AMORTIZED_TABLE}: {summary['n_ok']} of {summary['n']} "
+        f"demonstrations ({summary['n_failed']} failed) in {summary['seconds']:.1f} s"
+        + (f"; median posterior mean {medians}" if medians else "")
+    )
+    if "risk_mae_posterior_mean" in summary:
+        line += (
+            f"; against the true risk of {summary['n_with_truth']}: MAE "
+            f"{summary['risk_mae_posterior_mean']:.3f}, 90 % intervals cover "
+            f"{summary['risk_interval_coverage']:.2f}"
+        )
+    return line
 
 
 if __name__ == "__main__":

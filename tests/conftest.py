@@ -101,3 +101,32 @@ def as_recorded():
 def change_the_future():
     """:func:`_change_the_future`: a demonstration whose samples after k are moved."""
     return _change_the_future
+
+
+@pytest.fixture(scope="session")
+def tiny_posterior(tmp_path_factory):
+    """A tiny amortized posterior over the stochastic driver's parameters, and its file.
+
+    Trained in about a second on 48 fake series of the encoder's width (whatever channels
+    it has: ``series_width``) with θ uniform in the prior's box: its answers mean nothing,
+    but it is an estimator of the real shape, for the code that reads one."""
+    pytest.importorskip("zuko")
+    from drivestyle.irl.amortized.encoder import EncoderConfig
+    from drivestyle.irl.amortized.estimator import EstimatorConfig
+    from drivestyle.irl.amortized.simulations import PARAMETERS, parameter_box, series_width
+    from drivestyle.irl.amortized.training import Simulations, TrainingConfig, train
+    from drivestyle.irl.driver.stochastic_prior import StochasticPrior
+
+    low, high = parameter_box(StochasticPrior())
+    rng = np.random.default_rng(0)
+    n, width = 48, series_width()
+    theta = low + (high - low) * rng.random((n, len(PARAMETERS)))
+    xs = tuple(rng.standard_normal((int(rng.integers(5, 30)), width)) for _ in range(n))
+    config = EstimatorConfig(
+        PARAMETERS, tuple(low), tuple(high), EncoderConfig(width, hidden=8, embedding=4),
+        transforms=1, flow_hidden=(16, 16),
+    )  # fmt: skip
+    training = TrainingConfig(epochs=2, batch_size=16, patience=2, seed=0)
+    posterior, _ = train(Simulations(theta, xs), config, training, progress=False)
+    path = posterior.save(tmp_path_factory.mktemp("posterior") / "posterior.npz")
+    return posterior, path

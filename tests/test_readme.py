@@ -22,12 +22,14 @@ WRITES = {
     "reproduce-paper": ("demo/demo.npz", "reactive/style.json", "base/style.json"),
     "build-style-library": ("demos/p*_s*.npz", "library.json"),
     "extract-episodes": ("*.npz", "episodes.csv"),
+    "build-posterior": ("posterior.npz",),
 }
 """Files inside its --out folder that a command writes and the README reads."""
 WRITTEN_BY = {
     "reproduce-paper": ("studies/paper/study.py", ('"demo" / "demo.npz"', '"style.json"')),
     "build-style-library": ("scripts/build_style_library.py", ('f"p{p:g}_s{i}.npz"',)),
     "extract-episodes": ("recorded/episode_files.py", ('return f"{name}.npz"', "episodes.csv")),
+    "build-posterior": ("scripts/build_posterior.py", ('"posterior.npz"',)),
 }
 """Where the code writes :data:`WRITES` (the test fails if the code stops writing them)."""
 OUTPUT_OPTIONS = ("--out", "--video")

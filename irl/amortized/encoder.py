@@ -176,6 +176,12 @@ def build_encoder(config: EncoderConfig) -> torch.nn.Module:
     embedding does not depend on the batch it is in. Its ``set_scaling(mean, scale)``
     stores the input standardisation (buffers: saved with the weights).
 
+    The same map, one sample at a time (an online observer's): ``start(batch)`` is the
+    state before any sample, ``step(x_t, state)`` reads one sample per sequence ``x_t``
+    (B, input_dim) — one GRU step from the state's hidden state, the running sum of the
+    outputs — and returns (the embedding of the samples so far, the next state); after
+    T steps it equals ``forward`` of those T samples (to float32 round-off, tested).
+
     Args:
         config: the encoder's shape.
 
@@ -210,5 +216,18 @@ def build_encoder(config: EncoderConfig) -> torch.nn.Module:
             padded, _ = pad_packed_sequence(outputs, batch_first=True)  # zeros past each length
             mean = padded.sum(dim=1) / lengths.to(padded.dtype)[:, None]
             return self.out(torch.cat([h[-1], mean], dim=1))
+
+        def start(self, batch: int = 1) -> tuple[torch.Tensor, torch.Tensor, int]:
+            hidden = torch.zeros(config.layers, batch, config.hidden)
+            return hidden, torch.zeros(batch, config.hidden), 0
+
+        def step(
+            self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor, int]
+        ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor, int]]:
+            hidden, total, count = state
+            z = (x - self.mean) / self.scale
+            output, hidden = self.gru(z[:, None, :], hidden)
+            total, count = total + output[:, 0], count + 1
+            return self.out(torch.cat([hidden[-1], total / count], dim=1)), (hidden, total, count)
 
     return TrajectoryEncoder()

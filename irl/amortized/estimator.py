@@ -199,10 +199,9 @@ class NeuralPosterior:
         self.network = network.eval()
         self._low, self._high = check_box(np.array(config.low), np.array(config.high))
 
-    def _distribution(self, xs: Sequence[np.ndarray]) -> Any:
+    def _embed(self, xs: Sequence[np.ndarray]) -> torch.Tensor:
         x, lengths = _padded([np.asarray(x, float) for x in xs])
-        context = self.network["encoder"](x, lengths)
-        return self.network["flow"](context)
+        return self.network["encoder"](x, lengths)
 
     def _check(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, float)
@@ -225,9 +224,27 @@ class NeuralPosterior:
         import torch
 
         xs = [self._check(x) for x in xs]
+        with torch.no_grad():
+            context = self._embed(xs)
+        return self.sample_embedded(context, n, seed)
+
+    def sample_embedded(self, context: torch.Tensor, n: int, seed: int = 0) -> np.ndarray:
+        """``n`` posterior samples for each of several encoder summaries.
+
+        Args:
+            context: the encoder's summaries, shape (B, embedding) (its ``forward``, or its
+                ``step`` of an online observer).
+            n: samples per summary.
+            seed: seeds torch's generator for these draws only (the global state is kept).
+
+        Returns:
+            Shape (B, n, D), every sample inside the box.
+        """
+        import torch
+
         with torch.random.fork_rng(devices=[]), torch.no_grad():
             torch.manual_seed(seed)
-            z = self._distribution(xs).sample((n,))  # (n, B, D)
+            z = self.network["flow"](context).sample((n,))  # (n, B, D)
         return from_unconstrained(z.double().numpy().transpose(1, 0, 2), self._low, self._high)
 
     def sample(self, x: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
@@ -246,6 +263,12 @@ class NeuralPosterior:
             context = self.network["encoder"](xb, lengths).expand(len(theta), -1)
             log_q = self.network["flow"](context).log_prob(z).double().numpy()
         return log_q + log_abs_det(theta, self._low, self._high)
+
+    def weights_sha256(self) -> str:
+        """The SHA-256 of the weights: the checksum its file carries and loading verifies."""
+        return _weights_digest(
+            {k: v.detach().cpu().numpy() for k, v in self.network.state_dict().items()}
+        )
 
     def save(self, path: str | Path) -> Path:
         """Write the estimator to one ``.npz`` (atomically): weights, configuration, checksum.

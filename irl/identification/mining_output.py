@@ -47,6 +47,7 @@ from drivestyle.irl.identification.library import DriverLibrary, StyleLibrary
 from drivestyle.irl.identification.mined_row import COLUMNS, READABLE_HEADERS, MinedRow, RowError
 
 __all__ = [
+    "AMORTIZED_TABLE",
     "FINGERPRINT",
     "ID_SCHEME",
     "RESULTS",
@@ -62,7 +63,10 @@ __all__ = [
 
 TABLE = "styles.csv"
 FINGERPRINT = "fingerprint.json"
-RESULTS = (TABLE, "summary.json", "population.png", FINGERPRINT)
+AMORTIZED_TABLE = "amortized.csv"
+"""The amortized posteriors of a run given ``--posterior``
+(:mod:`drivestyle.irl.amortized.mining`), written whole by every such run."""
+RESULTS = (TABLE, "summary.json", "population.png", FINGERPRINT, AMORTIZED_TABLE)
 ID_SCHEME = "path"
 """A demonstration's id is its path under the input folder, without suffix, with ``/``
 (``sub/v1``; a recorded episode's id): it does not depend on the other files."""

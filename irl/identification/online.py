@@ -46,7 +46,14 @@ from drivestyle.irl.identification.posterior import driver_posterior
 from drivestyle.irl.identification.result import Identification
 from drivestyle.planning.description import PrimalDual
 
-__all__ = ["StyleTracker", "TrackerError", "track_demo"]
+__all__ = [
+    "StyleTracker",
+    "TrackerError",
+    "applied_input",
+    "check_sample",
+    "check_step",
+    "track_demo",
+]
 
 
 class TrackerError(ValueError):
@@ -63,6 +70,73 @@ def _vector(value: object, shape: tuple[int, ...], what: str) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise TrackerError(f"{what} must be finite, got {a.tolist()}")
     return a
+
+
+def check_sample(
+    ev: object, others: object, m: int | None = None, u_prev: object = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """A tracker's sample as arrays, its form checked (every tracker's one check).
+
+    Args:
+        ev: the vehicle's state [x, y, φ, v], shape (4,).
+        others: the surrounding vehicles' states, shape (m, 4), m >= 1.
+        m: the number of surrounding vehicles of the earlier samples (None: the first).
+        u_prev: the input [a, δ] since the previous sample, shape (2,), or None.
+
+    Returns:
+        (ev (4,), others (m, 4), u_prev (2,) or None) as float arrays.
+
+    Raises:
+        TrackerError: a wrong shape, a value not finite, another m than before.
+    """
+    xi = _vector(ev, (4,), "ev")
+    rest = np.asarray(others, dtype=float)
+    if rest.ndim != 2 or rest.shape[1] != 4 or rest.shape[0] < 1:
+        raise TrackerError(f"others must have shape (m, 4) with m >= 1, got {rest.shape}")
+    if not np.all(np.isfinite(rest)):
+        raise TrackerError("others must be finite")
+    if m is not None and rest.shape[0] != m:
+        raise TrackerError(f"got {rest.shape[0]} surrounding vehicles, earlier samples had {m}")
+    return xi, rest, None if u_prev is None else _vector(u_prev, (2,), "u_prev")
+
+
+def check_step(
+    recent: Sequence[np.ndarray], sample: np.ndarray, index: int, scenario: ScenarioConfig
+) -> None:
+    """Refuse a sample no vehicle can produce after the accepted ones (module docstring).
+
+    Args:
+        recent: the last (at most two) accepted samples, each [EV, others…] (1 + m, 4).
+        sample: the new one, (1 + m, 4).
+        index: the new sample's index (samples accepted before it).
+        scenario: the vehicle's scenario (T_s, v_max, geometry).
+
+    Raises:
+        TrackerError: the sample breaks :func:`~drivestyle.envs.plausibility.step_problems`
+            with the ones before it (the message names the sample and the value).
+    """
+    window = np.stack([*recent, sample])  # (k ≤ 3, 1 + m, 4), the new sample last
+    k = window.shape[0]
+    first = index + 1 - k
+    t = (first + np.arange(k)) * scenario.dt
+    problems = step_problems(t, window[:, 0], window[:, 1:], scenario, first)
+    if problems:
+        raise TrackerError(f"sample {index} refused: {problems[0]}")
+
+
+def applied_input(
+    previous: np.ndarray, xi: np.ndarray, scenario: ScenarioConfig, u: np.ndarray | None = None
+) -> np.ndarray:
+    """The input [a, δ] that carried the vehicle from ``previous`` to ``xi``.
+
+    ``u`` where it is known (a simulation), else recovered from the two states by
+    :func:`~drivestyle.envs.dynamics.inverse_step` within the scenario's input bounds.
+    """
+    if u is not None:
+        return u
+    sc = scenario
+    lo, hi = (sc.a_min, -sc.delta_max), (sc.a_max, sc.delta_max)
+    return inverse_step(previous, xi, sc.dt, sc.l_f, sc.l_r, lo, hi)
 
 
 class StyleTracker:
@@ -138,19 +212,9 @@ class StyleTracker:
                 surrounding vehicle; the message names the sample and the value). The
                 tracker is then as before the call.
         """
-        xi = _vector(ev, (4,), "ev")
-        others = np.asarray(others, dtype=float)
-        if others.ndim != 2 or others.shape[1] != 4 or others.shape[0] < 1:
-            raise TrackerError(f"others must have shape (m, 4) with m >= 1, got {others.shape}")
-        if not np.all(np.isfinite(others)):
-            raise TrackerError("others must be finite")
-        if self._m is not None and others.shape[0] != self._m:
-            raise TrackerError(
-                f"got {others.shape[0]} surrounding vehicles, earlier samples had {self._m}"
-            )
-        u = None if u_prev is None else _vector(u_prev, (2,), "u_prev")
+        xi, others, u = check_sample(ev, others, self._m, u_prev)
         sample = np.vstack([xi, others])
-        self._check_step(sample)
+        check_step(self._recent, sample, self.n_samples, self.scenario)
         # everything below mutates: on any failure (a solver's, say) restore the state, so
         # that a refused sample leaves the evidence of the earlier ones as it was
         saved = {**self.__dict__, "_ssr": self._ssr.copy(), "_recent": list(self._recent)}
@@ -159,16 +223,6 @@ class StyleTracker:
         except BaseException:
             self.__dict__.update(saved)
             raise
-
-    def _check_step(self, sample: np.ndarray) -> None:
-        """Refuse a sample no vehicle can produce after the accepted ones (module docstring)."""
-        window = np.stack([*self._recent, sample])  # (k ≤ 3, 1 + m, 4), the new sample last
-        k = window.shape[0]
-        first = self.n_samples + 1 - k
-        t = (first + np.arange(k)) * self.scenario.dt
-        problems = step_problems(t, window[:, 0], window[:, 1:], self.scenario, first)
-        if problems:
-            raise TrackerError(f"sample {self.n_samples} refused: {problems[0]}")
 
     def _accept(
         self, xi: np.ndarray, others: np.ndarray, u: np.ndarray | None, sample: np.ndarray
@@ -225,10 +279,7 @@ class StyleTracker:
     def _close_step(self, xi: np.ndarray, u: np.ndarray | None) -> None:
         """Residuals of the plans from the previous sample against the input applied."""
         assert self._xi is not None and self._u0 is not None
-        sc = self.scenario
-        if u is None:
-            lo, hi = (sc.a_min, -sc.delta_max), (sc.a_max, sc.delta_max)
-            u = inverse_step(self._xi, xi, sc.dt, sc.l_f, sc.l_r, lo, hi)
+        u = applied_input(self._xi, xi, self.scenario, u)
         r2 = np.sum(((self._u0 - u) / self._scale) ** 2, axis=1)
         self._ssr = self._ssr + (r2 if self._active else r2[-1])  # a new array: see update
         self._n_residuals += 2

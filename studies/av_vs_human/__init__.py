@@ -2,13 +2,15 @@
 
 - :mod:`.study`: identified risk and observed caution per lane change, medians with
   bootstrap intervals per group, the AV's differences (``compare-av-human``);
+- :mod:`.amortized`: the lane changes' amortized posteriors, the AV told apart from the
+  humans by them (AUROC) and their consistency across runs (``--posterior``);
 - :mod:`.report`: ``av_vs_human.md``;
 - :mod:`.figures`: each quantity's lane changes per group.
 
 The study's and the report's names are re-exported here.
 """
 
-from drivestyle.studies.av_vs_human.report import av_human_markdown
+from drivestyle.studies.av_vs_human.report import amortized_markdown, av_human_markdown
 from drivestyle.studies.av_vs_human.study import (
     AV_VEHICLE,
     BOOTSTRAP_SAMPLES,
@@ -50,6 +52,7 @@ __all__ = [
     "EpisodeCaution",
     "GroupStat",
     "MinedRow",
+    "amortized_markdown",
     "av_human_markdown",
     "closest_distance",
     "compare_av_human",

@@ -5,6 +5,8 @@
   prediction against constant velocity, the study (``evaluate-out-of-class``);
 - :mod:`.caution_order`: each lane change identified, and the identified risk against the
   known caution order (Spearman's ρ);
+- :mod:`.amortized`: the lane changes on the amortized posterior and its caution orders
+  (``--posterior``);
 - :mod:`.report`: ``out_of_class.md``.
 
 The study's, the order check's and the report's names are re-exported here; the
@@ -21,7 +23,7 @@ from drivestyle.studies.out_of_class.caution_order import (
     order_checks,
     spearman,
 )
-from drivestyle.studies.out_of_class.report import out_of_class_markdown
+from drivestyle.studies.out_of_class.report import amortized_markdown, out_of_class_markdown
 from drivestyle.studies.out_of_class.study import (
     FDE_GOAL,
     HIGHWAY_EXTRACTION,
@@ -56,6 +58,7 @@ __all__ = [
     "OutOfClassStudy",
     "SMPCVariant",
     "StudyConfig",
+    "amortized_markdown",
     "fde_goals",
     "group_summaries",
     "highway_episodes",

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -32,6 +32,7 @@ __all__ = [
     "group_summaries",
     "identify_episode",
     "order_checks",
+    "order_scopes",
     "spearman",
 ]
 
@@ -198,19 +199,42 @@ def _order(scope: str, subset: str, rs: Sequence[EpisodeResult]) -> OrderCheck:
                       rho is not None and rho >= SPEARMAN_GOAL, rho_s)  # fmt: skip
 
 
-def order_checks(results: Sequence[EpisodeResult]) -> list[OrderCheck]:
-    """ρ per family, per SMPC variant and SMPC pooled, over each subset of episodes."""
-    scopes: list[tuple[str, list[EpisodeResult]]] = []
-    hw = [r for r in results if r.family == "highway-env"]
+class _Grouped(Protocol):
+    @property
+    def family(self) -> str: ...
+
+    @property
+    def group(self) -> str: ...
+
+
+_G = TypeVar("_G", bound=_Grouped)
+
+
+def order_scopes(items: Sequence[_G]) -> list[tuple[str, list[_G]]]:
+    """The scopes an order is checked over: highway-env, each SMPC variant, SMPC pooled.
+
+    Args:
+        items: episodes' results (anything with a ``family`` and a ``group``).
+
+    Returns:
+        (scope, its items) for each scope that has items, in that order.
+    """
+    scopes: list[tuple[str, list[_G]]] = []
+    hw = [r for r in items if r.family == "highway-env"]
     if hw:
         scopes.append(("highway-env", hw))
-    smpc = [r for r in results if r.family == "smpc"]
+    smpc = [r for r in items if r.family == "smpc"]
     for g in dict.fromkeys(r.group for r in smpc):
         scopes.append((f"smpc:{g}", [r for r in smpc if r.group == g]))
     if smpc:
         scopes.append(("smpc", smpc))
+    return scopes
+
+
+def order_checks(results: Sequence[EpisodeResult]) -> list[OrderCheck]:
+    """ρ per family, per SMPC variant and SMPC pooled, over each subset of episodes."""
     out = []
-    for scope, rs in scopes:
+    for scope, rs in order_scopes(results):
         out.append(_order(scope, "all", rs))
         inside = [r for r in rs if not r.enters_region]
         out.append(_order(scope, "in_region", inside))

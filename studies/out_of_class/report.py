@@ -4,16 +4,21 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from drivestyle.common.io import fmt
+from drivestyle.irl.amortized.identify import SAMPLES
 from drivestyle.irl.identification.verdict import VERDICT_LABELS
 from drivestyle.studies.formatting import percent, seconds, value_interval
+from drivestyle.studies.out_of_class.amortized import ORDERED
 from drivestyle.studies.out_of_class.caution_order import SPEARMAN_GOAL
 from drivestyle.studies.out_of_class.study import FDE_GOAL
 
 if TYPE_CHECKING:
+    from drivestyle.studies.out_of_class.amortized import AmortizedOutOfClass
     from drivestyle.studies.out_of_class.study import OutOfClassStudy
 
-__all__ = ["out_of_class_markdown"]
+__all__ = ["amortized_markdown", "out_of_class_markdown"]
 
 
 def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
@@ -105,4 +110,42 @@ def out_of_class_markdown(study: OutOfClassStudy, command: str) -> str:
             )
     if study.skipped:
         lines += ["", f"Skipped: {len(study.skipped)} (reasons in the JSON)."]
+    text = "\n".join(lines) + "\n"
+    return text if study.amortized is None else text + amortized_markdown(study.amortized)
+
+
+def amortized_markdown(amortized: AmortizedOutOfClass) -> str:
+    """The report's section on the amortized posterior (appended to ``out_of_class.md``)."""
+    lines = [
+        "",
+        f"## Caution order by the amortized posterior (goal ≥ {SPEARMAN_GOAL:g})",
+        "",
+        f"Every lane change identified by the amortized posterior `{amortized.estimator}` "
+        f"(weights SHA-256 {amortized.estimator_sha256[:12]}…, {SAMPLES} draws; DESIGN §22); "
+        "Spearman ρ between the known caution and each parameter's posterior mean, beside the "
+        "exact identification's ρ of p over the same episodes.",
+        "",
+        "| scope | parameter | n | ρ (episodes) | p-value | ρ (medians) | goal | exact ρ of p |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for o in amortized.orders:
+        pv = "—" if o.p_value is None else f"{o.p_value:.2g}"
+        lines.append(f"| {o.scope} | {o.parameter} | {o.n} | {fmt(o.rho_episodes)} | {pv} | "
+                     f"{fmt(o.rho_medians)} | {'met' if o.met else 'missed'} | "
+                     f"{fmt(o.rho_exact)} |")  # fmt: skip
+    groups = list(dict.fromkeys((e.family, e.group, e.caution) for e in amortized.episodes))
+    if amortized.episodes:
+        names = [n for n in ORDERED if n in amortized.episodes[0].style.names]
+        lines += [
+            "",
+            "Median posterior means per group:",
+            "",
+            "| family | group | caution | n | " + " | ".join(names) + " |",
+            "|---|---|---|---|" + "---|" * len(names),
+        ]
+        for fam, grp, c in groups:
+            eps = [e for e in amortized.episodes if (e.family, e.group, e.caution) == (fam, grp, c)]
+            meds = [fmt(float(np.median([e.style.mean[e.style.index(n)] for e in eps])))
+                    for n in names]  # fmt: skip
+            lines.append(f"| {fam} | {grp} | {c:g} | {len(eps)} | " + " | ".join(meds) + " |")
     return "\n".join(lines) + "\n"

@@ -34,7 +34,8 @@ t_obs ∈ :data:`T_OBS` with every method of :func:`drivestyle.prediction.method
 the oracle (the recorded-episode path, :func:`~drivestyle.recorded.observed.observed_view`,
 for the highway-env lane changes: nothing of the future enters); :func:`fde_goals`
 compares the style methods' FDE with constant velocity's (the goal: ≥ :data:`FDE_GOAL`
-lower).
+lower). Given an amortized posterior, every lane change is also identified by it and the
+caution order checked on the posterior means of p, T and s_0 (:mod:`.amortized`).
 
 Everything is deterministic given the seeds and runs in one process.
 """
@@ -60,11 +61,16 @@ from drivestyle.agents.highway_drivers import (
 )
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.scenario import ScenarioRanges
+from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.identification.library import DriverLibrary, LibraryError
 from drivestyle.planning.description import SMPCConfig
 from drivestyle.planning.tv_gaussian import PAPER_TV_UNCERTAINTY, TVUncertainty
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.recorded.episodes import ExtractionConfig, extract_episodes
+from drivestyle.studies.out_of_class.amortized import (
+    AmortizedOutOfClass,
+    amortized_out_of_class,
+)
 from drivestyle.studies.out_of_class.caution_order import (
     EpisodeResult,
     GroupSummary,
@@ -396,9 +402,12 @@ class OutOfClassStudy:
     skipped: tuple[SkippedPrediction, ...]
     highway_facts: dict[str, Any]
     seconds: dict[str, float]
+    amortized: AmortizedOutOfClass | None = None
+    """The episodes on the amortized posterior and their order checks (None: not asked)."""
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict (``out_of_class.json``)."""
+        """JSON-ready dict (``out_of_class.json``; ``amortized`` only where it was run)."""
+        extra = {} if self.amortized is None else {"amortized": self.amortized.to_json()}
         return {
             "config": self.config.to_json(),
             "highway": self.highway_facts,
@@ -412,7 +421,7 @@ class OutOfClassStudy:
             },
             "skipped": [s.to_json() for s in self.skipped],
             "seconds": self.seconds,
-        }
+        } | extra
 
 
 def run_study(
@@ -421,6 +430,8 @@ def run_study(
     physics: PhysicsParams | None = None,
     progress: Callable[[str, int], Any] | None = None,
     on_plan: Callable[[str, int], Any] | None = None,
+    posterior: NeuralPosterior | None = None,
+    estimator: str = "",
 ) -> OutOfClassStudy:
     """Simulate, extract, identify and predict (module docstring), in this process.
 
@@ -430,6 +441,9 @@ def run_study(
         physics: the physics baseline's parameters (None: its defaults).
         progress: called with (stage, 1) after each unit of a stage.
         on_plan: called with (stage, units) before a stage starts.
+        posterior: an amortized posterior: every lane change also identified by it and the
+            caution orders checked on it (:mod:`.amortized`); None: not.
+        estimator: where ``posterior`` was read from (for the output).
 
     Returns:
         The study.
@@ -490,15 +504,22 @@ def run_study(
     seconds["identification"] = t_ident
     seconds["prediction"] = t_pred
     summaries = summarise_records(records) if records else []
+    orders = tuple(order_checks(results))
+    amortized = None
+    if posterior is not None:
+        t0 = time.perf_counter()
+        amortized = amortized_out_of_class(episodes, posterior, orders, estimator)
+        seconds["amortized"] = time.perf_counter() - t0
     return OutOfClassStudy(
         config=config,
         results=tuple(results),
         groups=tuple(group_summaries(results)),
-        orders=tuple(order_checks(results)),
+        orders=orders,
         records=tuple(records),
         summaries=tuple(summaries),
         goals=tuple(fde_goals(summaries)),
         skipped=tuple(skipped),
         highway_facts=facts,
         seconds=seconds,
+        amortized=amortized,
     )
