@@ -113,7 +113,12 @@ def tiny_posterior(tmp_path_factory):
     pytest.importorskip("zuko")
     from drivestyle.irl.amortized.encoder import EncoderConfig
     from drivestyle.irl.amortized.estimator import EstimatorConfig
-    from drivestyle.irl.amortized.simulations import PARAMETERS, parameter_box, series_width
+    from drivestyle.irl.amortized.simulations import (
+        EPISODE_FEATURES,
+        PARAMETERS,
+        parameter_box,
+        series_width,
+    )
     from drivestyle.irl.amortized.training import Simulations, TrainingConfig, train
     from drivestyle.irl.driver.stochastic_prior import StochasticPrior
 
@@ -124,7 +129,7 @@ def tiny_posterior(tmp_path_factory):
     xs = tuple(rng.standard_normal((int(rng.integers(5, 30)), width)) for _ in range(n))
     config = EstimatorConfig(
         PARAMETERS, tuple(low), tuple(high), EncoderConfig(width, hidden=8, embedding=4),
-        transforms=1, flow_hidden=(16, 16),
+        transforms=1, flow_hidden=(16, 16), features=EPISODE_FEATURES,
     )  # fmt: skip
     training = TrainingConfig(epochs=2, batch_size=16, patience=2, seed=0)
     posterior, _ = train(Simulations(theta, xs), config, training, progress=False)

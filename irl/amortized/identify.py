@@ -33,7 +33,7 @@ import numpy as np
 from drivestyle.common.cli import for_option
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.estimator import NeuralPosterior, load_posterior
-from drivestyle.irl.amortized.simulations import episode_series
+from drivestyle.irl.amortized.simulations import check_episode_estimator, episode_series
 from drivestyle.recorded.real_data import recorded_view
 
 __all__ = [
@@ -257,7 +257,8 @@ def open_posterior(path: str | Path, option: str = "--posterior") -> NeuralPoste
         if not Path(path).is_file():
             raise FileNotFoundError(f"{path}: no such estimator file")
         try:
-            return load_posterior(path)
+            # an estimator of other features or parameters would read the episode wrongly
+            return check_episode_estimator(load_posterior(path), path)
         except ImportError as exc:
             text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             if "sbi extra" not in text:
