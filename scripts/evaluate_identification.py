@@ -68,6 +68,7 @@ from drivestyle.irl.amortized.estimator import (
     NeuralPosterior,
     load_posterior,
 )
+from drivestyle.irl.amortized.simulations import check_episode_estimator
 from drivestyle.irl.identification.library import (
     DriverLibrary,
     LibraryError,
@@ -86,7 +87,7 @@ from drivestyle.studies.identification import (
     noise_markdown,
     references_markdown,
 )
-from drivestyle.studies.identification.amortized import check_estimator, evaluate_beside_exact
+from drivestyle.studies.identification.amortized import evaluate_beside_exact
 from drivestyle.studies.identification.figures import (
     plot_beside_exact,
     plot_confusion,
@@ -298,8 +299,7 @@ def _load_posterior(
             "with --library"
         )
     try:
-        posterior = load_posterior(path)
-        check_estimator(posterior, path)
+        posterior = check_episode_estimator(load_posterior(path), path)
     except EstimatorFileError as exc:
         raise EstimatorFileError(f"--posterior {exc}") from None
     except ImportError as exc:

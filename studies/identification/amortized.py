@@ -46,12 +46,12 @@ import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.calibration import central_intervals
-from drivestyle.irl.amortized.estimator import EstimatorFileError, NeuralPosterior
+from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.amortized.simulations import (
     PARAMETERS,
+    check_episode_estimator,
     episode_series,
     expert_parameters,
-    series_width,
 )
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.posterior import grid_estimate
@@ -74,7 +74,6 @@ __all__ = [
     "NO_TRUTH",
     "SAMPLES",
     "amortized_records",
-    "check_estimator",
     "evaluate_beside_exact",
     "noise_costs",
     "summarise_beside_exact",
@@ -85,25 +84,6 @@ SAMPLES = 200
 NO_TRUTH = ("tau",)
 """Parameters an SMPC driver has no value of: a deviation of scale zero has no correlation
 time."""
-
-
-def check_estimator(posterior: NeuralPosterior, path: str | Path) -> None:
-    """Refuse an estimator that does not read episodes as this drivestyle writes them.
-
-    Raises:
-        EstimatorFileError: its parameters are not :data:`PARAMETERS` (risk first) or its
-            series' width is not :func:`series_width`'s (one line, naming the file).
-    """
-    names, width = posterior.config.names, posterior.config.encoder.input_dim
-    if names != PARAMETERS:
-        raise EstimatorFileError(
-            f"{path}: infers {list(names)}, not the stochastic driver's {list(PARAMETERS)}"
-        )
-    if width != series_width():
-        raise EstimatorFileError(
-            f"{path}: reads {width} channels per sample, this drivestyle's episodes have "
-            f"{series_width()}: build it again"
-        )
 
 
 def amortized_records(
@@ -118,7 +98,8 @@ def amortized_records(
     """The amortized posterior on each demonstration, the exact's evaluation beside.
 
     Args:
-        posterior: the estimator (:func:`check_estimator`).
+        posterior: the estimator (of episodes:
+            :func:`~drivestyle.irl.amortized.simulations.check_episode_estimator`).
         demos: the held-out demonstrations, in the order ``evaluation`` identified them.
         library: the exact's driver library (which observation it reads).
         evaluation: the exact's evaluation of ``demos`` at one noise level (with the path
@@ -399,7 +380,7 @@ def evaluate_beside_exact(
     Returns:
         The :class:`BesideExact`.
     """
-    check_estimator(posterior, path)
+    check_episode_estimator(posterior, path)
     low, high = posterior.config.low, posterior.config.high
     records = tuple(
         amortized_records(posterior, demos, library, e, noise_seed, samples, progress)
