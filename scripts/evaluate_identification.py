@@ -20,11 +20,23 @@ closest, and the *identifiable* grid demonstrations — those whose neighbouring
 closed-loop paths lie ≥ 5 cm RMS from the true risk's — with identification's accuracy on
 them (``OUT/estimates_driver.png``: continuous and grid risks with their intervals).
 
+``--posterior FILE`` (the estimator ``build-posterior`` writes, ``OUT/posterior.npz``;
+needs a driver library and the ``sbi`` extra) reads the very same demonstrations, as
+observed at every noise level, with the amortized posterior beside the exact one
+(studies/identification/amortized.py): its risk error, coverage, grid and identifiable
+accuracy by the exact's rule, its agreement with the exact posterior, the noise's cost and
+its time per episode, and its other parameters against the SMPC expert's values — in
+``evaluation.json``'s ``amortized`` section, ``evaluation.md`` and
+``OUT/estimates_amortized.png``.
+
 Example:
     python scripts/evaluate_identification.py --library runs/library_reactive \\
         --scenarios 10 --seed 2000 --noise 0,0.05,0.1,0.2,0.3 --references --out runs/test
     python scripts/evaluate_identification.py --library runs/library --scenarios 10 \\
         --continuous 3 --seed 2000 --noise 0,0.1 --out runs/test_driver
+    python scripts/evaluate_identification.py --library runs/library --scenarios 10 \\
+        --continuous 3 --seed 2000 --noise 0,0.1 --posterior runs/posterior/posterior.npz \\
+        --out runs/test_amortized
 """
 
 from __future__ import annotations
@@ -51,6 +63,12 @@ from drivestyle.common.cli import (
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json, write_text
 from drivestyle.envs.scenario import ScenarioConfig, ScenarioRanges
 from drivestyle.envs.traffic import TrafficRanges, TrafficScene
+from drivestyle.irl.amortized.estimator import (
+    EstimatorFileError,
+    NeuralPosterior,
+    load_posterior,
+)
+from drivestyle.irl.amortized.simulations import check_episode_estimator
 from drivestyle.irl.identification.library import (
     DriverLibrary,
     LibraryError,
@@ -69,7 +87,13 @@ from drivestyle.studies.identification import (
     noise_markdown,
     references_markdown,
 )
-from drivestyle.studies.identification.figures import plot_confusion, plot_noise_curve
+from drivestyle.studies.identification.amortized import evaluate_beside_exact
+from drivestyle.studies.identification.figures import (
+    plot_beside_exact,
+    plot_confusion,
+    plot_noise_curve,
+)
+from drivestyle.studies.identification.report import amortized_markdown
 from drivestyle.studies.plotting import plot_population, plot_theta_vs_risk
 
 DRIVER = "driver"
@@ -125,6 +149,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="also run the ceiling that knows the expert and a k-NN baseline without IRL",
     )
     p.add_argument(
+        "--posterior",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="an amortized posterior (build-posterior's OUT/posterior.npz) evaluated beside "
+        "the driver library's exact one on the same demonstrations",
+    )
+    p.add_argument(
         "--out", type=Path, default=Path("runs/evaluation"), help="output folder (replaced whole)"
     )
     return p.parse_args(argv)
@@ -133,7 +165,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Evaluate; returns evaluation.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out, inputs=args.library)
+    check_output_dir(args.out, inputs=[*args.library, args.posterior])
     if args.references and args.draw == "traffic":
         raise ValueError(
             "--references simulates single-TV scenarios (the ceiling re-simulation); with "
@@ -151,6 +183,7 @@ def main(argv: list[str] | None = None) -> dict:
                 f"--seed {args.seed} is the library's own training seed; "
                 "use a disjoint seed for held-out scenarios"
             )
+    posterior = None if args.posterior is None else _load_posterior(args.posterior, libraries)
     grid = list(next(iter(libraries.values())).risks)
     if any(list(lib.risks) != grid for lib in libraries.values()):
         raise LibraryError("the libraries have different risk grids; compare like with like")
@@ -190,6 +223,16 @@ def main(argv: list[str] | None = None) -> dict:
         "noise_curve": {n: noise_curve_json(cs) for n, cs in curves.items()},
         "records": {n: [rec.to_json() for rec in r.records] for n, r in results.items()},
     }
+    beside = None
+    if posterior is not None:
+        driver = libraries[DRIVER]
+        assert isinstance(driver, DriverLibrary)  # _load_posterior checked it
+        with tqdm(total=len(demos) * len(args.noise), desc="amortized posterior") as bar:
+            beside = evaluate_beside_exact(
+                posterior, args.posterior, demos, driver, curves[DRIVER], args.seed,
+                progress=bar.update,
+            )  # fmt: skip
+        payload["amortized"] = beside.to_json()
     paper = {n: lib for n, lib in libraries.items() if isinstance(lib, StyleLibrary)}
     paper_results = {n: r for n, r in results.items() if n in paper}
     paper_curves = {n: c for n, c in curves.items() if n in paper}
@@ -208,6 +251,8 @@ def main(argv: list[str] | None = None) -> dict:
     markdown = evaluation_markdown(paper_results, extra) if paper else ""
     if DRIVER in results:
         markdown += driver_evaluation_markdown(curves[DRIVER], refs)
+    if beside is not None:
+        markdown += amortized_markdown(beside)
     with atomic_output_dir(args.out) as tmp:
         for name in results:
             scorer = results[name].scorer
@@ -232,10 +277,34 @@ def main(argv: list[str] | None = None) -> dict:
                 tmp / f"estimates_{DRIVER}.png",
                 "driver model: posterior mean and 90 % interval vs the true risk",
             )
+        if beside is not None:
+            plot_beside_exact(
+                beside,
+                tmp / "estimates_amortized.png",
+                "p: the exact posterior and the amortized one, mean and 90 % interval",
+            )
         write_json(tmp / "evaluation.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
         write_text(tmp / "evaluation.md", markdown)
     print(markdown)
     return payload
+
+
+def _load_posterior(
+    path: Path, libraries: dict[str, StyleLibrary | DriverLibrary]
+) -> NeuralPosterior:
+    """The ``--posterior`` estimator, verified, before any work (one-line errors)."""
+    if DRIVER not in libraries:
+        raise LibraryError(
+            "--posterior is evaluated beside a driver library's exact posterior: give one "
+            "with --library"
+        )
+    try:
+        posterior = check_episode_estimator(load_posterior(path), path)
+    except EstimatorFileError as exc:
+        raise EstimatorFileError(f"--posterior {exc}") from None
+    except ImportError as exc:
+        raise LibraryError(f"--posterior {path}: {exc}") from None
+    return posterior
 
 
 def _estimate_rows(evaluation: Evaluation) -> list[dict]:

@@ -24,6 +24,7 @@ __all__ = [
     "Calibration",
     "calibrate",
     "central_coverage",
+    "central_intervals",
     "rank_histogram",
     "rank_uniformity",
     "sbc_ranks",
@@ -83,16 +84,30 @@ def rank_uniformity(ranks: np.ndarray, n_samples: int, bins: int = 10) -> np.nda
     return np.asarray(stats.chisquare(counts, expected, axis=0).pvalue, float)
 
 
+def central_intervals(samples: np.ndarray, level: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
+    """The central ``level`` interval of each simulation's samples, per parameter.
+
+    Args:
+        samples: shape (N, S, D).
+        level: the intervals' level, in (0, 1).
+
+    Returns:
+        (lo, hi), each (N, D): the (1 − level)/2 and (1 + level)/2 quantiles of the S samples.
+    """
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level}")
+    lo, hi = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=1)
+    return lo, hi
+
+
 def central_coverage(theta: np.ndarray, samples: np.ndarray, level: float = 0.9) -> np.ndarray:
     """Share of true parameters inside their samples' central ``level`` interval: shape (D,).
 
     The interval of simulation i and parameter d runs from the (1 − level)/2 to the
-    (1 + level)/2 quantile of its S samples (closed).
+    (1 + level)/2 quantile of its S samples (closed): :func:`central_intervals`.
     """
     theta, samples = _checked(theta, samples)
-    if not 0.0 < level < 1.0:
-        raise ValueError(f"level must lie in (0, 1), got {level}")
-    lo, hi = np.quantile(samples, [(1 - level) / 2, (1 + level) / 2], axis=1)
+    lo, hi = central_intervals(samples, level)
     return np.mean((theta >= lo) & (theta <= hi), axis=0)
 
 

@@ -42,10 +42,11 @@ import numpy as np
 from drivestyle.common.io import atomic_output_file
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.amortized.encoder import encoder_input, episode_features, input_dim
 from drivestyle.irl.amortized.estimator import EstimatorFileError, NeuralPosterior
 from drivestyle.irl.amortized.training import Simulations
-from drivestyle.irl.driver.stochastic import load_planners
+from drivestyle.irl.driver.stochastic import StochasticStyle, load_planners
 from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
 
 __all__ = [
@@ -57,12 +58,14 @@ __all__ = [
     "SimulationsFileError",
     "check_episode_estimator",
     "episode_series",
+    "expert_parameters",
     "load_simulated",
     "parameter_box",
     "parameters_of",
     "save_simulated",
     "series_width",
     "simulate_set",
+    "style_parameters",
     "with_prefixes",
 ]
 
@@ -103,10 +106,31 @@ def parameters_of(params: EpisodeParams) -> np.ndarray:
 
     A style's unset v_ref and s_0 are the scene's (as its planner reads them).
     """
-    s = params.style
-    v_ref = s.v_ref if s.v_ref is not None else params.scene.base.v_ref
-    ratio = float(v_ref) / float(params.scene.base.ev_speed)
-    min_gap = s.min_gap if s.min_gap is not None else params.scene.base.l_a
+    return style_parameters(params.style, params.scene.base)
+
+
+def expert_parameters(scenario: ScenarioConfig, risk: float) -> np.ndarray:
+    """θ of the SMPC expert of risk ``risk`` in ``scenario``: shape (D,), :data:`PARAMETERS`' order.
+
+    The expert is the stochastic driver with no deviation and no onset
+    (:meth:`~drivestyle.irl.driver.stochastic.StochasticStyle.expert`): the scenario's
+    v_ref (as a ratio to its EV's start speed) and fixed region (T = 0, s_0 = l_a), λ_y = 1,
+    t_on = 0, σ_a = σ_δ = 0. Its τ is the style's default and means nothing (a deviation
+    of scale zero has no correlation time). A value may lie outside the prior's box (a
+    scenario's v_ref / v_EV(0) above its 1.3, say): it is returned as it is.
+    """
+    return style_parameters(dataclasses.replace(StochasticStyle.expert(), risk=risk), scenario)
+
+
+def style_parameters(style: StochasticStyle, scenario: ScenarioConfig) -> np.ndarray:
+    """θ of ``style`` driving in ``scenario``, in :data:`PARAMETERS`' order: shape (D,).
+
+    A style's unset v_ref and s_0 are the scenario's (as its planner reads them).
+    """
+    s = style
+    v_ref = s.v_ref if s.v_ref is not None else scenario.v_ref
+    ratio = float(v_ref) / float(scenario.ev_speed)
+    min_gap = s.min_gap if s.min_gap is not None else scenario.l_a
     values = {
         "risk": s.risk, "speed_ratio": ratio, "time_gap": s.time_gap, "min_gap": min_gap,
         "lateral": s.lateral, "onset": s.onset, "sigma_a": s.sigma_a,

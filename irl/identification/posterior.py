@@ -60,6 +60,8 @@ __all__ = [
     "constraint_binds",
     "density_grid",
     "driver_posterior",
+    "grid_estimate",
+    "grid_mass",
     "identify",
     "identify_all",
     "identify_driver",
@@ -194,12 +196,32 @@ def risk_log_likelihood(
     return ll - np.max(ll)
 
 
-def _grid_mass(grid: np.ndarray, density: np.ndarray, risks: Sequence[float]) -> np.ndarray:
-    """The continuous posterior's mass in each grid risk's cell (midpoints as borders)."""
+def grid_mass(grid: np.ndarray, density: np.ndarray, risks: Sequence[float]) -> np.ndarray:
+    """A posterior's mass in each library risk's cell (midpoints as borders).
+
+    Args:
+        grid: where the posterior's mass sits (the continuous posterior's grid, or samples
+            of p), shape (G,).
+        density: the mass at each, shape (G,) (1/S each for S samples).
+        risks: the library's risks, increasing.
+
+    Returns:
+        Shape (len(risks),).
+    """
     r = np.asarray(risks, float)
     edges = np.concatenate([[-np.inf], (r[1:] + r[:-1]) / 2, [np.inf]])
-    cell = np.searchsorted(edges, grid, side="right") - 1
+    cell = np.searchsorted(edges, np.asarray(grid, float), side="right") - 1
     return np.bincount(cell, weights=density, minlength=r.size)[: r.size]
+
+
+def grid_estimate(grid: np.ndarray, density: np.ndarray, risks: Sequence[float]) -> float:
+    """The library risk whose cell holds most of a posterior's mass (the first of equal ones).
+
+    The rule of an :class:`Identification`'s ``risk_estimate`` (:func:`driver_posterior`),
+    by which a grid demonstration counts as identified; any posterior over p given as mass
+    on points (:func:`grid_mass`'s ``grid``, ``density``) is scored by it.
+    """
+    return float(np.asarray(risks, float)[int(np.argmax(grid_mass(grid, density, risks)))])
 
 
 def _quantile(grid: np.ndarray, density: np.ndarray, q: float) -> float:
@@ -310,7 +332,7 @@ def driver_posterior(
         min(min_s_e, default=float("inf")),
     )
     risks = np.asarray(library.risks, float)
-    mass = _grid_mass(grid, density, library.risks)
+    mass = grid_mass(grid, density, library.risks)
     order = np.argsort(-mass, kind="stable")
     per_demo = [
         DemoScores(

@@ -1,7 +1,8 @@
 """The identification study's figures, and the figure of one identification.
 
 The confusion matrix and the noise curve of the held-out evaluation
-(``evaluate-identification``); the posterior with the style's reproduction of one
+(``evaluate-identification``), and its amortized posterior beside the exact
+(``--posterior``); the posterior with the style's reproduction of one
 identification (``identify-style --plot``). The population's and θ-against-risk figures
 are shared (:mod:`drivestyle.studies.plotting`).
 """
@@ -21,9 +22,16 @@ from drivestyle.studies.plotting import EV_RED, TV_BLUE, draw_lanes, save_figure
 if TYPE_CHECKING:
     from drivestyle.irl.driver.driver_style import Reproduction
     from drivestyle.irl.identification.result import Identification
+    from drivestyle.studies.identification.amortized_results import BesideExact
     from drivestyle.studies.identification.study import EvaluationRecord
 
-__all__ = ["NEAR_VEHICLE_M", "plot_confusion", "plot_identification", "plot_noise_curve"]
+__all__ = [
+    "NEAR_VEHICLE_M",
+    "plot_beside_exact",
+    "plot_confusion",
+    "plot_identification",
+    "plot_noise_curve",
+]
 
 
 def plot_confusion(
@@ -79,6 +87,47 @@ def plot_noise_curve(curve: list[dict], path: str | Path, title: str = "") -> Pa
     ax.grid(alpha=0.3)
     ax.legend()
     return save_figure(fig, path, title, dpi=120)
+
+
+def plot_beside_exact(beside: BesideExact, path: str | Path, title: str = "") -> Path:
+    """True p against the exact and the amortized posterior means with their 90 % intervals.
+
+    One panel per noise level; the two posteriors' points of one demonstration sit either
+    side of its true p (shifted by 0.006) so that their bars do not hide each other; the
+    demonstrations the exact refused are left out.
+
+    Args:
+        beside: the study (:func:`~drivestyle.studies.identification.amortized.
+            evaluate_beside_exact`).
+        path: output PNG.
+        title: figure title.
+
+    Returns:
+        The path written.
+    """
+    n = len(beside.records)
+    fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 4.2), squeeze=False, sharey=True)
+    for ax, records, summary in zip(axes[0], beside.records, beside.summaries, strict=True):
+        pairs = [(r, r.exact) for r in records if r.exact is not None]
+        true = np.array([r.risk for r, _ in pairs])
+        for label, color, shift, mean, lo, hi in (
+            ("exact", EV_RED, -0.006, [e.mean for _, e in pairs],
+             [e.interval[0] for _, e in pairs], [e.interval[1] for _, e in pairs]),
+            ("amortized", TV_BLUE, 0.006, [r.mean[0] for r, _ in pairs],
+             [r.lo[0] for r, _ in pairs], [r.hi[0] for r, _ in pairs]),
+        ):  # fmt: skip
+            m = np.asarray(mean, float)
+            # a mean may lie outside its central interval when the mass is split
+            bars = [np.maximum(m - np.asarray(lo), 0.0), np.maximum(np.asarray(hi) - m, 0.0)]
+            ax.errorbar(true + shift, m, yerr=bars, fmt="o", ms=3, alpha=0.6, elinewidth=0.6,
+                        color=color, label=f"{label} mean, 90 % interval")  # fmt: skip
+        ax.plot([0.5, 0.99], [0.5, 0.99], "k--", lw=0.8)
+        ax.set_xlabel("true risk p")
+        ax.set_title(f"σ = {summary.noise_sigma_m:g} m ({len(pairs)} demonstrations)", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("posterior mean of p")
+    axes[0][0].legend(fontsize=7, loc="upper left")
+    return save_figure(fig, path, title or "Amortized posterior beside the exact", dpi=110)
 
 
 NEAR_VEHICLE_M = 300.0

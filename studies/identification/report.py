@@ -13,10 +13,15 @@ from drivestyle.irl.identification.paper_scorers import DEFAULT_SCORER
 from drivestyle.irl.identification.result import INTERVAL_MASS
 
 if TYPE_CHECKING:
+    from drivestyle.studies.identification.amortized_results import (
+        BesideExact,
+        EstimatorScores,
+    )
     from drivestyle.studies.identification.references import References
     from drivestyle.studies.identification.study import Evaluation
 
 __all__ = [
+    "amortized_markdown",
     "driver_evaluation_markdown",
     "evaluation_markdown",
     "noise_markdown",
@@ -168,4 +173,98 @@ def driver_evaluation_markdown(curve: Sequence[Evaluation], refs: References | N
             f"({fmt(c2.tied_fraction, 2)} tied within 1 cm; untied "
             f"{fmt(c2.grid_accuracy_untied, 2)})."
         )
+    return "\n".join([*lines, ""])
+
+
+def _error(scores: EstimatorScores, kind: str) -> str:
+    e = scores.risk_error
+    if e is None:
+        return "—"
+    v, lo, hi = (getattr(e, f"{kind}{s}") for s in ("", "_lo", "_hi"))
+    return f"{v:.3f} [{lo:.3f}, {hi:.3f}]"
+
+
+def amortized_markdown(beside: BesideExact) -> str:
+    """``evaluation.md``'s part of ``--posterior``: the amortized posterior beside the exact.
+
+    Per noise level both posteriors' risk error, coverage, accuracy and time on the same
+    demonstrations, their agreement; the noise's cost; the amortized posterior's other
+    parameters on SMPC drivers against the expert's values.
+    """
+    lines = [
+        "",
+        "## Amortized posterior beside the exact (the same demonstrations as observed)",
+        "",
+        f"Estimator: `{beside.posterior}`, {beside.samples} draws per demonstration on one "
+        "torch thread. Compared on the demonstrations the exact identified. Grid risk of a "
+        "posterior: the library risk whose cell holds most of its mass (the exact's rule; the "
+        "amortized posterior's mass is its draws'); identifiable as above. Risk error: "
+        "|posterior mean − p|, mean and median with 95 % bootstrap intervals over the "
+        "held-out scenarios. Time: the exact's scoring of one demonstration, the amortized "
+        "posterior's series and draws.",
+        "",
+        "| σ [m] | posterior | risk MAE [95 %] | median [95 %] | 90 % coverage | interval "
+        "width | grid acc. | identifiable acc. | continuous MAE | ms per episode (median) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for sm in beside.summaries:
+        for name, sc in (("exact", sm.exact), ("amortized", sm.amortized)):
+            lines.append(
+                f"| {sm.noise_sigma_m:g} | {name} | {_error(sc, 'mean')} | "
+                f"{_error(sc, 'median')} | {fmt(sc.coverage, 2)} | {fmt(sc.interval_width, 2)} "
+                f"| {fmt(sc.grid_accuracy, 2)} | {fmt(sc.identifiable_accuracy, 2)} "
+                f"({sm.n_identifiable}) | {fmt(sc.continuous_mae)} | "
+                f"{fmt(sc.identify_ms_median, 1)} |"
+            )
+    lines += [
+        "",
+        "| σ [m] | compared | refused by the exact | mean difference of the means (abs.) | "
+        "median | max | correlation |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for sm in beside.summaries:
+        a = sm.agreement
+        lines.append(
+            f"| {sm.noise_sigma_m:g} | {a.n} | {sm.n_exact_refused} | {fmt(a.mae)} | "
+            f"{fmt(a.median)} | {fmt(a.max)} | {fmt(a.correlation, 2)} |"
+        )
+    if beside.noise_cost:
+        lines += [
+            "",
+            "What noise costs (against the first level; accuracy in points, negative a "
+            "loss; MAE change, positive a loss):",
+            "",
+            "| σ [m] | exact identifiable | amortized identifiable | exact grid | amortized "
+            "grid | exact MAE change | amortized MAE change |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for c in beside.noise_cost:
+            lines.append(
+                f"| {c.noise_sigma_m:g} vs {c.baseline_sigma_m:g} | "
+                f"{fmt(c.exact_identifiable_points, 1)} | "
+                f"{fmt(c.amortized_identifiable_points, 1)} | {fmt(c.exact_grid_points, 1)} | "
+                f"{fmt(c.amortized_grid_points, 1)} | {fmt(c.exact_mae_change)} | "
+                f"{fmt(c.amortized_mae_change)} |"
+            )
+    if beside.summaries and beside.summaries[0].parameters:
+        head = beside.summaries[0]
+        lines += [
+            "",
+            f"The other parameters on these SMPC drivers (σ = {head.noise_sigma_m:g} m): the "
+            "expert is the stochastic driver with T = 0, s_0 = l_a, λ_y = 1, t_on = 0, "
+            "σ_a = σ_δ = 0 and the scenario's v_ref (τ: none). Position: the posterior "
+            "means' mean in the prior's box (0 its low end); the box centre's error is what "
+            "a posterior that learnt nothing would roughly err by.",
+            "",
+            "| parameter | box | expert's (mean) | posterior mean: mean / median | position "
+            "in box | MAE (of the box) | box centre's | 90 % coverage |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        for q in head.parameters:
+            lines.append(
+                f"| {q.name} | [{q.low:g}, {q.high:g}] | {fmt(q.expert_mean, 4)} | "
+                f"{q.mean:.4f} / {q.median:.4f} | {q.box_position:.2f} | "
+                f"{fmt(q.mae, 4)} ({fmt(q.mae_relative, 2)}) | {fmt(q.centre_mae_relative, 2)} "
+                f"| {fmt(q.coverage, 2)} |"
+            )
     return "\n".join([*lines, ""])

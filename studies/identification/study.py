@@ -61,6 +61,7 @@ __all__ = [
     "draw_continuous_risks",
     "evaluate_identification",
     "noise_curve_json",
+    "observation",
     "pooled_accuracy",
 ]
 
@@ -107,6 +108,24 @@ def continuous_demonstrations(
     return parallel_map(_continuous_task, tasks, workers)
 
 
+def observation(
+    demo: Demonstration, library: StyleLibrary | DriverLibrary, noise: float, noise_seed: int
+) -> Demonstration:
+    """A held-out demonstration as the evaluation identifies it.
+
+    With position noise σ > 0 the tracker's view of it
+    (:func:`~drivestyle.envs.tracking.observe`, generator seeded with ``noise_seed``);
+    without, the demonstration itself — unless the library was learned from tracked
+    demonstrations, which then sees every test demonstration tracked. Deterministic given
+    its arguments: every identification of one evaluation (the exact's, the amortized
+    posterior's beside it) reads the same observation.
+    """
+    tracked = library.meta.get("observation") == "tracked"
+    if noise == 0 and not tracked:
+        return demo
+    return observe(demo, noise, np.random.default_rng(noise_seed))
+
+
 def _scores_task(
     demo: Demonstration, library: StyleLibrary, noise: float, noise_seed: int
 ) -> tuple[DemoScores | str, float]:
@@ -115,13 +134,7 @@ def _scores_task(
     The scores are :func:`demo_scores`'s, or the refusal's message.
     """
     t0 = time.perf_counter()
-    # a library learned from tracked demonstrations sees every test demonstration tracked
-    tracked = library.meta.get("observation") == "tracked"
-    observed = (
-        demo
-        if noise == 0 and not tracked
-        else observe(demo, noise, np.random.default_rng(noise_seed))
-    )
+    observed = observation(demo, library, noise, noise_seed)
     try:
         out: DemoScores | str = demo_scores(observed, library)
     except LibraryError as exc:
@@ -146,12 +159,7 @@ def _driver_task(
         wall time [s]).
     """
     t0 = time.perf_counter()
-    tracked = library.meta.get("observation") == "tracked"
-    observed = (
-        demo
-        if noise == 0 and not tracked
-        else observe(demo, noise, np.random.default_rng(noise_seed))
-    )
+    observed = observation(demo, library, noise, noise_seed)
     out: DriverOutcome | str
     try:
         profile = refined_profile(library.style, observed)

@@ -276,6 +276,75 @@ def test_evaluate_identification_identifies_held_out_demonstrations(library, tmp
     assert [c["noise_sigma_m"] for c in curve] == [0.0, 0.1]
     assert evaluation["references"]["ceiling"]["grid_accuracy"] == 1.0
     assert (tmp_path / "test" / "evaluation.md").stat().st_size > 0
+    assert "amortized" not in evaluation  # only with --posterior
+    assert not (tmp_path / "test" / "estimates_amortized.png").exists()
+
+
+@pytest.mark.slow  # ≈ 25 s: a tiny estimator, then 2 noise levels of 4 demonstrations
+def test_evaluate_identification_puts_an_amortized_posterior_beside_the_exact(library, tmp_path):
+    pytest.importorskip("zuko")
+    _drivestyle(tmp_path, "build-posterior", "--simulations", "8", "--held-out", "2",
+                "--epochs", "2", "--hidden", "4", "--embedding", "4", "--transforms", "1",
+                "--flow-hidden", "8", "--samples", "10", "--out", "post")  # fmt: skip
+    _drivestyle(tmp_path, "evaluate-identification", "--library", library, "--scenarios", "1",
+                "--continuous", "1", "--seed", "2000", "--noise", "0,0.1", "--workers", "1",
+                "--posterior", "post/posterior.npz", "--out", "beside")  # fmt: skip
+    evaluation = _json(tmp_path / "beside" / "evaluation.json")
+    section = evaluation["amortized"]
+    assert section["posterior"] == "post/posterior.npz" and section["samples"] == 200
+    assert section["parameters"][0] == "risk" and len(section["parameters"]) == 9
+    exact_curve = evaluation["noise_curve"]["driver"]
+    by_noise = section["by_noise"]
+    assert [b["noise_sigma_m"] for b in by_noise] == [0.0, 0.1]
+    for b, ex in zip(by_noise, exact_curve, strict=True):
+        # grid 0.5, 0.9, midpoint 0.7, one continuous; the exact refused none
+        assert (b["n"], b["n_exact_refused"]) == (4, 0)
+        # the exact beside it is the exact's own evaluation, by its own rules
+        assert b["exact"]["grid_accuracy"] == ex["grid_accuracy"]
+        assert b["exact"]["identifiable_accuracy"] == ex["grid_accuracy_identifiable"]
+        assert b["exact"]["coverage"] == pytest.approx(ex["interval_coverage"])
+        assert b["exact"]["continuous_mae"] == pytest.approx(ex["continuous_mae_interpolated"])
+        a = b["amortized"]
+        assert 0 <= a["risk_error"]["mean"] <= 0.49 and 0 <= a["coverage"] <= 1
+        assert a["risk_error"]["mean_lo"] <= a["risk_error"]["mean"] <= a["risk_error"]["mean_hi"]
+        assert 0 < a["identify_ms_median"] <= a["identify_ms_p95"]
+        assert b["parameters"]["time_gap"]["expert_mean"] == 0.0  # the SMPC expert's T
+        assert b["parameters"]["tau"]["mae"] is None  # which has no τ
+    records = section["records"]  # σ = 0, in the exact's order
+    exact_records = evaluation["records"]["driver"]
+    assert [r["risk"] for r in records] == [r["risk"] for r in exact_records]
+    for r, ex in zip(records, exact_records, strict=True):
+        assert r["exact"]["mean"] == ex["likelihood_interpolated"]
+        assert r["exact"]["estimate"] == ex["likelihood_estimate"]
+        assert 0.5 <= r["lo"]["risk"] <= r["hi"]["risk"] <= 0.99  # inside the prior's box
+        assert r["estimate"] in evaluation["grid_risks"]
+        assert r["expert"]["risk"] == r["risk"] and r["expert"]["sigma_a"] == 0.0
+    head = by_noise[0]
+    errors = [abs(r["mean"]["risk"] - r["risk"]) for r in records]
+    assert head["amortized"]["risk_error"]["mean"] == pytest.approx(np.mean(errors))
+    gaps = [abs(r["mean"]["risk"] - r["exact"]["mean"]) for r in records]
+    assert head["agreement"]["mae"] == pytest.approx(np.mean(gaps))
+    (cost,) = section["noise_cost"]
+    assert cost["amortized_mae_change"] == pytest.approx(
+        by_noise[1]["amortized"]["risk_error"]["mean"] - head["amortized"]["risk_error"]["mean"]
+    )
+    markdown = (tmp_path / "beside" / "evaluation.md").read_text()
+    assert "## Amortized posterior beside the exact" in markdown
+    assert (tmp_path / "beside" / "estimates_amortized.png").stat().st_size > 1000
+    # a missing or damaged estimator: one line naming --posterior and the file, before any work
+    raw = bytearray((tmp_path / "post/posterior.npz").read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    (tmp_path / "bad.npz").write_bytes(bytes(raw))
+    for name in ("bad.npz", "missing.npz"):
+        run = subprocess.run(
+            [sys.executable, "-m", "drivestyle", "evaluate-identification", "--library",
+             str(library), "--posterior", name, "--out", "refused"],
+            cwd=tmp_path, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert run.returncode == 2 and "Traceback" not in run.stderr
+        (line,) = run.stderr.strip().splitlines()
+        assert line.startswith(f"error: --posterior {name}: ")
+        assert not (tmp_path / "refused").exists()
 
 
 @pytest.mark.slow

@@ -4,6 +4,7 @@ import pytest
 from drivestyle.irl.amortized.calibration import (
     calibrate,
     central_coverage,
+    central_intervals,
     rank_histogram,
     rank_uniformity,
     sbc_ranks,
@@ -58,3 +59,13 @@ def test_shapes_are_checked():
         sbc_ranks(np.zeros((3, 2)), np.zeros((3, 5, 1)))
     with pytest.raises(ValueError, match="ranks must be"):
         rank_histogram(np.array([[6]]), 5)
+
+
+def test_central_intervals_are_the_samples_quantiles():
+    samples = np.arange(101.0)[None, :, None] * np.array([1.0, 10.0])  # (1, 101, 2)
+    lo, hi = central_intervals(samples, 0.9)
+    assert lo.shape == hi.shape == (1, 2)
+    np.testing.assert_allclose(lo[0], [5.0, 50.0])
+    np.testing.assert_allclose(hi[0], [95.0, 950.0])
+    with pytest.raises(ValueError, match="level"):
+        central_intervals(samples, 1.0)

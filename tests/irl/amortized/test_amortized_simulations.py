@@ -8,6 +8,7 @@ import pytest
 from drivestyle.irl.amortized.simulations import (
     PARAMETERS,
     SimulationsFileError,
+    expert_parameters,
     load_simulated,
     parameter_box,
     parameters_of,
@@ -120,3 +121,14 @@ def test_an_estimator_of_other_features_or_parameters_is_refused(sims, tmp_path)
         check_episode_estimator(build(), "p.npz")
     with pytest.raises(EstimatorFileError, match="build it again"):
         check_episode_estimator(build(features="episode-v1"), "p.npz")
+
+
+def test_the_smpc_expert_is_the_driver_without_deviation_onset_or_speed_scaled_region():
+    from drivestyle.envs.scenario import ScenarioConfig
+
+    sc = ScenarioConfig(ev_speed=24.0, v_ref=30.0, l_a=12.0)
+    theta = dict(zip(PARAMETERS, expert_parameters(sc, 0.85), strict=True))
+    assert theta["risk"] == 0.85 and theta["speed_ratio"] == pytest.approx(30.0 / 24.0)
+    assert theta["time_gap"] == 0.0 and theta["min_gap"] == 12.0  # the scenario's region
+    assert theta["lateral"] == 1.0 and theta["onset"] == 0.0
+    assert theta["sigma_a"] == theta["sigma_delta"] == 0.0

@@ -78,8 +78,10 @@ def test_markdown_is_written_from_the_typed_results(evaluation):
 
 # ---------------------------------------------------------------------------- driver libraries
 from drivestyle.envs.scenario import get_scenario  # noqa: E402
+from drivestyle.envs.tracking import observe  # noqa: E402
 from drivestyle.irl.driver.driver_style import DriverStyle  # noqa: E402
 from drivestyle.irl.identification.library import DriverLibrary  # noqa: E402
+from drivestyle.irl.identification.posterior import grid_estimate  # noqa: E402
 from drivestyle.studies.identification import (  # noqa: E402
     CONTINUOUS_RANGE,
     IDENTIFIABLE_GAP_M,
@@ -89,6 +91,7 @@ from drivestyle.studies.identification import (  # noqa: E402
     driver_evaluation_markdown,
     pooled_accuracy,
 )
+from drivestyle.studies.identification.study import observation  # noqa: E402
 
 SMPC_WEIGHTS = (0.2, 50.0, 0.2, 1.0, 10.0)
 """The expert's own cost: a driver library with it must identify SMPC demonstrations."""
@@ -189,3 +192,28 @@ def test_driver_records_json_pooling_and_markdown(driver_evaluation):
     md = driver_evaluation_markdown([evaluation])
     assert "## Driver library" in md
     assert "| 0 | 1.00 (3) | 1.00 |" in md  # σ, grid accuracy (n), ceiling
+
+
+@pytest.mark.slow  # a tiny end-to-end study run (module fixture): CI runs it
+def test_the_exacts_grid_risk_is_the_one_rule_every_posterior_is_scored_by(driver_evaluation):
+    library, _, evaluation = driver_evaluation
+    for r in evaluation.records:
+        ident = r.by_scorer["likelihood"]
+        rule = grid_estimate(np.array(ident.density_risks), np.array(ident.density), library.risks)
+        assert rule == ident.risk_estimate
+
+
+def test_every_identification_of_an_evaluation_reads_one_observation(paper_demo):
+    library = DriverLibrary(DriverStyle(SMPC_WEIGHTS), risks=DRIVER_GRID)
+    assert observation(paper_demo, library, 0.0, 7) is paper_demo  # no noise: as it is
+    seen = observation(paper_demo, library, 0.1, 7)
+    again = observation(paper_demo, library, 0.1, 7)
+    want = observe(paper_demo, 0.1, np.random.default_rng(7))
+    np.testing.assert_array_equal(seen.ev, want.ev)
+    np.testing.assert_array_equal(seen.ev, again.ev)
+    assert not np.array_equal(seen.ev, observation(paper_demo, library, 0.1, 8).ev)
+    tracked = replace(library, meta={"observation": "tracked"})  # sees every demo tracked
+    np.testing.assert_array_equal(
+        observation(paper_demo, tracked, 0.0, 7).ev,
+        observe(paper_demo, 0.0, np.random.default_rng(7)).ev,
+    )
