@@ -33,7 +33,7 @@ from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.encoder import encoder_input, episode_features, input_dim
 from drivestyle.irl.amortized.training import Simulations
-from drivestyle.irl.driver.stochastic import load_planners
+from drivestyle.irl.driver.stochastic import StochasticStyle, load_planners
 from drivestyle.irl.driver.stochastic_prior import EpisodeParams, StochasticPrior, simulate_params
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "parameters_of",
     "series_width",
     "simulate_set",
+    "style_of",
     "with_prefixes",
 ]
 
@@ -88,6 +89,33 @@ def parameters_of(params: EpisodeParams) -> np.ndarray:
         "sigma_delta": s.sigma_delta, "tau": s.tau,
     }  # fmt: skip
     return np.array([float(values[name]) for name in PARAMETERS])
+
+
+def style_of(theta: np.ndarray, ev_speed: float) -> StochasticStyle:
+    """The driver of θ in a scene whose EV starts at ``ev_speed``: :func:`parameters_of` inverted.
+
+    v_ref = speed_ratio × ``ev_speed``, within [0.5, 69] m/s as the prior draws it; s_0 is
+    set (never the scene's); the weights and horizon are the stochastic style's defaults
+    (the expert's), which the prior does not vary. ``style_of(parameters_of(params),
+    params.scene.base.ev_speed)`` is ``params.style`` with its s_0 made explicit.
+
+    Args:
+        theta: θ in :data:`PARAMETERS`' order, shape (D,).
+        ev_speed: the EV's start speed in the scene [m/s] (the scenario's ``ev_speed``).
+
+    Returns:
+        The style.
+
+    Raises:
+        ValueError: θ not of shape (D,) or not finite.
+        StochasticStyleError: a parameter outside the range a style admits.
+    """
+    theta = np.asarray(theta, dtype=float)
+    if theta.shape != (len(PARAMETERS),) or not np.all(np.isfinite(theta)):
+        raise ValueError(f"theta must be {len(PARAMETERS)} finite numbers {PARAMETERS}, got {theta}")
+    values = {name: float(v) for name, v in zip(PARAMETERS, theta, strict=True)}
+    ratio = values.pop("speed_ratio")
+    return StochasticStyle(v_ref=float(min(max(ev_speed * ratio, 0.5), 69.0)), **values)
 
 
 def episode_series(demo: Demonstration, k: int | None = None) -> np.ndarray:

@@ -1,0 +1,409 @@
+"""The posterior-predictive check on behaviour: the verdict on fit of a driver's parameters.
+
+Does the driver of an episode drive like the class with these parameters? Given K
+parameter rows θ_1 … θ_K (posterior draws of the amortized estimator, DESIGN §22; in
+:data:`~drivestyle.irl.amortized.simulations.PARAMETERS` order), :func:`predictive_check`
+simulates one replicate of the episode per row and compares the episode's behaviour
+statistics (:mod:`drivestyle.irl.amortized.behaviour`: closest approach, accepted gap,
+lane-change start and duration, speed change) with the replicates' (Gelman, Meng & Stern
+1996: a posterior-predictive p-value per statistic).
+
+*A replicate* is the stochastic driver of θ_k
+(:func:`~drivestyle.irl.amortized.simulations.style_of`: v_ref = speed ratio × the
+scenario's EV start speed) driven by
+:func:`~drivestyle.irl.driver.stochastic.simulate_episode` in the episode's own scene: the
+scenario and bounds identification solves on
+(:func:`~drivestyle.recorded.real_data.recorded_view` — a recorded episode beyond its
+heading bound under the recorded bounds — then
+:func:`~drivestyle.irl.driver.driver_style.check_demo`, as
+:func:`~drivestyle.irl.identification.posterior.identify_driver` does), every surrounding
+vehicle replayed as the episode has it (they do not react; a recorded episode's
+constant-velocity continuations are replayed too, and its observed mask is the
+replicate's, so the statistics read the same states of both), from the episode's first
+state (less a draw of the tracker's error there where the episode is noisy,
+:func:`start_state`), with the episode's measurement noise on the EV and its tracker
+(``meta["measurement_noise_m"]`` of a simulated episode; 0 for a recorded one unless
+given; the surrounding vehicles stay the episode's). Replicate k has the seed
+:func:`replicate_seed`(seed, k): the check is deterministic given its seed.
+
+*The p-value* (:func:`predictive_p_value`) is mid-rank and two-sided, valid for any K
+under exchangeability: with L replicates below the observed value, G above and E tied
+(within the statistic's resolution, :data:`~drivestyle.irl.amortized.behaviour.
+RESOLUTIONS`), p = min(1, 2 (1 + min(L, G) + E/2) / (K + 1)). A statistic can be undefined
+(NaN: no lane change, none completed); "undefined" is a category of its own: an undefined
+observation has p = (1 + U) / (K + 1), U the undefined replicates — the share of
+replicates that, like it, did not change lane; a defined one counts only defined replicates
+in its tails, so an episode that changes lane where ≤ x % of the replicates do has
+p ≤ 2x % + 2/(K + 1). Both are valid: P(p ≤ a) ≤ a under the null.
+
+*The verdict* is Bonferroni over the S = 5 statistics at level α (:data:`ALPHA`): a
+statistic fails when p ≤ α/S, the episode is inside ("drives like the class with these
+parameters") when none fails, else outside in the failing ones. The smallest p-value is
+2/(K + 1), so a check needs K ≥ 2S/α − 1 draws (:func:`min_draws`: 199 at α = 0.05) to be
+able to fail at all; fewer are refused.
+
+:func:`predictive_checks` runs many episodes on worker processes, one solver set each.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from drivestyle.common.parallel import parallel_map
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.envs.tracking import observe
+from drivestyle.irl.amortized.behaviour import RESOLUTIONS, STATISTICS, Behaviour, behaviour
+from drivestyle.irl.amortized.simulations import PARAMETERS, style_of
+from drivestyle.irl.driver.driver_style import check_demo
+from drivestyle.irl.driver.stochastic import load_planners, simulate_episode
+from drivestyle.recorded.observed import observed_mask
+from drivestyle.recorded.real_data import recorded_view
+
+__all__ = [
+    "ALPHA",
+    "INSIDE",
+    "INTERVAL",
+    "PredictiveCheck",
+    "StatisticCheck",
+    "min_draws",
+    "predictive_check",
+    "predictive_checks",
+    "predictive_p_value",
+    "replicate",
+    "replicate_seed",
+    "start_state",
+]
+
+ALPHA = 0.05
+"""α of the verdict: the family-wise rate at which a driver of the class is called outside."""
+INTERVAL = 0.9
+"""Mass of the reported central predictive interval."""
+INSIDE = "drives like the class with these parameters"
+"""The verdict of an episode no statistic fails."""
+
+
+def min_draws(alpha: float = ALPHA, n_statistics: int = len(STATISTICS)) -> int:
+    """The fewest draws K at which a statistic can fail: 2/(K + 1) ≤ α/S.
+
+    Raises:
+        ValueError: α outside (0, 1) or S < 1.
+    """
+    if not (0 < alpha < 1 and n_statistics >= 1):
+        raise ValueError(f"alpha must lie in (0, 1) and n_statistics be >= 1, got {alpha!r}")
+    return max(math.ceil(2 * n_statistics / alpha - 1 - 1e-9), 1)
+
+
+def predictive_p_value(observed: float, replicated: np.ndarray, resolution: float = 0.0) -> float:
+    """Two-sided mid-rank posterior-predictive p-value of one statistic (module docstring).
+
+    Args:
+        observed: the episode's value (NaN: undefined).
+        replicated: the replicates' values, shape (K,) (NaN: undefined).
+        resolution: replicates within this of ``observed`` are ties (≥ 0).
+
+    Returns:
+        p in (0, 1].
+    """
+    rep = np.asarray(replicated, float).ravel()
+    k = rep.size
+    defined = rep[~np.isnan(rep)]
+    if math.isnan(observed):
+        return (1 + k - defined.size) / (k + 1)
+    below = int(np.sum(defined < observed - resolution))
+    above = int(np.sum(defined > observed + resolution))
+    ties = defined.size - below - above
+    return min(1.0, 2.0 * (1 + min(below, above) + ties / 2) / (k + 1))
+
+
+def replicate_seed(seed: int, k: int) -> int:
+    """The seed of replicate k of a check seeded ``seed`` (independent streams for every pair)."""
+    return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class StatisticCheck:
+    """One statistic of a check: the episode's value against its replicates'."""
+
+    name: str
+    """The statistic (:data:`~drivestyle.irl.amortized.behaviour.STATISTICS`)."""
+    observed: float
+    """The episode's value (NaN: undefined)."""
+    median: float
+    """The defined replicates' median (NaN: none defined)."""
+    interval: tuple[float, float]
+    """Their central :data:`INTERVAL` interval."""
+    defined: float
+    """Share of the replicates in which it is defined."""
+    p_value: float
+    """The two-sided posterior-predictive p-value (:func:`predictive_p_value`)."""
+    fails: bool
+    """p ≤ α/S."""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (NaN as None)."""
+        num = _num
+        return {
+            "observed": num(self.observed), "median": num(self.median),
+            "interval": [num(self.interval[0]), num(self.interval[1])],
+            "defined": self.defined, "p_value": self.p_value, "fails": self.fails,
+        }  # fmt: skip
+
+
+def _num(x: float) -> float | None:
+    return None if math.isnan(x) else float(x)
+
+
+@dataclass(frozen=True)
+class PredictiveCheck:
+    """The verdict on fit of one episode and parameter draws (module docstring)."""
+
+    statistics: tuple[StatisticCheck, ...]
+    """Per statistic, in :data:`~drivestyle.irl.amortized.behaviour.STATISTICS` order."""
+    inside: bool
+    """No statistic fails: the episode drives like the class with these parameters."""
+    failing: tuple[str, ...]
+    """The statistics that fail (empty when inside)."""
+    alpha: float
+    """α of the verdict."""
+    threshold: float
+    """α/S: a statistic fails at or below it."""
+    k: int
+    """Draws, one replicate each."""
+    seed: int
+    """The check's seed."""
+    noise: float
+    """σ of the position noise on the replicates' EV [m]."""
+    failed_solves: int
+    """Failed solves over all replicates."""
+    seconds: float
+    """Wall time of the check [s]."""
+    observed: Behaviour = field(compare=False)
+    """The episode's statistics."""
+    replicated: np.ndarray = field(compare=False, repr=False)
+    """The replicates' statistics, shape (K, S)."""
+
+    @property
+    def p_values(self) -> dict[str, float]:
+        """Statistic → p-value."""
+        return {s.name: s.p_value for s in self.statistics}
+
+    @property
+    def verdict(self) -> str:
+        """The verdict in words: :data:`INSIDE`, or outside and in which statistics."""
+        if self.inside:
+            return INSIDE
+        named = ", ".join(
+            f"{s.name.replace('_', ' ')} (p = {s.p_value:.3g})" for s in self.statistics if s.fails
+        )
+        return f"outside the class with these parameters in: {named}"
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (the replicates' values left out)."""
+        return {
+            "inside": self.inside, "verdict": self.verdict, "failing": list(self.failing),
+            "alpha": self.alpha, "threshold": self.threshold, "k": self.k, "seed": self.seed,
+            "noise": self.noise, "failed_solves": self.failed_solves, "seconds": self.seconds,
+            "statistics": {s.name: s.to_json() for s in self.statistics},
+        }  # fmt: skip
+
+
+def start_state(
+    view: Demonstration, scenario: ScenarioConfig, noise: float, rng: np.random.Generator
+) -> np.ndarray:
+    """A replicate's start: the episode's first state, less a draw of the tracker's error there.
+
+    With position noise σ > 0 the first state is the tracker's estimate ŝ_0 = s_0 + ε, at
+    the edge of the smoother where it errs most (0.19 m of noise: 0.9 m/s and 0.09 rad in
+    one episode). Starting every replicate at ŝ_0 makes them agree with each other where
+    the episode's own start was elsewhere, and a speed change the tracked episode shows
+    becomes an outlier. So the start is drawn from s_0 | ŝ_0 under a flat prior: ŝ_0 − ε_k,
+    with ε_k the error of the tracker (:func:`~drivestyle.envs.tracking.observe`) on the
+    episode's tracked path with fresh noise. The result is clipped into the planner's road,
+    heading and speed bounds (from outside them no plan exists).
+
+    Args:
+        view: the episode as identification sees it.
+        scenario: its scenario.
+        noise: σ of the position noise [m] (0: the first state as it is).
+        rng: the generator of the tracker's noise.
+
+    Returns:
+        [x, y, φ, v], shape (4,).
+    """
+    first = np.array(view.ev[0], dtype=float)
+    if noise > 0:
+        first -= observe(view, noise, rng, recover=False).ev[0] - view.ev[0]
+    x, y, phi, v = (float(s) for s in first)
+    sc = scenario
+    lo, hi = sc.y_bounds
+    return np.array([x, min(max(y, lo), hi), min(max(phi, -sc.phi_max), sc.phi_max),
+                     min(max(v, 0.0), sc.v_max)])  # fmt: skip
+
+
+def replicate(
+    theta: np.ndarray, view: Demonstration, scenario: ScenarioConfig, seed: int, noise: float
+) -> Demonstration:
+    """One replicate of an episode: the driver of θ in its scene (module docstring).
+
+    Args:
+        theta: θ, shape (D,), :data:`~drivestyle.irl.amortized.simulations.PARAMETERS` order.
+        view: the episode as identification sees it (:func:`recorded_view`).
+        scenario: its scenario (``check_demo(view)``).
+        seed: the replicate's seed (its driver's deviation and noise; [seed, 1] seeds its
+            start, :func:`start_state`).
+        noise: σ of the position noise on the EV [m].
+
+    Returns:
+        The simulated episode, its surrounding vehicles and observed mask the episode's.
+    """
+    style = style_of(theta, scenario.ev_speed)
+    start = start_state(view, scenario, noise, np.random.default_rng([seed, 1]))
+    sim = simulate_episode(style, scenario, seed, vehicles=view.vehicles, noise=noise,
+                           start=start)  # fmt: skip
+    return replace(sim, tv=view.tv, observed=observed_mask(view))
+
+
+def _draws(draws: np.ndarray, alpha: float) -> np.ndarray:
+    theta = np.asarray(draws, dtype=float)
+    if theta.ndim != 2 or theta.shape[1] != len(PARAMETERS) or not np.all(np.isfinite(theta)):
+        raise ValueError(
+            f"draws must be finite rows of the {len(PARAMETERS)} parameters {PARAMETERS}, shape "
+            f"(K, {len(PARAMETERS)}), got shape {theta.shape}"
+        )
+    need = min_draws(alpha)
+    if theta.shape[0] < need:
+        raise ValueError(
+            f"{theta.shape[0]} draws cannot make any statistic fail at alpha = {alpha:g} over "
+            f"{len(STATISTICS)} statistics (the smallest p-value is 2/(K + 1)): give at least "
+            f"{need}, or a larger alpha"
+        )
+    return theta
+
+
+def _summary(name: str, obs: float, rep: np.ndarray, threshold: float) -> StatisticCheck:
+    defined = rep[~np.isnan(rep)]
+    tail = 50 * (1 - INTERVAL)
+    if defined.size:
+        median = float(np.median(defined))
+        lo, hi = (float(q) for q in np.percentile(defined, [tail, 100 - tail]))
+    else:
+        median = lo = hi = math.nan
+    p = predictive_p_value(obs, rep, RESOLUTIONS[name])
+    return StatisticCheck(name, float(obs), median, (lo, hi), defined.size / rep.size, p,
+                          p <= threshold)  # fmt: skip
+
+
+def predictive_check(
+    draws: np.ndarray,
+    demo: Demonstration,
+    *,
+    seed: int,
+    alpha: float = ALPHA,
+    noise: float | None = None,
+) -> PredictiveCheck:
+    """Whether ``demo`` drives like the class with the parameters ``draws`` (module docstring).
+
+    Args:
+        draws: θ_1 … θ_K, shape (K, D) in
+            :data:`~drivestyle.irl.amortized.simulations.PARAMETERS` order; K ≥
+            :func:`min_draws` (``alpha``).
+        demo: the episode (simulated or recorded, road frame).
+        seed: the check's seed (≥ 0); replicate k is simulated with
+            :func:`replicate_seed`(seed, k).
+        alpha: the verdict's family-wise level.
+        noise: σ of the position noise on the replicates' EV [m]; None: the episode's
+            ``meta["measurement_noise_m"]``, else 0.
+
+    Returns:
+        The :class:`PredictiveCheck`, deterministic given the arguments.
+
+    Raises:
+        ValueError: malformed draws, too few of them for ``alpha``, a negative seed or
+            noise.
+        StochasticStyleError: a row outside the ranges a stochastic style admits.
+    """
+    t0 = time.perf_counter()
+    theta = _draws(draws, alpha)
+    if not (isinstance(seed, (int, np.integer)) and seed >= 0):
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    sigma = float(demo.meta.get("measurement_noise_m", 0.0)) if noise is None else float(noise)
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"noise must be >= 0 m, got {noise!r}")
+    view = recorded_view(demo)  # the scene identification solves on (identify_driver)
+    sc = check_demo(view)
+    observed = behaviour(view)
+    rows, failed = [], 0
+    for k, row in enumerate(theta):
+        sim = replicate(row, view, sc, replicate_seed(int(seed), k), sigma)
+        rows.append(behaviour(sim).values())
+        failed += int(sim.meta["failures"])
+    replicated = np.array(rows)
+    threshold = alpha / len(STATISTICS)
+    per = tuple(
+        _summary(name, obs, replicated[:, j], threshold)
+        for j, (name, obs) in enumerate(zip(STATISTICS, observed.values(), strict=True))
+    )
+    failing = tuple(s.name for s in per if s.fails)
+    return PredictiveCheck(
+        statistics=per, inside=not failing, failing=failing, alpha=float(alpha),
+        threshold=threshold, k=int(theta.shape[0]), seed=int(seed), noise=sigma,
+        failed_solves=failed, seconds=time.perf_counter() - t0, observed=observed,
+        replicated=replicated,
+    )  # fmt: skip
+
+
+def _check_task(
+    demo: Demonstration, draws: np.ndarray, seed: int, alpha: float, noise: float | None
+) -> PredictiveCheck:
+    """Worker: one episode's check."""
+    return predictive_check(draws, demo, seed=seed, alpha=alpha, noise=noise)
+
+
+def predictive_checks(
+    demos: Sequence[Demonstration],
+    draws: Sequence[np.ndarray],
+    *,
+    seed: int,
+    alpha: float = ALPHA,
+    noise: float | None = None,
+    workers: int = 1,
+    on_result: Callable[[int, Any], None] | None = None,
+) -> list[PredictiveCheck]:
+    """:func:`predictive_check` of many episodes on worker processes.
+
+    Episode i is checked with seed ``seed + i`` (its replicates' seeds are distinct from
+    every other episode's, :func:`replicate_seed`). Each worker builds the stochastic
+    driver's planners once (:func:`~drivestyle.irl.driver.stochastic.load_planners`: the
+    CasADi solvers are not thread-safe, so one set per process).
+
+    Args:
+        demos: the episodes.
+        draws: per episode its draws, shape (K_i, D).
+        seed: the first episode's seed (≥ 0).
+        alpha: the verdict's family-wise level.
+        noise: as :func:`predictive_check` (None: each episode's own).
+        workers: worker processes (1: in this process).
+        on_result: called with (index, check) as each episode finishes (a progress bar).
+
+    Returns:
+        The checks in episode order: deterministic given the arguments (not on
+        ``workers``).
+
+    Raises:
+        ValueError: as many draws as episodes not given, or as :func:`predictive_check`
+            (checked before any work).
+    """
+    if len(draws) != len(demos):
+        raise ValueError(f"{len(demos)} episodes but {len(draws)} sets of draws")
+    if not (isinstance(seed, (int, np.integer)) and seed >= 0):
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    tasks = [(d, _draws(th, alpha), int(seed) + i, alpha, noise)
+             for i, (d, th) in enumerate(zip(demos, draws, strict=True))]  # fmt: skip
+    return parallel_map(_check_task, tasks, workers, on_result, initializer=load_planners)
