@@ -12,11 +12,9 @@ lane-change start and duration, speed change) with the replicates' (Gelman, Meng
 (:func:`~drivestyle.irl.amortized.simulations.style_of`: v_ref = speed ratio × the
 scenario's EV start speed) driven by
 :func:`~drivestyle.irl.driver.stochastic.simulate_episode` in the episode's own scene: the
-scenario and bounds identification solves on
-(:func:`~drivestyle.recorded.real_data.recorded_view` — a recorded episode beyond its
-heading bound under the recorded bounds — then
-:func:`~drivestyle.irl.driver.driver_style.check_demo`, as
-:func:`~drivestyle.irl.identification.posterior.identify_driver` does), every surrounding
+scenario and bounds identification solves on (:func:`scene_of`: a recorded episode beyond
+its heading bound under the recorded bounds, as
+:func:`~drivestyle.irl.identification.posterior.identify_driver` sees it), every surrounding
 vehicle replayed as the episode has it (they do not react; a recorded episode's
 constant-velocity continuations are replayed too, and its observed mask is the
 replicate's, so the statistics read the same states of both), from the episode's first
@@ -27,20 +25,23 @@ given; the surrounding vehicles stay the episode's). Replicate k has the seed
 :func:`replicate_seed`(seed, k): the check is deterministic given its seed.
 
 *The p-value* (:func:`predictive_p_value`) is mid-rank and two-sided, valid for any K
-under exchangeability: with L replicates below the observed value, G above and E tied
-(within the statistic's resolution, :data:`~drivestyle.irl.amortized.behaviour.
-RESOLUTIONS`), p = min(1, 2 (1 + min(L, G) + E/2) / (K + 1)). A statistic can be undefined
-(NaN: no lane change, none completed); "undefined" is a category of its own: an undefined
-observation has p = (1 + U) / (K + 1), U the undefined replicates — the share of
-replicates that, like it, did not change lane; a defined one counts only defined replicates
-in its tails, so an episode that changes lane where ≤ x % of the replicates do has
-p ≤ 2x % + 2/(K + 1). Both are valid: P(p ≤ a) ≤ a under the null.
+under exchangeability (a conformal p-value: the episode's tail count ranked among those of
+all K + 1 pooled values). A defined value's tail count is min(L, G) + E/2 (L values below
+it, G above, E tied within the statistic's resolution,
+:data:`~drivestyle.irl.amortized.behaviour.RESOLUTIONS`, itself included): a value beyond
+every replicate has p ≤ 2/(K + 1), the rank p-value 2 (1 + min(L, G))/(K + 1) without ties.
+A statistic can be undefined (NaN: no lane change, none completed); "undefined" is a third
+tail of its own, whose count is the number of undefined values: an episode that changes
+lane where D of K replicates do has p ≤ (D + 1)/(K + 1) (no more than the D + 1 defined
+values are as rare as it), one that does not where only U replicates also do not has
+p ≈ 3 (U + 1)/(K + 1) (the undefined ones and both tails of the defined ones). P(p ≤ a) ≤ a under the null
+for every a and every share undefined (tested by simulation).
 
 *The verdict* is Bonferroni over the S = 5 statistics at level α (:data:`ALPHA`): a
 statistic fails when p ≤ α/S, the episode is inside ("drives like the class with these
-parameters") when none fails, else outside in the failing ones. The smallest p-value is
-2/(K + 1), so a check needs K ≥ 2S/α − 1 draws (:func:`min_draws`: 199 at α = 0.05) to be
-able to fail at all; fewer are refused.
+parameters") when none fails, else outside in the failing ones. A value beyond every
+replicate has p = 2/(K + 1) (without ties), so a check needs K ≥ 2S/α − 1 draws
+(:func:`min_draws`: 199 at α = 0.05) before such a value fails; fewer are refused.
 
 :func:`predictive_checks` runs many episodes on worker processes, one solver set each.
 """
@@ -78,6 +79,7 @@ __all__ = [
     "predictive_p_value",
     "replicate",
     "replicate_seed",
+    "scene_of",
     "start_state",
 ]
 
@@ -103,23 +105,32 @@ def min_draws(alpha: float = ALPHA, n_statistics: int = len(STATISTICS)) -> int:
 def predictive_p_value(observed: float, replicated: np.ndarray, resolution: float = 0.0) -> float:
     """Two-sided mid-rank posterior-predictive p-value of one statistic (module docstring).
 
+    The conformal form: each of the K + 1 pooled values (the observed first) gets its tail
+    count — a defined value min(L, G) + E/2 among the defined pooled values (L below it by
+    more than ``resolution``, G above, E within it, itself included), an undefined value the
+    number of undefined pooled values — and p is the share of pooled values whose tail count
+    is no larger than the observed one's. The counts are a symmetric function of the pool,
+    so under exchangeability P(p ≤ a) ≤ a for every a and every share undefined.
+
     Args:
         observed: the episode's value (NaN: undefined).
         replicated: the replicates' values, shape (K,) (NaN: undefined).
-        resolution: replicates within this of ``observed`` are ties (≥ 0).
+        resolution: values within this of each other are ties (≥ 0).
 
     Returns:
-        p in (0, 1].
+        p in (0, 1]: at most 2/(K + 1) for a defined value beyond every replicate (two
+        values are that rare without ties, itself and the far end), 1 when all are tied.
     """
-    rep = np.asarray(replicated, float).ravel()
-    k = rep.size
-    defined = rep[~np.isnan(rep)]
-    if math.isnan(observed):
-        return (1 + k - defined.size) / (k + 1)
-    below = int(np.sum(defined < observed - resolution))
-    above = int(np.sum(defined > observed + resolution))
-    ties = defined.size - below - above
-    return min(1.0, 2.0 * (1 + min(below, above) + ties / 2) / (k + 1))
+    pool = np.concatenate([[float(observed)], np.asarray(replicated, float).ravel()])
+    undefined = np.isnan(pool)
+    tails = np.full(pool.size, float(undefined.sum()))
+    values = pool[~undefined]
+    if values.size:
+        diff = values[:, None] - values[None, :]
+        below = np.sum(diff > resolution, axis=1)
+        above = np.sum(diff < -resolution, axis=1)
+        tails[~undefined] = np.minimum(below, above) + (values.size - below - above) / 2
+    return float(np.mean(tails <= tails[0] + 1e-9))
 
 
 def replicate_seed(seed: int, k: int) -> int:
@@ -214,6 +225,22 @@ class PredictiveCheck:
         }  # fmt: skip
 
 
+def scene_of(demo: Demonstration) -> tuple[Demonstration, ScenarioConfig]:
+    """The episode as identification sees it, and the scenario its replicates drive in.
+
+    :func:`~drivestyle.recorded.real_data.recorded_view` (a recorded episode beyond its
+    scenario's heading bound under the recorded bounds, its inputs recovered under them;
+    anything else as it is), then :func:`~drivestyle.irl.driver.driver_style.check_demo`
+    (samples T_s apart): the rule of
+    :func:`~drivestyle.irl.identification.posterior.identify_driver`.
+
+    Returns:
+        (the view, its scenario).
+    """
+    view = recorded_view(demo)
+    return view, check_demo(view)
+
+
 def start_state(
     view: Demonstration, scenario: ScenarioConfig, noise: float, rng: np.random.Generator
 ) -> np.ndarray:
@@ -254,8 +281,8 @@ def replicate(
 
     Args:
         theta: θ, shape (D,), :data:`~drivestyle.irl.amortized.simulations.PARAMETERS` order.
-        view: the episode as identification sees it (:func:`recorded_view`).
-        scenario: its scenario (``check_demo(view)``).
+        view: the episode as identification sees it (:func:`scene_of`).
+        scenario: its scenario (:func:`scene_of`).
         seed: the replicate's seed (its driver's deviation and noise; [seed, 1] seeds its
             start, :func:`start_state`).
         noise: σ of the position noise on the EV [m].
@@ -281,7 +308,7 @@ def _draws(draws: np.ndarray, alpha: float) -> np.ndarray:
     if theta.shape[0] < need:
         raise ValueError(
             f"{theta.shape[0]} draws cannot make any statistic fail at alpha = {alpha:g} over "
-            f"{len(STATISTICS)} statistics (the smallest p-value is 2/(K + 1)): give at least "
+            f"{len(STATISTICS)} statistics (a value beyond them all has p = 2/(K + 1)): give at least "
             f"{need}, or a larger alpha"
         )
     return theta
@@ -336,8 +363,7 @@ def predictive_check(
     sigma = float(demo.meta.get("measurement_noise_m", 0.0)) if noise is None else float(noise)
     if not (math.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"noise must be >= 0 m, got {noise!r}")
-    view = recorded_view(demo)  # the scene identification solves on (identify_driver)
-    sc = check_demo(view)
+    view, sc = scene_of(demo)
     observed = behaviour(view)
     rows, failed = [], 0
     for k, row in enumerate(theta):

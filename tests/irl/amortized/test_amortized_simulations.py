@@ -1,5 +1,7 @@
 """The amortized posterior's training set: stochastic drivers simulated from their prior."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from drivestyle.irl.amortized.simulations import (
     parameters_of,
     series_width,
     simulate_set,
+    style_of,
     with_prefixes,
 )
 from drivestyle.irl.driver.stochastic_prior import StochasticPrior
@@ -65,3 +68,12 @@ def test_prefixes_are_the_episodes_observed_for_less_time(sims):
 def test_a_parameter_the_prior_does_not_vary_is_refused():
     with pytest.raises(ValueError, match="risk"):
         parameter_box(StochasticPrior(risk=(0.7, 0.7)))
+
+
+def test_style_of_inverts_parameters_of():
+    for params in PRIOR.draw(20, 3):
+        style = style_of(parameters_of(params), params.scene.base.ev_speed)
+        assert style.v_ref == pytest.approx(params.style.v_ref, rel=1e-12)
+        assert replace(style, v_ref=params.style.v_ref) == params.style
+    with pytest.raises(ValueError, match="9 finite numbers"):
+        style_of(np.zeros(3), 20.0)
