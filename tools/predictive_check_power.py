@@ -45,6 +45,7 @@ def wilson(hits: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the measurement (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--episodes", type=int, default=40)
     ap.add_argument("--k", type=int, default=min_draws(0.05))
@@ -79,8 +80,10 @@ def main(argv: list[str] | None = None) -> int:
                                seed=args.seed, alpha=resolved[0], workers=args.workers,
                                on_result=progress)  # fmt: skip
     print(file=sys.stderr)
-    summary: dict = {"episodes": args.episodes, "k": args.k, "seed": args.seed,
-                     "workers": args.workers, "wall_s": time.perf_counter() - t0, "kinds": {}}  # fmt: skip
+    summary: dict = {
+        "episodes": args.episodes, "k": args.k, "seed": args.seed, "workers": args.workers,
+        "wall_s": time.perf_counter() - t0, "kinds": {},
+    }  # fmt: skip
     for kind in args.kinds:
         mine = [c for (k, _), c in zip(cases, checks, strict=True) if k == kind]
         p = np.array([[s.p_value for s in c.statistics] for c in mine])  # (N, S)

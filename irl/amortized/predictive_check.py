@@ -34,8 +34,8 @@ A statistic can be undefined (NaN: no lane change, none completed); "undefined" 
 tail of its own, whose count is the number of undefined values: an episode that changes
 lane where D of K replicates do has p ≤ (D + 1)/(K + 1) (no more than the D + 1 defined
 values are as rare as it), one that does not where only U replicates also do not has
-p ≈ 3 (U + 1)/(K + 1) (the undefined ones and both tails of the defined ones). P(p ≤ a) ≤ a under the null
-for every a and every share undefined (tested by simulation).
+p ≈ 3 (U + 1)/(K + 1) (the undefined ones and both tails of the defined ones).
+P(p ≤ a) ≤ a under the null for every a and every share undefined (tested by simulation).
 
 *The verdict* is Bonferroni over the S = 5 statistics at level α (:data:`ALPHA`): a
 statistic fails when p ≤ α/S, the episode is inside ("drives like the class with these
@@ -307,9 +307,9 @@ def _draws(draws: np.ndarray, alpha: float) -> np.ndarray:
     need = min_draws(alpha)
     if theta.shape[0] < need:
         raise ValueError(
-            f"{theta.shape[0]} draws cannot make any statistic fail at alpha = {alpha:g} over "
-            f"{len(STATISTICS)} statistics (a value beyond them all has p = 2/(K + 1)): give at least "
-            f"{need}, or a larger alpha"
+            f"{theta.shape[0]} draws cannot make a statistic beyond every replicate fail at "
+            f"alpha = {alpha:g} over {len(STATISTICS)} statistics (its p is 2/(K + 1)): give at "
+            f"least {need}, or a larger alpha"
         )
     return theta
 

@@ -112,10 +112,15 @@ def style_of(theta: np.ndarray, ev_speed: float) -> StochasticStyle:
     """
     theta = np.asarray(theta, dtype=float)
     if theta.shape != (len(PARAMETERS),) or not np.all(np.isfinite(theta)):
-        raise ValueError(f"theta must be {len(PARAMETERS)} finite numbers {PARAMETERS}, got {theta}")
-    values = {name: float(v) for name, v in zip(PARAMETERS, theta, strict=True)}
-    ratio = values.pop("speed_ratio")
-    return StochasticStyle(v_ref=float(min(max(ev_speed * ratio, 0.5), 69.0)), **values)
+        raise ValueError(
+            f"theta must be {len(PARAMETERS)} finite numbers {PARAMETERS}, got {theta}"
+        )
+    v = {name: float(x) for name, x in zip(PARAMETERS, theta, strict=True)}
+    return StochasticStyle(
+        risk=v["risk"], v_ref=float(min(max(ev_speed * v["speed_ratio"], 0.5), 69.0)),
+        time_gap=v["time_gap"], min_gap=v["min_gap"], lateral=v["lateral"], onset=v["onset"],
+        sigma_a=v["sigma_a"], sigma_delta=v["sigma_delta"], tau=v["tau"],
+    )  # fmt: skip
 
 
 def episode_series(demo: Demonstration, k: int | None = None) -> np.ndarray:
