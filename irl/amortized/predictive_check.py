@@ -8,21 +8,11 @@ statistics (:mod:`drivestyle.irl.amortized.behaviour`: closest approach, accepte
 lane-change start and duration, speed change) with the replicates' (Gelman, Meng & Stern
 1996: a posterior-predictive p-value per statistic).
 
-*A replicate* is the stochastic driver of θ_k
-(:func:`~drivestyle.irl.amortized.simulations.style_of`: v_ref = speed ratio × the
-scenario's EV start speed) driven by
-:func:`~drivestyle.irl.driver.stochastic.simulate_episode` in the episode's own scene: the
-scenario and bounds identification solves on (:func:`scene_of`: a recorded episode beyond
-its heading bound under the recorded bounds, as
-:func:`~drivestyle.irl.identification.posterior.identify_driver` sees it), every surrounding
-vehicle replayed as the episode has it (they do not react; a recorded episode's
-constant-velocity continuations are replayed too, and its observed mask is the
-replicate's, so the statistics read the same states of both), from the episode's first
-state (less a draw of the tracker's error there where the episode is noisy,
-:func:`start_state`), with the episode's measurement noise on the EV and its tracker
+*A replicate* (:mod:`drivestyle.irl.amortized.replicates`) is the stochastic driver of
+θ_k in the episode's own scene — its scenario and bounds as identification sees them, its
+surrounding vehicles replayed, from its first state, with its measurement noise
 (``meta["measurement_noise_m"]`` of a simulated episode; 0 for a recorded one unless
-given; the surrounding vehicles stay the episode's). Replicate k has the seed
-:func:`replicate_seed`(seed, k): the check is deterministic given its seed.
+given). The check is deterministic given its seed.
 
 *The p-value* (:func:`predictive_p_value`) is mid-rank and two-sided, valid for any K
 under exchangeability (a conformal p-value: the episode's tail count ranked among those of
@@ -51,21 +41,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.scenario import ScenarioConfig
-from drivestyle.envs.tracking import observe
 from drivestyle.irl.amortized.behaviour import RESOLUTIONS, STATISTICS, Behaviour, behaviour
-from drivestyle.irl.amortized.simulations import PARAMETERS, style_of
-from drivestyle.irl.driver.driver_style import check_demo
-from drivestyle.irl.driver.stochastic import load_planners, simulate_episode
-from drivestyle.recorded.observed import observed_mask
-from drivestyle.recorded.real_data import recorded_view
+from drivestyle.irl.amortized.replicates import replicate, replicate_seed, scene_of
+from drivestyle.irl.amortized.simulations import PARAMETERS
+from drivestyle.irl.driver.stochastic import load_planners
+from drivestyle.irl.driver.stochastic_prior import StochasticPrior
 
 __all__ = [
     "ALPHA",
@@ -77,10 +64,6 @@ __all__ = [
     "predictive_check",
     "predictive_checks",
     "predictive_p_value",
-    "replicate",
-    "replicate_seed",
-    "scene_of",
-    "start_state",
 ]
 
 ALPHA = 0.05
@@ -131,11 +114,6 @@ def predictive_p_value(observed: float, replicated: np.ndarray, resolution: floa
         above = np.sum(diff < -resolution, axis=1)
         tails[~undefined] = np.minimum(below, above) + (values.size - below - above) / 2
     return float(np.mean(tails <= tails[0] + 1e-9))
-
-
-def replicate_seed(seed: int, k: int) -> int:
-    """The seed of replicate k of a check seeded ``seed`` (independent streams for every pair)."""
-    return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
 
 
 @dataclass(frozen=True)
@@ -225,78 +203,6 @@ class PredictiveCheck:
         }  # fmt: skip
 
 
-def scene_of(demo: Demonstration) -> tuple[Demonstration, ScenarioConfig]:
-    """The episode as identification sees it, and the scenario its replicates drive in.
-
-    :func:`~drivestyle.recorded.real_data.recorded_view` (a recorded episode beyond its
-    scenario's heading bound under the recorded bounds, its inputs recovered under them;
-    anything else as it is), then :func:`~drivestyle.irl.driver.driver_style.check_demo`
-    (samples T_s apart): the rule of
-    :func:`~drivestyle.irl.identification.posterior.identify_driver`.
-
-    Returns:
-        (the view, its scenario).
-    """
-    view = recorded_view(demo)
-    return view, check_demo(view)
-
-
-def start_state(
-    view: Demonstration, scenario: ScenarioConfig, noise: float, rng: np.random.Generator
-) -> np.ndarray:
-    """A replicate's start: the episode's first state, less a draw of the tracker's error there.
-
-    With position noise σ > 0 the first state is the tracker's estimate ŝ_0 = s_0 + ε, at
-    the edge of the smoother where it errs most (0.19 m of noise: 0.9 m/s and 0.09 rad in
-    one episode). Starting every replicate at ŝ_0 makes them agree with each other where
-    the episode's own start was elsewhere, and a speed change the tracked episode shows
-    becomes an outlier. So the start is drawn from s_0 | ŝ_0 under a flat prior: ŝ_0 − ε_k,
-    with ε_k the error of the tracker (:func:`~drivestyle.envs.tracking.observe`) on the
-    episode's tracked path with fresh noise. The result is clipped into the planner's road,
-    heading and speed bounds (from outside them no plan exists).
-
-    Args:
-        view: the episode as identification sees it.
-        scenario: its scenario.
-        noise: σ of the position noise [m] (0: the first state as it is).
-        rng: the generator of the tracker's noise.
-
-    Returns:
-        [x, y, φ, v], shape (4,).
-    """
-    first = np.array(view.ev[0], dtype=float)
-    if noise > 0:
-        first -= observe(view, noise, rng, recover=False).ev[0] - view.ev[0]
-    x, y, phi, v = (float(s) for s in first)
-    sc = scenario
-    lo, hi = sc.y_bounds
-    return np.array([x, min(max(y, lo), hi), min(max(phi, -sc.phi_max), sc.phi_max),
-                     min(max(v, 0.0), sc.v_max)])  # fmt: skip
-
-
-def replicate(
-    theta: np.ndarray, view: Demonstration, scenario: ScenarioConfig, seed: int, noise: float
-) -> Demonstration:
-    """One replicate of an episode: the driver of θ in its scene (module docstring).
-
-    Args:
-        theta: θ, shape (D,), :data:`~drivestyle.irl.amortized.simulations.PARAMETERS` order.
-        view: the episode as identification sees it (:func:`scene_of`).
-        scenario: its scenario (:func:`scene_of`).
-        seed: the replicate's seed (its driver's deviation and noise; [seed, 1] seeds its
-            start, :func:`start_state`).
-        noise: σ of the position noise on the EV [m].
-
-    Returns:
-        The simulated episode, its surrounding vehicles and observed mask the episode's.
-    """
-    style = style_of(theta, scenario.ev_speed)
-    start = start_state(view, scenario, noise, np.random.default_rng([seed, 1]))
-    sim = simulate_episode(style, scenario, seed, vehicles=view.vehicles, noise=noise,
-                           start=start)  # fmt: skip
-    return replace(sim, tv=view.tv, observed=observed_mask(view))
-
-
 def _draws(draws: np.ndarray, alpha: float) -> np.ndarray:
     theta = np.asarray(draws, dtype=float)
     if theta.ndim != 2 or theta.shape[1] != len(PARAMETERS) or not np.all(np.isfinite(theta)):
@@ -334,6 +240,7 @@ def predictive_check(
     seed: int,
     alpha: float = ALPHA,
     noise: float | None = None,
+    prior: StochasticPrior | None = None,
 ) -> PredictiveCheck:
     """Whether ``demo`` drives like the class with the parameters ``draws`` (module docstring).
 
@@ -347,6 +254,8 @@ def predictive_check(
         alpha: the verdict's family-wise level.
         noise: σ of the position noise on the replicates' EV [m]; None: the episode's
             ``meta["measurement_noise_m"]``, else 0.
+        prior: the prior whose speed limit bounds the replicates (:func:`replicate`;
+            default: :class:`StochasticPrior`'s).
 
     Returns:
         The :class:`PredictiveCheck`, deterministic given the arguments.
@@ -367,7 +276,7 @@ def predictive_check(
     observed = behaviour(view)
     rows, failed = [], 0
     for k, row in enumerate(theta):
-        sim = replicate(row, view, sc, replicate_seed(int(seed), k), sigma)
+        sim = replicate(row, view, sc, replicate_seed(int(seed), k), sigma, prior)
         rows.append(behaviour(sim).values())
         failed += int(sim.meta["failures"])
     replicated = np.array(rows)
@@ -386,10 +295,11 @@ def predictive_check(
 
 
 def _check_task(
-    demo: Demonstration, draws: np.ndarray, seed: int, alpha: float, noise: float | None
-) -> PredictiveCheck:
+    demo: Demonstration, draws: np.ndarray, seed: int, alpha: float, noise: float | None,
+    prior: StochasticPrior | None,
+) -> PredictiveCheck:  # fmt: skip
     """Worker: one episode's check."""
-    return predictive_check(draws, demo, seed=seed, alpha=alpha, noise=noise)
+    return predictive_check(draws, demo, seed=seed, alpha=alpha, noise=noise, prior=prior)
 
 
 def predictive_checks(
@@ -399,6 +309,7 @@ def predictive_checks(
     seed: int,
     alpha: float = ALPHA,
     noise: float | None = None,
+    prior: StochasticPrior | None = None,
     workers: int = 1,
     on_result: Callable[[int, Any], None] | None = None,
 ) -> list[PredictiveCheck]:
@@ -415,6 +326,7 @@ def predictive_checks(
         seed: the first episode's seed (≥ 0).
         alpha: the verdict's family-wise level.
         noise: as :func:`predictive_check` (None: each episode's own).
+        prior: as :func:`predictive_check`.
         workers: worker processes (1: in this process).
         on_result: called with (index, check) as each episode finishes (a progress bar).
 
@@ -430,6 +342,6 @@ def predictive_checks(
         raise ValueError(f"{len(demos)} episodes but {len(draws)} sets of draws")
     if not (isinstance(seed, (int, np.integer)) and seed >= 0):
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    tasks = [(d, _draws(th, alpha), int(seed) + i, alpha, noise)
+    tasks = [(d, _draws(th, alpha), int(seed) + i, alpha, noise, prior)
              for i, (d, th) in enumerate(zip(demos, draws, strict=True))]  # fmt: skip
     return parallel_map(_check_task, tasks, workers, on_result, initializer=load_planners)

@@ -14,14 +14,10 @@ from drivestyle.irl.amortized.predictive_check import (
     predictive_check,
     predictive_checks,
     predictive_p_value,
-    replicate,
-    replicate_seed,
-    scene_of,
-    start_state,
 )
+from drivestyle.irl.amortized.replicates import replicate_seed
 from drivestyle.irl.amortized.simulations import PARAMETERS, parameters_of
 from drivestyle.irl.driver.stochastic_prior import StochasticPrior, simulate_params
-from drivestyle.recorded.real_data import RECORDED_DELTA_MAX, RECORDED_PHI_MAX
 
 SHORT = StochasticPrior(horizon_s=4.0)  # 21 samples: a replicate in ≈ 0.05 s
 ALPHA = 0.5  # resolved by K = 19 draws: a check of the default tests in ≈ 1 s
@@ -82,41 +78,6 @@ def test_malformed_or_too_few_draws_are_refused(episode):
         predictive_check(np.zeros((K, len(PARAMETERS))), demo, seed=-1, alpha=ALPHA)
 
 
-def test_a_replicate_drives_in_the_episodes_scene_from_its_start(episode):
-    params, demo = episode
-    view, sc = scene_of(demo)
-    assert view is demo and sc == demo.scenario  # a simulated episode as it is
-    rep = replicate(parameters_of(params), view, sc, 7, 0.0)
-    np.testing.assert_array_equal(rep.vehicles, demo.vehicles)
-    np.testing.assert_array_equal(rep.ev[0], demo.ev[0])
-    np.testing.assert_array_equal(rep.observed, np.ones((demo.vehicles.shape[1], demo.n), bool))
-    assert rep.meta["stochastic_style"]["v_ref"] == pytest.approx(params.style.v_ref)
-    again = replicate(parameters_of(params), view, sc, 7, 0.0)
-    np.testing.assert_array_equal(again.ev, rep.ev)  # deterministic given the seed
-
-
-def test_a_noisy_start_is_the_first_state_less_a_draw_of_the_trackers_error(episode):
-    _, demo = episode
-    sc = demo.scenario
-    np.testing.assert_array_equal(start_state(demo, sc, 0.0, np.random.default_rng(0)), demo.ev[0])
-    a = start_state(demo, sc, 0.2, np.random.default_rng(0))
-    b = start_state(demo, sc, 0.2, np.random.default_rng(1))
-    np.testing.assert_array_equal(a, start_state(demo, sc, 0.2, np.random.default_rng(0)))
-    assert not np.array_equal(a, b) and np.all(np.abs(a - demo.ev[0])[:2] < 1.0)
-    assert abs(a[2]) <= sc.phi_max
-
-
-def test_a_recorded_episode_is_replicated_under_the_bounds_identification_uses(episode):
-    params, demo = episode
-    ev = demo.ev.copy()
-    ev[5:8, 2] = 0.2  # a heading the scenario's bound does not allow: recorded bounds
-    recorded = replace(demo, ev=ev, origin="recorded", meta={**demo.meta, "episode_id": "r"})
-    view, sc = scene_of(recorded)
-    assert (sc.phi_max, sc.delta_max) == (RECORDED_PHI_MAX, RECORDED_DELTA_MAX)
-    rep = replicate(parameters_of(params), view, sc, 0, 0.0)
-    assert rep.scenario == sc
-
-
 def test_a_check_compares_the_episode_with_its_replicates_deterministically(episode):
     params, demo = episode
     draws = np.tile(parameters_of(params), (K, 1))
@@ -158,3 +119,22 @@ def test_the_batch_checks_episode_i_with_seed_plus_i(episode):
     np.testing.assert_array_equal(checks[1].replicated, alone.replicated)
     with pytest.raises(ValueError, match="2 episodes but 1"):
         predictive_checks([demo, demo], [draws], seed=0, alpha=ALPHA)
+
+
+# ---------------------------------------------------------------------------- measured (slow)
+def _checks_of_true_drivers(n, seed, alpha, make=lambda demos, i: demos[i]):
+    """Checks of n prior episodes (or counterfeits of them) with their true θ as the draws."""
+    params = StochasticPrior().draw(n, seed)
+    demos = [simulate_params(p, seed + i) for i, p in enumerate(params)]
+    draws = [np.tile(parameters_of(p), (min_draws(alpha), 1)) for p in params]
+    made = [make(demos, i) for i in range(n)]
+    return predictive_checks(made, draws, seed=seed, alpha=alpha, workers=2)
+
+
+@pytest.mark.slow  # 40 checks of 49 replicates: ≈ 2 min on two cores
+def test_with_its_true_parameters_a_driver_is_called_outside_at_most_at_the_nominal_rate():
+    n, alpha = 40, 0.2
+    checks = _checks_of_true_drivers(n, 21, alpha)
+    outside = sum(not c.inside for c in checks)
+    print(f"\nfalse outside: {outside}/{n} at alpha = {alpha} (K = {checks[0].k})")
+    assert outside / n <= alpha + 2 * math.sqrt(alpha * (1 - alpha) / n)
