@@ -65,6 +65,7 @@ __all__ = [
     "save_simulated",
     "series_width",
     "simulate_set",
+    "style_of",
     "style_parameters",
     "with_prefixes",
 ]
@@ -137,6 +138,38 @@ def style_parameters(style: StochasticStyle, scenario: ScenarioConfig) -> np.nda
         "sigma_delta": s.sigma_delta, "tau": s.tau,
     }  # fmt: skip
     return np.array([float(values[name]) for name in PARAMETERS])
+
+
+def style_of(theta: np.ndarray, ev_speed: float) -> StochasticStyle:
+    """The driver of θ in a scene whose EV starts at ``ev_speed``: :func:`parameters_of` inverted.
+
+    v_ref = speed_ratio × ``ev_speed``, within [0.5, 69] m/s as the prior draws it; s_0 is
+    set (never the scene's); the weights and horizon are the stochastic style's defaults
+    (the expert's), which the prior does not vary. ``style_of(parameters_of(params),
+    params.scene.base.ev_speed)`` is ``params.style`` with its s_0 made explicit.
+
+    Args:
+        theta: θ in :data:`PARAMETERS`' order, shape (D,).
+        ev_speed: the EV's start speed in the scene [m/s] (the scenario's ``ev_speed``).
+
+    Returns:
+        The style.
+
+    Raises:
+        ValueError: θ not of shape (D,) or not finite.
+        StochasticStyleError: a parameter outside the range a style admits.
+    """
+    theta = np.asarray(theta, dtype=float)
+    if theta.shape != (len(PARAMETERS),) or not np.all(np.isfinite(theta)):
+        raise ValueError(
+            f"theta must be {len(PARAMETERS)} finite numbers {PARAMETERS}, got {theta}"
+        )
+    v = {name: float(x) for name, x in zip(PARAMETERS, theta, strict=True)}
+    return StochasticStyle(
+        risk=v["risk"], v_ref=float(min(max(ev_speed * v["speed_ratio"], 0.5), 69.0)),
+        time_gap=v["time_gap"], min_gap=v["min_gap"], lateral=v["lateral"], onset=v["onset"],
+        sigma_a=v["sigma_a"], sigma_delta=v["sigma_delta"], tau=v["tau"],
+    )  # fmt: skip
 
 
 def episode_series(demo: Demonstration, k: int | None = None) -> np.ndarray:

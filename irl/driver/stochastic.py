@@ -332,13 +332,14 @@ def simulate_episode(
     vehicles: np.ndarray | None = None,
     noise: float = 0.0,
     planner: StylePlanner | None = None,
+    start: np.ndarray | None = None,
 ) -> Demonstration:
     """One episode of a stochastic driver as a demonstration, deterministic given the seed.
 
-    The EV starts at the scenario's initial state; the surrounding vehicles move as given
-    (``vehicles``) or, by default, keep their velocity from the scene's start (the TV
-    first): they do not react to the EV, as in :func:`reproduce`. The deviation is drawn
-    first from ``numpy.random.default_rng(seed)``, then the measurement noise: with
+    The EV starts at the scenario's initial state (or ``start``); the surrounding vehicles
+    move as given (``vehicles``) or, by default, keep their velocity from the scene's start
+    (the TV first): they do not react to the EV, as in :func:`reproduce`. The deviation is
+    drawn first from ``numpy.random.default_rng(seed)``, then the measurement noise: with
     ``noise`` > 0 the episode is the one a tracker records
     (:func:`~drivestyle.envs.tracking.observe`: N(0, noise²) on the EV's and the TV's x
     and y, RTS-smoothed, the inputs recovered from the tracked states; the further
@@ -353,6 +354,7 @@ def simulate_episode(
         noise: σ of the position noise [m] (≥ 0).
         planner: the NLP (default: the cached one of the geometry: M = 1 with the TV
             alone, else 4).
+        start: the EV's start state [x, y, φ, v], shape (4,); None: the scenario's ξ0.
 
     Returns:
         The demonstration (origin ``"simulated"``; ``meta``: the scenario, the true
@@ -361,7 +363,7 @@ def simulate_episode(
 
     Raises:
         ValueError: a traffic scene with IDM vehicles (they would react to the EV), bad
-            vehicle shapes or a negative noise.
+            vehicle shapes, a start state not of shape (4,) or a negative noise.
     """
     if isinstance(scene, TrafficScene):
         if any(b != "constant" for b in scene.behaviours):
@@ -383,9 +385,11 @@ def simulate_episode(
     n = vehicles.shape[0]
     m = vehicles.shape[1]
     planner = planner or planner_for(sc, style.horizon, planner_slots(m))
+    xi0 = sc.ev_initial_state if start is None else np.asarray(start, dtype=float)
+    if xi0.shape != (4,) or not np.all(np.isfinite(xi0)):
+        raise ValueError(f"start must be a finite state [x, y, φ, v], got {start!r}")
     rng = np.random.default_rng(seed)
-    xs, _, us, failures = closed_loop_stochastic(style, sc.ev_initial_state, vehicles, sc,
-                                                 planner, rng)  # fmt: skip
+    xs, _, us, failures = closed_loop_stochastic(style, xi0, vehicles, sc, planner, rng)
     meta: dict[str, Any] = {
         "scenario": sc.to_dict(),
         "risk": float(style.risk),

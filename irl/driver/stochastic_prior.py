@@ -156,6 +156,15 @@ class StochasticPrior:
         if not (isinstance(self.horizon_s, (int, float)) and 0.4 <= self.horizon_s <= 60):
             raise ValueError(f"horizon_s must lie in [0.4, 60] s, got {self.horizon_s!r}")
 
+    def speed_limit(self, v_ref: float, ev_speed: float) -> float:
+        """A scene's v_max: :attr:`speed_limit_factor` × max(v_ref, the EV's start speed), ≤ 70 m/s.
+
+        Args:
+            v_ref: the driver's desired speed [m/s].
+            ev_speed: the EV's start speed [m/s].
+        """
+        return float(min(self.speed_limit_factor * max(v_ref, ev_speed), 70.0))
+
     def _style(self, rng: np.random.Generator, ev_speed: float) -> StochasticStyle:
         u = rng.uniform
         return StochasticStyle(
@@ -181,7 +190,7 @@ class StochasticPrior:
         base = dataclasses.replace(
             paper,
             lane_width=float(u(*self.lane_width)),
-            v_max=float(min(self.speed_limit_factor * v, 70.0)),
+            v_max=self.speed_limit(v_ref, ev_speed),
             ev_speed=ev_speed,
             tv_speed=float(ev_speed * u(*self.tv_speed_ratio)),
             tv_gap=float((5.0 + ev_speed) * u(*self.tv_gap_headways)),

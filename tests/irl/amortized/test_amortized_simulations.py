@@ -1,6 +1,7 @@
 """The amortized posterior's training set: stochastic drivers simulated from their prior."""
 
 import dataclasses
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from drivestyle.irl.amortized.simulations import (
     save_simulated,
     series_width,
     simulate_set,
+    style_of,
     with_prefixes,
 )
 from drivestyle.irl.driver.stochastic_prior import StochasticPrior
@@ -132,3 +134,12 @@ def test_the_smpc_expert_is_the_driver_without_deviation_onset_or_speed_scaled_r
     assert theta["time_gap"] == 0.0 and theta["min_gap"] == 12.0  # the scenario's region
     assert theta["lateral"] == 1.0 and theta["onset"] == 0.0
     assert theta["sigma_a"] == theta["sigma_delta"] == 0.0
+
+
+def test_style_of_inverts_parameters_of():
+    for params in PRIOR.draw(20, 3):
+        style = style_of(parameters_of(params), params.scene.base.ev_speed)
+        assert style.v_ref == pytest.approx(params.style.v_ref, rel=1e-12)
+        assert replace(style, v_ref=params.style.v_ref) == params.style
+    with pytest.raises(ValueError, match="9 finite numbers"):
+        style_of(np.zeros(3), 20.0)

@@ -166,6 +166,17 @@ def test_before_the_onset_the_driver_keeps_its_lane():
     assert late.ev[-1, 1] > PAPER.lane_width  # it changes lane after t_on
 
 
+def test_an_episode_starts_where_it_is_told():
+    start = PAPER.ev_initial_state + np.array([3.0, 0.4, 0.01, -1.0])
+    moved = simulate_episode(StochasticStyle(), PAPER, seed=0, start=start)
+    np.testing.assert_array_equal(moved.ev[0], start)
+    default = simulate_episode(StochasticStyle(), PAPER, seed=0)
+    told = simulate_episode(StochasticStyle(), PAPER, seed=0, start=PAPER.ev_initial_state)
+    np.testing.assert_array_equal(told.ev, default.ev)
+    with pytest.raises(ValueError, match="start"):
+        simulate_episode(StochasticStyle(), PAPER, seed=0, start=np.zeros(3))
+
+
 def test_simulate_episode_refuses_reacting_vehicles_and_bad_noise():
     from drivestyle.envs.traffic import DEFAULT_TRAFFIC
 
