@@ -11,22 +11,31 @@ parameter the posterior mean, median and 90 % interval, the risk p first) and
 checksum, each parameter's median posterior mean over the rows and, where the true risk is
 known, the posterior mean's MAE and the 90 % intervals' coverage of it.
 
-The table is written whole by every run given ``--posterior`` (it is cheap), so unlike
-``styles.csv`` it is not resumed row by row.
+With ``--check`` each identified demonstration is also checked for fit
+(:func:`checked_rows`: the posterior-predictive check of
+:mod:`~drivestyle.irl.amortized.predictive_check` with its posterior draws, on worker
+processes — one replicate per draw, the costly part): the table gains the verdict, the
+failing statistics and each statistic's p-value, the summary the share inside the class
+and how often each statistic failed.
+
+The table is written whole by every run given ``--posterior``, so unlike ``styles.csv``
+it is not resumed row by row.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration, load_demonstration
+from drivestyle.irl.amortized.behaviour import STATISTICS
 from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.amortized.identify import (
     LEVEL,
@@ -34,6 +43,7 @@ from drivestyle.irl.amortized.identify import (
     AmortizedStyle,
     identify_amortized_batch,
 )
+from drivestyle.irl.amortized.predictive_check import PredictiveCheck, predictive_checks
 from drivestyle.irl.identification.mined_row import one_line
 from drivestyle.irl.identification.mining import MiningTask
 from drivestyle.irl.identification.mining_output import AMORTIZED_TABLE
@@ -44,6 +54,7 @@ __all__ = [
     "amortized_rows",
     "amortized_summary",
     "amortized_table",
+    "checked_rows",
     "table_columns",
 ]
 
@@ -60,6 +71,8 @@ class AmortizedRow:
     """The risk in the demonstration's metadata (simulated vehicles), else None."""
     error: str = ""
     """Why it failed (one line), empty when ok."""
+    check: PredictiveCheck | None = None
+    """Its posterior-predictive check with the draws of ``style`` (None: not checked)."""
 
     @property
     def status(self) -> str:
@@ -107,17 +120,57 @@ def amortized_rows(
     return rows
 
 
-def table_columns(names: Sequence[str]) -> list[str]:
-    """``amortized.csv``'s header for an estimator's parameters ``names``."""
+def checked_rows(
+    rows: Sequence[AmortizedRow],
+    tasks: Sequence[MiningTask],
+    seed: int = 0,
+    workers: int = 1,
+    on_result: Callable[[int, Any], None] | None = None,
+) -> list[AmortizedRow]:
+    """The identified rows with their posterior-predictive checks (module docstring).
+
+    Each ok row's demonstration is checked with its own posterior draws (as many
+    replicates as draws: at least :func:`~drivestyle.irl.amortized.predictive_check.
+    min_draws`); a failed row stays as it is.
+
+    Args:
+        rows: :func:`amortized_rows` of ``tasks``.
+        tasks: the mining run's tasks (the demonstrations are read again from them).
+        seed: the checks' first seed (row i of the ok ones: ``seed + i``).
+        workers: worker processes.
+        on_result: called as each check finishes (a progress bar).
+
+    Returns:
+        The rows in order, ok ones with ``check`` set.
+    """
+    ok = [i for i, r in enumerate(rows) if r.style is not None]
+    demos = []
+    for i in ok:
+        demo = tasks[i][2]
+        demos.append(
+            demo if isinstance(demo, Demonstration) else load_demonstration(os.fspath(demo))
+        )
+    draws = [rows[i].style.draws for i in ok if rows[i].style is not None]  # type: ignore[union-attr]
+    checks = predictive_checks(demos, draws, seed=seed, workers=workers, on_result=on_result)
+    out = list(rows)
+    for i, check in zip(ok, checks, strict=True):
+        out[i] = dataclasses.replace(rows[i], check=check)
+    return out
+
+
+def table_columns(names: Sequence[str], checked: bool = False) -> list[str]:
+    """``amortized.csv``'s header for an estimator's parameters ``names`` (and the checks)."""
     per = [f"{n}_{q}" for n in names for q in ("mean", "median", "q05", "q95")]
-    return ["id", "status", "error", "true_risk", "samples_observed", *per]
+    check = ["check", "failing", *(f"p_{s}" for s in STATISTICS)] if checked else []
+    return ["id", "status", "error", "true_risk", "samples_observed", *per, *check]
 
 
 def amortized_table(rows: Sequence[AmortizedRow], names: Sequence[str]) -> str:
     """``amortized.csv``'s text (missing values empty; numbers as Python writes them)."""
+    checked = any(r.check is not None for r in rows)
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(table_columns(names))
+    writer.writerow(table_columns(names, checked))
     for r in rows:
         cells: list[Any] = [r.id, r.status, r.error, "" if r.true_risk is None else r.true_risk]
         if r.style is None:
@@ -127,6 +180,13 @@ def amortized_table(rows: Sequence[AmortizedRow], names: Sequence[str]) -> str:
             cells.append(s.samples_observed)
             for d in range(len(names)):
                 cells += [float(s.mean[d]), float(s.median[d]), float(s.lo[d]), float(s.hi[d])]
+        if checked:
+            c = r.check
+            if c is None:
+                cells += [""] * (2 + len(STATISTICS))
+            else:
+                verdict = "inside" if c.inside else "outside"
+                cells += [verdict, " ".join(c.failing), *(c.p_values[n] for n in STATISTICS)]
         writer.writerow(cells)
     return out.getvalue()
 
@@ -164,4 +224,16 @@ def amortized_summary(rows: Sequence[AmortizedRow], names: Sequence[str]) -> dic
         hi = np.array([r.style.hi[d] for r in known if r.style is not None])
         out["risk_mae_posterior_mean"] = float(np.mean(np.abs(mean - true)))
         out["risk_interval_coverage"] = float(np.mean((lo <= true) & (true <= hi)))
+    checks = [r.check for r in rows if r.check is not None]
+    if checks:
+        inside = sum(c.inside for c in checks)
+        out["check"] = {
+            "n_checked": len(checks),
+            "n_inside": inside,
+            "share_inside": inside / len(checks),
+            "alpha": checks[0].alpha,
+            "draws": checks[0].k,
+            "failing": {n: sum(n in c.failing for c in checks) for n in STATISTICS},
+            "seconds_per_check_median": float(np.median([c.seconds for c in checks])),
+        }
     return out

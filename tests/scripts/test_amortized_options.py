@@ -224,3 +224,31 @@ def test_evaluate_out_of_class_orders_the_classes_by_the_amortized_posterior(
         assert o["rho_exact"] == exact["highway-env"]
     md = (tmp_path / "ooc" / "out_of_class.md").read_text()
     assert "## Caution order by the amortized posterior" in md
+
+
+def test_mine_styles_check_needs_the_posterior(library, tmp_path, refused):
+    said = refused("mine-styles", tmp_path, "--library", library, "--check", "--out", "mined")
+    assert said.endswith("--check needs --posterior (the draws it checks)")
+
+
+@pytest.mark.slow  # ≈ 40 s: 200 replicates of the paper's episode, twice
+def test_mine_styles_checks_each_demonstrations_fit(tiny_posterior, library, paper_demo, tmp_path):
+    from drivestyle.irl.amortized.behaviour import STATISTICS
+    from drivestyle.irl.amortized.predictive_check import predictive_check
+
+    posterior, estimator = tiny_posterior
+    folder = tmp_path / "demos"
+    folder.mkdir()
+    save_demonstration(paper_demo, folder / "v1.npz")
+    done = _ok(run_command(tmp_path, "mine-styles", folder, "--library", library, "--workers",
+                           "1", "--posterior", estimator, "--check", "--out", "mined"))  # fmt: skip
+    with (tmp_path / "mined" / "amortized.csv").open() as fh:
+        (row,) = list(csv.DictReader(fh))
+    here = predictive_check(identify_amortized(posterior, paper_demo).draws, paper_demo, seed=0)
+    assert row["check"] == ("inside" if here.inside else "outside")
+    assert row["failing"] == " ".join(here.failing)
+    for name in STATISTICS:
+        assert float(row[f"p_{name}"]) == pytest.approx(here.p_values[name], rel=1e-12)
+    check = _json(tmp_path / "mined" / "summary.json")["amortized"]["check"]
+    assert (check["n_checked"], check["n_inside"], check["draws"]) == (1, int(here.inside), 200)
+    assert f"{int(here.inside)} of 1 inside the class" in done.stdout
