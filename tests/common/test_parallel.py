@@ -72,7 +72,17 @@ def test_a_stop_that_lands_where_exceptions_are_dropped_is_raised_after_it(capsy
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
 
 
-def test_a_ctrl_c_that_lands_where_exceptions_are_dropped_is_raised_after_it():
+@pytest.fixture
+def ctrl_c_raises():
+    """Python's own Ctrl-C handler, as in a terminal: a job started in the background by a
+    non-interactive shell (nohup, ``&``, some CI runners) inherits SIGINT ignored, and
+    Python then installs no handler — there is no Ctrl-C to defer."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+def test_a_ctrl_c_that_lands_where_exceptions_are_dropped_is_raised_after_it(ctrl_c_raises):
     code = compile(
         _DROPPING.replace("signal.SIGTERM", "signal.SIGINT"),
         os.path.join(os.sep, "site", "casadi", "casadi.py"),
