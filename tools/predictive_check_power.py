@@ -8,7 +8,8 @@ should stay at or under α), and so are three counterfeits of it with the same d
 the next episode's path pasted in; the share called outside is the power). The p-values
 do not depend on α, so one run gives the rates at every α whose Bonferroni threshold K
 resolves (K ≥ 2·5/α − 1). Writes a JSON summary (rates with Wilson 95 % intervals, per
-statistic failure rates, time per check) to ``--out`` and prints it.
+statistic failure rates, time per check; and every check's verdict, p-values, observed
+values and predictive intervals) to ``--out`` and prints the summary.
 
     python tools/predictive_check_power.py --episodes 100 --k 199 --workers 2 --out /tmp/ppc.json
 """
@@ -102,9 +103,14 @@ def main(argv: list[str] | None = None) -> int:
         row["seconds_per_replicate_median"] = float(np.median(seconds) / args.k)
         row["failed_solves"] = int(sum(c.failed_solves for c in mine))
         summary["kinds"][kind] = row
+    summary["checks"] = [
+        {"kind": k, "episode": i, "noise": params[i].noise,
+         "theta": parameters_of(params[i]).tolist(), **c.to_json()}
+        for (k, i), c in zip(cases, checks, strict=True)
+    ]  # fmt: skip
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(summary, indent=1))
-    print(json.dumps(summary, indent=1))
+    print(json.dumps({k: v for k, v in summary.items() if k != "checks"}, indent=1))
     return 0
 
 
