@@ -25,6 +25,7 @@ from drivestyle.prediction.physics import PhysicsParams, physics_forecast
 __all__ = [
     "BOUNDS",
     "CALIBRATED",
+    "PHYSICS_ALL_FILE",
     "PHYSICS_FILE",
     "PhysicsCalibration",
     "PhysicsCase",
@@ -36,6 +37,9 @@ __all__ = [
 PHYSICS_FILE = Path(str(resources.files("drivestyle") / "data")) / "benchmark_physics.json"
 """The physics baseline's parameters calibrated on the benchmark's train split, shipped with
 the package (``drivestyle.studies.prediction.calibrate_on_split``)."""
+PHYSICS_ALL_FILE = PHYSICS_FILE.with_name("benchmark_physics_all.json")
+"""The same calibrated on the train split of every vehicle's episodes (lane changes and
+windows without one; ``evaluate-prediction --all-vehicles``)."""
 CALIBRATED = ("v0_factor", "time_gap_s", "min_gap_m", "accel_mps2", "decel_mps2", "lc_duration_s")
 """The parameters :func:`calibrate_physics` fits (in this order)."""
 BOUNDS = {

@@ -31,18 +31,21 @@ from pathlib import Path
 import numpy as np
 
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.recorded.kinds import is_window_id
 from drivestyle.recorded.real_data import DATASETS
 
 __all__ = [
     "DEFAULT_DATA_DIR",
     "EPISODES_SET",
     "SPLITS",
+    "SPLIT_ALL_FILE",
     "SPLIT_FILE",
     "SPLIT_FRACTIONS",
     "SPLIT_HEADER",
     "SPLIT_SEED",
     "SplitRow",
     "benchmark_split",
+    "benchmark_split_all",
     "check_sample_split",
     "check_split_selects",
     "check_split_vehicles",
@@ -71,6 +74,8 @@ another seed would re-split every study's train, validation and test vehicles.""
 _PACKAGE_DATA = Path(str(resources.files("drivestyle") / "data"))  # shipped with the wheel
 SPLIT_FILE = _PACKAGE_DATA / "benchmark_split.csv"
 """The committed split (:func:`write_split` of :func:`benchmark_split`)."""
+SPLIT_ALL_FILE = _PACKAGE_DATA / "benchmark_split_all.csv"
+"""The committed split of every vehicle's episodes (:func:`benchmark_split_all`)."""
 
 
 @dataclass(frozen=True)
@@ -98,7 +103,9 @@ class SplitRow:
 
 
 @functools.lru_cache(maxsize=4)
-def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demonstration], ...]:
+def recorded_episodes(
+    data_dir: str, dataset: str, all_vehicles: bool = False
+) -> tuple[tuple[str, str, Demonstration], ...]:
     """Every usable lane change of a shipped sample, as the extraction finds it.
 
     The sample's whole ``tracks.csv.gz`` goes through
@@ -111,6 +118,8 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
     Args:
         data_dir: the folder holding the datasets (a string: the result is cached).
         dataset: a key of :data:`DATASETS`.
+        all_vehicles: also every vehicle's windows without a lane change
+            (``extract-episodes --all-vehicles``, :mod:`drivestyle.recorded.windows`).
 
     Returns:
         (episode id, vehicle id, demonstration) per usable episode, in extraction order. A
@@ -128,7 +137,7 @@ def recorded_episodes(data_dir: str, dataset: str) -> tuple[tuple[str, str, Demo
         raise ValueError(f"unknown dataset {dataset!r}; known: {sorted(DATASETS)}")
     recording = read_sample(Path(data_dir) / DATASETS[dataset])
     out = []
-    for e in extract_episodes(recording):
+    for e in extract_episodes(recording, all_vehicles=all_vehicles):
         if not e.usable or e.demo is None:
             continue
         group = e.carriageway.split("_" if dataset == "ngsim" else "-")[0]
@@ -142,18 +151,21 @@ def check_sample_split(data_dir: str | Path, rows: Sequence[SplitRow]) -> None:
     Raises:
         ValueError: a row's vehicle is not its episode's, or a vehicle in two splits.
     """
+    windows = any(is_window_id(r.episode_id) for r in rows)
     vehicles = {
         eid: vid
         for ds in DATASETS
         if any(r.dataset == ds for r in rows)
-        for eid, vid, _ in recorded_episodes(str(data_dir), ds)
+        for eid, vid, _ in recorded_episodes(str(data_dir), ds, windows)
     }
     check_split_vehicles(rows, vehicles)
 
 
-def _episode_vehicles(data_dir: Path, dataset: str) -> list[tuple[str, str]]:
+def _episode_vehicles(
+    data_dir: Path, dataset: str, all_vehicles: bool = False
+) -> list[tuple[str, str]]:
     """(episode id, vehicle id) of every usable episode of a sample (:func:`recorded_episodes`)."""
-    return [(eid, vid) for eid, vid, _ in recorded_episodes(str(data_dir), dataset)]
+    return [(eid, vid) for eid, vid, _ in recorded_episodes(str(data_dir), dataset, all_vehicles)]
 
 
 def split_by_vehicle(
@@ -200,6 +212,38 @@ def benchmark_split(
     rows = []
     for i, ds in enumerate(DATASETS):
         rows += split_by_vehicle(_episode_vehicles(Path(data_dir), ds), ds, seed, i)
+    return sorted(rows, key=lambda r: (r.dataset, r.episode_id))
+
+
+def benchmark_split_all(
+    data_dir: str | Path = DEFAULT_DATA_DIR,
+    lane_changes: Sequence[SplitRow] | None = None,
+    seed: int = SPLIT_SEED,
+) -> list[SplitRow]:
+    """The split of every vehicle's episodes (lane changes and windows) of the shipped samples.
+
+    The split stays by vehicle and extends the lane changes' (``lane_changes``, default
+    :data:`SPLIT_FILE`'s): a vehicle with a lane change keeps its split (its lane changes'
+    rows are those rows), so the lane-change benchmark's test vehicles are still tested and
+    its train vehicles still trained on; the vehicles without one are split by
+    :func:`split_by_vehicle` on their own (stream 2 + the dataset's index). Committed as
+    :data:`SPLIT_ALL_FILE`.
+
+    Returns:
+        One row per usable episode, sorted by dataset and episode id.
+
+    Raises:
+        ValueError: a lane-change row whose episode the extraction no longer finds.
+    """
+    base = read_split() if lane_changes is None else list(lane_changes)
+    check_sample_split(data_dir, base)
+    known = {(r.dataset, r.vehicle_id): r.split for r in base}
+    rows = []
+    for i, ds in enumerate(DATASETS):
+        pairs = _episode_vehicles(Path(data_dir), ds, True)
+        fresh = [(e, v) for e, v in pairs if (ds, v) not in known]
+        rows += [SplitRow(ds, e, v, known[ds, v]) for e, v in pairs if (ds, v) in known]
+        rows += split_by_vehicle(fresh, ds, seed, 2 + i) if fresh else []
     return sorted(rows, key=lambda r: (r.dataset, r.episode_id))
 
 
@@ -364,13 +408,15 @@ def load_recorded(
         data_dir: the folder holding the datasets.
         dataset: a key of :data:`DATASETS`.
         episodes: the benchmark's episodes to take (those of one split); None: every usable
-            extracted episode.
+            extracted lane change. A window among them (:func:`~drivestyle.recorded.kinds.
+            is_window_id`) takes the extraction with every vehicle's windows.
 
     Raises:
         ValueError: an unknown dataset, an episode the sample does not have; the reader's
             errors for missing or malformed files.
     """
-    found = recorded_episodes(str(data_dir), dataset)
+    windows = episodes is not None and any(is_window_id(e) for e in episodes)
+    found = recorded_episodes(str(data_dir), dataset, windows)
     if episodes is None:
         return [(eid, demo) for eid, _, demo in found]
     by_id = {eid: demo for eid, _, demo in found}

@@ -52,6 +52,8 @@ EPISODE_COLUMNS = (
     "observed_until_s",
     "usable",
     "reason",
+    "kind",
+    "stop_and_go",
 )
 """Columns of ``episodes.csv`` (``interacting``: ``role:id`` joined by ``;``)."""
 
@@ -193,6 +195,8 @@ def write_episodes(episodes: list[Episode], out_dir: str | Path) -> Path:
                     f"{ep.observed_until_s:g}",
                     ep.usable,
                     "; ".join(ep.reasons),
+                    ep.kind,
+                    bool(ep.demo is not None and ep.demo.meta.get("stop_and_go", False)),
                 ]
             )
     return path

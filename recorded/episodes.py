@@ -166,6 +166,10 @@ class Episode:
     (:func:`lateral_move`)."""
     flags: dict[str, Any] = field(default_factory=dict)
     """Further facts (observed samples, …)."""
+    kind: str = "lane_change"
+    """What the window holds (:data:`~drivestyle.recorded.kinds.EPISODE_KINDS`): a lane
+    change, or a window without one (:mod:`drivestyle.recorded.windows`), whose ``to_lane``
+    is the lane its frame puts at +y."""
 
     def __post_init__(self) -> None:
         if self.usable and (self.reasons or self.demo is None):
@@ -175,7 +179,9 @@ class Episode:
 
     @property
     def direction(self) -> str:
-        """'left' (to +y) or 'right'."""
+        """'left' (to +y) or 'right'; empty for a window without a lane change."""
+        if self.kind != "lane_change":
+            return ""
         return "left" if self.to_lane > self.from_lane else "right"
 
 
@@ -347,6 +353,25 @@ def _episode(
             **common, first_frame=None, last_frame=None, interacting=(), no_interaction=False,
             usable=False, reasons=(*flagged, *reasons), demo=None,
         )  # fmt: skip
+    meta = {"kind": "lane_change", "t_cross_rel_s": t_c}
+    return _built_episode(common, track, road, start, stop, line, config, flagged, meta)
+
+
+def _built_episode(
+    common: dict[str, Any], track: Track, road: Carriageway, start: float, stop: float,
+    line: float, config: ExtractionConfig, flagged: tuple[str, ...], extra: dict[str, Any],
+) -> Episode:  # fmt: skip
+    """The demonstration of a window [start, stop] of a track in the frame of ``common``.
+
+    ``common`` holds the episode's fields (its ``from_lane``, ``to_lane`` and ``lane_width``
+    set the frame: the line between the two lanes at y = w, the ``to_lane`` side +y);
+    ``extra`` the demonstration's further metadata (``kind``; ``t_cross_rel_s`` given in the
+    source's clock, made relative here).
+    """
+    a, b, w = common["from_lane"], common["to_lane"], common["lane_width"]
+    eid = common["episode_id"]
+    gap_limit = f"more than max_gap_s (--max-gap) {config.max_gap_s:g} s"
+
     dt = config.dt
     t_grid = np.round(start + np.arange(math.floor((stop - start) / dt + 1e-9) + 1) * dt, 9)
     frame = _Frame(line, 1.0 if b > a else -1.0, w)
@@ -391,7 +416,6 @@ def _episode(
             "episode_id": eid,
             "source": track.source,
             "vehicle_id": track.vehicle_id,
-            "t_cross_rel_s": round(t_c - float(t_grid[0]), 9),
             "observed_until_s": float(t_rel[observed][-1]),
             "interacting": [[role, other.vehicle_id] for role, other in chosen],
             "no_interaction": not chosen,
@@ -399,6 +423,10 @@ def _episode(
             "heading": "recorded" if track.heading is not None else "course",
             # what set lane_width, ev_lane and tv_lane (the plausibility messages say it)
             "lanes_from": f"the lane lines of carriageway {road.name!r}",
+        }
+        meta |= {
+            key: round(value - float(t_grid[0]), 9) if key == "t_cross_rel_s" else value
+            for key, value in extra.items()
         }
         demo = Demonstration(
             t=t_rel, ev=ev, tv=tv, u=recover_inputs(ev, sc, t_rel), meta=meta,
@@ -426,7 +454,10 @@ def _episode(
 
 
 def extract_episodes(
-    recording: Recording, config: ExtractionConfig | None = None, progress: bool = False
+    recording: Recording,
+    config: ExtractionConfig | None = None,
+    progress: bool = False,
+    all_vehicles: bool = False,
 ) -> list[Episode]:
     """Every lane change of a recording as an :class:`Episode` (module docstring's rules).
 
@@ -434,6 +465,9 @@ def extract_episodes(
         recording: tracks in the road frame (any reader).
         config: the extraction's numbers (default :class:`ExtractionConfig`).
         progress: show a progress bar over the tracks.
+        all_vehicles: also every vehicle's windows without a lane change, of the same
+            length, each of its kind (:func:`drivestyle.recorded.windows.vehicle_windows`),
+            after the vehicle's lane changes.
 
     Returns:
         The episodes in carriageway, vehicle and time order; unusable ones carry their
@@ -455,10 +489,16 @@ def extract_episodes(
         from tqdm import tqdm
 
         items = tqdm(items, desc="lane changes", unit="vehicle")
+    # the windows build on this module's episodes (a module-level import would be circular)
+    from drivestyle.recorded.windows import vehicle_windows
+
     episodes: list[Episode] = []
     for road, track in items:
         changes = find_lane_changes(track, road, config.min_stay_s)
         if changes:
             crossings = _crossings(track, road)
             episodes.extend(_episode(track, road, c, crossings, config) for c in changes)
+        if all_vehicles:
+            times = [c.t_cross for c in changes]
+            episodes.extend(vehicle_windows(track, road, times, config))
     return episodes

@@ -66,13 +66,20 @@ from drivestyle.common.io import (
 )
 from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.prediction.physics import PhysicsParams
-from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params, save_params
+from drivestyle.prediction.physics_calibration import (
+    PHYSICS_ALL_FILE,
+    PHYSICS_FILE,
+    load_params,
+    save_params,
+)
 from drivestyle.recorded.benchmark import (
     DEFAULT_DATA_DIR,
+    SPLIT_ALL_FILE,
     SPLIT_FILE,
     SPLITS,
     SplitRow,
     benchmark_split,
+    benchmark_split_all,
     check_split_selects,
     episodes_split,
     read_split,
@@ -148,6 +155,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="calibrate the physics baseline on the train split, write --physics and exit",
     )
     p.add_argument(
+        "--all-vehicles",
+        action="store_true",
+        help=f"the shipped samples' every vehicle: lane changes and every vehicle's windows of "
+        f"each kind (split: {SPLIT_ALL_FILE.name}, physics: {PHYSICS_ALL_FILE.name}, both "
+        "shipped; with --write-split / --calibrate-physics: the files written); tables by kind",
+    )
+    p.add_argument(
         "--no-simulated", action="store_true", help="recorded episodes only (no simulated vehicles)"
     )
     p.add_argument(
@@ -193,7 +207,7 @@ def _split_rows(args: argparse.Namespace, split: str) -> list[SplitRow]:
     column and value), and a file with no episode of ``split`` (of each shipped dataset,
     unless ``--episodes``: what it holds is said).
     """
-    path = SPLIT_FILE if args.split_file is None else args.split_file
+    path = _default_split(args) if args.split_file is None else args.split_file
     try:
         rows = read_split(path)
     except FileNotFoundError:
@@ -209,10 +223,20 @@ def _split_rows(args: argparse.Namespace, split: str) -> list[SplitRow]:
     return rows
 
 
+def _default_split(args: argparse.Namespace) -> Path:
+    """The shipped split ``--split-file`` defaults to (every vehicle's with --all-vehicles)."""
+    return SPLIT_ALL_FILE if args.all_vehicles else SPLIT_FILE
+
+
+def _default_physics(args: argparse.Namespace) -> Path:
+    """The shipped calibration ``--physics`` defaults to (every vehicle's with --all-vehicles)."""
+    return PHYSICS_ALL_FILE if args.all_vehicles else PHYSICS_FILE
+
+
 def _physics(args: argparse.Namespace) -> PhysicsParams:
     """``--physics`` (default: the shipped calibration), read; errors named by the option."""
     with for_option("--physics"):
-        return load_params(PHYSICS_FILE if args.physics is None else args.physics)
+        return load_params(_default_physics(args) if args.physics is None else args.physics)
 
 
 def _calibration(args: argparse.Namespace) -> list[Mapping[str, Any]]:
@@ -251,6 +275,13 @@ def main(argv: list[str] | None = None) -> dict:
         )
     if own and args.no_recorded:
         raise ValueError("--episodes benchmarks recorded episodes; drop --no-recorded")
+    if args.all_vehicles and (own or args.no_recorded):
+        why = (
+            "--episodes holds what its extraction wrote (extract-episodes --all-vehicles)"
+            if own
+            else "--no-recorded reads none"
+        )
+        raise ValueError(f"--all-vehicles takes every vehicle of the shipped samples; {why}")
     if args.data_dir is not None and (own or args.no_recorded):
         # read by neither: a silently ignored option reads as a run on that data
         raise ValueError(
@@ -266,8 +297,13 @@ def main(argv: list[str] | None = None) -> dict:
     if args.write_split:
         if own and args.split_file is None:  # never over the shipped benchmark's split
             raise ValueError("--episodes --write-split needs --split-file (the file to write)")
-        target = SPLIT_FILE if args.split_file is None else args.split_file
-        written = episodes_split(args.episodes) if own else benchmark_split(args.data_dir)
+        target = _default_split(args) if args.split_file is None else args.split_file
+        if own:
+            written = episodes_split(args.episodes)
+        elif args.all_vehicles:
+            written = benchmark_split_all(args.data_dir)
+        else:
+            written = benchmark_split(args.data_dir)
         write_split(written, target)
         print(f"wrote {target} ({len(written)} episodes)")
         return {"split_file": str(target), "episodes": len(written)}
@@ -276,7 +312,7 @@ def main(argv: list[str] | None = None) -> dict:
             raise ValueError("--episodes --calibrate-physics needs --physics (the file to write)")
         chosen = None if args.split_file is None and own else _split_rows(args, "train")
         cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
-        physics_file = PHYSICS_FILE if args.physics is None else args.physics
+        physics_file = _default_physics(args) if args.physics is None else args.physics
         save_params(cal, physics_file)
         print(f"wrote {physics_file}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
               f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip

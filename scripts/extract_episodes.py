@@ -11,6 +11,11 @@ each scenario from the episode's observed part only. Writes ``OUT/<episode>.npz`
 usable episode, ``OUT/episodes.csv`` (every episode found, usable or not and why) and
 ``OUT/extract.json`` (counts and settings).
 
+``--all-vehicles`` also writes every vehicle's windows of the same length without a lane
+change (recorded/windows.py: lane keeping, car following, approaching a slower leader, and a
+stop-and-go flag), each labelled in episodes.csv's ``kind`` column: a benchmark then scores
+every vehicle (``drivestyle evaluate-prediction --episodes OUT``, tables by kind).
+
 Lane lines are given with the road edges: the outermost lines are the edges, a vehicle
 outside them is in no lane (a warning names such vehicles). A table of several recordings
 (a ``recording`` column) takes ``--lanes lanes.json``, each recording's lines.
@@ -53,6 +58,7 @@ from drivestyle.recorded.episodes import (
     extract_episodes,
     write_episodes,
 )
+from drivestyle.recorded.kinds import EPISODE_KINDS
 from drivestyle.recorded.readers import READERS, check_lane_lines, load_lanes
 
 FORMATS = ("csv", "ngsim", "highd", "interaction", "sample")
@@ -143,6 +149,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "constants (v_ref, ellipse) come from [s]; at most --min-before",
     )
     p.add_argument(
+        "--all-vehicles",
+        action="store_true",
+        help="also every vehicle's windows of the same length without a lane change (lane "
+        "keeping, car following, approaching), each labelled with its kind in episodes.csv",
+    )
+    p.add_argument(
         "--v-ref",
         type=positive_float,
         help="the drivers' desired speed when known (e.g. the speed limit) [m/s]; default: "
@@ -226,8 +238,15 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         recording = READERS["interaction"](args.data, args.lane_markings, direction=direction)
     else:
         recording = READERS[args.format](args.data)
-    episodes = extract_episodes(recording, config, progress=True)
+    episodes = extract_episodes(recording, config, progress=True, all_vehicles=args.all_vehicles)
     usable = [e for e in episodes if e.usable]
+    kinds = {
+        kind: {
+            "episodes": sum(e.kind == kind for e in episodes),
+            "usable": sum(e.kind == kind for e in usable),
+        }
+        for kind in EPISODE_KINDS
+    }
     payload = {
         "data": str(args.data),
         "format": args.format,
@@ -238,16 +257,30 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "n_usable": len(usable),
         "n_mirrored": sum(e.mirrored for e in usable),
         "n_no_interaction": sum(e.no_interaction for e in usable),
+        "by_kind": kinds,
         "wall_s": time.perf_counter() - t0,
     }
     episode_file_names(episodes, args.out)  # two files of one name: said with the final path
     with atomic_output_dir(args.out) as tmp:
         write_episodes(episodes, tmp)
         write_json(tmp / "extract.json", payload, [sys.argv[0], *(argv or sys.argv[1:])])
+    changes = [e for e in episodes if e.kind == "lane_change"]
+    used = [e for e in changes if e.usable]
     print(
-        f"{len(episodes)} lane change(s) in {payload['vehicles']} vehicles, {len(usable)} usable "
-        f"({payload['n_mirrored']} mirrored, {payload['n_no_interaction']} without an "
-        f"interacting vehicle); wrote {args.out}/episodes.csv"
+        f"{len(changes)} lane change(s) in {payload['vehicles']} vehicles, {len(used)} usable "
+        f"({sum(e.mirrored for e in used)} mirrored, "
+        f"{sum(e.no_interaction for e in used)} without an interacting vehicle)"
+        + (
+            "; windows without one: "
+            + ", ".join(
+                f"{kind} {n['usable']} usable of {n['episodes']}"
+                for kind, n in kinds.items()
+                if kind != "lane_change"
+            )
+            if args.all_vehicles
+            else ""
+        )
+        + f"; wrote {args.out}/episodes.csv"
     )
     return payload
 

@@ -4,10 +4,12 @@ import pytest
 
 from drivestyle.recorded.benchmark import (
     DEFAULT_DATA_DIR,
+    SPLIT_ALL_FILE,
     SPLIT_FILE,
     SPLITS,
     SplitRow,
     benchmark_split,
+    benchmark_split_all,
     read_split,
     write_split,
 )
@@ -30,6 +32,20 @@ def test_the_committed_split_is_the_functions_and_no_vehicle_is_in_two_splits():
     assert {r.split for r in rows} == set(SPLITS)
     assert {r.dataset for r in rows if r.split == "test"} == {"ngsim", "cats"}
     assert len({r.episode_id for r in rows}) == len(rows)
+
+
+@pytest.mark.slow  # two extractions of every vehicle (≈ 30 s)
+@needs_data
+def test_every_vehicles_split_is_the_functions_and_keeps_the_lane_changes_split():
+    rows = benchmark_split_all(DATA)
+    assert read_split(SPLIT_ALL_FILE) == rows
+    lane_changes = read_split(SPLIT_FILE)
+    assert set(lane_changes) <= set(rows)  # every lane change, in its split
+    split_of: dict[str, set[str]] = {}
+    for r in rows:
+        split_of.setdefault(r.vehicle_id, set()).add(r.split)
+    assert all(len(s) == 1 for s in split_of.values())
+    assert len({r.episode_id for r in rows}) == len(rows) > 5 * len(lane_changes)
 
 
 def test_write_and_read_split_round_trip(tmp_path):

@@ -172,3 +172,23 @@ def test_the_shipped_ngsim_sample_goes_through_the_command(tmp_path):
     assert (
         len(rows) - 1 == 19
     )  # every lane change of the sample (tests/recorded/test_sample_extraction.py)
+
+
+def test_every_vehicles_windows_through_the_command(tmp_path):
+    table, lanes = _recordings(tmp_path)
+    out = tmp_path / "all"
+    proc = _command(str(table), "--lanes", str(lanes), "--all-vehicles", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    rows = pd.read_csv(out / "episodes.csv")
+    changes = rows[rows.kind == "lane_change"]
+    assert list(changes.episode_id) == ["day1_1_6000", "day2_1_5000", "day2_2_6000"]
+    windows = rows[rows.kind != "lane_change"]
+    assert len(windows) > 0 and windows.episode_id.str.endswith("_w").all()
+    assert set(windows.kind) <= {"lane_keeping", "car_following", "approaching"}
+    for _, row in windows[windows.usable].iterrows():
+        assert (out / row.file).is_file()
+    payload = json.loads((out / "extract.json").read_text())
+    by_kind = payload["by_kind"]
+    assert sum(n["episodes"] for n in by_kind.values()) == len(rows)
+    assert by_kind["lane_change"] == {"episodes": 3, "usable": 2}
+    assert "windows without one:" in proc.stdout
