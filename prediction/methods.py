@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.irl.identification.result import Identification
 from drivestyle.prediction.errors import error_parts
+from drivestyle.prediction.joint import JointStyle
 from drivestyle.prediction.kinematic import ConstantAcceleration, ConstantVelocity
 from drivestyle.prediction.physics import PhysicsBaseline, PhysicsParams
 from drivestyle.prediction.protocol import ForecastError, Observation, Predictor
@@ -39,7 +40,11 @@ from drivestyle.prediction.style import (
 )
 from drivestyle.recorded.observed import observer_view
 
+if TYPE_CHECKING:
+    from drivestyle.irl.amortized.estimator import NeuralPosterior
+
 __all__ = [
+    "AMORTIZED_METHODS",
     "LIBRARY_METHODS",
     "METHODS",
     "MethodPrediction",
@@ -49,8 +54,15 @@ __all__ = [
     "predict_demo",
 ]
 
-METHODS = ("cv", "ca", "physics", "population", "mode", "mixture", "oracle")
+METHODS = (
+    "cv", "ca", "physics", "population", "mode", "mixture", "style_alone", "style_joint",
+    "oracle",
+)  # fmt: skip
 """Every prediction method, in report order (``oracle`` only where the truth is known)."""
+AMORTIZED_METHODS = ("style_alone", "style_joint")
+"""The methods that need the amortized posterior (:mod:`~drivestyle.prediction.joint`): the
+stochastic style of every vehicle identified from its own past, rolled out alone (the others
+at constant velocity) or together."""
 POSTERIOR_METHODS = ("mode", "mixture")
 """The methods that need the online posterior
 (:func:`~drivestyle.prediction.style.online_posterior`)."""
@@ -81,10 +93,14 @@ class MethodPrediction:
     """The average error's longitudinal part, mean |Δx| [m]."""
     fde_lon_m: float = float("nan")
     """The final error's longitudinal part |Δx| [m]."""
+    radius_m: float | None = None
+    """A sampling method's own 90 % region of the final position: the radius around its
+    final position holding 90 % of its samples [m] (None: a point prediction)."""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``prediction.json``'s per-method entry)."""
         return {
+            "radius_m": self.radius_m,
             "ade_m": self.ade_m,
             "ade_lat_m": self.ade_lat_m,
             "ade_lon_m": self.ade_lon_m,
@@ -164,6 +180,7 @@ def method_predictors(
     oracle: DriverStyle | None = None,
     physics: PhysicsParams | None = None,
     posterior: StyleTracker | None = None,
+    amortized: NeuralPosterior | None = None,
 ) -> dict[str, Predictor]:
     """Method name → its predictor, for the methods these inputs serve (in :data:`METHODS` order).
 
@@ -175,6 +192,7 @@ def method_predictors(
         posterior: the online posterior after the observed samples
             (:func:`~drivestyle.prediction.style.online_posterior`; None: no ``mode`` nor
             ``mixture``).
+        amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
     """
     table: dict[str, Predictor] = {
         "cv": ConstantVelocity(),
@@ -187,6 +205,9 @@ def method_predictors(
         table["mode"] = StyleRollout(posterior.style("mode"))
         if posterior.estimate is not None:
             table["mixture"] = PosteriorMixture(library.style, posterior.estimate)
+    if amortized is not None:
+        table["style_alone"] = JointStyle(amortized, react=False)
+        table["style_joint"] = JointStyle(amortized, react=True)
     if oracle is not None:
         table["oracle"] = StyleRollout(oracle)
     return table
@@ -200,6 +221,7 @@ def predict(
     scenario: ScenarioConfig | None = None,
     methods: Sequence[str] = METHODS,
     physics: PhysicsParams | None = None,
+    amortized: NeuralPosterior | None = None,
 ) -> Prediction:
     """Observe a demonstration for ``t_obs`` seconds and predict the rest by every method.
 
@@ -218,6 +240,7 @@ def predict(
         methods: the methods to run (a subset of :data:`METHODS`).
         physics: the physics baseline's parameters (default: :class:`PhysicsParams`'s; the
             benchmark passes the calibrated ones).
+        amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
 
     Returns:
         The :class:`Prediction`.
@@ -240,7 +263,7 @@ def predict(
         if library is not None and set(POSTERIOR_METHODS) & set(methods)
         else None
     )
-    predictors = method_predictors(library, oracle, physics, posterior)
+    predictors = method_predictors(library, oracle, physics, posterior, amortized)
     actual = demo.ev[k:, :2]
     out = {}
     for name in METHODS:
@@ -249,7 +272,7 @@ def predict(
             e = error_parts(path.xy, actual)
             out[name] = MethodPrediction(name, path.xy, e["ade"], e["fde"], e["fde_lat"],
                                          path.risk, e["ade_lat"], e["ade_lon"],
-                                         e["fde_lon"])  # fmt: skip
+                                         e["fde_lon"], path.radius)  # fmt: skip
     true = demo.meta.get("risk")
     return Prediction(
         t_obs=float(t_obs),
@@ -270,6 +293,7 @@ def predict_demo(
     physics: PhysicsParams | None = None,
     methods: Sequence[str] = METHODS,
     view: tuple[Demonstration, ScenarioConfig | None] | None = None,
+    amortized: NeuralPosterior | None = None,
 ) -> Prediction:
     """One vehicle predicted after ``t_obs`` by every method, as the benchmark predicts it.
 
@@ -287,6 +311,7 @@ def predict_demo(
         methods: the methods to run.
         view: ``observer_view(demo, t_obs)`` where the caller has it already (a command
             that also draws the view), so that the episode is seen once; None: made here.
+        amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
 
     Returns:
         The :class:`Prediction` (paths in the frame of the view: a recorded episode's is
@@ -298,4 +323,4 @@ def predict_demo(
     """
     seen, sc = observer_view(demo, t_obs) if view is None else view
     return predict(seen, library, t_obs, oracle=oracle, scenario=sc, methods=methods,
-                   physics=physics)  # fmt: skip
+                   physics=physics, amortized=amortized)  # fmt: skip

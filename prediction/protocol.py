@@ -71,6 +71,9 @@ class PredictedPath:
     """Positions at j = 0 … H, shape (H + 1, 2) [m] (row 0: the last observed position)."""
     risk: float | None = None
     """The risk a style predictor drove at (a mixture: its posterior mean); None otherwise."""
+    radius: float | None = None
+    """A sampling predictor's own 90 % region of the final position: the radius around its
+    final position holding 90 % of its samples' [m]; None: a point predictor."""
 
 
 class Predictor(Protocol):

@@ -64,6 +64,7 @@ from drivestyle.common.io import (
     write_json,
     write_text,
 )
+from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import load_driver_library
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.physics_calibration import (
@@ -153,6 +154,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--calibrate-physics",
         action="store_true",
         help="calibrate the physics baseline on the train split, write --physics and exit",
+    )
+    p.add_argument(
+        "--posterior",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="an amortized posterior (build-posterior's OUT/posterior.npz): its recorded "
+        "episodes are also predicted by style_alone (each vehicle's identified stochastic "
+        "style, the others at constant velocity) and style_joint (every vehicle driving its "
+        "own, together)",
     )
     p.add_argument(
         "--all-vehicles",
@@ -322,7 +333,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.no_recorded and args.no_simulated:
         raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
     recorded_input = args.episodes if own else args.data_dir
-    inputs = [args.library, args.split_file, args.physics, args.regions_from]
+    inputs = [args.library, args.split_file, args.physics, args.regions_from, args.posterior]
     inputs += [] if args.no_recorded else [recorded_input]
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
@@ -338,6 +349,8 @@ def main(argv: list[str] | None = None) -> dict:
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
     physics = _physics(args)
+    if args.posterior is not None:  # read and checked before any work
+        open_posterior(args.posterior)
     library = load_driver_library(args.library, "prediction")
     calibration = None if args.regions_from is None else _calibration(args)
     if not args.no_recorded and not own:
@@ -370,6 +383,7 @@ def main(argv: list[str] | None = None) -> dict:
             physics=physics,
             calibration=calibration,
             episodes_dir=args.episodes,
+            posterior=args.posterior,
         )
     finally:
         for bar in bars.values():

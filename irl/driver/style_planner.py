@@ -333,7 +333,9 @@ class StylePlanner:
         return any(box_blocked(boxes[k - 1], vehicles, k * sc.dt, l_a, sc.l_b) for k in stages)
 
     # ------------------------------------------------------------------ batches
-    def solve_rows(self, rows: Sequence[PlanRow], scenario: ScenarioConfig) -> RowsResult:
+    def solve_rows(
+        self, rows: Sequence[PlanRow], scenario: ScenarioConfig, fallback: bool = True
+    ) -> RowsResult:
         """Plan every row, in order, warm-started as each row's :class:`Link` says.
 
         With the compiled solver the whole batch is one call (a row linked to an earlier
@@ -344,6 +346,9 @@ class StylePlanner:
         Args:
             rows: the plans (a :class:`Link`'s ``shift``/``copy`` index must be earlier).
             scenario: target lane, reference speed and bounds of every row.
+            fallback: re-solve a row the compiled solver fails with the generic solvers
+                (False: the row fails — a caller with its own fallback, e.g. the previous
+                plan's next input, saves their far slower solve).
 
         Returns:
             The first inputs, success and chance activity per row, and the solutions.
@@ -379,6 +384,9 @@ class StylePlanner:
             solved = (status == SolveStatus.CONVERGED) & (mode != 3)
             mode[solved] = 3
             for i in failed.tolist():
+                if not fallback:
+                    mode[i], status[i] = 3, _NO_PLAN
+                    continue
                 # the guess the compiled solver started from, for the generic solvers
                 source = fast.primal_dual(states[src[i]]) if src[i] >= 0 else None
                 res = self._plan_generic(P[i], scenario, self._link_guess(rows[i], source))

@@ -47,6 +47,8 @@ METHOD_STYLES: dict[str, dict[str, Any]] = {
     "population": {"color": "#16a34a", "ls": "-.", "lw": 1.4},
     "mode": {"color": EV_RED, "ls": "-", "lw": 1.8},
     "mixture": {"color": SCALED_ORANGE, "ls": "--", "lw": 1.6},
+    "style_alone": {"color": "#0891b2", "ls": "--", "lw": 1.6},
+    "style_joint": {"color": "#0e7490", "ls": "-", "lw": 2.0},
     "oracle": {"color": TV_BLUE, "ls": ":", "lw": 2.0},
 }
 """Line style per prediction method: one entry for every name of

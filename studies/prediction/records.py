@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +22,9 @@ from drivestyle.irl.identification.online import TrackerError
 from drivestyle.prediction.methods import METHODS, Prediction, predict_demo
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.protocol import ForecastError
+
+if TYPE_CHECKING:
+    from drivestyle.irl.amortized.estimator import NeuralPosterior
 
 __all__ = [
     "PREDICTION_ERRORS",
@@ -155,6 +158,7 @@ def predict_vehicle(
     physics: PhysicsParams | None = None,
     methods: Sequence[str] = METHODS,
     unit: str = "",
+    amortized: NeuralPosterior | None = None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
     """Predict one vehicle at every observed time.
 
@@ -170,6 +174,7 @@ def predict_vehicle(
         physics: the physics baseline's parameters (None: the defaults).
         methods: the methods to run.
         unit: the vehicle the bootstrap resamples (default: ``vehicle_id``).
+        amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
 
     Returns:
         (records, skipped).
@@ -177,7 +182,7 @@ def predict_vehicle(
     records, skipped = [], []
     for t in t_obs:
         try:
-            pred = predict_demo(demo, library, t, oracle, physics, methods)
+            pred = predict_demo(demo, library, t, oracle, physics, methods, amortized=amortized)
         except PREDICTION_ERRORS as exc:
             skipped.append(SkippedPrediction(set_name, vehicle_id, float(t), str(exc)))
             continue

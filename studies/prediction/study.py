@@ -38,6 +38,7 @@ goal check per goal, one tracking record per simulated vehicle and their summary
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -46,6 +47,8 @@ from typing import Any
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
+from drivestyle.irl.amortized.estimator import NeuralPosterior
+from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.prediction.methods import METHODS
 from drivestyle.prediction.physics import PhysicsParams
@@ -212,12 +215,20 @@ def _simulated_task(
     return demo, records, skipped, track
 
 
+@functools.lru_cache(maxsize=2)
+def _amortized(path: str) -> NeuralPosterior:
+    """The amortized posterior of ``path``, loaded once per worker process."""
+    return open_posterior(path)
+
+
 def _recorded_task(
     set_name: str, episode_id: str, raw: Demonstration, unit: str, library: DriverLibrary,
-    t_obs: tuple[float, ...], physics: PhysicsParams | None,
+    t_obs: tuple[float, ...], physics: PhysicsParams | None, posterior: str | None = None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:  # fmt: skip
     """Worker: predict one recorded episode at every t_obs."""
-    return predict_vehicle(set_name, episode_id, raw, library, t_obs, physics=physics, unit=unit)
+    amortized = None if posterior is None else _amortized(posterior)
+    return predict_vehicle(set_name, episode_id, raw, library, t_obs, physics=physics, unit=unit,
+                           amortized=amortized)  # fmt: skip
 
 
 def _geometry(demo: Demonstration) -> tuple:
@@ -240,6 +251,7 @@ def evaluate_prediction(
     physics: PhysicsParams | None = None,
     calibration: Sequence[PredictionRecord | Mapping[str, Any]] | None = None,
     episodes_dir: str | Path | None = None,
+    posterior: str | Path | None = None,
 ) -> PredictionStudy:
     """Run the comparison (module docstring).
 
@@ -267,6 +279,9 @@ def evaluate_prediction(
             ``split`` selects its episodes from ``split_rows`` (None: the folder's own
             split, :func:`episodes_split`); ``split="all"`` takes every episode
             (:func:`load_episodes_folder`).
+        posterior: the amortized posterior's file (``build-posterior``): its recorded
+            episodes are also predicted by ``style_alone`` and ``style_joint``
+            (:mod:`drivestyle.prediction.joint`; None: not).
 
     Returns:
         The study.
@@ -338,9 +353,10 @@ def evaluate_prediction(
         t0 = time.perf_counter()
         # one geometry's episodes in one worker: its solver is built (or loaded) once there
         order = sorted(range(len(recorded)), key=lambda i: _geometry(recorded[i][2]))
+        post = None if posterior is None else str(posterior)
         out = parallel_map(
             _recorded_task,
-            [(*recorded[i], library, t_obs, physics) for i in order],
+            [(*recorded[i], library, t_obs, physics, post) for i in order],
             workers,
             stage("recorded", len(recorded)),
         )

@@ -12,7 +12,7 @@ from drivestyle.prediction.kinematic import (
     constant_velocity,
     others_at_constant_velocity,
 )
-from drivestyle.prediction.methods import METHODS, method_predictors, predict
+from drivestyle.prediction.methods import AMORTIZED_METHODS, METHODS, method_predictors, predict
 from drivestyle.prediction.protocol import ForecastError, Observation
 
 LIBRARY = DriverLibrary(
@@ -67,7 +67,8 @@ def prediction(paper_demo):
 
 
 def test_predict_runs_every_method_on_the_rest(prediction, paper_demo):
-    assert list(prediction.methods) == list(METHODS)
+    # the amortized styles need a posterior (below)
+    assert list(prediction.methods) == [m for m in METHODS if m not in AMORTIZED_METHODS]
     k = round(2.0 / paper_demo.scenario.dt)
     steps = paper_demo.n - 1 - k
     assert prediction.actual.shape == (steps + 1, 2)
@@ -79,6 +80,7 @@ def test_predict_runs_every_method_on_the_rest(prediction, paper_demo):
         assert (m.ade_m, m.fde_m) == pytest.approx(displacement_errors(m.xy, prediction.actual))
     js = prediction.to_json()
     assert set(js["methods"]["mode"]) == {
+        "radius_m",
         "ade_m",
         "ade_lat_m",
         "ade_lon_m",
@@ -148,3 +150,15 @@ def test_an_observation_of_the_wrong_shape_is_refused(paper_demo):
         Observation(paper_demo.ev[:, :2], paper_demo.vehicles, paper_demo.scenario)
     with pytest.raises(ForecastError, match="surrounding vehicles"):
         Observation(paper_demo.ev[:3], paper_demo.vehicles[:2], paper_demo.scenario)
+
+
+def test_the_amortized_styles_run_with_a_posterior_and_say_their_region(tiny_posterior, paper_demo):
+    posterior, _ = tiny_posterior
+    pred = predict(paper_demo, None, 4.0, methods=("cv", *AMORTIZED_METHODS), amortized=posterior)
+    assert list(pred.methods) == ["cv", *AMORTIZED_METHODS]
+    for name in AMORTIZED_METHODS:
+        m = pred.methods[name]
+        assert m.xy.shape == pred.actual.shape and np.isfinite(m.fde_m)
+        assert m.radius_m is not None and m.radius_m >= 0
+        assert m.xy[0] == pytest.approx(pred.observed[-1])
+    assert pred.methods["cv"].radius_m is None

@@ -9,10 +9,11 @@ import pytest
 from drivestyle.envs.demonstration import save_demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary
-from drivestyle.prediction.methods import METHODS
+from drivestyle.prediction.methods import AMORTIZED_METHODS, METHODS
 from drivestyle.prediction.protocol import ForecastError
 from drivestyle.scripts import evaluate_prediction, predict_trajectory
 
+RUN = [m for m in METHODS if m not in AMORTIZED_METHODS]  # without --posterior
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 
 
@@ -32,7 +33,7 @@ def test_predict_trajectory_writes_every_method(files, capsys):
     )
     js = json.loads((out / "prediction.json").read_text())
     assert (out / "prediction.png").stat().st_size > 0
-    assert list(js["methods"]) == list(METHODS)  # an SMPC demo: the oracle too
+    assert list(js["methods"]) == RUN  # an SMPC demo: the oracle too
     for m in js["methods"].values():
         assert {"ade_m", "fde_m", "path"} <= set(m)
         assert len(m["path"]) == len(js["actual"])
@@ -95,7 +96,7 @@ def test_evaluate_prediction_writes_json_report_and_figures(files):
     assert {"summaries", "goal_checks", "tracking_summary", "records", "command"} <= set(js)
     assert js["command"].endswith("--observe 1 --seed 19000") and js["seed"] == 19000
     assert js["recorded_sets"] == [] and js["n_records"] + js["n_skipped"] >= 2
-    assert {s["method"] for s in js["summaries"]} == set(METHODS)
+    assert {s["method"] for s in js["summaries"]} == set(RUN)
     for name in ("report.md", "fde_by_method.png", "posterior_over_time.png",
                  "example_prediction.png"):  # fmt: skip
         assert (out / name).stat().st_size > 0
@@ -124,7 +125,7 @@ def test_predict_trajectory_on_a_recorded_episode(tmp_path):
          "--out", str(tmp_path / "out")]
     )  # fmt: skip
     assert js["recorded"] is True and js["true_risk"] is None
-    assert list(js["methods"]) == [m for m in METHODS if m != "oracle"]
+    assert list(js["methods"]) == [m for m in RUN if m != "oracle"]
     assert js["v_ref_mps"] > 1.0
 
 
@@ -246,7 +247,7 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
         physics=load_params(PHYSICS_FILE),
     )  # fmt: skip
     assert not skipped and js["recorded"] is True
-    assert list(js["methods"]) == [m for m in METHODS if m != "oracle"]
+    assert list(js["methods"]) == [m for m in RUN if m != "oracle"]
     for method, m in js["methods"].items():
         assert m["fde_m"] == pytest.approx(record.fde_m[method], abs=1e-9), method
         assert m["ade_m"] == pytest.approx(record.ade_m[method], abs=1e-9), method
@@ -304,7 +305,7 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
     assert run.returncode == 0, run.stderr
     js = json.loads((out / "prediction_eval.json").read_text())
     assert js["recorded_sets"] == ["episodes"] and js["n_records"] == 2
-    assert {s["method"] for s in js["summaries"]} == set(METHODS) - {"oracle"}
+    assert {s["method"] for s in js["summaries"]} == set(RUN) - {"oracle"}
     library = load_driver_library(files, "prediction")
     for rec in js["records"]:  # each record is the prediction of its episode
         demo = load_demonstration(folder / f"{rec['vehicle_id']}.npz")

@@ -1,0 +1,404 @@
+"""Joint prediction: every observed vehicle drives its own identified style, together (§23).
+
+DESIGN §23. A scene's vehicles — the predicted one and each vehicle observed around it —
+are each identified from their *own* past by the amortized posterior (one pass each,
+:func:`identify_vehicles`; nothing after sample k is read), then rolled out together
+(:func:`joint_rollout`): at every step each vehicle re-plans with its stochastic style's
+planner against the others' *rolled-out* current states (the braking of the car ahead
+reaches the car behind), applies the plan's input plus its style's correlated deviation,
+and all move on. The point prediction is the rollout of every vehicle's posterior median
+without deviation (a zero-mean disturbance's best guess); each of S further rollouts draws
+every vehicle's parameters from its posterior (draw s of each) and its deviation, so their
+spread is the prediction's uncertainty: the 90 % region around the point prediction comes
+from them (:class:`JointPrediction`). A vehicle re-plans every :data:`REPLAN_STEPS` steps
+(0.4 s at T_s = 0.2 s, a driver's reaction time), applying its plan's inputs in between: half
+the solves of re-planning every step.
+
+The same rollout with the others at constant velocity from their last observed states
+(``react=False``: only the predicted vehicle is driven by its style) is the single-vehicle
+rollout it is compared with (``style_alone``).
+
+A vehicle's view of the scene (:func:`own_view`): its states as the EV, the others as its
+neighbours (nearest first), in the road frame moved so that its own lane is lane 0 (the
+frame the posterior was trained in: the EV starts in lane 0) and mirrored when it moves
+towards −y, its inputs recovered from its states (:func:`~drivestyle.envs.dynamics.
+recover_inputs`). Its lateral intent is the physics baseline's rule
+(:func:`lane_intent`): a vehicle moving laterally faster than the trigger heads for the
+next lane's centre in that direction, any other keeps its lateral position — the posterior's
+onset, trained on drivers who all change lane, is not used to start a change.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from drivestyle.envs.demonstration import Demonstration
+from drivestyle.envs.dynamics import recover_inputs, rk4_step
+from drivestyle.envs.lanes import LATERAL_WINDOW_S, lane_change_target
+from drivestyle.envs.scenario import ScenarioConfig
+from drivestyle.irl.amortized.identify import observed_series, one_thread
+from drivestyle.irl.amortized.simulations import PARAMETERS, style_of
+from drivestyle.irl.driver.stochastic import StochasticStyle, StochasticStyleError, ar1_deviation
+from drivestyle.irl.driver.style_planner import (
+    Link,
+    PlanRow,
+    RowsResult,
+    StylePlanner,
+    planner_for,
+)
+from drivestyle.prediction.protocol import ForecastError, Observation, PredictedPath
+
+if TYPE_CHECKING:
+    from drivestyle.irl.amortized.estimator import NeuralPosterior
+
+__all__ = [
+    "JOINT_SAMPLES",
+    "LANE_TRIGGER_MPS",
+    "MEDIAN_DRAWS",
+    "JointPrediction",
+    "JointStyle",
+    "identify_vehicles",
+    "joint_rollout",
+    "lane_intent",
+    "own_view",
+    "scene_states",
+]
+
+JOINT_SAMPLES = 8
+"""Stochastic rollouts per prediction (posterior draws per vehicle, each with its deviation),
+besides the point prediction's: each costs every vehicle one plan per step."""
+MEDIAN_DRAWS = 64
+"""Posterior draws whose medians make each vehicle's point-prediction driver."""
+LANE_TRIGGER_MPS = 0.1
+"""The observed lateral speed from which a vehicle is taken to change lane [m/s] (the
+physics baseline's default trigger, :class:`~drivestyle.prediction.physics.PhysicsParams`)."""
+REPLAN_STEPS = 2
+"""Steps between a vehicle's plans in a rollout (its plan's inputs applied in between)."""
+PLANNER_SLOTS = 4
+"""Vehicles each plan constrains (the stochastic driver's planner of traffic scenes)."""
+
+
+def scene_states(seen: Observation) -> np.ndarray:
+    """Every observed vehicle's states, the predicted one first: shape (k + 1, 1 + m, 4)."""
+    return np.concatenate([np.asarray(seen.ev)[:, None], np.asarray(seen.vehicles)], axis=1)
+
+
+def lane_intent(y: np.ndarray, dt: float, lane_width: float) -> float:
+    """Where a vehicle heads laterally: the next lane's centre, or its own position [m].
+
+    Args:
+        y: its observed lateral positions y_0 … y_k, shape (k + 1,) [m] (lane i covers
+            [i·w, (i + 1)·w)).
+        dt: T_s [s].
+        lane_width: w [m].
+
+    Returns:
+        y_ref: the target lane's centre when its lateral speed over the last
+        :data:`~drivestyle.envs.lanes.LATERAL_WINDOW_S` reaches :data:`LANE_TRIGGER_MPS`
+        (:func:`~drivestyle.envs.lanes.lane_change_target`), else y_k.
+    """
+    y = np.asarray(y, dtype=float)
+    m = min(len(y) - 1, max(1, round(LATERAL_WINDOW_S / dt)))
+    if m < 1 or abs(y[-1] - y[-1 - m]) / (m * dt) < LANE_TRIGGER_MPS:
+        return float(y[-1])
+    lane, _ = lane_change_target(y, dt, lane_width)
+    return (lane + 0.5) * lane_width
+
+
+def own_view(states: np.ndarray, j: int, scenario: ScenarioConfig, origin: str) -> Demonstration:
+    """Vehicle j's observed past as the EV of a demonstration (module docstring).
+
+    Args:
+        states: every vehicle's observed states, shape (k + 1, V, 4), k ≥ 2.
+        j: the vehicle.
+        scenario: the scene's scenario (lane width, T_s, geometry).
+        origin: the scene's origin (``"recorded"`` or ``"simulated"``).
+
+    Returns:
+        A demonstration of k + 1 samples: vehicle j as the EV in its lane 0 (mirrored when
+        it moves towards −y), the others as its TV and ``others``, nearest first; one
+        phantom 1 km behind when it is alone (the extraction's convention).
+    """
+    states = np.asarray(states, dtype=float)
+    n, v = states.shape[:2]
+    w, dt = scenario.lane_width, scenario.dt
+    ev = states[:, j].copy()
+    lane = min(max(math.floor(ev[0, 1] / w), 0), scenario.n_lanes - 1)
+    m = min(n - 1, max(1, round(LATERAL_WINDOW_S / dt)))
+    sign = -1.0 if ev[-1, 1] - ev[-1 - m, 1] <= -LANE_TRIGGER_MPS * m * dt else 1.0
+    rest = [i for i in range(v) if i != j]
+    rest.sort(key=lambda i: float(np.hypot(*(states[-1, i, :2] - ev[-1, :2]))))
+
+    def moved(s: np.ndarray) -> np.ndarray:
+        out = s.copy()
+        if sign > 0:
+            out[..., 1] = s[..., 1] - lane * w
+        else:  # its lane's left edge becomes y = 0 and −y becomes +y
+            out[..., 1] = (lane + 1) * w - s[..., 1]
+            out[..., 2] = -s[..., 2]
+        return out
+
+    ev = moved(ev)
+    if rest:
+        others = moved(states[:, rest])
+    else:
+        others = ev[:, None].copy()
+        others[:, 0, 0] -= 1000.0
+        others[:, 0, 1] = 1.5 * w
+    sc = replace(
+        scenario, ev_lane=0, target_lane=1, ev_speed=float(max(ev[0, 3], 0.0)),
+        tv_lane=int(np.clip(math.floor(others[0, 0, 1] / w), 0, scenario.n_lanes - 1)),
+    )  # fmt: skip
+    t = np.arange(n) * dt
+    return Demonstration(
+        t=t, ev=ev, tv=others[:, 0], u=recover_inputs(ev, sc, t), meta={"scenario": sc.to_dict()},
+        others=others[:, 1:] if others.shape[1] > 1 else None, origin=origin,  # type: ignore[arg-type]
+        observed=np.ones((others.shape[1], n), bool),
+    )  # fmt: skip
+
+
+def identify_vehicles(
+    posterior: NeuralPosterior,
+    states: np.ndarray,
+    scenario: ScenarioConfig,
+    samples: int,
+    seed: int,
+    origin: str = "recorded",
+) -> list[list[StochasticStyle]]:
+    """Each vehicle's stochastic styles from its posterior, in one pass over the scene.
+
+    Args:
+        posterior: the amortized posterior (parameters :data:`~drivestyle.irl.amortized.
+            simulations.PARAMETERS`).
+        states: every vehicle's observed states, shape (k + 1, V, 4).
+        scenario: the scene's scenario.
+        samples: S, draws per vehicle (≥ 1).
+        seed: seeds the draws.
+        origin: the scene's origin.
+
+    Returns:
+        Per vehicle S + 1 styles: first its posterior median (every parameter's median over
+        :data:`MEDIAN_DRAWS` draws) without deviation — the point prediction's driver — then
+        S draws with their deviations (v_ref = the drawn speed ratio × its first observed
+        speed).
+
+    Raises:
+        ForecastError: an estimator of other parameters.
+    """
+    if tuple(posterior.config.names) != PARAMETERS:
+        raise ForecastError(
+            f"the joint prediction needs an estimator of {PARAMETERS}, got {posterior.config.names}"
+        )
+    views = [own_view(states, j, scenario, origin) for j in range(states.shape[1])]
+    series = [observed_series(view) for view in views]
+    with one_thread():
+        draws = posterior.sample_batch(series, max(samples, MEDIAN_DRAWS), seed=seed)
+    sigma = [PARAMETERS.index(name) for name in ("sigma_a", "sigma_delta")]
+    out = []
+    for view, theta in zip(views, draws, strict=True):
+        speed = float(view.ev[0, 3])
+        median = np.median(theta, axis=0)
+        median[sigma] = 0.0  # the point prediction drives without the deviation
+        out.append([_style(median, speed)] + [_style(theta[s], speed) for s in range(samples)])
+    return out
+
+
+def _style(theta: np.ndarray, speed: float) -> StochasticStyle:
+    """:func:`style_of` of a draw; a style's hard ranges enforced (the box is the prior's)."""
+    try:
+        return style_of(theta, max(speed, 0.5))
+    except StochasticStyleError:  # a speed ratio that puts v_ref outside its range
+        theta = theta.copy()
+        theta[PARAMETERS.index("speed_ratio")] = 1.0
+        return style_of(theta, max(speed, 0.5))
+
+
+@dataclass(frozen=True)
+class JointPrediction:
+    """Every vehicle's rollouts of one scene, and what is read off them."""
+
+    paths: np.ndarray
+    """Positions per rollout, step and vehicle, shape (1 + S, H + 1, V, 2) [m] (rollout 0:
+    the point prediction, every vehicle its posterior median without deviation; 1 … S: the
+    posterior draws with their deviations; step 0: the last observed positions; vehicle 0
+    the predicted one)."""
+    reactive: tuple[bool, ...]
+    """Per vehicle whether it was driven by its style (else constant velocity)."""
+    failures: int = 0
+    """Plans no solver solved (the braking fallback applied)."""
+    seconds: float = field(default=0.0, compare=False)
+    """Wall time of identification and rollouts [s]."""
+
+    @property
+    def point(self) -> np.ndarray:
+        """The point prediction of every vehicle, shape (H + 1, V, 2)."""
+        return self.paths[0]
+
+    @property
+    def median(self) -> np.ndarray:
+        """The median path of the draws (pointwise), shape (H + 1, V, 2)."""
+        return np.median(self.paths[1:], axis=0)
+
+    def region_radius(self, level: float = 0.9) -> np.ndarray:
+        """Radius around the point prediction's final position holding ``level`` of the draws'.
+
+        Returns:
+            Per vehicle the radius [m], shape (V,).
+        """
+        final = self.paths[1:, -1]  # (S, V, 2)
+        d = np.linalg.norm(final - self.point[-1][None], axis=-1)
+        return np.quantile(d, level, axis=0)
+
+
+def joint_rollout(
+    start: np.ndarray,
+    styles: Sequence[Sequence[StochasticStyle]],
+    y_refs: Sequence[float],
+    scenario: ScenarioConfig,
+    steps: int,
+    seed: int,
+    react: bool = True,
+    replan: int = REPLAN_STEPS,
+) -> tuple[np.ndarray, int]:
+    """S rollouts of a scene, every vehicle re-planning against the others' rollouts.
+
+    Args:
+        start: every vehicle's current state [x, y, φ, v], shape (V, 4).
+        styles: per vehicle its S styles (rollout s drives style s of each).
+        y_refs: per vehicle the lateral position its plans aim for [m] (:func:`lane_intent`).
+        scenario: road, bounds and T_s (every vehicle's: they share the road frame).
+        steps: H.
+        seed: seeds the deviations.
+        react: False: only vehicle 0 is driven, the others keep their velocity.
+        replan: steps between a vehicle's plans (≥ 1; 1: every step).
+
+    Returns:
+        (states per rollout, step and vehicle, shape (S, H + 1, V, 4); failed plans).
+    """
+    start = np.asarray(start, dtype=float)
+    v_count = start.shape[0]
+    s_count = len(styles[0])
+    driven = list(range(v_count)) if react else [0]
+    sc = scenario
+    dt = sc.dt
+    planner = planner_for(sc, styles[0][0].horizon, PLANNER_SLOTS)
+    rng = np.random.default_rng(seed)
+    deviation = np.zeros((s_count, v_count, steps, 2))
+    for s in range(s_count):
+        for i in driven:
+            st = styles[i][s]
+            if not st.deterministic:
+                deviation[s, i] = ar1_deviation(steps, dt, st.sigma, st.tau, rng)
+    xs = np.empty((s_count, steps + 1, v_count, 4))
+    xs[:, 0] = start
+    lo, hi = np.array([sc.a_min, -sc.delta_max]), np.array([sc.a_max, sc.delta_max])
+    drive = [style.driver_style() for per in styles for style in per]  # index i·S + s
+    previous: dict[tuple[int, int], object] = {}
+    spare: dict[tuple[int, int], np.ndarray] = {}  # the last plan's inputs not yet applied
+    failures = 0
+    for k in range(steps):
+        rows, keys = [], []
+        for s in range(s_count):
+            for i in driven:
+                if k % replan and len(spare.get((s, i), ())):
+                    continue  # between plans: the last plan's next input
+                others = np.delete(xs[s, k], i, axis=0)
+                guess = planner.guess(xs[s, k, i], previous.get((s, i)))  # type: ignore[arg-type]
+                rows.append(PlanRow(xs[s, k, i], others, drive[i * s_count + s],
+                                    Link(given=guess), float(y_refs[i])))  # fmt: skip
+                keys.append((s, i))
+        # a failed plan applies the previous plan's next input (the closed loop's rule), so
+        # the generic solvers' far slower re-solve is not needed
+        out = planner.solve_rows(rows, sc, fallback=False) if rows else None
+        planned = {key: r for r, key in enumerate(keys)}
+        for s in range(s_count):
+            for i in driven:
+                u0 = _next_input(out, planned.get((s, i)), (s, i), previous, spare, planner)
+                failures += int(u0 is None)
+                if u0 is None:
+                    rest = spare.get((s, i), np.empty((0, 2)))
+                    u0, spare[s, i] = (rest[0], rest[1:]) if len(rest) else (_brake(sc), rest)
+                u = np.clip(u0 + deviation[s, i, k], lo, hi)
+                u[0] = max(u[0], min(-xs[s, k, i, 3] / dt, 0.0))  # braking stops the car
+                xs[s, k + 1, i] = rk4_step(xs[s, k, i], u, dt, sc.l_f, sc.l_r)
+        for i in set(range(v_count)) - set(driven):
+            phi, v = xs[:, k, i, 2], xs[:, k, i, 3]
+            xs[:, k + 1, i] = xs[:, k, i]
+            xs[:, k + 1, i, 0] += v * np.cos(phi) * dt
+            xs[:, k + 1, i, 1] += v * np.sin(phi) * dt
+    return xs, failures
+
+
+def _brake(scenario: ScenarioConfig) -> np.ndarray:
+    """[a_min/2, 0]: a failed plan with nothing left of the last one (the expert's rule)."""
+    return np.array([scenario.a_min / 2, 0.0])
+
+
+def _next_input(
+    out: RowsResult | None,
+    row: int | None,
+    key: tuple[int, int],
+    previous: dict[tuple[int, int], object],
+    spare: dict[tuple[int, int], np.ndarray],
+    planner: StylePlanner,
+) -> np.ndarray | None:
+    """A vehicle's input this step: a new plan's first, the last plan's next, or None."""
+    if row is None or out is None:  # between plans
+        rest = spare[key]
+        u0, spare[key] = rest[0], rest[1:]
+        return u0
+    res = out.result(row)
+    if res.ok and res.point is not None:
+        previous[key] = res.point
+        spare[key] = res.point.w[planner.layout.iu][1:]
+        return res.u0
+    previous[key] = None
+    return None
+
+
+@dataclass
+class JointStyle:
+    """``style_joint`` / ``style_alone``: the stochastic styles rolled out together (or alone).
+
+    A stateful shell around the posterior (:class:`~drivestyle.prediction.protocol.
+    Predictor`); :meth:`predict_scene` returns every vehicle's rollouts, :meth:`predict` the
+    predicted vehicle's point path and its 90 % radius (``PredictedPath.radius``).
+    """
+
+    posterior: NeuralPosterior
+    react: bool = True
+    """The others re-plan with their styles (False: constant velocity)."""
+    samples: int = JOINT_SAMPLES
+    seed: int = 0
+    origin: str = "recorded"
+
+    def predict_scene(self, seen: Observation, steps: int) -> JointPrediction:
+        """Every observed vehicle's rollouts after sample k (module docstring)."""
+        import time
+
+        if steps < 1:
+            raise ForecastError(f"steps must be >= 1, got {steps}")
+        t0 = time.perf_counter()
+        states = scene_states(seen)
+        if states.shape[0] < 3:
+            raise ForecastError(f"identification needs >= 3 observed samples, got {len(states)}")
+        sc = seen.scenario
+        # every vehicle present at the last observed sample (a phantom 1 km away is none)
+        near = np.abs(states[-1, :, 0] - states[-1, 0, 0]) < 500.0
+        near[0] = True
+        states = states[:, near]
+        styles = identify_vehicles(self.posterior, states, sc, self.samples, self.seed, self.origin)
+        y_refs = [lane_intent(states[:, i, 1], sc.dt, sc.lane_width) for i in range(len(styles))]
+        xs, failures = joint_rollout(states[-1], styles, y_refs, sc, steps, self.seed, self.react)
+        reactive = tuple(self.react or i == 0 for i in range(len(styles)))
+        return JointPrediction(xs[..., :2], reactive, failures, time.perf_counter() - t0)
+
+    def predict(self, seen: Observation, steps: int) -> PredictedPath:
+        """The predicted vehicle's point path and its 90 % radius (the Predictor protocol)."""
+        scene = self.predict_scene(seen, steps)
+        return PredictedPath(scene.point[:, 0], radius=float(scene.region_radius()[0]))
