@@ -192,9 +192,9 @@ def measure(demo: Demonstration, style: DriverStyle) -> dict[str, dict[str, Any]
         solves = [0]
         original = ipm.solve_rows
 
-        def counted(rows: Any, scenario: Any) -> Any:
+        def counted(rows: Any, scenario: Any, fallback: bool = True) -> Any:
             solves[0] += len(rows)
-            return original(rows, scenario)
+            return original(rows, scenario, fallback)
 
         ipm.solve_rows = counted  # type: ignore[method-assign]
         ssr, wall = _timed(lambda: profile(ipm))
