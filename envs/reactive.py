@@ -117,6 +117,10 @@ class LogLateralIDM:
     def acceleration(self, j: int, states: np.ndarray) -> float:
         """Vehicle j's IDM acceleration behind its leader, within the scenario's bounds [m/s²].
 
+        Below its desired speed, at most what reaches v0 in one T_s: an explicit step
+        overshoots a small v0 (a vehicle that stood still before the start, v0 ≈ 0, would
+        alternate between standing and 0.6 m/s).
+
         Args:
             j: the vehicle.
             states: every vehicle's state, shape (N, 4), NaN rows for absent vehicles.
@@ -131,7 +135,10 @@ class LogLateralIDM:
             gap, v_leader = None, 0.0
         else:
             gap, v_leader = float(rows[lead, 0]) - x - sc.vehicle_length, float(rows[lead, 3])
-        a = idm_acceleration(v, float(self.v0[j]), gap, v_leader, self.idm)
+        v0 = float(self.v0[j])
+        a = idm_acceleration(v, v0, gap, v_leader, self.idm)
+        if v < v0:  # a step of T_s never carries the speed past v0 (nor oscillates about a v0 ≈ 0)
+            a = min(a, (v0 - v) / sc.dt)
         return min(max(a, sc.a_min), sc.a_max)
 
     def step(self, j: int, k: int, states: np.ndarray) -> np.ndarray:

@@ -38,7 +38,8 @@ the start and its desired speed.
 ``info``: ``t`` [s since the start], ``time`` [s, the recording's clock], ``sample``,
 ``s_e`` (the least elliptical index over the vehicles in the scene, eq. 9; inf when none is),
 ``d_k`` = s_e − 1, ``collision``, ``off_road``, ``lane_index``, ``states`` (every vehicle's
-state, shape (N, 4), vehicle order, NaN rows for absent vehicles), ``present`` (N,),
+state, shape (N, 4), vehicle order, zeros for vehicles not in the scene as in the
+observation's empty slots), ``present`` (N,),
 ``action_clipped``; after a step also ``action``; at reset also ``scenario``, ``episode_id``,
 ``start``, ``agent`` and ``others``.
 """
@@ -103,8 +104,10 @@ def _checked_log(demo: Demonstration, episode: Any) -> SceneLog:
 
 
 def _checked_agent(agent: Any, log: SceneLog) -> int:
+    # ValueErrors, also of a wrong type: gym.make appends its keyword arguments (the whole
+    # demonstration) to a TypeError's message
     if not isinstance(agent, (int, np.integer)) or isinstance(agent, (bool, np.bool_)):
-        raise TypeError(f"agent must be a vehicle index (an integer), got {agent!r}")
+        raise ValueError(f"agent must be a vehicle index (an integer), got {agent!r}")
     last = log.n_vehicles - 1
     if not 0 <= int(agent) <= last:
         choices = "0 (the EV)" + (
@@ -136,7 +139,7 @@ def _checked_drivers(drivers: Any, others: str, n: int) -> dict[int, Driver]:
             )
         items = list(enumerate(drivers))
     else:
-        raise TypeError(f"drivers= must be a sequence or a mapping of drivers, got {drivers!r}")
+        raise ValueError(f"drivers= must be a sequence or a mapping of drivers, got {drivers!r}")
     out = {}
     for j, driver in items:
         if not isinstance(j, (int, np.integer)) or not 0 <= int(j) < n:
@@ -144,7 +147,7 @@ def _checked_drivers(drivers: Any, others: str, n: int) -> dict[int, Driver]:
         if driver is None:
             continue
         if not callable(driver):
-            raise TypeError(
+            raise ValueError(
                 f"drivers[{j}] must be callable (j, t, states) → [a, δ], got {driver!r}"
             )
         out[int(j)] = driver
@@ -166,11 +169,13 @@ class RecordedSceneEnv(LaneChangeEnv):
         show_ellipse: draw the safety ellipse around the nearest vehicle.
 
     Raises:
-        TypeError: an argument of the wrong type (named).
+        TypeError: an episode that is neither a demonstration nor a path.
         FileNotFoundError: no such episode file.
         ValueError: an episode that is no replayable demonstration, an agent out of range or
             not in the scene at the start, an unknown ``others``, drivers that do not fit,
-            a start outside the episode (each named with its value).
+            a start outside the episode, an argument of the wrong type (each named with its
+            value, in one line; not TypeErrors: ``gym.make`` appends its keyword arguments,
+            a whole demonstration, to those).
     """
 
     _reset_options: ClassVar[tuple[str, ...]] = ("start",)
@@ -199,7 +204,7 @@ class RecordedSceneEnv(LaneChangeEnv):
                 f"others must be one of {', '.join(map(repr, OTHERS))}, got {others!r}"
             )
         if not isinstance(idm, IDMParams):
-            raise TypeError(f"idm must be an IDMParams, got {idm!r}")
+            raise ValueError(f"idm must be an IDMParams, got {idm!r}")
         if not (isinstance(v0_factor, (int, float)) and math.isfinite(v0_factor) and v0_factor > 0):
             raise ValueError(f"v0_factor must be a finite number > 0, got {v0_factor!r}")
         self.log = log
@@ -341,6 +346,8 @@ class RecordedSceneEnv(LaneChangeEnv):
 
     def _info(self, **extra: Any) -> dict[str, Any]:
         c = self._constants()
+        states = self.states
+        present = np.isfinite(states[:, 0])
         x, y = self.ev.tolist()[:2]
         rows = self._states[self._present_others()]
         s_e = math.inf
@@ -356,8 +363,8 @@ class RecordedSceneEnv(LaneChangeEnv):
             "collision": self._collision(),
             "off_road": self._off_road(),
             "lane_index": min(max(int(y // c.lane_width), 0), c.top_lane),
-            "states": self.states,
-            "present": np.isfinite(self.states[:, 0]),
+            "states": np.nan_to_num(states, nan=0.0),
+            "present": present,
             **extra,
         }
 
@@ -383,9 +390,9 @@ class RecordedSceneEnv(LaneChangeEnv):
         """Start the replay (at ``options["start"]`` when given, else at this env's start).
 
         Raises:
-            TypeError: ``options`` is not a dict, or a start that is not an integer.
-            ValueError: an unknown option, a start outside the episode or before the agent
-                enters.
+            TypeError: ``options`` is not a dict.
+            ValueError: an unknown option, a start that is no sample of the episode or
+                before the agent enters.
         """
         if not (isinstance(options, dict) and "start" in options):
             self._begin(self._first)

@@ -102,18 +102,21 @@ class SceneLog:
         )
 
     def check_start(self, start: Any, name: str = "start") -> int:
-        """``start`` as a sample index that leaves at least one step, or a one-line error.
+        """``start`` as a sample index that leaves at least two steps, or a one-line error.
+
+        A scenario has at least two steps (:class:`ScenarioConfig`).
 
         Raises:
-            TypeError: not an integer.
-            ValueError: outside 0 … n − 2.
+            ValueError: not an integer, or outside 0 … n − 3 (a ValueError for either:
+                ``gym.make`` appends its keyword arguments, a whole demonstration, to a
+                TypeError's message).
         """
         if not isinstance(start, (int, np.integer)) or isinstance(start, (bool, np.bool_)):
-            raise TypeError(f"{name} must be a sample index (an integer), got {start!r}")
-        if not 0 <= int(start) <= self.n - 2:
+            raise ValueError(f"{name} must be a sample index (an integer), got {start!r}")
+        if not 0 <= int(start) <= self.n - 3:
             raise ValueError(
-                f"{name} must be a sample index 0 … {self.n - 2} (the episode has {self.n} "
-                f"samples and a replay needs a step), got {start}"
+                f"{name} must be a sample index 0 … {self.n - 3} (the episode has {self.n} "
+                f"samples and a replay needs two steps), got {start}"
             )
         return int(start)
 
@@ -149,7 +152,7 @@ def scene_log(demo: Demonstration) -> SceneLog:
     until = demo.meta.get("observed_until_s")
     start = 0
     if isinstance(until, (int, float)) and math.isfinite(until) and until > 0:
-        start = min(round(until / sc.dt), n - 2)
+        start = min(round(until / sc.dt), n - 3)
     log = SceneLog(
         t=demo.t.copy(),
         states=states,

@@ -13,11 +13,12 @@ Per episode the study reports:
 - **Collisions**: every pair of vehicles in the scene whose rectangles (the scenario's
   length × width, the env's collision rule: :func:`~drivestyle.envs.safety.vehicles_overlap`)
   overlap at some sample, with the first time and the number of samples, in the replay and
-  in the log itself over the same samples (the recorded states, present by the same rule);
-  a *new* collision is a replayed pair the log never has.
+  in the log itself from the start to its end (the recorded states, present by the same
+  rule; a replay the EV's collision ended early is compared with the whole log); a *new*
+  collision is a replayed pair the log never has.
 - **Speeds**: each vehicle's replayed speed range against its recorded one (min/max over
-  the recorded samples of the same window); within when the replayed range stays inside the
-  recorded one widened by :data:`SPEED_TOLERANCE_MPS` on both sides.
+  its recorded samples from the start to the log's end); within when the replayed range
+  stays inside the recorded one widened by :data:`SPEED_TOLERANCE_MPS` on both sides.
 
 The IDM's parameters (:func:`idm_parameters`): ``calibrated`` (default) are the physics
 baseline's, calibrated on the benchmark's train split (the shipped
@@ -163,6 +164,15 @@ class VehicleSpeeds:
     """The replayed range inside the recorded one ± :data:`SPEED_TOLERANCE_MPS`; None
     without a recorded range."""
 
+    @property
+    def excess(self) -> float | None:
+        """How far the replayed range leaves the recorded one [m/s] (0 inside it)."""
+        if self.recorded_min is None or self.recorded_max is None:
+            return None
+        return max(
+            0.0, self.recorded_min - self.replayed_min, self.replayed_max - self.recorded_max
+        )
+
 
 @dataclass(frozen=True)
 class EpisodeReplay:
@@ -183,6 +193,9 @@ class EpisodeReplay:
     log_collisions: tuple[Collision, ...]
     replay_collisions: tuple[Collision, ...]
     speeds: tuple[VehicleSpeeds, ...]
+    ev_lateral_m: float
+    """The EV's largest lateral distance from its log [m] (its IDM steers along it within
+    the steering bound)."""
     seconds: float
 
     @property
@@ -195,6 +208,7 @@ class EpisodeReplay:
         """JSON-ready dict."""
         return {
             **asdict(self),
+            "speeds": [asdict(s) | {"excess": s.excess} for s in self.speeds],
             "new_collisions": [asdict(c) for c in self.new_collisions],
         }
 
@@ -224,7 +238,7 @@ def replay_episode(
     log, start = env.log, env.start
     replay = np.stack([episode.reset_info["states"], *(i["states"] for i in episode.infos)])
     shown = np.stack([episode.reset_info["present"], *(i["present"] for i in episode.infos)])
-    window = slice(start, start + len(replay))
+    window = slice(start, None)  # the log from the start to its end, whatever the replay's
     recorded, present = log.states[window], log.present[window]
     sc = log.scenario
     last = episode.infos[-1] if episode.infos else episode.reset_info
@@ -252,6 +266,7 @@ def replay_episode(
         log_collisions=collisions(recorded, present, sc.vehicle_length, sc.vehicle_width, sc.dt),
         replay_collisions=collisions(replay, shown, sc.vehicle_length, sc.vehicle_width, sc.dt),
         speeds=tuple(speeds),
+        ev_lateral_m=float(np.abs(replay[:, 0, 1] - recorded[: len(replay), 0, 1]).max()),
         seconds=time.perf_counter() - t0,
     )
 
@@ -284,6 +299,8 @@ class ReplayStudy:
             "vehicles_with_recorded_speeds": len(speeds),
             "speeds_within": within,
             "speeds_within_share": within / len(speeds) if speeds else None,
+            "speed_excess_max_mps": max((s.excess or 0.0 for s in speeds), default=None),
+            "ev_lateral_max_m": max((r.ev_lateral_m for r in self.replays), default=None),
         }
 
     def to_json(self) -> dict[str, Any]:
