@@ -130,7 +130,8 @@ class LogLateralIDM:
         others = np.isfinite(states[:, 0])
         others[j] = False
         rows = states[others]
-        lead = int(leaders(x, y, rows[None, :, 0], rows[None, :, 1], sc.lane_width)[0])
+        here = np.array([x]), np.array([y])
+        lead = int(leaders(*here, rows[None, :, 0], rows[None, :, 1], sc.lane_width)[0])
         if lead < 0:
             gap, v_leader = None, 0.0
         else:
