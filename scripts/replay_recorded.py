@@ -1,10 +1,11 @@
 r"""Replay recorded scenes with every vehicle reactive: collisions and speeds against the log.
 
 Each episode of the shipped samples' benchmark ``--split`` (NGSIM and CATS in ``--data-dir``;
-validation by default) or every usable episode of an ``--episodes`` folder (written by
-``drivestyle extract-episodes``) is replayed once in ``drivestyle/Recorded-v0`` from the end
-of its observed part to the end of its log: every surrounding vehicle drives the IDM behind
-its leader along its log's lateral path, the EV the same IDM through the bicycle (DESIGN §23).
+validation by default; ``--split-file``: another split than the shipped one) or every usable
+episode of an ``--episodes`` folder (written by ``drivestyle extract-episodes``) is replayed
+once in ``drivestyle/Recorded-v0`` from the end of its observed part to the end of its log:
+every surrounding vehicle drives the IDM behind its leader along its log's lateral path, the
+EV the same IDM through the bicycle (DESIGN §23).
 ``--idm calibrated`` (default) takes the IDM's parameters from the physics baseline
 calibrated on the train split (drivestyle/data/benchmark_physics.json, or ``--physics``);
 ``--idm highway-env`` the traffic env's. Reports per episode the collisions of the replay and
@@ -34,7 +35,7 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
-from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, SPLITS
+from drivestyle.recorded.benchmark import DEFAULT_DATA_DIR, SPLIT_FILE, SPLITS, read_split
 from drivestyle.recorded.real_data import DATASETS, check_data_dir
 from drivestyle.studies.replay import (
     IDM_CHOICES,
@@ -55,6 +56,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=None,
         help="the shipped benchmark split to replay (default: validation; the test split is "
         "run once, by the issue it judges); not with --episodes",
+    )
+    p.add_argument(
+        "--split-file",
+        type=Path,
+        default=None,
+        help=f"the benchmark split (CSV; default: {SPLIT_FILE.name} shipped with the package); "
+        "not with --episodes",
     )
     p.add_argument(
         "--episodes",
@@ -102,17 +110,19 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
     argv_used = [sys.argv[0], *(argv if argv is not None else sys.argv[1:])]
     own = args.episodes is not None
-    if own and (args.split is not None or args.data_dir is not None):
-        given = "--split" if args.split is not None else "--data-dir"
+    chosen = {"--split": args.split, "--split-file": args.split_file, "--data-dir": args.data_dir}
+    given = [option for option, value in chosen.items() if value is not None]
+    if own and given:
         raise ValueError(
-            f"--episodes and {given} contradict: --episodes replays its folder instead of the "
+            f"--episodes and {given[0]} contradict: --episodes replays its folder instead of the "
             f"shipped samples; drop one or the other"
         )
     if args.physics is not None and args.idm != "calibrated":
         raise ValueError(f"--physics sets --idm calibrated's parameters, got --idm {args.idm}")
     split = args.split or "validation"
     data_dir = DEFAULT_DATA_DIR if args.data_dir is None else args.data_dir
-    check_output_dir(args.out, inputs=[args.episodes if own else data_dir, args.physics])
+    inputs = [args.episodes] if own else [data_dir, args.split_file]
+    check_output_dir(args.out, inputs=[*inputs, args.physics])
     with for_option("--physics"):
         physics = load_params(PHYSICS_FILE if args.physics is None else args.physics)
     if own:
@@ -123,7 +133,11 @@ def main(argv: list[str] | None = None) -> dict:
         source = f"every usable episode of {args.episodes}"
     else:
         check_data_dir(data_dir, default=DEFAULT_DATA_DIR)
-        episodes = split_episodes(data_dir, split)
+        rows = None
+        if args.split_file is not None:
+            with for_option("--split-file"):
+                rows = read_split(args.split_file)
+        episodes = split_episodes(data_dir, split, rows)
         source = f"the {split} split of the shipped samples in {data_dir}"
     with tqdm(total=len(episodes), desc="replay", unit="episode") as bar:
         study = replay_recorded(

@@ -46,6 +46,7 @@ from drivestyle.envs.safety import vehicles_overlap
 from drivestyle.envs.traffic import IDM, IDMParams
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.recorded.benchmark import (
+    SplitRow,
     check_sample_split,
     check_split_selects,
     load_recorded,
@@ -321,13 +322,21 @@ Episodes = Sequence[tuple[str, str, Demonstration]]
 """(set, episode id, demonstration) per episode."""
 
 
-def split_episodes(data_dir: str | Path, split: str) -> list[tuple[str, str, Demonstration]]:
-    """The shipped samples' episodes of a benchmark split (the shipped split file).
+def split_episodes(
+    data_dir: str | Path, split: str, rows: Sequence[SplitRow] | None = None
+) -> list[tuple[str, str, Demonstration]]:
+    """The shipped samples' episodes of a benchmark split.
+
+    Args:
+        data_dir: the folder holding the datasets.
+        split: a name of :data:`~drivestyle.recorded.benchmark.SPLITS`.
+        rows: the split (default: the shipped
+            :data:`~drivestyle.recorded.benchmark.SPLIT_FILE`'s).
 
     Raises:
         ValueError: an unknown split, a split the samples do not hold.
     """
-    rows = read_split()
+    rows = read_split() if rows is None else rows
     check_split_selects(rows, split, tuple(DATASETS))
     check_sample_split(data_dir, rows)
     out = []

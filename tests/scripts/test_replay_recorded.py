@@ -79,6 +79,7 @@ def test_three_episodes_replayed_as_the_study_replays_them(recorded_scene, tmp_p
         (["--episodes", "missing"], "--episodes missing: no such folder"),
         (["--episodes", "x", "--split", "test"], "--episodes and --split contradict"),
         (["--idm", "highway-env", "--physics", "p.json"], "--physics sets --idm calibrated's"),
+        (["--episodes", "x", "--split-file", "s.csv"], "--episodes and --split-file contradict"),
     ],
 )
 def test_bad_options_are_refused_in_one_line(refused, args, message):
