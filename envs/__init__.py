@@ -22,6 +22,10 @@ Importing this package registers the Gymnasium ids (idempotently):
 - ``drivestyle/CutIn-v0``: the agent controls the vehicle in the target lane while an
   SMPC(p) lane changer of a risk drawn per reset cuts in ahead of it
   (:class:`drivestyle.envs.cut_in.CutInEnv`).
+- ``drivestyle/Recorded-v0``: a recorded scene (``episode=``: a recorded demonstration or
+  its ``.npz``) with the agent driving one of its vehicles and the others following their
+  log or reacting (``others="log" | "idm" | "style"``;
+  :class:`drivestyle.envs.recorded_scene.RecordedSceneEnv`).
 """
 
 from __future__ import annotations
@@ -60,6 +64,7 @@ ENV_IDS = (
     "drivestyle/Traffic-v0",
     "drivestyle/TrafficRandom-v0",
     "drivestyle/CutIn-v0",
+    "drivestyle/Recorded-v0",
 )
 
 
@@ -79,6 +84,8 @@ def register_envs() -> None:
         gym.register(id=ENV_IDS[3], entry_point=traffic, kwargs={"randomize": True})
     if ENV_IDS[4] not in gym.registry:
         gym.register(id=ENV_IDS[4], entry_point="drivestyle.envs.cut_in:CutInEnv")
+    if ENV_IDS[5] not in gym.registry:
+        gym.register(id=ENV_IDS[5], entry_point="drivestyle.envs.recorded_scene:RecordedSceneEnv")
 
 
 register_envs()

@@ -1,15 +1,22 @@
-"""Headless rollout videos (mp4 through imageio-ffmpeg, or gif)."""
+"""Headless rollout videos (mp4 through imageio-ffmpeg, or gif), recorded scenes' included."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.lane_change import LaneChangeEnv
 from drivestyle.envs.rollout import Policy, run_episode
 
-__all__ = ["record_policy", "record_states", "write_video"]
+__all__ = ["SCENE_POLICIES", "record_policy", "record_scene", "record_states", "write_video"]
+
+SCENE_POLICIES = ("replay", "idm")
+"""How the agent of a recorded scene drives in :func:`record_scene`: its recorded inputs
+(:func:`~drivestyle.envs.recorded_scene.replay_log`) or the reactive vehicles' IDM
+(:func:`~drivestyle.envs.recorded_scene.drive_idm`)."""
 
 
 def write_video(frames: list[np.ndarray], path: str | Path, fps: int = 5) -> Path:
@@ -86,3 +93,37 @@ def record_states(
             )
         frames.append(frame)
     return frames
+
+
+def record_scene(
+    episode: Demonstration | str | Path,
+    policy: str = "replay",
+    agent: int = 0,
+    others: str = "log",
+    **kwargs: Any,
+) -> list[np.ndarray]:
+    """Render a replay of a recorded scene (``drivestyle/Recorded-v0``) from its default start.
+
+    Args:
+        episode: a recorded demonstration or its ``.npz``.
+        policy: one of :data:`SCENE_POLICIES`: how the agent drives.
+        agent: the agent's vehicle (0 the EV).
+        others: ``"log"`` or ``"idm"`` (:class:`RecordedSceneEnv`).
+        **kwargs: further arguments of :class:`RecordedSceneEnv` (``start``, ``idm``, …).
+
+    Returns:
+        One frame per sample, the start's first.
+
+    Raises:
+        ValueError: an unknown policy; the env's errors for the other arguments.
+    """
+    from drivestyle.envs.recorded_scene import RecordedSceneEnv, drive_idm, replay_log
+
+    policies: dict[str, Policy] = {"replay": replay_log, "idm": drive_idm}
+    if policy not in policies:
+        raise ValueError(f"policy must be one of {SCENE_POLICIES}, got {policy!r}")
+    env = RecordedSceneEnv(episode, agent, others, render_mode="rgb_array", **kwargs)
+    try:
+        return record_policy(env, policies[policy])[0]
+    finally:
+        env.close()

@@ -32,6 +32,7 @@ COMMANDS: dict[str, str] = {
     "compare-baseline": "SMPC vs spline reproduction vs SB3 policy",
     "deviating-tv": "drivers facing a TV that deviates from its prediction",
     "render-rollout": "a rollout rendered to mp4/gif",
+    "replay-recorded": "recorded scenes replayed with every vehicle reactive: collisions, speeds",
     "evaluate-planning": "an SMPC ego planning around a cut-in: CV vs style-aware vs oracle",
     "calibrate-uncertainty": "the TV-uncertainty scale scan (DESIGN §3)",
     "capacity-study": "the style model classes' capacity: best fit vs held out",

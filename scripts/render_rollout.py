@@ -1,12 +1,20 @@
-"""Render a rollout of the SMPC expert, the spline reproduction or an SB3 policy to video.
+r"""Render a rollout of the SMPC expert, the spline reproduction or an SB3 policy to video.
 
 Headless (pygame off-screen surfaces through highway-env's viewer): EV red, TV blue,
 safety ellipse and λ-scaled ellipse, a caption with t, v and s_e. The spline reproduction
 r*_θ is replayed by setting the env to its states at every sample (position, heading
 atan2(ṙ^y, ṙ^x), speed |ṙ|).
 
+``--episode FILE.npz`` renders a recorded scene (``drivestyle/Recorded-v0``, DESIGN §23) from
+the end of its observed part: the agent (``--agent``, 0 the EV; red) drives ``--policy
+replay`` (its recorded inputs) or ``--policy idm`` (the reactive vehicles' IDM along its
+log's lateral path), the others follow their log or react (``--others log|idm``); the
+nearest vehicle is blue, the rest grey.
+
 Example:
     python scripts/render_rollout.py --policy expert --video runs/videos/expert.mp4
+    drivestyle render-rollout --episode runs/episodes/SOME.npz --policy idm --others idm \
+        --video runs/videos/scene.gif
 """
 
 from __future__ import annotations
@@ -17,12 +25,19 @@ from pathlib import Path
 
 import numpy as np
 
-from drivestyle.common.cli import HelpFormatter, positive_int, risk_value, run_cli, seed
+from drivestyle.common.cli import (
+    HelpFormatter,
+    nonnegative_int,
+    positive_int,
+    risk_value,
+    run_cli,
+    seed,
+)
 from drivestyle.common.io import atomic_output_file, check_output_file, write_json
 from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges, TrafficScene
-from drivestyle.envs.video import write_video
+from drivestyle.envs.video import SCENE_POLICIES, record_scene, write_video
 from drivestyle.irl.paper.style import load_style
 from drivestyle.studies.compare import policy_frames
 
@@ -33,8 +48,25 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--policy",
         required=True,
-        choices=("expert", "spline", "sb3"),
-        help="SMPC expert, spline reproduction of --style, or SB3 policy of --model",
+        choices=("expert", "spline", "sb3", *SCENE_POLICIES),
+        help="SMPC expert, spline reproduction of --style, or SB3 policy of --model; with "
+        "--episode: replay (the agent's recorded inputs) or idm",
+    )
+    p.add_argument(
+        "--episode", type=Path, help="a recorded episode's .npz (extract-episodes): its scene"
+    )
+    p.add_argument(
+        "--agent",
+        type=nonnegative_int,
+        default=0,
+        help="with --episode: the vehicle the policy drives (0 the EV, j the j-th of the "
+        "episode's surrounding vehicles)",
+    )
+    p.add_argument(
+        "--others",
+        choices=("log", "idm"),
+        default="log",
+        help="with --episode: the other vehicles follow their log or react (IDM)",
     )
     p.add_argument("--style", type=Path, help="style.json (spline)")
     p.add_argument("--model", type=Path, help="train_baseline.py output folder (sb3)")
@@ -59,12 +91,54 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Render; returns a small summary (also written next to the video as JSON)."""
     args = parse_args(argv)
-    inputs = [args.style, args.model, args.demo]
+    inputs = [args.style, args.model, args.demo, args.episode]
     check_output_file(args.video, "--video", inputs=inputs)
     if args.video.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"--video must end in .mp4 or .gif, got {args.video.name}")
     # its summary beside it (never over its style.json: --video style.mp4)
     check_output_file(args.video.with_suffix(".json"), "--video", inputs=inputs)
+    if args.episode is not None or args.policy in SCENE_POLICIES:
+        frames = _scene_frames(args)
+    elif args.agent != 0 or args.others != "log":
+        raise ValueError("--agent and --others choose the vehicles of an --episode's scene")
+    else:
+        frames = _policy_frames(args)
+    summary = {
+        "policy": args.policy,
+        "video": str(args.video),
+        "frames": len(frames),
+        "fps": args.fps,
+        "frame_shape": list(frames[0].shape),
+    }
+    if args.episode is not None:
+        summary |= {"episode": str(args.episode), "agent": args.agent, "others": args.others}
+    # two files beside each other in a folder that may hold other videos: each is written
+    # atomically in place (a folder swap would replace or mix the folder's other files)
+    with atomic_output_file(args.video, "--video") as tmp:
+        write_video(frames, tmp, args.fps)
+    write_json(args.video.with_suffix(".json"), summary, [sys.argv[0], *(argv or sys.argv[1:])])
+    print(f"wrote {args.video} ({len(frames)} frames at {args.fps} fps)")
+    return summary
+
+
+def _scene_frames(args: argparse.Namespace) -> list[np.ndarray]:
+    """The frames of a recorded scene (``--episode``); its options checked."""
+    if args.episode is None:
+        raise ValueError(f"--policy {args.policy} drives a recorded scene: give --episode FILE.npz")
+    if args.policy not in SCENE_POLICIES:
+        raise ValueError(
+            f"--episode renders a recorded scene: --policy must be one of {SCENE_POLICIES}, "
+            f"got {args.policy}"
+        )
+    given = [o for o, v in (("--style", args.style), ("--model", args.model), ("--demo", args.demo),
+             ("--scenario", args.scenario)) if v is not None]  # fmt: skip
+    if given:
+        raise ValueError(f"--episode renders its own scene; drop {', '.join(given)}")
+    return record_scene(args.episode, args.policy, args.agent, args.others)
+
+
+def _policy_frames(args: argparse.Namespace) -> list[np.ndarray]:
+    """The frames of the expert, the spline or an SB3 policy in a simulated scene."""
     style = None
     if args.style is not None:
         style = load_style(args.style)
@@ -78,23 +152,9 @@ def main(argv: list[str] | None = None) -> dict:
     elif args.scenario == "traffic-random":
         scenario = TrafficRanges().sample(np.random.default_rng(args.seed))
     try:
-        frames = policy_frames(args.policy, scenario, args.risk, style, demo, args.model, args.seed)
+        return policy_frames(args.policy, scenario, args.risk, style, demo, args.model, args.seed)
     except ImportError as exc:
         raise RuntimeError(f"{exc} (install the extras: pip install -e '.[rl,video]')") from None
-    summary = {
-        "policy": args.policy,
-        "video": str(args.video),
-        "frames": len(frames),
-        "fps": args.fps,
-        "frame_shape": list(frames[0].shape),
-    }
-    # two files beside each other in a folder that may hold other videos: each is written
-    # atomically in place (a folder swap would replace or mix the folder's other files)
-    with atomic_output_file(args.video, "--video") as tmp:
-        write_video(frames, tmp, args.fps)
-    write_json(args.video.with_suffix(".json"), summary, [sys.argv[0], *(argv or sys.argv[1:])])
-    print(f"wrote {args.video} ({len(frames)} frames at {args.fps} fps)")
-    return summary
 
 
 if __name__ == "__main__":

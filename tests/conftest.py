@@ -135,3 +135,62 @@ def tiny_posterior(tmp_path_factory):
     posterior, _ = train(Simulations(theta, xs), config, training, progress=False)
     path = posterior.save(tmp_path_factory.mktemp("posterior") / "posterior.npz")
     return posterior, path
+
+
+def _recorded_scene(n: int = 31):
+    """A small synthetic recorded episode (``origin="recorded"``, an observed mask).
+
+    The EV (lane 0, 10 m/s) changes into lane 1 under the inputs stored in ``u`` (its states
+    are their RK4 steps: the recorded inputs reproduce it exactly); the TV follows 20 m
+    behind in lane 1 at 11 m/s; vehicle 2, the own-lane leader 30 m ahead at 9 m/s, is
+    recorded until sample 20 and continued at constant velocity after it; vehicle 3, 45 m
+    ahead in lane 1 at 10 m/s, is recorded from sample 10 on. Observed part: 1 s (5 samples).
+    """
+    from drivestyle.envs.demonstration import Demonstration
+    from drivestyle.envs.dynamics import rk4_step
+    from drivestyle.envs.scenario import ScenarioConfig
+
+    dt = 0.2
+    sc = ScenarioConfig(
+        lane_width=3.75, ev_x=0.0, ev_speed=10.0, tv_gap=-20.0, tv_speed=11.0, v_ref=10.0,
+        horizon_s=(n - 1) * dt, check_start=False,
+    )  # fmt: skip
+    t = np.arange(n) * dt
+    u = np.zeros((n - 1, 2))
+    u[5:12, 1], u[12:19, 1] = 0.02, -0.02  # steer left, then back
+    u[:, 0] = 0.1 * np.sin(np.arange(n - 1) / 4)
+    ev = np.zeros((n, 4))
+    ev[0] = [0.0, sc.lane_centres[0], 0.0, 10.0]
+    for k in range(n - 1):
+        ev[k + 1] = rk4_step(ev[k], u[k], dt, sc.l_f, sc.l_r)
+    y1, y0 = sc.lane_centres[1], sc.lane_centres[0]
+    tv = np.column_stack([-20.0 + 11.0 * t, np.full(n, y1), np.zeros(n), np.full(n, 11.0)])
+    lead = np.column_stack([30.0 + 9.0 * t, np.full(n, y0), np.zeros(n), np.full(n, 9.0)])
+    late = np.column_stack([45.0 + 10.0 * t, np.full(n, y1), np.zeros(n), np.full(n, 10.0)])
+    observed = np.ones((3, n), bool)
+    observed[1, 21:] = False
+    observed[2, :10] = False
+    meta = {"scenario": sc.to_dict(), "episode_id": "synthetic-scene", "observed_until_s": 1.0}
+    return Demonstration(
+        t=t, ev=ev, tv=tv, u=u, meta=meta, others=np.stack([lead, late], axis=1),
+        origin="recorded", observed=observed,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="session")
+def recorded_scene():
+    """:func:`_recorded_scene`: a small synthetic recorded episode for ``Recorded-v0``."""
+    return _recorded_scene()
+
+
+@pytest.fixture(scope="session")
+def make_env(recorded_scene):
+    """``gym.make`` of any drivestyle id; ``Recorded-v0`` gets :func:`_recorded_scene`."""
+    import gymnasium as gym
+
+    def make(env_id, **kwargs):
+        if env_id == "drivestyle/Recorded-v0":
+            kwargs.setdefault("episode", recorded_scene)
+        return gym.make(env_id, **kwargs)
+
+    return make

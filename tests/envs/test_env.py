@@ -11,11 +11,11 @@ from drivestyle.envs import ENV_IDS, PAPER, LaneChangeEnv
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_check_env_gymnasium_and_sb3(env_id):
+def test_check_env_gymnasium_and_sb3(env_id, make_env):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # advisory warnings (unbounded Box, float64)
-        check_env(gym.make(env_id, render_mode="rgb_array").unwrapped)
-        sb3_check_env(gym.make(env_id).unwrapped)
+        check_env(make_env(env_id, render_mode="rgb_array").unwrapped)
+        sb3_check_env(make_env(env_id).unwrapped)
 
 
 def test_registration_is_idempotent():
@@ -37,9 +37,9 @@ def _rollout(env, seed, n=20):
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_seeded_determinism(env_id):
-    a = _rollout(gym.make(env_id), seed=7)
-    b = _rollout(gym.make(env_id), seed=7)
+def test_seeded_determinism(env_id, make_env):
+    a = _rollout(make_env(env_id), seed=7)
+    b = _rollout(make_env(env_id), seed=7)
     assert len(a) == len(b)
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
@@ -148,10 +148,10 @@ def test_human_mode_runs_headless():
 # ------------------------------------------------------------ gymnasium conformance
 @pytest.mark.parametrize("render_mode", [None, "rgb_array"])
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_check_env_passes_on_every_registered_id(env_id, render_mode):
+def test_check_env_passes_on_every_registered_id(env_id, render_mode, make_env):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # advisory: unbounded Box, wrapped env
-        check_env(gym.make(env_id, render_mode=render_mode))
+        check_env(make_env(env_id, render_mode=render_mode))
 
 
 # ------------------------------------------------------------ step after the end

@@ -20,10 +20,10 @@ WRAPPERS = {
 
 @pytest.mark.parametrize("wrap", WRAPPERS.values(), ids=WRAPPERS.keys())
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_check_env_passes_on_the_rl_wrappers(env_id, wrap):
+def test_check_env_passes_on_the_rl_wrappers(env_id, wrap, make_env):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        check_env(wrap(gym.make(env_id, render_mode="rgb_array")))
+        check_env(wrap(make_env(env_id, render_mode="rgb_array")))
 
 
 def test_rl_wrappers_record_their_constructor_args():

@@ -30,6 +30,7 @@ NO_SEED = {
     "mine_styles",
     "predict_trajectory",
     "real_traffic",
+    "replay_recorded",
 }
 """Deterministic scripts: a --seed there would do nothing, so they have none."""
 
@@ -217,6 +218,7 @@ WRITES = {
     "profile_inner": ("--out", "p.json", []),
     "real_traffic": ("--out", "rt", ["--dataset", "ngsim", "--data", MISSING]),
     "render_rollout": ("--video", "v.gif", ["--policy", "expert"]),
+    "replay_recorded": ("--out", "replay", ["--episodes", MISSING]),
     "reproduce_paper": ("--out", "paper", []),
     "simulate_population": ("--out", "pop", ["--vehicles", "2"]),
     "train_baseline": ("--out", "model", ["--style", MISSING]),

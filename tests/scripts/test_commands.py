@@ -631,6 +631,8 @@ COVERAGE = {
     "compare-baseline": "test_compare_baseline_compares_policy_smpc_and_spline",
     "deviating-tv": "test_deviating_tv_drives_every_method_against_a_braking_tv",
     "render-rollout": "test_render_rollout_writes_a_video_of_the_moving_scene",
+    "replay-recorded": "tests/scripts/test_replay_recorded.py::"
+    "test_three_episodes_replayed_as_the_study_replays_them",
     "evaluate-planning": "test_evaluate_planning_the_style_aware_ego_brakes_less",
     "calibrate-uncertainty": "test_calibrate_uncertainty_triggers_at_the_papers_time_at_scale_one",
     "capacity-study": "test_capacity_study_the_receding_horizon_class_fits_its_driver",
