@@ -1,4 +1,4 @@
-"""Reactive drivers of a recorded scene: their protocol and the IDM along the log (DESIGN §23).
+"""Reactive drivers of a recorded scene: their protocol and the IDM along the log (DESIGN §24).
 
 A :data:`Driver` is what drives a vehicle of ``drivestyle/Recorded-v0`` that does not follow
 its log (``others="style"``, and the agent's policy

@@ -1,4 +1,4 @@
-"""A recorded scene as an environment (``drivestyle/Recorded-v0``, DESIGN §23).
+"""A recorded scene as an environment (``drivestyle/Recorded-v0``, DESIGN §24).
 
 ``gym.make("drivestyle/Recorded-v0", episode=FILE_OR_DEMO, agent=0, others="log")`` replays a
 recorded :class:`~drivestyle.envs.demonstration.Demonstration` (an episode ``.npz`` of

@@ -1,4 +1,4 @@
-"""A recorded scene's log in the environment's vehicle order (DESIGN §23).
+"""A recorded scene's log in the environment's vehicle order (DESIGN §24).
 
 :class:`SceneLog` holds what ``drivestyle/Recorded-v0``
 (:class:`~drivestyle.envs.recorded_scene.RecordedSceneEnv`) and the reactive drivers

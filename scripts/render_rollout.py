@@ -5,7 +5,7 @@ safety ellipse and λ-scaled ellipse, a caption with t, v and s_e. The spline re
 r*_θ is replayed by setting the env to its states at every sample (position, heading
 atan2(ṙ^y, ṙ^x), speed |ṙ|).
 
-``--episode FILE.npz`` renders a recorded scene (``drivestyle/Recorded-v0``, DESIGN §23) from
+``--episode FILE.npz`` renders a recorded scene (``drivestyle/Recorded-v0``, DESIGN §24) from
 the end of its observed part: the agent (``--agent``, 0 the EV; red) drives ``--policy
 replay`` (its recorded inputs) or ``--policy idm`` (the reactive vehicles' IDM along its
 log's lateral path), the others follow their log or react (``--others log|idm``); the

@@ -5,7 +5,7 @@ validation by default; ``--split-file``: another split than the shipped one) or 
 episode of an ``--episodes`` folder (written by ``drivestyle extract-episodes``) is replayed
 once in ``drivestyle/Recorded-v0`` from the end of its observed part to the end of its log:
 every surrounding vehicle drives the IDM behind its leader along its log's lateral path, the
-EV the same IDM through the bicycle (DESIGN §23).
+EV the same IDM through the bicycle (DESIGN §24).
 ``--idm calibrated`` (default) takes the IDM's parameters from the physics baseline
 calibrated on the train split (drivestyle/data/benchmark_physics.json, or ``--physics``);
 ``--idm highway-env`` the traffic env's. Reports per episode the collisions of the replay and

@@ -2,7 +2,7 @@
 
 - :mod:`.study`: each episode replayed once in ``drivestyle/Recorded-v0`` (IDM vehicles along
   their log's lateral path, the EV too); collisions in the replay and in the log, speed
-  ranges (``replay-recorded``, DESIGN §23);
+  ranges (``replay-recorded``, DESIGN §24);
 - :mod:`.report`: ``replay.md``.
 
 The study's and the report's names are re-exported here.

@@ -41,7 +41,7 @@ def replay_markdown(study: ReplayStudy, command: str) -> str:
         f"Command: `{command}`",
         "",
         f"Episodes: {study.source}. Every surrounding vehicle drives the IDM along its log's "
-        "lateral path, the EV the same IDM through the bicycle (DESIGN §23); IDM "
+        "lateral path, the EV the same IDM through the bicycle (DESIGN §24); IDM "
         f"{study.idm_choice}: a_max = {fmt(idm.a_max, 2)} m/s², b = {fmt(idm.b, 2)} m/s², "
         f"s0 = {fmt(idm.s0, 2)} m, T = {fmt(idm.time_gap, 2)} s, v0 = {fmt(study.v0_factor, 3)}"
         " × v90 of the speeds up to the start. Collision: the scenario's rectangles overlap "

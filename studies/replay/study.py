@@ -1,4 +1,4 @@
-"""Recorded scenes replayed reactively: collisions and speeds against the log (DESIGN §23).
+"""Recorded scenes replayed reactively: collisions and speeds against the log (DESIGN §24).
 
 Each episode is replayed once in ``drivestyle/Recorded-v0``
 (:class:`~drivestyle.envs.recorded_scene.RecordedSceneEnv`) from its default start (the end
