@@ -5,7 +5,7 @@ recorded and turns it into that world's demonstrations. The one road frame of re
 tracks (``tracks``), the readers' checks of every format (``track_checks``), readers of
 published formats (``readers``, one module per format), lane-change episodes from them
 (``episodes``, with ``extraction_config``, ``lane_changes``, ``resampling``,
-``episode_scenario`` and ``episode_files``), which states of an episode were observed and
+``episode_scenario`` and ``episode_files``; their kinds, ``kinds``), which states of an episode were observed and
 the no-leak view of it after t_obs (``observed``) and the shipped NGSIM/CATS samples'
 loaders and the one view of a recorded episode (``real_data``), the recorded benchmark's
 split by vehicle (``benchmark``). The physical bounds every reader checks are
