@@ -137,7 +137,7 @@ def plot_prediction_errors(study: PredictionStudy, path: str | Path) -> Path:
 def plot_fde_by_kind(study: PredictionStudy, path: str | Path) -> Path | None:
     """The recorded episodes' FDE median by kind and method, bars with 95 % intervals.
 
-    One panel per t_obs; along x the kinds the report shows
+    One panel per t_obs, stacked; along x the kinds the report shows
     (:func:`~drivestyle.studies.prediction.summaries.shown_kinds`: every kind pooled, each
     kind, the stop-and-go windows), one bar per method (its colour of
     :data:`METHOD_STYLES`) with the bootstrap 95 % interval of the median (vehicles
@@ -155,11 +155,9 @@ def plot_fde_by_kind(study: PredictionStudy, path: str | Path) -> Path | None:
     here = [s for s in study.kind_summaries if s.set == set_name]
     methods = [m for m in METHODS if any(s.method == m for s in here)]
     width = 0.8 / len(methods)
-    panel_w = max(4.0, 1.1 * len(groups) + 1.5)
-    fig, axes = plt.subplots(
-        1, len(times), figsize=(panel_w * len(times), 4.0), sharey=True, squeeze=False
-    )
-    for ax, t in zip(axes[0], times, strict=True):
+    width_in = max(5.0, 1.2 * len(groups) + 2.0)
+    fig, axes = plt.subplots(len(times), 1, figsize=(width_in, 2.9 * len(times)), squeeze=False)
+    for ax, t in zip(axes[:, 0], times, strict=True):
         labelled: set[str] = set()
         for j, method in enumerate(methods):
             for i, kind in enumerate(groups):
@@ -182,10 +180,13 @@ def plot_fde_by_kind(study: PredictionStudy, path: str | Path) -> Path | None:
             labels.append((name or kind.replace("_", " ")) + n)
         ax.set_xticks(range(len(groups)), labels, fontsize=8)
         ax.set_title(f"t_obs = {seconds(t)}", fontsize=10)
+        ax.set_ylabel("FDE median [m]")
         ax.grid(alpha=0.3, axis="y")
-    axes[0][0].set_ylabel("FDE median [m] (95 % interval)")
-    axes[0][0].legend(fontsize=7, ncol=2)
-    title = f"Final displacement error by kind of episode ({set_name}; n: predictions (vehicles))"
+    axes[0][0].legend(fontsize=7, ncol=3, loc="best")
+    title = (
+        f"Final displacement error by kind of episode ({set_name})\nmedian with its 95 % "
+        "interval over vehicles; under each kind: predictions (vehicles)"
+    )
     return save_figure(fig, path, title, dpi=120)
 
 
