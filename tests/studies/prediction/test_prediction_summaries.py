@@ -32,7 +32,7 @@ def test_a_kind_travels_from_the_demonstration_to_its_record(paper_demo, as_reco
     (old,), _ = predict_vehicle("ngsim", "e", as_recorded(paper_demo), None, (1.0,),
                                 methods=("cv",))  # fmt: skip
     assert (old.kind, old.stop_and_go) == ("lane_change", False)  # an older file: a lane change
-    with pytest.raises(ValueError, match="episode kind 'merging' .* is not one of"):
+    with pytest.raises(ValueError, match=r"episode kind 'merging' .* is not one of"):
         replace(record, kind="merging")
 
 
