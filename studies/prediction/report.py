@@ -208,13 +208,13 @@ def kind_sections(study: PredictionStudy) -> list[str]:
     for kind in EPISODE_KINDS:
         of_kind = [r for r in recs if r.kind == kind]
         if of_kind:
-            counts.append(f"{_label(kind)} {len(of_kind)} predictions of "
+            counts.append(f"{_label(kind)} {len({r.vehicle_id for r in of_kind})} episodes of "
                           f"{len({r.unit or r.vehicle_id for r in of_kind})} vehicles")  # fmt: skip
-    n_sg = sum(r.stop_and_go for r in recs)
+    n_sg = len({r.vehicle_id for r in recs if r.stop_and_go})
     lines = [
         f"## By kind of episode: {set_name}",
         "",
-        "; ".join(counts) + f"; {n_sg} of them in stop-and-go windows. "
+        "; ".join(counts) + f"; {n_sg} of the episodes in stop-and-go windows. "
         + ("Every episode is of one kind: its numbers are the pooled ones. "
            if len([g for g in groups if g in EPISODE_KINDS]) == 1 else "")
         + "FDE median [bootstrap 95 % interval, vehicles resampled] [m].",

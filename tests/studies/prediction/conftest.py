@@ -11,7 +11,7 @@ def kind_record(set_name, vehicle, kind, cv, mode, t=1.0, stop_and_go=False):
     lat = {"cv": cv / 2, "mode": mode / 4}
     lon = {m: 0.75 * v for m, v in fde.items()}
     return PredictionRecord(
-        set_name, f"{vehicle}-{kind}-{t}", t, 3.0, None, None, 0.7, dict(fde), fde,
+        set_name, f"{vehicle}-{kind}", t, 3.0, None, None, 0.7, dict(fde), fde,
         fde_lat_m=lat, fde_lon_m=lon, ade_lat_m=dict(lat), ade_lon_m=dict(lon), unit=vehicle,
         kind=kind, stop_and_go=stop_and_go,
     )  # fmt: skip

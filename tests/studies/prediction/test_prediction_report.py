@@ -39,8 +39,8 @@ def test_the_report_has_a_table_per_kind_one_of_ratios_and_the_regions_by_kind(m
     study = _study(mixed_kinds, calibration=mixed_kinds)
     md = prediction_markdown(study, "drivestyle evaluate-prediction …")
     assert "## By kind of episode: recorded" in md
-    assert "lane change 14 predictions of 7 vehicles; car following 10 predictions of 5 " in md
-    assert "4 of them in stop-and-go windows" in md
+    assert "lane change 7 episodes of 7 vehicles; car following 5 episodes of 5 vehicles; " in md
+    assert "; 2 of the episodes in stop-and-go windows." in md
     for title in ("every kind", "lane change", "car following", "stop-and-go windows (any kind)"):
         rows = _table(md, f"### {title}")
         assert rows[0] == "| method | 1.0 s | 2.0 s |", title
