@@ -9,7 +9,9 @@ simulated vehicle's risk online over its whole demonstration. Writes
 ``OUT/prediction_eval.json`` (records, summaries per set, t_obs and method, the issue's goals
 met or missed, the online identification; with the command), ``OUT/report.md``,
 ``OUT/fde_by_method.png``, ``OUT/posterior_over_time.png`` and ``OUT/example_prediction.png``
-(the simulated prediction at t_obs = 2 s with the median gain of the mode over CV).
+(the simulated prediction at t_obs = 2 s with the median gain of the mode over CV), and with
+recorded episodes ``OUT/fde_by_kind.png`` (FDE median per kind of episode and method, with
+its 95 % interval).
 The study is studies/prediction/; its validation seed is 19000 (tests, choices),
 the reported test seed 19001 (the default).
 
@@ -19,7 +21,10 @@ every method, the physics baseline (IDM + a quintic lane change, parameters from
 drivestyle/data/benchmark_physics.json, calibrated on the train split) among them, is
 summarised by
 ADE and FDE and their lateral and longitudinal parts, means and medians with bootstrap 95 %
-intervals over vehicles. ``--write-split`` rewrites the split file and
+intervals over vehicles, pooled over every kind of episode (lane change, lane keeping, car
+following, approaching a slower leader; an older extraction holds lane changes only) and per
+kind and over the stop-and-go windows, with each method's FDE relative to CV's (the median
+ratio with its interval). ``--write-split`` rewrites the split file and
 ``--calibrate-physics`` the parameters, and exit.
 
 ``--episodes DIR`` benchmarks a folder written by ``drivestyle extract-episodes`` (your own
@@ -99,6 +104,7 @@ from drivestyle.studies.prediction import (
     spanning_tracks,
 )
 from drivestyle.studies.prediction.figures import (
+    plot_fde_by_kind,
     plot_posterior_over_time,
     plot_prediction,
     plot_prediction_errors,
@@ -143,7 +149,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=Path,
         default=None,
         help="a prediction_eval.json (or its run folder) of another split (e.g. validation): "
-        "calibrates the 90 %% prediction regions whose coverage this run reports",
+        "calibrates the 90 %% prediction regions whose coverage this run reports, pooled and "
+        "per kind of episode (a kind with too few calibration records takes the pooled rate)",
     )
     p.add_argument(
         "--write-split",
@@ -397,6 +404,7 @@ def main(argv: list[str] | None = None) -> dict:
             write_split(rows, tmp / "split.csv")
         write_text(tmp / "report.md", markdown)
         plot_prediction_errors(study, tmp / "fde_by_method.png")
+        plot_fde_by_kind(study, tmp / "fde_by_kind.png")  # None: no recorded episode
         if study.tracks:
             plot_posterior_over_time(spanning_tracks(study.tracks), tmp / "posterior_over_time.png")
         example = example_record(study)

@@ -11,7 +11,9 @@ Held-out simulated vehicles and the recorded benchmark's NGSIM/CATS episodes pre
 - :mod:`.tracking`: online identification over each simulated demonstration
   (:func:`track_vehicle`, :class:`TrackingSummary`);
 - :mod:`.summaries`: the statistics per (set, t_obs, method) with bootstrap intervals over
-  vehicles (:func:`summarise_records`) and the goals (:func:`goal_checks`);
+  vehicles (:func:`summarise_records`), per kind of episode (:func:`summarise_by_kind`),
+  each method's FDE relative to CV's (:func:`ratio_stats`) and the goals
+  (:func:`goal_checks`);
 - :mod:`.runs`: another split's run read back to calibrate the prediction regions
   (:func:`read_prediction_run`, :func:`calibration_records`);
 - :mod:`.observed_times`: the observed times a run can use (:func:`check_observed_times`);
@@ -54,14 +56,19 @@ from drivestyle.studies.prediction.summaries import (
     BOOTSTRAP_SAMPLES,
     BOOTSTRAP_SEED,
     GOALS,
+    RATIO_GOALS,
     RECORDED,
     SIMULATED,
     STYLE_METHODS,
     ErrorStat,
     GoalCheck,
     MethodSummary,
+    RatioStat,
     bootstrap_stats,
     goal_checks,
+    median_ratios,
+    ratio_stats,
+    summarise_by_kind,
     summarise_records,
 )
 from drivestyle.studies.prediction.tracking import (
@@ -80,6 +87,7 @@ __all__ = [
     "GOALS",
     "NARROW_WIDTH",
     "PREDICTION_ERRORS",
+    "RATIO_GOALS",
     "RECORDED",
     "RISK_RANGE",
     "SIMULATED",
@@ -93,6 +101,7 @@ __all__ = [
     "PredictionRecord",
     "PredictionRun",
     "PredictionStudy",
+    "RatioStat",
     "SimulatedVehicle",
     "SkippedPrediction",
     "TrackingRecord",
@@ -106,11 +115,14 @@ __all__ = [
     "evaluate_prediction",
     "example_record",
     "goal_checks",
+    "median_ratios",
     "physics_cases",
     "predict_vehicle",
+    "ratio_stats",
     "read_prediction_run",
     "recorded_spans",
     "spanning_tracks",
+    "summarise_by_kind",
     "summarise_records",
     "summarise_tracking",
     "track_vehicle",

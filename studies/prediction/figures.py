@@ -3,8 +3,10 @@
 :func:`plot_prediction` draws one vehicle's observed path, its true future and every
 method's prediction to scale (``example_prediction.png`` of ``evaluate-prediction``,
 ``prediction.png`` of ``predict-trajectory``); :func:`plot_prediction_errors` the mean FDE of
-every method against t_obs (``fde_by_method.png``); :func:`plot_posterior_over_time` the
-online posterior of a few vehicles (``posterior_over_time.png``). Colours, lanes and saving
+every method against t_obs (``fde_by_method.png``); :func:`plot_fde_by_kind` the recorded
+episodes' FDE median per kind and method with its 95 % interval (``fde_by_kind.png``);
+:func:`plot_posterior_over_time` the online posterior of a few vehicles
+(``posterior_over_time.png``). Colours, lanes and saving
 are :mod:`drivestyle.studies.plotting`'s.
 """
 
@@ -21,6 +23,7 @@ from matplotlib.patches import Polygon
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import vehicle_corners
 from drivestyle.prediction.methods import METHODS, Prediction
+from drivestyle.recorded.kinds import ALL_KINDS, STOP_AND_GO
 from drivestyle.studies.formatting import seconds
 from drivestyle.studies.plotting import (
     EV_RED,
@@ -30,10 +33,12 @@ from drivestyle.studies.plotting import (
     save_figure,
 )
 from drivestyle.studies.prediction.study import PredictionStudy
+from drivestyle.studies.prediction.summaries import report_set, shown_kinds
 from drivestyle.studies.prediction.tracking import TrackingRecord
 
 __all__ = [
     "METHOD_STYLES",
+    "plot_fde_by_kind",
     "plot_posterior_over_time",
     "plot_prediction",
     "plot_prediction_errors",
@@ -129,6 +134,62 @@ def plot_prediction_errors(study: PredictionStudy, path: str | Path) -> Path:
         ax.grid(alpha=0.3, which="both")
     axes[0][0].legend(fontsize=8)
     return save_figure(fig, path, "Final displacement error by method", dpi=120)
+
+
+def plot_fde_by_kind(study: PredictionStudy, path: str | Path) -> Path | None:
+    """The recorded episodes' FDE median by kind and method, bars with 95 % intervals.
+
+    One panel per t_obs, stacked; along x the kinds the report shows
+    (:func:`~drivestyle.studies.prediction.summaries.shown_kinds`: every kind pooled, each
+    kind, the stop-and-go windows), one bar per method (its colour of
+    :data:`METHOD_STYLES`) with the bootstrap 95 % interval of the median (vehicles
+    resampled); each group labelled with its predictions (vehicles) at that t_obs. The set is
+    :func:`~drivestyle.studies.prediction.summaries.report_set`'s (every recorded episode).
+
+    Returns:
+        The path, or None where the run has no recorded episode (nothing drawn).
+    """
+    set_name = report_set([s.set for s in study.kind_summaries])
+    groups = shown_kinds(study.kind_summaries)
+    if set_name is None or not groups:
+        return None
+    times = sorted({s.t_obs for s in study.kind_summaries if s.set == set_name})
+    here = [s for s in study.kind_summaries if s.set == set_name]
+    methods = [m for m in METHODS if any(s.method == m for s in here)]
+    width = 0.8 / len(methods)
+    width_in = max(5.0, 1.2 * len(groups) + 2.0)
+    fig, axes = plt.subplots(len(times), 1, figsize=(width_in, 2.9 * len(times)), squeeze=False)
+    for ax, t in zip(axes[:, 0], times, strict=True):
+        labelled: set[str] = set()
+        for j, method in enumerate(methods):
+            for i, kind in enumerate(groups):
+                s = study.summary(set_name, t, method, kind)
+                if s is None:
+                    continue
+                st = s.stats["fde"]
+                x = i - 0.4 + (j + 0.5) * width
+                color = METHOD_STYLES[method]["color"]
+                label = None if method in labelled else method
+                labelled.add(method)
+                ax.bar(x, st.median, width, color=color, label=label)
+                yerr = [[st.median - st.median_lo], [st.median_hi - st.median]]
+                ax.errorbar(x, st.median, yerr, fmt="none", ecolor="k", elinewidth=0.8, capsize=2)
+        labels = []
+        for kind in groups:
+            s = study.summary(set_name, t, methods[0], kind)
+            n = "" if s is None else f"\n{s.n} ({s.n_units})"
+            name = {ALL_KINDS: "all kinds", STOP_AND_GO: "stop-and-go"}.get(kind)
+            labels.append((name or kind.replace("_", " ")) + n)
+        ax.set_xticks(range(len(groups)), labels, fontsize=8)
+        ax.set_title(f"t_obs = {seconds(t)}", fontsize=10)
+        ax.set_ylabel("FDE median [m]")
+        ax.grid(alpha=0.3, axis="y")
+    axes[0][0].legend(fontsize=7, ncol=3, loc="best")
+    title = (
+        f"Final displacement error by kind of episode ({set_name})\nmedian with its 95 % "
+        "interval over vehicles; under each kind: predictions (vehicles)"
+    )
+    return save_figure(fig, path, title, dpi=120)
 
 
 def plot_posterior_over_time(

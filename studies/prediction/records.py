@@ -4,7 +4,8 @@
 :func:`~drivestyle.prediction.methods.predict_demo` (the benchmark's prediction: a recorded
 episode through the no-leak view) and keeps one :class:`PredictionRecord` per t_obs, or a
 :class:`SkippedPrediction` with the reason where the data cannot be predicted
-(:data:`PREDICTION_ERRORS`).
+(:data:`PREDICTION_ERRORS`). A record carries its episode's kind and stop-and-go flag
+(:mod:`drivestyle.recorded.kinds`), by which the summaries group it.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from drivestyle.irl.identification.online import TrackerError
 from drivestyle.prediction.methods import METHODS, Prediction, predict_demo
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.protocol import ForecastError
+from drivestyle.recorded.kinds import DEFAULT_KIND, check_kind, episode_kind, is_stop_and_go
 
 if TYPE_CHECKING:
     from drivestyle.irl.amortized.estimator import NeuralPosterior
@@ -65,8 +67,16 @@ class PredictionRecord:
     unit: str = ""
     """The vehicle the bootstrap resamples (recorded: the split's vehicle id; simulated:
     the vehicle id); empty: :attr:`vehicle_id`."""
+    kind: str = DEFAULT_KIND
+    """The episode's kind, a name of :data:`~drivestyle.recorded.kinds.EPISODE_KINDS` (a
+    simulated SMPC vehicle changes lane)."""
+    stop_and_go: bool = False
+    """Whether the episode's window is stop-and-go traffic (a flag across kinds)."""
     prediction: Prediction | None = field(default=None, repr=False, compare=False)
     """The whole prediction (paths; kept in memory for the figures, not in the JSON)."""
+
+    def __post_init__(self) -> None:
+        check_kind(self.kind)  # a name of EPISODE_KINDS, or ValueError naming them
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``prediction_eval.json``'s record)."""
@@ -85,6 +95,8 @@ class PredictionRecord:
             "ade_lat_m": dict(self.ade_lat_m),
             "ade_lon_m": dict(self.ade_lon_m),
             "unit": self.unit or self.vehicle_id,
+            "kind": self.kind,
+            "stop_and_go": self.stop_and_go,
         }
 
     def error(self, metric: str, method: str) -> float:
@@ -121,7 +133,9 @@ class SkippedPrediction:
                 "reason": self.reason}  # fmt: skip
 
 
-def _record(set_name: str, vehicle_id: str, pred: Prediction, unit: str = "") -> PredictionRecord:
+def _record(
+    set_name: str, vehicle_id: str, demo: Demonstration, pred: Prediction, unit: str
+) -> PredictionRecord:
     mode = pred.methods.get("mode")
     return PredictionRecord(
         set=set_name,
@@ -140,6 +154,8 @@ def _record(set_name: str, vehicle_id: str, pred: Prediction, unit: str = "") ->
         ade_lat_m={m: p.ade_lat_m for m, p in pred.methods.items()},
         ade_lon_m={m: p.ade_lon_m for m, p in pred.methods.items()},
         unit=unit or vehicle_id,
+        kind=episode_kind(demo),
+        stop_and_go=is_stop_and_go(demo),
         prediction=pred,
     )
 
@@ -186,5 +202,5 @@ def predict_vehicle(
         except PREDICTION_ERRORS as exc:
             skipped.append(SkippedPrediction(set_name, vehicle_id, float(t), str(exc)))
             continue
-        records.append(_record(set_name, vehicle_id, pred, unit))
+        records.append(_record(set_name, vehicle_id, demo, pred, unit))
     return records, skipped

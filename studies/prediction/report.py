@@ -2,20 +2,32 @@
 
 :func:`prediction_markdown` writes the study's tables (per set, t_obs and method; the
 recorded benchmark's with bootstrap intervals; the goals; online identification; the
-prediction regions' coverage). Shares, intervals and times are formatted as every study's
-report formats them (:mod:`drivestyle.studies.formatting`).
+prediction regions' coverage), and the recorded episodes by kind (:func:`kind_sections`):
+per kind one table of the methods' FDE median with its interval per t_obs, one table of the
+FDE relative to CV's, and the regions calibrated per kind. Shares, intervals and times are
+formatted as every study's report formats them (:mod:`drivestyle.studies.formatting`).
 """
 
 from __future__ import annotations
 
 from drivestyle.common.io import fmt
 from drivestyle.prediction.errors import ERROR_METRICS
+from drivestyle.prediction.methods import METHODS
+from drivestyle.prediction.regions import KIND_MIN_CALIBRATION
+from drivestyle.recorded.kinds import ALL_KINDS, EPISODE_KINDS, STOP_AND_GO
 from drivestyle.studies.formatting import percent, seconds, value_interval
 from drivestyle.studies.prediction.study import TEST_SEED, VALIDATION_SEED, PredictionStudy
-from drivestyle.studies.prediction.summaries import BOOTSTRAP_SAMPLES
+from drivestyle.studies.prediction.summaries import (
+    BOOTSTRAP_SAMPLES,
+    RATIO_GOALS,
+    RATIO_REFERENCE,
+    RatioStat,
+    report_set,
+    shown_kinds,
+)
 from drivestyle.studies.prediction.tracking import NARROW_WIDTH, TrackingSummary
 
-__all__ = ["prediction_markdown"]
+__all__ = ["kind_sections", "prediction_markdown"]
 
 
 def _benchmark_tables(study: PredictionStudy) -> list[str]:
@@ -108,6 +120,7 @@ def prediction_markdown(study: PredictionStudy, command: str) -> str:
             lines.append(line)
         lines.append("")
     lines += _benchmark_tables(study)
+    lines += kind_sections(study)
     lines += [
         "## Goals",
         "",
@@ -169,3 +182,132 @@ def _tracking_section(tr: TrackingSummary) -> list[str]:
         "(parallel workers on a shared machine).",
         "",
     ]
+
+
+def _label(kind: str) -> str:
+    return {ALL_KINDS: "every kind", STOP_AND_GO: "stop-and-go windows (any kind)"}.get(
+        kind, kind.replace("_", " ")
+    )
+
+
+def kind_sections(study: PredictionStudy) -> list[str]:
+    """The recorded episodes by kind: FDE medians per kind, the ratios to CV, the regions.
+
+    For the set :func:`~drivestyle.studies.prediction.summaries.report_set` picks (every
+    recorded episode); nothing where the run has none.
+    """
+    set_name = report_set([s.set for s in study.kind_summaries])
+    groups = shown_kinds(study.kind_summaries)
+    if set_name is None or not groups:
+        return []
+    times = sorted({s.t_obs for s in study.kind_summaries if s.set == set_name})
+    head = " | ".join(seconds(t) for t in times)
+    counts = []
+    recs = [r for r in study.records if r.set != "simulated"]
+    recs = recs if set_name == "recorded" else [r for r in recs if r.set == set_name]
+    for kind in EPISODE_KINDS:
+        of_kind = [r for r in recs if r.kind == kind]
+        if of_kind:
+            counts.append(f"{_label(kind)} {len({r.vehicle_id for r in of_kind})} episodes of "
+                          f"{len({r.unit or r.vehicle_id for r in of_kind})} vehicles")  # fmt: skip
+    n_sg = len({r.vehicle_id for r in recs if r.stop_and_go})
+    lines = [
+        f"## By kind of episode: {set_name}",
+        "",
+        "; ".join(counts) + f"; {n_sg} of the episodes in stop-and-go windows. "
+        + ("Every episode is of one kind: its numbers are the pooled ones. "
+           if len([g for g in groups if g in EPISODE_KINDS]) == 1 else "")
+        + "FDE median [bootstrap 95 % interval, vehicles resampled] [m].",
+        "",
+    ]  # fmt: skip
+    for kind in groups:
+        lines += [f"### {_label(kind)}", "", f"| method | {head} |", "|---|" + "---|" * len(times)]
+        ns = [study.summary(set_name, t, RATIO_REFERENCE, kind) for t in times]
+        lines.append("| n (vehicles) | " + " | ".join(
+            "—" if s is None else f"{s.n} ({s.n_units})" for s in ns) + " |")  # fmt: skip
+        for method in METHODS:
+            cells = [study.summary(set_name, t, method, kind) for t in times]
+            if all(c is None for c in cells):
+                continue
+            lines.append(f"| {method} | " + " | ".join(
+                "—" if c is None else value_interval(c.stats["fde"], "median") for c in cells
+            ) + " |")  # fmt: skip
+        lines.append("")
+    lines += _ratio_table(study, set_name, groups, times)
+    lines += _kind_region_table(study, set_name, groups, times)
+    return lines
+
+
+def _ratio_cell(r: RatioStat | None) -> str:
+    if r is None or r.n == 0:
+        return "—"
+    mark = " ✓" if r.below_goal else ""
+    return f"{r.median:.2f} [{r.lo:.2f}, {r.hi:.2f}]{mark}"
+
+
+def _ratio_table(
+    study: PredictionStudy, set_name: str, groups: list[str], times: list[float]
+) -> list[str]:
+    """One table: per kind and method, FDE / CV's FDE per t_obs (and lateral, lane changes)."""
+    mine = {(r.kind, r.method, r.metric, r.t_obs): r for r in study.ratios if r.set == set_name}
+    if not mine:
+        return []
+    lateral = any(k[2] == "fde_lat" for k in mine)
+    head = " | ".join(f"FDE {seconds(t)}" for t in times)
+    if lateral:
+        head += " | " + " | ".join(f"lateral {seconds(t)}" for t in times)
+    n_cols = len(times) * (2 if lateral else 1)
+    lines = [
+        f"### FDE relative to {RATIO_REFERENCE.upper()}",
+        "",
+        f"Median over predictions of FDE_method / FDE_{RATIO_REFERENCE} (each prediction's own "
+        "ratio) [bootstrap 95 % interval, vehicles resampled]; below 1: better than "
+        f"{RATIO_REFERENCE.upper()}. Goals: ≤ {RATIO_GOALS['fde']:.2f} pooled and for lane "
+        f"changes, lateral ≤ {RATIO_GOALS['fde_lat']:.2f} for lane changes; ✓: the whole "
+        "interval below the goal.",
+        "",
+        f"| kind | method | {head} |",
+        "|---|---|" + "---|" * n_cols,
+    ]
+    for kind in groups:
+        for method in METHODS:
+            cells = [mine.get((kind, method, "fde", t)) for t in times]
+            if lateral:
+                cells += [mine.get((kind, method, "fde_lat", t)) for t in times]
+            if all(c is None for c in cells):
+                continue
+            lines.append(f"| {_label(kind)} | {method} | "
+                         + " | ".join(_ratio_cell(c) for c in cells) + " |")  # fmt: skip
+    return [*lines, ""]
+
+
+def _kind_region_table(
+    study: PredictionStudy, set_name: str, groups: list[str], times: list[float]
+) -> list[str]:
+    """Coverage of the regions calibrated per kind: per kind and method, per t_obs."""
+    mine = {(g.kind, g.method, g.t_obs): g for g in study.kind_regions if g.set == set_name}
+    if not mine:
+        return []
+    lines = [
+        "### 90 % prediction regions calibrated per kind",
+        "",
+        "Each kind's rate from its own records of the calibration run where it has at least "
+        f"{KIND_MIN_CALIBRATION} (at that t_obs), else the pooled rate (†, with the kind's "
+        "own count); every record judged by its kind's region. Coverage (n) on this split.",
+        "",
+        "| kind | method | " + " | ".join(seconds(t) for t in times) + " |",
+        "|---|---|" + "---|" * len(times),
+    ]
+    for kind in groups:
+        for method in METHODS:
+            cells = [mine.get((kind, method, t)) for t in times]
+            if all(c is None for c in cells):
+                continue
+            shown = [
+                "—" if c is None
+                else f"{percent(c.coverage)} ({c.n})"
+                + (f" † ({c.n_kind_calibration} cal.)" if c.calibrated_on == "pooled" else "")
+                for c in cells
+            ]  # fmt: skip
+            lines.append(f"| {_label(kind)} | {method} | " + " | ".join(shown) + " |")
+    return [*lines, ""]

@@ -3,7 +3,9 @@
 ``evaluate-prediction --regions-from`` reads another split's ``prediction_eval.json``
 (:func:`read_prediction_run`, every record it uses checked) and takes its recorded records
 (:func:`calibration_records`, refusing a run that calibrates no region) for
-:func:`~drivestyle.prediction.regions.region_rates`.
+:func:`~drivestyle.prediction.regions.region_rates` and, per episode kind,
+:func:`~drivestyle.prediction.regions.kind_region_rates`. A run written before the kinds
+were has records without ``kind`` and ``stop_and_go``: lane changes, not stop-and-go.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from drivestyle.prediction.regions import REGION_LEVEL, region_rates
+from drivestyle.recorded.kinds import EPISODE_KINDS, STOP_AND_GO
 from drivestyle.studies.prediction.summaries import SIMULATED
 
 __all__ = [
@@ -47,7 +50,8 @@ def read_prediction_run(path: str | Path) -> PredictionRun:
     Only what another run reads of it is checked (the region's calibration,
     :func:`region_rates`): each record's ``set`` (a name), ``t_obs_s`` and ``horizon_s``
     (finite, > 0) and ``fde_m`` (method → a distance >= 0, or null / NaN where the method
-    gave none).
+    gave none); where present, ``kind`` (a name of
+    :data:`~drivestyle.recorded.kinds.EPISODE_KINDS`) and ``stop_and_go`` (true or false).
 
     Raises:
         FileNotFoundError: no such file (or no ``prediction_eval.json`` in the folder).
@@ -84,6 +88,12 @@ def read_prediction_run(path: str | Path) -> PredictionRun:
             given = fde is not None and not (isinstance(fde, float) and math.isnan(fde))
             if given and not (_finite(fde) and fde >= 0):
                 raise ValueError(f"{where}, fde_m.{method}: {fde!r} is not a distance >= 0 m")
+        if "kind" in r and r["kind"] not in EPISODE_KINDS:
+            raise ValueError(
+                f"{where}, kind: {r['kind']!r} is not an episode kind ({', '.join(EPISODE_KINDS)})"
+            )
+        if STOP_AND_GO in r and not isinstance(r[STOP_AND_GO], bool):
+            raise ValueError(f"{where}, {STOP_AND_GO}: {r[STOP_AND_GO]!r} is not true or false")
     split = raw.get("split")
     return PredictionRun(path, split if isinstance(split, str) else None, tuple(records))
 

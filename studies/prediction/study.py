@@ -31,8 +31,17 @@ The physics baseline's parameters are calibrated on the train split
 (:mod:`.summaries`); another split's run calibrates 90 % prediction regions
 (:mod:`drivestyle.prediction.regions`, :mod:`.runs`) whose coverage is reported.
 
-Results are typed: one record per (vehicle, t_obs), a summary per (set, t_obs, method), a
-goal check per goal, one tracking record per simulated vehicle and their summary, all in one
+Every recorded episode has a kind (lane change, lane keeping, car following, approaching a
+slower leader; :mod:`drivestyle.recorded.kinds`) and may be a stop-and-go window: the pooled
+summaries are every kind together; the recorded ones are also summarised per kind and over
+the stop-and-go windows, each method's FDE is taken relative to CV's per kind and pooled
+(medians of the ratio with intervals over vehicles), and the regions are calibrated per kind
+too (the pooled rate where a kind has too few calibration records) with their coverage per
+kind and pooled.
+
+Results are typed: one record per (vehicle, t_obs), a summary per (set, t_obs, method) and
+per (set, kind, t_obs, method), a ratio to CV per (set, kind, t_obs, method), a goal check per
+goal, one tracking record per simulated vehicle and their summary, all in one
 :class:`PredictionStudy`.
 """
 
@@ -52,7 +61,16 @@ from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.prediction.methods import METHODS
 from drivestyle.prediction.physics import PhysicsParams
-from drivestyle.prediction.regions import RegionCheck, record_rows, region_coverage, region_rates
+from drivestyle.prediction.regions import (
+    KIND_MIN_CALIBRATION,
+    KindRegionCheck,
+    RegionCheck,
+    kind_region_coverage,
+    kind_region_rates,
+    record_rows,
+    region_coverage,
+    region_rates,
+)
 from drivestyle.prediction.style import oracle_style
 from drivestyle.recorded.benchmark import (
     DEFAULT_DATA_DIR,
@@ -66,6 +84,7 @@ from drivestyle.recorded.benchmark import (
     load_recorded,
     read_split,
 )
+from drivestyle.recorded.kinds import ALL_KINDS, EPISODE_KINDS
 from drivestyle.recorded.real_data import DATASETS
 from drivestyle.studies.prediction.observed_times import check_observed_times
 from drivestyle.studies.prediction.records import (
@@ -78,9 +97,13 @@ from drivestyle.studies.prediction.summaries import (
     BOOTSTRAP_SAMPLES,
     BOOTSTRAP_SEED,
     GOALS,
+    RATIO_GOALS,
     GoalCheck,
     MethodSummary,
+    RatioStat,
     goal_checks,
+    ratio_stats,
+    summarise_by_kind,
     summarise_records,
 )
 from drivestyle.studies.prediction.tracking import (
@@ -135,15 +158,26 @@ class PredictionStudy:
     """The physics baseline's parameters (None: the defaults)."""
     regions: tuple[RegionCheck, ...] = ()
     """The 90 % prediction regions' coverage (empty: no calibration split given)."""
+    kind_summaries: tuple[MethodSummary, ...] = ()
+    """The recorded records' summaries per kind and over the stop-and-go windows
+    (:func:`~drivestyle.studies.prediction.summaries.summarise_by_kind`; :attr:`summaries`
+    are the pooled ones)."""
+    ratios: tuple[RatioStat, ...] = ()
+    """Each method's FDE relative to CV's, per recorded set, kind (and pooled) and t_obs."""
+    kind_regions: tuple[KindRegionCheck, ...] = ()
+    """The 90 % regions calibrated per kind and their coverage per kind and pooled (empty: no
+    calibration split given)."""
 
     def physics_json(self) -> dict[str, float]:
         """The physics baseline's parameters as used."""
         return (self.physics or PhysicsParams()).to_json()
 
-    def summary(self, set_name: str, t_obs: float, method: str) -> MethodSummary | None:
-        """The summary of one (set, t_obs, method), if any."""
-        for s in self.summaries:
-            if (s.set, s.t_obs, s.method) == (set_name, t_obs, method):
+    def summary(
+        self, set_name: str, t_obs: float, method: str, kind: str = ALL_KINDS
+    ) -> MethodSummary | None:
+        """The summary of one (set, t_obs, method) over one kind (default: pooled), if any."""
+        for s in self.summaries if kind == ALL_KINDS else self.kind_summaries:
+            if (s.set, s.t_obs, s.method, s.kind) == (set_name, t_obs, method, kind):
                 return s
         return None
 
@@ -190,6 +224,12 @@ class PredictionStudy:
             "records": [r.to_json() for r in self.records],
             "tracking": [t.to_json() for t in self.tracks],
             "regions": [g.to_json() for g in self.regions],
+            "episode_kinds": list(EPISODE_KINDS),
+            "summaries_by_kind": [s.to_json() for s in self.kind_summaries],
+            "ratio_goals": dict(RATIO_GOALS),
+            "fde_ratios": [r.to_json() for r in self.ratios],
+            "kind_min_calibration": KIND_MIN_CALIBRATION,
+            "regions_by_kind": [g.to_json() for g in self.kind_regions],
             "seconds": dict(self.seconds),
         }
 
@@ -368,6 +408,12 @@ def evaluate_prediction(
             n_geometries[ds] = len({_geometry(r[2]) for r in recorded if r[0] == ds})
         demos |= {r[1]: r[2] for r in recorded}
     summaries = summarise_records(records)
+    recorded_records = [r for r in records if r.set != "simulated"]
+    calibration_rows = (
+        None
+        if calibration is None
+        else [r for r in record_rows(calibration) if r["set"] != "simulated"]
+    )
     return PredictionStudy(
         seed=seed,
         t_obs=t_obs,
@@ -384,14 +430,14 @@ def evaluate_prediction(
         demos=demos,
         split=split,
         physics=physics,
-        regions=tuple(
-            region_coverage(
-                [r for r in records if r.set != "simulated"],
-                region_rates([r for r in record_rows(calibration) if r["set"] != "simulated"]),
-            )
-        )
-        if calibration is not None
-        else (),
+        regions=()
+        if calibration_rows is None
+        else tuple(region_coverage(recorded_records, region_rates(calibration_rows))),
+        kind_summaries=tuple(summarise_by_kind(records)),
+        ratios=tuple(ratio_stats(records)),
+        kind_regions=()
+        if calibration_rows is None
+        else tuple(kind_region_coverage(recorded_records, kind_region_rates(calibration_rows))),
     )
 
 

@@ -260,8 +260,11 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
     assert js["actual"][0][1] == pytest.approx(recorded.ev[k, 1] + js["lateral_shift_m"], abs=1e-4)
 
 
-def _episodes_folder(folder: Path, paper_demo, n: int = 2) -> Path:
-    """A folder as extract-episodes writes it: n recorded-like episodes of n vehicles."""
+def _episodes_folder(folder: Path, paper_demo, n: int = 2, kinds: tuple[str, ...] = ()) -> Path:
+    """A folder as extract-episodes writes it: n recorded-like episodes of n vehicles.
+
+    ``kinds``: the episodes' kinds in their metadata (none: as written before the kinds).
+    """
     import csv
 
     import numpy as np
@@ -272,9 +275,8 @@ def _episodes_folder(folder: Path, paper_demo, n: int = 2) -> Path:
         others = paper_demo.tv[:, None, :].copy()
         others[:, 0, 0] += 30.0 + 5 * i  # a leader in the target lane
         meta = {k: v for k, v in paper_demo.meta.items() if k not in ("risk", "smpc")}
-        demo = replace(
-            paper_demo, others=others, meta={**meta, "episode_id": f"r_{i}_1000"}, origin="recorded"
-        )
+        meta = {**meta, "episode_id": f"r_{i}_1000"} | ({"kind": kinds[i]} if kinds else {})
+        demo = replace(paper_demo, others=others, meta=meta, origin="recorded")
         save_demonstration(demo, folder / f"r_{i}_1000.npz")
         rows.append([f"r_{i}_1000", f"r_{i}_1000.npz", "r", str(i), "True"])
     rows.append(["r_9_2000", "", "r", "9", "False"])  # unusable rows have no file
@@ -295,7 +297,7 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
     from drivestyle.prediction.methods import predict_demo
     from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
 
-    folder = _episodes_folder(tmp_path / "eps", paper_demo)
+    folder = _episodes_folder(tmp_path / "eps", paper_demo, kinds=("lane_change", "approaching"))
     out = tmp_path / "bench"
     run = subprocess.run(
         [sys.executable, "-m", "drivestyle", "evaluate-prediction", "--library", str(files),
@@ -313,6 +315,13 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
         for m, fde in rec["fde_m"].items():
             assert fde == pytest.approx(pred.methods[m].fde_m, abs=1e-9), m
     assert not (out / "split.csv").exists()  # --split all: no split was made
+    # every table by kind too: each episode's kind read from its file, pooled as before
+    assert [r["kind"] for r in js["records"]] == ["lane_change", "approaching"]
+    assert {(s["kind"], s["n"]) for s in js["summaries_by_kind"]} == {
+        ("lane_change", 1), ("approaching", 1)}  # fmt: skip
+    assert {s["kind"] for s in js["summaries"]} == {"all"} and js["fde_ratios"]
+    assert (out / "fde_by_kind.png").stat().st_size > 0
+    assert "### approaching" in (out / "report.md").read_text()
     # no simulated vehicles: no empty section of them ("0 vehicles … never") and no bar
     assert "Online identification" not in (out / "report.md").read_text()
     assert "Online identification" not in run.stdout
