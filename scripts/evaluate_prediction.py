@@ -15,21 +15,23 @@ the reported test seed 19001 (the default).
 
 The recorded episodes are the benchmark's ``--split`` (drivestyle/data/benchmark_split.csv,
 by vehicle; validation by default — the test split is run once, by the issue it judges);
-every method, the physics baseline (IDM + a quintic lane change, parameters from
-drivestyle/data/benchmark_physics.json, calibrated on the train split) among them, is
-summarised by
+every method, the physics baselines among them (``physics``: IDM + a quintic lane change,
+parameters from drivestyle/data/benchmark_physics.json; ``joint_physics``: IDM + MOBIL for
+every vehicle rolled out together, from drivestyle/data/benchmark_joint_physics.json; both
+calibrated on the train split), is summarised by
 ADE and FDE and their lateral and longitudinal parts, means and medians with bootstrap 95 %
-intervals over vehicles. ``--write-split`` rewrites the split file and
-``--calibrate-physics`` the parameters, and exit.
+intervals over vehicles. ``--write-split`` rewrites the split file, ``--calibrate-physics``
+the physics baseline's parameters and ``--calibrate-joint-physics`` the joint one's (either
+or both), and exit.
 
 ``--episodes DIR`` benchmarks a folder written by ``drivestyle extract-episodes`` (your own
 recordings) instead of the shipped samples, with the same methods, tables and intervals and
 no simulated vehicles: its episodes are split by vehicle (``<carriageway>:<vehicle id>``)
 with the benchmark's rule, the split written to ``OUT/split.csv`` (``--split-file`` uses
 another, e.g. one written by ``--episodes DIR --write-split --split-file FILE``; ``--split
-all`` predicts every episode); the physics baseline keeps the shipped calibration unless
-``--physics`` names one calibrated on your train split (``--episodes DIR
---calibrate-physics --physics FILE``).
+all`` predicts every episode); the physics baselines keep the shipped calibrations unless
+``--physics`` and ``--joint-physics`` name ones calibrated on your train split (``--episodes
+DIR --calibrate-physics --physics FILE --calibrate-joint-physics --joint-physics FILE2``).
 
 Example:
     python scripts/evaluate_prediction.py --library runs/library --out runs/prediction
@@ -65,6 +67,12 @@ from drivestyle.common.io import (
     write_text,
 )
 from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.prediction.joint_physics import JointPhysicsParams
+from drivestyle.prediction.joint_physics_calibration import (
+    JOINT_PHYSICS_FILE,
+    load_joint_params,
+    save_joint_params,
+)
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params, save_params
 from drivestyle.recorded.benchmark import (
@@ -82,6 +90,7 @@ from drivestyle.recorded.real_data import DATASETS, check_data_dir
 from drivestyle.studies.prediction import (
     T_OBS,
     TEST_SEED,
+    calibrate_joint_on_split,
     calibrate_on_split,
     calibration_records,
     check_observed_times,
@@ -131,6 +140,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "package, calibrated on the shipped train split)",
     )
     p.add_argument(
+        "--joint-physics",
+        type=Path,
+        default=None,
+        help=f"the joint physics baseline's parameters (default: {JOINT_PHYSICS_FILE.name} "
+        "shipped with the package, calibrated on the shipped train split)",
+    )
+    p.add_argument(
         "--regions-from",
         type=Path,
         default=None,
@@ -146,6 +162,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--calibrate-physics",
         action="store_true",
         help="calibrate the physics baseline on the train split, write --physics and exit",
+    )
+    p.add_argument(
+        "--calibrate-joint-physics",
+        action="store_true",
+        help="calibrate the joint physics baseline on the train split, write --joint-physics "
+        "and exit (with --calibrate-physics: both)",
     )
     p.add_argument(
         "--no-simulated", action="store_true", help="recorded episodes only (no simulated vehicles)"
@@ -215,6 +237,46 @@ def _physics(args: argparse.Namespace) -> PhysicsParams:
         return load_params(PHYSICS_FILE if args.physics is None else args.physics)
 
 
+def _joint_physics(args: argparse.Namespace) -> JointPhysicsParams:
+    """``--joint-physics`` (default: the shipped calibration), read; errors named by the option."""
+    with for_option("--joint-physics"):
+        return load_joint_params(JOINT_PHYSICS_FILE if args.joint_physics is None
+                                 else args.joint_physics)  # fmt: skip
+
+
+def _calibrate(args: argparse.Namespace, own: bool) -> dict[str, Any]:
+    """``--calibrate-physics`` and/or ``--calibrate-joint-physics``: fit, write, report.
+
+    With ``--episodes`` each file to write must be named (never over the shipped
+    benchmark's calibrations). Returns the calibrations' JSON by file option.
+    """
+    asked = [("--physics", args.physics, args.calibrate_physics),
+             ("--joint-physics", args.joint_physics, args.calibrate_joint_physics)]  # fmt: skip
+    for option, path, wanted in asked:
+        if wanted and own and path is None:
+            flag = "--calibrate-" + option[2:]
+            raise ValueError(f"--episodes {flag} needs {option} (the file to write)")
+    chosen = None if args.split_file is None and own else _split_rows(args, "train")
+    out: dict[str, Any] = {}
+    if args.calibrate_physics:
+        cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
+        physics_file = PHYSICS_FILE if args.physics is None else args.physics
+        save_params(cal, physics_file)
+        print(f"wrote {physics_file}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
+              f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip
+        out["physics"] = cal.to_json()
+    if args.calibrate_joint_physics:
+        joint = calibrate_joint_on_split(args.data_dir, chosen, args.observe,
+                                         episodes_dir=args.episodes)  # fmt: skip
+        joint_file = JOINT_PHYSICS_FILE if args.joint_physics is None else args.joint_physics
+        save_joint_params(joint, joint_file)
+        print(f"wrote {joint_file}: {joint.params.to_json()} (rmse {joint.rmse_m:.3f} m over "
+              f"{joint.n_cases} train cases, {joint.rmse_initial_m:.3f} m at the start)"
+              )  # fmt: skip
+        out["joint_physics"] = joint.to_json()
+    return out
+
+
 def _calibration(args: argparse.Namespace) -> list[Mapping[str, Any]]:
     """The records of ``--regions-from`` (another split's run) that calibrate the regions.
 
@@ -271,22 +333,18 @@ def main(argv: list[str] | None = None) -> dict:
         write_split(written, target)
         print(f"wrote {target} ({len(written)} episodes)")
         return {"split_file": str(target), "episodes": len(written)}
-    if args.calibrate_physics:
-        if own and args.physics is None:  # never over the shipped benchmark's calibration
-            raise ValueError("--episodes --calibrate-physics needs --physics (the file to write)")
-        chosen = None if args.split_file is None and own else _split_rows(args, "train")
-        cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
-        physics_file = PHYSICS_FILE if args.physics is None else args.physics
-        save_params(cal, physics_file)
-        print(f"wrote {physics_file}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
-              f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip
-        return cal.to_json()
+    if args.calibrate_physics or args.calibrate_joint_physics:
+        out = _calibrate(args, own)
+        return next(iter(out.values())) if len(out) == 1 else out
     if args.library is None:
-        raise ValueError("--library is required (except with --write-split or --calibrate-physics)")
+        raise ValueError(
+            "--library is required (except with --write-split, --calibrate-physics or "
+            "--calibrate-joint-physics)"
+        )
     if args.no_recorded and args.no_simulated:
         raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
     recorded_input = args.episodes if own else args.data_dir
-    inputs = [args.library, args.split_file, args.physics, args.regions_from]
+    inputs = [args.library, args.split_file, args.physics, args.joint_physics, args.regions_from]
     inputs += [] if args.no_recorded else [recorded_input]
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
@@ -302,6 +360,7 @@ def main(argv: list[str] | None = None) -> dict:
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
     physics = _physics(args)
+    joint_physics = _joint_physics(args)
     library = load_driver_library(args.library, "prediction")
     calibration = None if args.regions_from is None else _calibration(args)
     if not args.no_recorded and not own:
@@ -334,6 +393,7 @@ def main(argv: list[str] | None = None) -> dict:
             physics=physics,
             calibration=calibration,
             episodes_dir=args.episodes,
+            joint_physics=joint_physics,
         )
     finally:
         for bar in bars.values():

@@ -5,9 +5,9 @@ DESIGN §17 (using a style: online identification, prediction and planning).
 :func:`evaluate_prediction` observes each held-out vehicle for t_obs ∈ :data:`T_OBS` seconds
 and predicts the rest of its demonstration with every method of
 :func:`drivestyle.prediction.methods.predict` (constant velocity and acceleration, the physics
-baseline, the population style, the online posterior's mode and mixture, and — where the
-truth is known — the oracle), scoring each by its average and final displacement errors (ADE,
-FDE).
+baselines — the vehicle alone, and every vehicle jointly —, the population style, the online
+posterior's mode and mixture, and — where the truth is known — the oracle), scoring each by
+its average and final displacement errors (ADE, FDE).
 
 The vehicles:
 
@@ -24,10 +24,11 @@ The vehicles:
   are skipped and counted with the reason
   (:class:`~drivestyle.studies.prediction.records.SkippedPrediction`).
 
-The physics baseline's parameters are calibrated on the train split
+The physics baselines' parameters are calibrated on the train split
 (:mod:`.physics_split`) and read from
-:data:`~drivestyle.prediction.physics_calibration.PHYSICS_FILE`. Summaries carry bootstrap
-95 % intervals of the mean and median of every error, resampling vehicles
+:data:`~drivestyle.prediction.physics_calibration.PHYSICS_FILE` and
+:data:`~drivestyle.prediction.joint_physics_calibration.JOINT_PHYSICS_FILE`. Summaries carry
+bootstrap 95 % intervals of the mean and median of every error, resampling vehicles
 (:mod:`.summaries`); another split's run calibrates 90 % prediction regions
 (:mod:`drivestyle.prediction.regions`, :mod:`.runs`) whose coverage is reported.
 
@@ -47,6 +48,7 @@ from typing import Any
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.prediction.joint_physics import JointPhysicsParams
 from drivestyle.prediction.methods import METHODS
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.regions import RegionCheck, record_rows, region_coverage, region_rates
@@ -132,10 +134,16 @@ class PredictionStudy:
     """The physics baseline's parameters (None: the defaults)."""
     regions: tuple[RegionCheck, ...] = ()
     """The 90 % prediction regions' coverage (empty: no calibration split given)."""
+    joint_physics: JointPhysicsParams | None = None
+    """The joint physics baseline's parameters (None: the defaults)."""
 
     def physics_json(self) -> dict[str, float]:
         """The physics baseline's parameters as used."""
         return (self.physics or PhysicsParams()).to_json()
+
+    def joint_physics_json(self) -> dict[str, float]:
+        """The joint physics baseline's parameters as used."""
+        return (self.joint_physics or JointPhysicsParams()).to_json()
 
     def summary(self, set_name: str, t_obs: float, method: str) -> MethodSummary | None:
         """The summary of one (set, t_obs, method), if any."""
@@ -175,7 +183,8 @@ class PredictionStudy:
                 "resampled": "vehicles",
                 "interval": 0.95,
             },
-            "physics_params": (self.physics or PhysicsParams()).to_json(),
+            "physics_params": self.physics_json(),
+            "joint_physics_params": self.joint_physics_json(),
             "n_geometries": dict(self.n_geometries),
             "summaries": [s.to_json() for s in self.summaries],
             "goal_checks": [g.to_json() for g in self.goals],
@@ -215,9 +224,11 @@ def _simulated_task(
 def _recorded_task(
     set_name: str, episode_id: str, raw: Demonstration, unit: str, library: DriverLibrary,
     t_obs: tuple[float, ...], physics: PhysicsParams | None,
+    joint_physics: JointPhysicsParams | None = None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:  # fmt: skip
     """Worker: predict one recorded episode at every t_obs."""
-    return predict_vehicle(set_name, episode_id, raw, library, t_obs, physics=physics, unit=unit)
+    return predict_vehicle(set_name, episode_id, raw, library, t_obs, physics=physics, unit=unit,
+                           joint_physics=joint_physics)  # fmt: skip
 
 
 def _geometry(demo: Demonstration) -> tuple:
@@ -240,6 +251,7 @@ def evaluate_prediction(
     physics: PhysicsParams | None = None,
     calibration: Sequence[PredictionRecord | Mapping[str, Any]] | None = None,
     episodes_dir: str | Path | None = None,
+    joint_physics: JointPhysicsParams | None = None,
 ) -> PredictionStudy:
     """Run the comparison (module docstring).
 
@@ -267,6 +279,7 @@ def evaluate_prediction(
             ``split`` selects its episodes from ``split_rows`` (None: the folder's own
             split, :func:`episodes_split`); ``split="all"`` takes every episode
             (:func:`load_episodes_folder`).
+        joint_physics: the joint physics baseline's parameters (None: the defaults).
 
     Returns:
         The study.
@@ -340,7 +353,7 @@ def evaluate_prediction(
         order = sorted(range(len(recorded)), key=lambda i: _geometry(recorded[i][2]))
         out = parallel_map(
             _recorded_task,
-            [(*recorded[i], library, t_obs, physics) for i in order],
+            [(*recorded[i], library, t_obs, physics, joint_physics) for i in order],
             workers,
             stage("recorded", len(recorded)),
         )
@@ -368,6 +381,7 @@ def evaluate_prediction(
         demos=demos,
         split=split,
         physics=physics,
+        joint_physics=joint_physics,
         regions=tuple(
             region_coverage(
                 [r for r in records if r.set != "simulated"],
