@@ -38,7 +38,9 @@ rolled out together from its state at sample k, step by step, in the road frame 
   two sides, the larger incentive that passes wins (a tie: the left). The change is the
   quintic from the current lateral position y_j to the new lane's centre over D:
   y(t_j + τ) = y_j + (y_T − y_j) s(τ / D), s(u) = 10u³ − 15u⁴ + 6u⁵. A vehicle becomes a
-  candidate again when its change ends. The lanes a vehicle may use are the scenario's
+  candidate again when its change ends. Within a step the vehicles decide one after
+  another, the largest incentive first, each change counted before the next decision
+  (:func:`mobil_starts`). The lanes a vehicle may use are the scenario's
   (``n_lanes``, lanes 0 … n_lanes − 1 of the frame) and any lane a vehicle was observed in.
 
 One vehicle alone is the physics baseline's free-road prediction (no leader, no incentive;
