@@ -30,15 +30,15 @@ LATERAL_WINDOW_S = 0.6
 """The observed lateral velocity is the mean over the last this many seconds [s]."""
 
 
-def lane_index(y: np.ndarray | float, lane_width: float) -> np.ndarray:
+def lane_index(y: np.ndarray | float, lane_width: np.ndarray | float) -> np.ndarray:
     """The lane of lateral positions: ⌊y / w⌋ (lane i covers [i·w, (i + 1)·w)).
 
     Args:
         y: lateral positions, any shape [m].
-        lane_width: w [m].
+        lane_width: w [m] (or one per row, broadcast with ``y``: scenes of several widths).
 
     Returns:
-        Lane indices, the shape of ``y`` (integers; −1 right of lane 0).
+        Lane indices, the broadcast shape (integers; −1 right of lane 0).
     """
     return np.floor(np.asarray(y, dtype=float) / lane_width).astype(int)
 

@@ -45,6 +45,7 @@ __all__ = [
     "TrafficScene",
     "VehicleSpec",
     "idm_acceleration",
+    "idm_accelerations",
     "parse_traffic_observation",
 ]
 
@@ -99,6 +100,35 @@ def idm_acceleration(
     s_star = p.s0 + max(v * p.time_gap + v * (v - v_leader) / (2 * math.sqrt(p.a_max * p.b)), 0)
     acc = p.a_max * (free - (s_star / max(gap, 0.1)) ** 2)
     return max(acc, -p.max_decel)
+
+
+def idm_accelerations(
+    v: np.ndarray, v0: np.ndarray, gap: np.ndarray, v_leader: np.ndarray, p: IDMParams = IDM
+) -> np.ndarray:
+    """:func:`idm_acceleration` elementwise on arrays (the same model, the same bound).
+
+    For rollouts of many vehicles at once (the joint physics baseline of prediction,
+    :mod:`drivestyle.prediction.joint_physics`); equal to the scalar function (tested).
+
+    Args:
+        v: own speeds [m/s], any shape.
+        v0: desired speeds [m/s] (> 0), broadcast with ``v``.
+        gap: bumper-to-bumper distances to the leaders [m]; NaN: no leader.
+        v_leader: the leaders' speeds [m/s] (read only where there is a leader).
+        p: parameters.
+
+    Returns:
+        Accelerations [m/s²], the broadcast shape, bounded below by −``p.max_decel``.
+    """
+    v, gap = np.asarray(v, dtype=float), np.asarray(gap, dtype=float)
+    free = 1.0 - (np.maximum(v, 0.0) / np.asarray(v0, dtype=float)) ** p.delta
+    approach = v * p.time_gap + v * (v - np.asarray(v_leader, dtype=float)) / (
+        2 * math.sqrt(p.a_max * p.b)
+    )
+    s_star = p.s0 + np.maximum(approach, 0)
+    s = np.maximum(np.where(np.isnan(gap), 1.0, gap), 0.1)  # NaN: no leader, the free term below
+    led = np.maximum(p.a_max * (free - (s_star / s) ** 2), -p.max_decel)
+    return np.where(np.isnan(gap), p.a_max * free, led)
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,9 @@ style-aware planner re-plans with the online predictors' path). DESIGN §17.
   - ``physics`` :class:`PhysicsBaseline`: IDM behind the observed leader plus a quintic
     lane change (:mod:`.physics`), calibrated by :mod:`.physics_calibration`
     (:data:`PHYSICS_FILE`, the shipped calibration);
+  - ``joint_physics`` :class:`JointPhysicsBaseline`: IDM and MOBIL for every observed
+    vehicle, rolled out together (:mod:`.joint_physics`), calibrated by
+    :mod:`.joint_physics_calibration` (:data:`JOINT_PHYSICS_FILE`);
   - the style predictors (:mod:`.style`): ``population`` (one style for every vehicle),
     ``mode`` (the online posterior's mode) and ``oracle`` (the vehicle's true style), each a
     :class:`StyleRollout`; ``mixture`` :class:`PosteriorMixture` (the rollouts averaged
@@ -37,6 +40,16 @@ The study that evaluates them is :mod:`drivestyle.studies.prediction`.
 """
 
 from drivestyle.prediction.errors import ERROR_METRICS, displacement_errors, error_parts
+from drivestyle.prediction.joint_physics import (
+    JointPhysicsBaseline,
+    JointPhysicsParams,
+    joint_physics_forecast,
+)
+from drivestyle.prediction.joint_physics_calibration import (
+    JOINT_PHYSICS_FILE,
+    calibrate_joint_physics,
+    load_joint_params,
+)
 from drivestyle.prediction.kinematic import (
     ConstantAcceleration,
     ConstantVelocity,
@@ -70,12 +83,15 @@ from drivestyle.prediction.style import (
 
 __all__ = [
     "ERROR_METRICS",
+    "JOINT_PHYSICS_FILE",
     "METHODS",
     "PHYSICS_FILE",
     "ConstantAcceleration",
     "ConstantVelocity",
     "ConstantVelocityPredictor",
     "ForecastError",
+    "JointPhysicsBaseline",
+    "JointPhysicsParams",
     "MethodPrediction",
     "Observation",
     "OnlinePredictor",
@@ -89,11 +105,14 @@ __all__ = [
     "RegionCheck",
     "StylePredictor",
     "StyleRollout",
+    "calibrate_joint_physics",
     "calibrate_physics",
     "constant_acceleration",
     "constant_velocity",
     "displacement_errors",
     "error_parts",
+    "joint_physics_forecast",
+    "load_joint_params",
     "load_params",
     "oracle_style",
     "physics_forecast",

@@ -4,7 +4,8 @@ DESIGN §17. :func:`predict` observes a demonstration for ``t_obs`` seconds (an
 :class:`~drivestyle.prediction.protocol.Observation` of samples 0 … k_obs) and runs every
 method of :data:`METHODS` through its :class:`~drivestyle.prediction.protocol.Predictor`
 (:func:`method_predictors`: ``cv`` and ``ca`` :mod:`~drivestyle.prediction.kinematic`,
-``physics`` :mod:`~drivestyle.prediction.physics`, ``population``, ``mode``, ``mixture`` and
+``physics`` :mod:`~drivestyle.prediction.physics`, ``joint_physics``
+:mod:`~drivestyle.prediction.joint_physics`, ``population``, ``mode``, ``mixture`` and
 ``oracle`` :mod:`~drivestyle.prediction.style`), scoring each path against the rest of the
 demonstration (:func:`~drivestyle.prediction.errors.error_parts`); the result is a
 :class:`Prediction` of one :class:`MethodPrediction` per method. :func:`predict_demo` is the
@@ -29,6 +30,7 @@ from drivestyle.irl.identification.online import StyleTracker
 from drivestyle.irl.identification.result import Identification
 from drivestyle.prediction.errors import error_parts
 from drivestyle.prediction.joint import JointStyle
+from drivestyle.prediction.joint_physics import JointPhysicsBaseline, JointPhysicsParams
 from drivestyle.prediction.kinematic import ConstantAcceleration, ConstantVelocity
 from drivestyle.prediction.physics import PhysicsBaseline, PhysicsParams
 from drivestyle.prediction.protocol import ForecastError, Observation, Predictor
@@ -55,8 +57,8 @@ __all__ = [
 ]
 
 METHODS = (
-    "cv", "ca", "physics", "population", "mode", "mixture", "style_alone", "style_joint",
-    "oracle",
+    "cv", "ca", "physics", "joint_physics", "population", "mode", "mixture", "style_alone",
+    "style_joint", "oracle",
 )  # fmt: skip
 """Every prediction method, in report order (``oracle`` only where the truth is known)."""
 AMORTIZED_METHODS = ("style_alone", "style_joint")
@@ -180,6 +182,7 @@ def method_predictors(
     oracle: DriverStyle | None = None,
     physics: PhysicsParams | None = None,
     posterior: StyleTracker | None = None,
+    joint_physics: JointPhysicsParams | None = None,
     amortized: NeuralPosterior | None = None,
 ) -> dict[str, Predictor]:
     """Method name → its predictor, for the methods these inputs serve (in :data:`METHODS` order).
@@ -192,12 +195,15 @@ def method_predictors(
         posterior: the online posterior after the observed samples
             (:func:`~drivestyle.prediction.style.online_posterior`; None: no ``mode`` nor
             ``mixture``).
+        joint_physics: the joint physics baseline's parameters (default:
+            :class:`JointPhysicsParams`'s).
         amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
     """
     table: dict[str, Predictor] = {
         "cv": ConstantVelocity(),
         "ca": ConstantAcceleration(),
         "physics": PhysicsBaseline(physics or PhysicsParams()),
+        "joint_physics": JointPhysicsBaseline(joint_physics or JointPhysicsParams()),
     }
     if library is not None:
         table["population"] = StyleRollout(population_style(library))
@@ -221,6 +227,7 @@ def predict(
     scenario: ScenarioConfig | None = None,
     methods: Sequence[str] = METHODS,
     physics: PhysicsParams | None = None,
+    joint_physics: JointPhysicsParams | None = None,
     amortized: NeuralPosterior | None = None,
 ) -> Prediction:
     """Observe a demonstration for ``t_obs`` seconds and predict the rest by every method.
@@ -240,6 +247,8 @@ def predict(
         methods: the methods to run (a subset of :data:`METHODS`).
         physics: the physics baseline's parameters (default: :class:`PhysicsParams`'s; the
             benchmark passes the calibrated ones).
+        joint_physics: the joint physics baseline's parameters (default:
+            :class:`JointPhysicsParams`'s; the benchmark passes the calibrated ones).
         amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
 
     Returns:
@@ -263,7 +272,7 @@ def predict(
         if library is not None and set(POSTERIOR_METHODS) & set(methods)
         else None
     )
-    predictors = method_predictors(library, oracle, physics, posterior, amortized)
+    predictors = method_predictors(library, oracle, physics, posterior, joint_physics, amortized)
     actual = demo.ev[k:, :2]
     out = {}
     for name in METHODS:
@@ -293,6 +302,7 @@ def predict_demo(
     physics: PhysicsParams | None = None,
     methods: Sequence[str] = METHODS,
     view: tuple[Demonstration, ScenarioConfig | None] | None = None,
+    joint_physics: JointPhysicsParams | None = None,
     amortized: NeuralPosterior | None = None,
 ) -> Prediction:
     """One vehicle predicted after ``t_obs`` by every method, as the benchmark predicts it.
@@ -311,6 +321,7 @@ def predict_demo(
         methods: the methods to run.
         view: ``observer_view(demo, t_obs)`` where the caller has it already (a command
             that also draws the view), so that the episode is seen once; None: made here.
+        joint_physics: the joint physics baseline's parameters (None: the defaults).
         amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
 
     Returns:
@@ -323,4 +334,5 @@ def predict_demo(
     """
     seen, sc = observer_view(demo, t_obs) if view is None else view
     return predict(seen, library, t_obs, oracle=oracle, scenario=sc, methods=methods,
-                   physics=physics, amortized=amortized)  # fmt: skip
+                   physics=physics, joint_physics=joint_physics,
+                   amortized=amortized)  # fmt: skip

@@ -53,6 +53,7 @@ __all__ = [
     "PhysicsBaseline",
     "PhysicsParams",
     "idm_acceleration",
+    "lane_change_state",
     "lateral_forecast",
     "longitudinal_forecast",
     "physics_forecast",
@@ -131,6 +132,33 @@ def _inverse_progress(f: float) -> float:
     return 0.5 * (lo + hi)
 
 
+def lane_change_state(y: np.ndarray, dt: float, lane_width: float) -> tuple[float, float, float]:
+    """The observed lateral motion as the lane-change model reads it (module docstring).
+
+    Args:
+        y: the observed lateral positions y_0 … y_k [m], shape (k + 1,).
+        dt: T_s [s].
+        lane_width: w [m].
+
+    Returns:
+        (v_y, y_T, u_k): the observed lateral velocity over the last
+        :data:`~drivestyle.envs.lanes.LATERAL_WINDOW_S` [m/s] (0 with one sample), the target
+        line (the centre of the lane :func:`~drivestyle.envs.lanes.lane_change_target` names)
+        [m] and the progress u_k ∈ [0, 1] through a change from the origin line y_T ∓ w, read
+        from the offset y_k by s(u_k) = (y_k − origin) / (y_T − origin) [-]. Whether a change
+        is under way (|v_y| ≥ the trigger) is the caller's.
+    """
+    y = np.asarray(y, dtype=float)
+    m = min(len(y) - 1, max(1, round(LATERAL_WINDOW_S / dt)))
+    vy = (y[-1] - y[-1 - m]) / (m * dt) if m >= 1 else 0.0
+    yk = float(y[-1])
+    lane, d = lane_change_target(y, dt, lane_width)  # the target line's rule (envs.lanes)
+    target = (lane + 0.5) * lane_width
+    origin = target - d * lane_width
+    u_k = _inverse_progress((yk - origin) / (target - origin))
+    return float(vy), float(target), u_k
+
+
 def lateral_forecast(
     y: np.ndarray, dt: float, steps: int, lane_width: float, params: PhysicsParams
 ) -> np.ndarray:
@@ -147,15 +175,10 @@ def lateral_forecast(
         y at j = 0 … H, shape (H + 1,) (row 0: y_k).
     """
     y = np.asarray(y, dtype=float)
-    m = min(len(y) - 1, max(1, round(LATERAL_WINDOW_S / dt)))
-    vy = (y[-1] - y[-1 - m]) / (m * dt) if m >= 1 else 0.0
+    vy, target, u_k = lane_change_state(y, dt, lane_width)
     yk = float(y[-1])
     if abs(vy) < params.trigger_mps:
         return np.full(steps + 1, yk)
-    lane, d = lane_change_target(y, dt, lane_width)  # the target line's rule (envs.lanes)
-    target = (lane + 0.5) * lane_width
-    origin = target - d * lane_width
-    u_k = _inverse_progress((yk - origin) / (target - origin))
     s_k = float(quintic_progress(u_k))
     tau = np.arange(steps + 1) * dt
     share = (quintic_progress(u_k + tau / params.lc_duration_s) - s_k) / max(1.0 - s_k, 1e-9)

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -31,6 +31,7 @@ __all__ = [
     "PhysicsCase",
     "calibrate_physics",
     "load_params",
+    "read_params_file",
     "save_params",
 ]
 
@@ -162,8 +163,12 @@ def calibrate_physics(
     )
 
 
-def save_params(calibration: PhysicsCalibration, path: str | Path) -> None:
-    """Write the calibration as JSON (sorted keys, a trailing newline)."""
+class _Calibration(Protocol):
+    def to_json(self) -> dict[str, Any]: ...
+
+
+def save_params(calibration: _Calibration, path: str | Path) -> None:
+    """Write a calibration as JSON (its ``to_json``; sorted keys, a trailing newline)."""
     text = json.dumps(calibration.to_json(), indent=2, sort_keys=True)
     Path(path).write_text(text + "\n")
 
@@ -181,9 +186,45 @@ def load_params(path: str | Path) -> PhysicsParams:
             unknown, not a number or out of its range; one line naming the file and the
             problem.
     """
+    return read_params_file(
+        path, PhysicsParams, BOUNDS, "physics",
+        "drivestyle evaluate-prediction --calibrate-physics --physics FILE writes one",
+    )  # fmt: skip
+
+
+P = TypeVar("P")
+
+
+def read_params_file(
+    path: str | Path,
+    cls: type[P],
+    bounds: Mapping[str, tuple[float, float]],
+    kind: str,
+    writer: str,
+    nonnegative: Sequence[str] = (),
+) -> P:
+    """A baseline's parameters file read and checked (its ``params`` entry): ``cls(**params)``.
+
+    The one reader of the physics baselines' files (:func:`load_params`; the joint
+    baseline's, :mod:`drivestyle.prediction.joint_physics_calibration`). Every field of the
+    dataclass ``cls`` must be there, and no other; each a finite number > 0 (≥ 0 for
+    ``nonnegative``), one of ``bounds`` within its range.
+
+    Args:
+        path: the file.
+        cls: the parameters' frozen dataclass.
+        bounds: name → (low, high) of the calibrated parameters.
+        kind: the baseline's name in messages ("physics": "not a physics parameters file").
+        writer: the command that writes one, for the message of a file that is not one.
+        nonnegative: the parameters that may be 0.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: as :func:`load_params`; one line naming the file and the problem.
+    """
     path = Path(path)
     if path.is_dir():
-        raise ValueError(f"{path} is a folder, not a physics parameters file")
+        raise ValueError(f"{path} is a folder, not a {kind} parameters file")
     try:
         raw = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -196,11 +237,8 @@ def load_params(path: str | Path) -> PhysicsParams:
         ) from None
     params = raw.get("params") if isinstance(raw, dict) else None
     if not isinstance(params, dict):
-        raise ValueError(
-            f'{path}: no "params" object: not a physics parameters file (drivestyle '
-            "evaluate-prediction --calibrate-physics --physics FILE writes one)"
-        )
-    names = [f.name for f in fields(PhysicsParams)]
+        raise ValueError(f'{path}: no "params" object: not a {kind} parameters file ({writer})')
+    names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
     unknown = [k for k in params if k not in names]
     missing = [k for k in names if k not in params]
     if unknown or missing:
@@ -210,13 +248,15 @@ def load_params(path: str | Path) -> PhysicsParams:
     for name in names:
         value = params[name]
         ok = isinstance(value, int | float) and not isinstance(value, bool)
-        if not (ok and math.isfinite(value) and value > 0):
-            raise ValueError(f"{path}: params.{name} {value!r} is not a finite number > 0")
-        lo, hi = BOUNDS.get(name, (0.0, math.inf))
+        zero_ok = name in nonnegative
+        if not (ok and math.isfinite(value) and (value >= 0 if zero_ok else value > 0)):
+            floor = "≥ 0" if zero_ok else "> 0"
+            raise ValueError(f"{path}: params.{name} {value!r} is not a finite number {floor}")
+        lo, hi = bounds.get(name, (0.0, math.inf))
         slack = 1e-6 * (hi - lo if math.isfinite(hi) else 1.0)  # the optimiser's last digits
         if not lo - slack <= value <= hi + slack:
             raise ValueError(
                 f"{path}: params.{name} {value:g} lies outside [{lo:g}, {hi:g}], the range "
                 "calibration keeps to"
             )
-    return PhysicsParams(**params)
+    return cls(**params)

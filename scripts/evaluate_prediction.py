@@ -17,24 +17,26 @@ the reported test seed 19001 (the default).
 
 The recorded episodes are the benchmark's ``--split`` (drivestyle/data/benchmark_split.csv,
 by vehicle; validation by default — the test split is run once, by the issue it judges);
-every method, the physics baseline (IDM + a quintic lane change, parameters from
-drivestyle/data/benchmark_physics.json, calibrated on the train split) among them, is
-summarised by
+every method, the physics baselines among them (``physics``: IDM + a quintic lane change,
+parameters from drivestyle/data/benchmark_physics.json; ``joint_physics``: IDM + MOBIL for
+every vehicle rolled out together, from drivestyle/data/benchmark_joint_physics.json; both
+calibrated on the train split), is summarised by
 ADE and FDE and their lateral and longitudinal parts, means and medians with bootstrap 95 %
 intervals over vehicles, pooled over every kind of episode (lane change, lane keeping, car
 following, approaching a slower leader; an older extraction holds lane changes only) and per
 kind and over the stop-and-go windows, with each method's FDE relative to CV's (the median
-ratio with its interval). ``--write-split`` rewrites the split file and
-``--calibrate-physics`` the parameters, and exit.
+ratio with its interval). ``--write-split`` rewrites the split file, ``--calibrate-physics``
+the physics baseline's parameters and ``--calibrate-joint-physics`` the joint one's (either
+or both), and exit.
 
 ``--episodes DIR`` benchmarks a folder written by ``drivestyle extract-episodes`` (your own
 recordings) instead of the shipped samples, with the same methods, tables and intervals and
 no simulated vehicles: its episodes are split by vehicle (``<carriageway>:<vehicle id>``)
 with the benchmark's rule, the split written to ``OUT/split.csv`` (``--split-file`` uses
 another, e.g. one written by ``--episodes DIR --write-split --split-file FILE``; ``--split
-all`` predicts every episode); the physics baseline keeps the shipped calibration unless
-``--physics`` names one calibrated on your train split (``--episodes DIR
---calibrate-physics --physics FILE``).
+all`` predicts every episode); the physics baselines keep the shipped calibrations unless
+``--physics`` and ``--joint-physics`` name ones calibrated on your train split (``--episodes
+DIR --calibrate-physics --physics FILE --calibrate-joint-physics --joint-physics FILE2``).
 
 Example:
     python scripts/evaluate_prediction.py --library runs/library --out runs/prediction
@@ -71,6 +73,13 @@ from drivestyle.common.io import (
 )
 from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.prediction.joint_physics import JointPhysicsParams
+from drivestyle.prediction.joint_physics_calibration import (
+    JOINT_PHYSICS_ALL_FILE,
+    JOINT_PHYSICS_FILE,
+    load_joint_params,
+    save_joint_params,
+)
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.physics_calibration import (
     PHYSICS_ALL_FILE,
@@ -95,6 +104,7 @@ from drivestyle.recorded.real_data import DATASETS, check_data_dir
 from drivestyle.studies.prediction import (
     T_OBS,
     TEST_SEED,
+    calibrate_joint_on_split,
     calibrate_on_split,
     calibration_records,
     check_observed_times,
@@ -145,6 +155,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "package, calibrated on the shipped train split)",
     )
     p.add_argument(
+        "--joint-physics",
+        type=Path,
+        default=None,
+        help=f"the joint physics baseline's parameters (default: {JOINT_PHYSICS_FILE.name} "
+        "shipped with the package, calibrated on the shipped train split)",
+    )
+    p.add_argument(
         "--regions-from",
         type=Path,
         default=None,
@@ -176,8 +193,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--all-vehicles",
         action="store_true",
         help=f"the shipped samples' every vehicle: lane changes and every vehicle's windows of "
-        f"each kind (split: {SPLIT_ALL_FILE.name}, physics: {PHYSICS_ALL_FILE.name}, both "
-        "shipped; with --write-split / --calibrate-physics: the files written); tables by kind",
+        f"each kind (split: {SPLIT_ALL_FILE.name}, physics: {PHYSICS_ALL_FILE.name} and "
+        f"{JOINT_PHYSICS_ALL_FILE.name}, all shipped; with --write-split / --calibrate-*: the "
+        "files written); tables by kind",
+    )
+    p.add_argument(
+        "--calibrate-joint-physics",
+        action="store_true",
+        help="calibrate the joint physics baseline on the train split, write --joint-physics "
+        "and exit (with --calibrate-physics: both)",
     )
     p.add_argument(
         "--no-simulated", action="store_true", help="recorded episodes only (no simulated vehicles)"
@@ -251,10 +275,55 @@ def _default_physics(args: argparse.Namespace) -> Path:
     return PHYSICS_ALL_FILE if args.all_vehicles else PHYSICS_FILE
 
 
+def _default_joint_physics(args: argparse.Namespace) -> Path:
+    """The shipped joint calibration ``--joint-physics`` defaults to (--all-vehicles: theirs)."""
+    return JOINT_PHYSICS_ALL_FILE if args.all_vehicles else JOINT_PHYSICS_FILE
+
+
 def _physics(args: argparse.Namespace) -> PhysicsParams:
     """``--physics`` (default: the shipped calibration), read; errors named by the option."""
     with for_option("--physics"):
         return load_params(_default_physics(args) if args.physics is None else args.physics)
+
+
+def _joint_physics(args: argparse.Namespace) -> JointPhysicsParams:
+    """``--joint-physics`` (default: the shipped calibration), read; errors named by the option."""
+    with for_option("--joint-physics"):
+        return load_joint_params(_default_joint_physics(args) if args.joint_physics is None
+                                 else args.joint_physics)  # fmt: skip
+
+
+def _calibrate(args: argparse.Namespace, own: bool) -> dict[str, Any]:
+    """``--calibrate-physics`` and/or ``--calibrate-joint-physics``: fit, write, report.
+
+    With ``--episodes`` each file to write must be named (never over the shipped
+    benchmark's calibrations). Returns the calibrations' JSON by file option.
+    """
+    asked = [("--physics", args.physics, args.calibrate_physics),
+             ("--joint-physics", args.joint_physics, args.calibrate_joint_physics)]  # fmt: skip
+    for option, path, wanted in asked:
+        if wanted and own and path is None:
+            flag = "--calibrate-" + option[2:]
+            raise ValueError(f"--episodes {flag} needs {option} (the file to write)")
+    chosen = None if args.split_file is None and own else _split_rows(args, "train")
+    out: dict[str, Any] = {}
+    if args.calibrate_physics:
+        cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
+        physics_file = _default_physics(args) if args.physics is None else args.physics
+        save_params(cal, physics_file)
+        print(f"wrote {physics_file}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
+              f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip
+        out["physics"] = cal.to_json()
+    if args.calibrate_joint_physics:
+        joint = calibrate_joint_on_split(args.data_dir, chosen, args.observe,
+                                         episodes_dir=args.episodes)  # fmt: skip
+        joint_file = args.joint_physics or _default_joint_physics(args)
+        save_joint_params(joint, joint_file)
+        print(f"wrote {joint_file}: {joint.params.to_json()} (rmse {joint.rmse_m:.3f} m over "
+              f"{joint.n_cases} train cases, {joint.rmse_initial_m:.3f} m at the start)"
+              )  # fmt: skip
+        out["joint_physics"] = joint.to_json()
+    return out
 
 
 def _calibration(args: argparse.Namespace) -> list[Mapping[str, Any]]:
@@ -325,22 +394,25 @@ def main(argv: list[str] | None = None) -> dict:
         write_split(written, target)
         print(f"wrote {target} ({len(written)} episodes)")
         return {"split_file": str(target), "episodes": len(written)}
-    if args.calibrate_physics:
-        if own and args.physics is None:  # never over the shipped benchmark's calibration
-            raise ValueError("--episodes --calibrate-physics needs --physics (the file to write)")
-        chosen = None if args.split_file is None and own else _split_rows(args, "train")
-        cal = calibrate_on_split(args.data_dir, chosen, args.observe, episodes_dir=args.episodes)
-        physics_file = _default_physics(args) if args.physics is None else args.physics
-        save_params(cal, physics_file)
-        print(f"wrote {physics_file}: {cal.params.to_json()} (rmse {cal.rmse_m:.3f} m over "
-              f"{cal.n_cases} train cases, {cal.rmse_initial_m:.3f} m at the start)")  # fmt: skip
-        return cal.to_json()
+    if args.calibrate_physics or args.calibrate_joint_physics:
+        out = _calibrate(args, own)
+        return next(iter(out.values())) if len(out) == 1 else out
     if args.library is None:
-        raise ValueError("--library is required (except with --write-split or --calibrate-physics)")
+        raise ValueError(
+            "--library is required (except with --write-split, --calibrate-physics or "
+            "--calibrate-joint-physics)"
+        )
     if args.no_recorded and args.no_simulated:
         raise ValueError("--no-recorded and --no-simulated leave nothing to predict")
     recorded_input = args.episodes if own else args.data_dir
-    inputs = [args.library, args.split_file, args.physics, args.regions_from, args.posterior]
+    inputs = [
+        args.library,
+        args.split_file,
+        args.physics,
+        args.joint_physics,
+        args.regions_from,
+        args.posterior,
+    ]
     inputs += [] if args.no_recorded else [recorded_input]
     check_output_dir(args.out, inputs=inputs)
     args.observe, repeated = distinct(args.observe)
@@ -356,6 +428,7 @@ def main(argv: list[str] | None = None) -> dict:
         except ValueError as exc:
             raise ValueError(f"--observe: {exc}") from None
     physics = _physics(args)
+    joint_physics = _joint_physics(args)
     if args.posterior is not None:  # read and checked before any work
         open_posterior(args.posterior)
     library = load_driver_library(args.library, "prediction")
@@ -390,6 +463,7 @@ def main(argv: list[str] | None = None) -> dict:
             physics=physics,
             calibration=calibration,
             episodes_dir=args.episodes,
+            joint_physics=joint_physics,
             posterior=args.posterior,
         )
     finally:

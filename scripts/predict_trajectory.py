@@ -4,7 +4,9 @@ Observes the demonstration for ``--observe`` seconds (a whole number of samples,
 the demonstration), identifies the vehicle online (its inputs unseen) and predicts the rest
 with every method of prediction/methods.py: constant velocity (``cv``) and acceleration (``ca``),
 the physics baseline (``physics``: IDM behind the observed leader and a quintic lane
-change, with ``--physics``'s parameters, by default the benchmark's calibration), the
+change, with ``--physics``'s parameters, by default the benchmark's calibration), the joint
+physics baseline (``joint_physics``: IDM and MOBIL for every observed vehicle rolled out
+together, with ``--joint-physics``'s parameters, by default the benchmark's calibration), the
 library's style at its middle risk (``population``), the identified style at the
 posterior's mode (``mode``) and its mixture over the library's risks (``mixture``), and —
 for an SMPC demonstration (``risk`` and ``smpc`` in its metadata) — the SMPC itself
@@ -34,6 +36,7 @@ from drivestyle.common.cli import HelpFormatter, for_option, positive_float, run
 from drivestyle.common.io import atomic_output_dir, check_output_dir, write_json
 from drivestyle.envs.demonstration import check_plausible, load_demonstration
 from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.prediction.joint_physics_calibration import JOINT_PHYSICS_FILE, load_joint_params
 from drivestyle.prediction.methods import predict_demo
 from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
 from drivestyle.prediction.style import oracle_style
@@ -62,6 +65,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="the physics baseline's parameters (default: the benchmark's calibration)",
     )
     p.add_argument(
+        "--joint-physics",
+        type=Path,
+        default=JOINT_PHYSICS_FILE,
+        help="the joint physics baseline's parameters (default: the benchmark's calibration)",
+    )
+    p.add_argument(
         "--out", type=Path, default=Path("runs/predict"), help="output folder (replaced whole)"
     )
     return p.parse_args(argv)
@@ -70,20 +79,29 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Predict; returns prediction.json's payload."""
     args = parse_args(argv)
-    check_output_dir(args.out, inputs=[args.demo, args.library, args.physics])
+    check_output_dir(args.out, inputs=[args.demo, args.library, args.physics, args.joint_physics])
     with for_option("--physics"):
         physics = load_params(args.physics)
+    with for_option("--joint-physics"):
+        joint_physics = load_joint_params(args.joint_physics)
     library = load_driver_library(args.library, "prediction")
     raw = load_demonstration(args.demo)
     check_plausible(raw)  # every step, the future the prediction is scored on included
     seen, scenario = observer_view(raw, args.observe)  # seen once: predicted and drawn in it
     pred = predict_demo(
-        raw, library, args.observe, oracle_style(raw.meta), physics, view=(seen, scenario)
+        raw,
+        library,
+        args.observe,
+        oracle_style(raw.meta),
+        physics,
+        view=(seen, scenario),
+        joint_physics=joint_physics,
     )
     payload = pred.to_json() | {
         "demo": str(args.demo),
         "library": str(args.library),
         "physics": str(args.physics),
+        "joint_physics": str(args.joint_physics),
         "recorded": is_recorded(raw),
         "v_ref_mps": (scenario or raw.scenario).v_ref,
         "lateral_shift_m": float(seen.meta.get("observed_shift_m", 0.0)),

@@ -17,8 +17,8 @@ Held-out simulated vehicles and the recorded benchmark's NGSIM/CATS episodes pre
 - :mod:`.runs`: another split's run read back to calibrate the prediction regions
   (:func:`read_prediction_run`, :func:`calibration_records`);
 - :mod:`.observed_times`: the observed times a run can use (:func:`check_observed_times`);
-- :mod:`.physics_split`: the physics baseline calibrated on the train split
-  (:func:`calibrate_on_split`);
+- :mod:`.physics_split`: the physics baselines calibrated on the train split
+  (:func:`calibrate_on_split`, :func:`calibrate_joint_on_split`);
 - :mod:`.report` and :mod:`.figures`: its ``report.md`` and figures.
 
 The recorded benchmark's split and the no-leak view it predicts recorded episodes in are
@@ -32,7 +32,12 @@ from drivestyle.studies.prediction.observed_times import (
     check_observed_times,
     recorded_spans,
 )
-from drivestyle.studies.prediction.physics_split import calibrate_on_split, physics_cases
+from drivestyle.studies.prediction.physics_split import (
+    calibrate_joint_on_split,
+    calibrate_on_split,
+    joint_physics_cases,
+    physics_cases,
+)
 from drivestyle.studies.prediction.records import (
     PREDICTION_ERRORS,
     PredictionRecord,
@@ -108,6 +113,7 @@ __all__ = [
     "TrackingSummary",
     "VehicleSpan",
     "bootstrap_stats",
+    "calibrate_joint_on_split",
     "calibrate_on_split",
     "calibration_records",
     "check_observed_times",
@@ -115,6 +121,7 @@ __all__ = [
     "evaluate_prediction",
     "example_record",
     "goal_checks",
+    "joint_physics_cases",
     "median_ratios",
     "physics_cases",
     "predict_vehicle",

@@ -49,6 +49,7 @@ METHOD_STYLES: dict[str, dict[str, Any]] = {
     "cv": {"color": "#6b7280", "ls": "--", "lw": 1.4},
     "ca": {"color": "#a3a3a3", "ls": ":", "lw": 1.4},
     "physics": {"color": "#7c3aed", "ls": "-", "lw": 1.4},
+    "joint_physics": {"color": "#c026d3", "ls": "--", "lw": 1.4},
     "population": {"color": "#16a34a", "ls": "-.", "lw": 1.4},
     "mode": {"color": EV_RED, "ls": "-", "lw": 1.8},
     "mixture": {"color": SCALED_ORANGE, "ls": "--", "lw": 1.6},

@@ -20,6 +20,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.driver.driver_style import DriverStyle, DriverStyleError
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.irl.identification.online import TrackerError
+from drivestyle.prediction.joint_physics import JointPhysicsParams
 from drivestyle.prediction.methods import METHODS, Prediction, predict_demo
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.protocol import ForecastError
@@ -174,6 +175,7 @@ def predict_vehicle(
     physics: PhysicsParams | None = None,
     methods: Sequence[str] = METHODS,
     unit: str = "",
+    joint_physics: JointPhysicsParams | None = None,
     amortized: NeuralPosterior | None = None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:
     """Predict one vehicle at every observed time.
@@ -190,6 +192,7 @@ def predict_vehicle(
         physics: the physics baseline's parameters (None: the defaults).
         methods: the methods to run.
         unit: the vehicle the bootstrap resamples (default: ``vehicle_id``).
+        joint_physics: the joint physics baseline's parameters (None: the defaults).
         amortized: the amortized posterior (None: no ``style_alone`` nor ``style_joint``).
 
     Returns:
@@ -198,7 +201,8 @@ def predict_vehicle(
     records, skipped = [], []
     for t in t_obs:
         try:
-            pred = predict_demo(demo, library, t, oracle, physics, methods, amortized=amortized)
+            pred = predict_demo(demo, library, t, oracle, physics, methods,
+                                joint_physics=joint_physics, amortized=amortized)  # fmt: skip
         except PREDICTION_ERRORS as exc:
             skipped.append(SkippedPrediction(set_name, vehicle_id, float(t), str(exc)))
             continue

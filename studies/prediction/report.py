@@ -42,6 +42,8 @@ def _benchmark_tables(study: PredictionStudy) -> list[str]:
         f"({BOOTSTRAP_SAMPLES} replicates); lat = |Δy|, lon = |Δx| in the road frame. "
         "Physics parameters: "
         + ", ".join(f"{k} {v:.3g}" for k, v in (study.physics_json()).items())
+        + ". Joint physics parameters: "
+        + ", ".join(f"{k} {v:.3g}" for k, v in (study.joint_physics_json()).items())
         + ".",
         "",
     ]

@@ -5,9 +5,9 @@ DESIGN §17 (using a style: online identification, prediction and planning).
 :func:`evaluate_prediction` observes each held-out vehicle for t_obs ∈ :data:`T_OBS` seconds
 and predicts the rest of its demonstration with every method of
 :func:`drivestyle.prediction.methods.predict` (constant velocity and acceleration, the physics
-baseline, the population style, the online posterior's mode and mixture, and — where the
-truth is known — the oracle), scoring each by its average and final displacement errors (ADE,
-FDE).
+baselines — the vehicle alone, and every vehicle jointly —, the population style, the online
+posterior's mode and mixture, and — where the truth is known — the oracle), scoring each by
+its average and final displacement errors (ADE, FDE).
 
 The vehicles:
 
@@ -24,10 +24,11 @@ The vehicles:
   are skipped and counted with the reason
   (:class:`~drivestyle.studies.prediction.records.SkippedPrediction`).
 
-The physics baseline's parameters are calibrated on the train split
+The physics baselines' parameters are calibrated on the train split
 (:mod:`.physics_split`) and read from
-:data:`~drivestyle.prediction.physics_calibration.PHYSICS_FILE`. Summaries carry bootstrap
-95 % intervals of the mean and median of every error, resampling vehicles
+:data:`~drivestyle.prediction.physics_calibration.PHYSICS_FILE` and
+:data:`~drivestyle.prediction.joint_physics_calibration.JOINT_PHYSICS_FILE`. Summaries carry
+bootstrap 95 % intervals of the mean and median of every error, resampling vehicles
 (:mod:`.summaries`); another split's run calibrates 90 % prediction regions
 (:mod:`drivestyle.prediction.regions`, :mod:`.runs`) whose coverage is reported.
 
@@ -59,6 +60,7 @@ from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import DriverLibrary
+from drivestyle.prediction.joint_physics import JointPhysicsParams
 from drivestyle.prediction.methods import METHODS
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.regions import (
@@ -167,10 +169,16 @@ class PredictionStudy:
     kind_regions: tuple[KindRegionCheck, ...] = ()
     """The 90 % regions calibrated per kind and their coverage per kind and pooled (empty: no
     calibration split given)."""
+    joint_physics: JointPhysicsParams | None = None
+    """The joint physics baseline's parameters (None: the defaults)."""
 
     def physics_json(self) -> dict[str, float]:
         """The physics baseline's parameters as used."""
         return (self.physics or PhysicsParams()).to_json()
+
+    def joint_physics_json(self) -> dict[str, float]:
+        """The joint physics baseline's parameters as used."""
+        return (self.joint_physics or JointPhysicsParams()).to_json()
 
     def summary(
         self, set_name: str, t_obs: float, method: str, kind: str = ALL_KINDS
@@ -212,7 +220,8 @@ class PredictionStudy:
                 "resampled": "vehicles",
                 "interval": 0.95,
             },
-            "physics_params": (self.physics or PhysicsParams()).to_json(),
+            "physics_params": self.physics_json(),
+            "joint_physics_params": self.joint_physics_json(),
             "n_geometries": dict(self.n_geometries),
             "summaries": [s.to_json() for s in self.summaries],
             "goal_checks": [g.to_json() for g in self.goals],
@@ -263,12 +272,13 @@ def _amortized(path: str) -> NeuralPosterior:
 
 def _recorded_task(
     set_name: str, episode_id: str, raw: Demonstration, unit: str, library: DriverLibrary,
-    t_obs: tuple[float, ...], physics: PhysicsParams | None, posterior: str | None = None,
+    t_obs: tuple[float, ...], physics: PhysicsParams | None,
+    joint_physics: JointPhysicsParams | None = None, posterior: str | None = None,
 ) -> tuple[list[PredictionRecord], list[SkippedPrediction]]:  # fmt: skip
     """Worker: predict one recorded episode at every t_obs."""
     amortized = None if posterior is None else _amortized(posterior)
     return predict_vehicle(set_name, episode_id, raw, library, t_obs, physics=physics, unit=unit,
-                           amortized=amortized)  # fmt: skip
+                           joint_physics=joint_physics, amortized=amortized)  # fmt: skip
 
 
 def _geometry(demo: Demonstration) -> tuple:
@@ -291,6 +301,7 @@ def evaluate_prediction(
     physics: PhysicsParams | None = None,
     calibration: Sequence[PredictionRecord | Mapping[str, Any]] | None = None,
     episodes_dir: str | Path | None = None,
+    joint_physics: JointPhysicsParams | None = None,
     posterior: str | Path | None = None,
 ) -> PredictionStudy:
     """Run the comparison (module docstring).
@@ -319,6 +330,7 @@ def evaluate_prediction(
             ``split`` selects its episodes from ``split_rows`` (None: the folder's own
             split, :func:`episodes_split`); ``split="all"`` takes every episode
             (:func:`load_episodes_folder`).
+        joint_physics: the joint physics baseline's parameters (None: the defaults).
         posterior: the amortized posterior's file (``build-posterior``): its recorded
             episodes are also predicted by ``style_alone`` and ``style_joint``
             (:mod:`drivestyle.prediction.joint`; None: not).
@@ -396,7 +408,7 @@ def evaluate_prediction(
         post = None if posterior is None else str(posterior)
         out = parallel_map(
             _recorded_task,
-            [(*recorded[i], library, t_obs, physics, post) for i in order],
+            [(*recorded[i], library, t_obs, physics, joint_physics, post) for i in order],
             workers,
             stage("recorded", len(recorded)),
         )
@@ -430,6 +442,7 @@ def evaluate_prediction(
         demos=demos,
         split=split,
         physics=physics,
+        joint_physics=joint_physics,
         regions=()
         if calibration_rows is None
         else tuple(region_coverage(recorded_records, region_rates(calibration_rows))),

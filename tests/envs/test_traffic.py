@@ -10,11 +10,13 @@ from drivestyle.envs.traffic import (
     DEFAULT_TRAFFIC,
     IDM,
     OBS_SLOTS,
+    IDMParams,
     TrafficEnv,
     TrafficRanges,
     TrafficScene,
     VehicleSpec,
     idm_acceleration,
+    idm_accelerations,
     parse_traffic_observation,
 )
 
@@ -44,6 +46,19 @@ def test_idm_closed_form():
     s_star = IDM.s0 + 25.0 * IDM.time_gap  # equal speeds: no approach term
     a = idm_acceleration(25.0, 25.0, 40.0, 25.0)
     assert a == pytest.approx(IDM.a_max * (0.0 - (s_star / 40.0) ** 2))
+
+
+def test_the_array_idm_is_the_scalar_one_elementwise():
+    rng = np.random.default_rng(0)
+    v, v0 = rng.uniform(-1, 35, 200), rng.uniform(1, 35, 200)
+    gap, v_leader = rng.uniform(-5, 80, 200), rng.uniform(0, 35, 200)
+    gap[::4] = np.nan  # no leader
+    p = IDMParams(a_max=1.3, b=2.1, s0=1.5, time_gap=0.9)
+    scalar = [idm_acceleration(a, b, None if np.isnan(g) else g, c, p)
+              for a, b, g, c in zip(v, v0, gap, v_leader, strict=True)]  # fmt: skip
+    assert np.allclose(idm_accelerations(v, v0, gap, v_leader, p), scalar, rtol=1e-13, atol=0)
+    led = ~np.isnan(gap)  # behind a leader braking is bounded, as in the scalar function
+    assert idm_accelerations(v, v0, gap, v_leader, p)[led].min() == -p.max_decel
 
 
 def test_an_idm_leader_brakes_behind_a_slow_vehicle_and_constant_ones_do_not():

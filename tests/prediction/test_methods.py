@@ -118,8 +118,8 @@ def test_an_unknown_method_is_refused(paper_demo):
 def test_without_a_library_the_methods_without_a_style_run_and_the_styled_are_refused(
     paper_demo, prediction
 ):
-    alone = predict(paper_demo, None, 2.0, methods=("cv", "ca", "physics"))
-    assert set(alone.methods) == {"cv", "ca", "physics"}
+    alone = predict(paper_demo, None, 2.0, methods=("cv", "ca", "physics", "joint_physics"))
+    assert set(alone.methods) == {"cv", "ca", "physics", "joint_physics"}
     for name in alone.methods:  # the same paths as with a library: no style enters them
         assert np.array_equal(alone.methods[name].xy, prediction.methods[name].xy)
     with pytest.raises(ForecastError, match=r"\['mode'\] need a driver library"):
@@ -138,7 +138,7 @@ def test_every_method_is_a_predictor_of_the_observation_alone(prediction, paper_
     k = round(2.0 / paper_demo.scenario.dt)
     seen = Observation(paper_demo.ev[: k + 1], paper_demo.vehicles[: k + 1], paper_demo.scenario)
     table = method_predictors(LIBRARY, physics=None)
-    assert list(table) == ["cv", "ca", "physics", "population"]  # no posterior, no oracle
+    assert list(table) == ["cv", "ca", "physics", "joint_physics", "population"]  # no posterior
     for name, predictor in table.items():
         path = predictor.predict(seen, paper_demo.n - 1 - k)
         assert np.array_equal(path.xy, prediction.methods[name].xy), name

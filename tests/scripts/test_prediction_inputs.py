@@ -323,6 +323,29 @@ def test_a_torn_physics_file_is_one_line_named_by_the_option(
     )
 
 
+@pytest.mark.parametrize("command", ["predict-trajectory", "evaluate-prediction"])
+def test_a_bad_joint_physics_file_is_one_line_named_by_the_option(
+    tmp_path, library, refused, paper_demo, command
+):
+    from drivestyle.envs.demonstration import save_demonstration
+    from drivestyle.prediction.joint_physics import JointPhysicsParams
+
+    joint = tmp_path / "joint.json"
+    joint.write_text(json.dumps({"params": {**JointPhysicsParams().to_json(), "politeness": -1}}))
+    args = {
+        "predict-trajectory": [tmp_path / "demo.npz", "--library", library],
+        "evaluate-prediction": ["--library", library, "--no-recorded", "--vehicles", "2"],
+    }[command]
+    if command == "predict-trajectory":
+        save_demonstration(paper_demo, tmp_path / "demo.npz")
+    said = refused(command, *args, "--joint-physics", joint, "--out", "out")
+    assert said == f"--joint-physics {joint}: params.politeness -1 is not a finite number ≥ 0"
+    joint.unlink()
+    assert refused(command, *args, "--joint-physics", joint, "--out", "out") == (
+        f"--joint-physics {joint}: no such file"
+    )
+
+
 # ------------------------------------------------------------------------ learn-population
 def test_learn_population_reads_its_split_file_through_the_same_checks(tmp_path, library, refused):
     path = tmp_path / "split.csv"

@@ -11,6 +11,7 @@ from drivestyle.irl.driver.driver_style import DriverStyle
 from drivestyle.irl.identification.library import DriverLibrary
 from drivestyle.prediction.methods import AMORTIZED_METHODS, METHODS
 from drivestyle.prediction.protocol import ForecastError
+from drivestyle.recorded.benchmark import episodes_split
 from drivestyle.scripts import evaluate_prediction, predict_trajectory
 
 RUN = [m for m in METHODS if m not in AMORTIZED_METHODS]  # without --posterior
@@ -222,6 +223,10 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
     import numpy as np
 
     from drivestyle.irl.identification.library import load_driver_library
+    from drivestyle.prediction.joint_physics_calibration import (
+        JOINT_PHYSICS_FILE,
+        load_joint_params,
+    )
     from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
     from drivestyle.studies.prediction import predict_vehicle
 
@@ -244,7 +249,7 @@ def test_predict_trajectory_in_its_own_process_is_the_benchmarks_prediction(file
     js = json.loads((out / "prediction.json").read_text())
     (record,), skipped = predict_vehicle(
         "x", "as-recorded", recorded, load_driver_library(files, "prediction"), (1.4,),
-        physics=load_params(PHYSICS_FILE),
+        physics=load_params(PHYSICS_FILE), joint_physics=load_joint_params(JOINT_PHYSICS_FILE),
     )  # fmt: skip
     assert not skipped and js["recorded"] is True
     assert list(js["methods"]) == [m for m in RUN if m != "oracle"]
@@ -294,6 +299,10 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
 
     from drivestyle.envs.demonstration import load_demonstration
     from drivestyle.irl.identification.library import load_driver_library
+    from drivestyle.prediction.joint_physics_calibration import (
+        JOINT_PHYSICS_FILE,
+        load_joint_params,
+    )
     from drivestyle.prediction.methods import predict_demo
     from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
 
@@ -311,7 +320,13 @@ def test_evaluate_prediction_benchmarks_an_episodes_folder(files, paper_demo, tm
     library = load_driver_library(files, "prediction")
     for rec in js["records"]:  # each record is the prediction of its episode
         demo = load_demonstration(folder / f"{rec['vehicle_id']}.npz")
-        pred = predict_demo(demo, library, 2.0, physics=load_params(PHYSICS_FILE))
+        pred = predict_demo(
+            demo,
+            library,
+            2.0,
+            physics=load_params(PHYSICS_FILE),
+            joint_physics=load_joint_params(JOINT_PHYSICS_FILE),
+        )
         for m, fde in rec["fde_m"].items():
             assert fde == pytest.approx(pred.methods[m].fde_m, abs=1e-9), m
     assert not (out / "split.csv").exists()  # --split all: no split was made
@@ -354,6 +369,34 @@ def test_evaluate_prediction_splits_an_episodes_folder_by_vehicle(files, paper_d
                                   "--out", str(tmp_path / "o2")])  # fmt: skip
     with pytest.raises(ValueError, match="--write-split needs --split-file"):
         evaluate_prediction.main(["--episodes", str(folder), "--write-split"])
+    # never over the shipped calibrations: each file to write is named
+    for flag, option in (("--calibrate-physics", "--physics"),
+                         ("--calibrate-joint-physics", "--joint-physics")):  # fmt: skip
+        with pytest.raises(ValueError, match=f"^--episodes {flag} needs {option} \\(the file"):
+            evaluate_prediction.main(["--episodes", str(folder), flag])
+
+
+@pytest.mark.slow  # two least-squares calibrations on an episodes folder's train split (≈ 20 s)
+def test_calibrating_both_physics_baselines_on_an_episodes_folder(paper_demo, tmp_path):
+    from drivestyle.prediction.joint_physics_calibration import load_joint_params
+    from drivestyle.prediction.physics_calibration import load_params
+
+    folder = _episodes_folder(tmp_path / "eps", paper_demo, n=5)
+    physics, joint = tmp_path / "physics.json", tmp_path / "joint.json"
+    out = evaluate_prediction.main(
+        ["--episodes", str(folder), "--calibrate-physics", "--physics", str(physics),
+         "--calibrate-joint-physics", "--joint-physics", str(joint), "--observe", "2"]
+    )  # fmt: skip
+    assert set(out) == {"physics", "joint_physics"}
+    assert load_params(physics).to_json() == out["physics"]["params"]
+    assert load_joint_params(joint).to_json() == out["joint_physics"]["params"]
+    train = sum(r.split == "train" for r in episodes_split(folder))
+    assert out["joint_physics"]["n_cases"] == out["physics"]["n_cases"] == train
+    alone = evaluate_prediction.main(
+        ["--episodes", str(folder), "--calibrate-joint-physics", "--joint-physics",
+         str(tmp_path / "joint2.json"), "--observe", "2"]
+    )  # fmt: skip
+    assert alone == out["joint_physics"]  # one calibration asked: its JSON alone
 
 
 @pytest.mark.slow  # extraction, then three NGSIM episodes predicted twice (≈ 40 s)
@@ -365,6 +408,10 @@ def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(f
     import sys
 
     from drivestyle.irl.identification.library import load_driver_library
+    from drivestyle.prediction.joint_physics_calibration import (
+        JOINT_PHYSICS_FILE,
+        load_joint_params,
+    )
     from drivestyle.prediction.physics_calibration import PHYSICS_FILE, load_params
     from drivestyle.recorded.benchmark import SPLIT_FILE, read_split, recorded_episodes
     from drivestyle.recorded.readers import read_sample, write_table
@@ -388,10 +435,12 @@ def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(f
     rows = [r for r in read_split(SPLIT_FILE) if r.dataset == "ngsim" and r.split == "validation"]
     shipped = {e: d for e, _, d in recorded_episodes(str(DATA), "ngsim")}
     library, physics = load_driver_library(files, "prediction"), load_params(PHYSICS_FILE)
+    joint = load_joint_params(JOINT_PHYSICS_FILE)
     records = []
     for r in rows:
         recs, skipped = predict_vehicle("ngsim", r.episode_id, shipped[r.episode_id], library,
-                                        (2.0,), physics=physics, unit=r.vehicle_id)  # fmt: skip
+                                        (2.0,), physics=physics, unit=r.vehicle_id,
+                                        joint_physics=joint)  # fmt: skip
         records += recs
         assert not skipped
     assert own["recorded_sets"] == ["ngsim"] and own["n_records"] == len(records) == 3

@@ -160,13 +160,14 @@ def test_cv_ca_and_physics_predictions_do_not_read_the_future(
     paper_demo, as_recorded, change_the_future
 ):
     demo = as_recorded(paper_demo)
+    methods = ("cv", "ca", "physics", "joint_physics")
     for t_obs in T_OBS:
         k = round(t_obs / demo.scenario.dt)
-        a = predict_vehicle("ngsim", "e", demo, LIBRARY, (t_obs,), methods=("cv", "ca", "physics"))
+        a = predict_vehicle("ngsim", "e", demo, LIBRARY, (t_obs,), methods=methods)
         b = predict_vehicle("ngsim", "e", change_the_future(demo, k), LIBRARY, (t_obs,),
-                            methods=("cv", "ca", "physics"))  # fmt: skip
+                            methods=methods)  # fmt: skip
         pa, pb = a[0][0].prediction, b[0][0].prediction
-        for m in ("cv", "ca", "physics"):
+        for m in methods:
             assert np.array_equal(pa.methods[m].xy, pb.methods[m].xy), (t_obs, m)
         assert not np.array_equal(pa.actual, pb.actual)  # the scored truth did change
 
