@@ -66,6 +66,7 @@ __all__ = [
     "identify_vehicles",
     "joint_rollout",
     "lane_intent",
+    "led",
     "own_view",
     "scene_states",
 ]
@@ -138,6 +139,25 @@ def constraining(states: np.ndarray, i: int, y_ref: float, lane_width: float) ->
     keep = ahead | beside
     keep[i] = False
     return np.flatnonzero(keep)
+
+
+def led(states: np.ndarray, i: int, lane_width: float) -> bool:
+    """Whether vehicle i has an observed vehicle ahead in its lane (then it is driven).
+
+    The scene is the observed vehicles only: what limits the head of an observed platoon
+    (its own leader, a queue further on) is not in it. Driven by its style on a free road it
+    would speed up to its desired speed where the recorded one was held back; so a
+    surrounding vehicle without an observed leader keeps its velocity (the open boundary of
+    a traffic simulation), and the vehicles behind it react to it.
+
+    Args:
+        states: every vehicle's current state [x, y, φ, v], shape (V, 4).
+        i: the vehicle.
+        lane_width: w [m].
+    """
+    lanes = np.floor(states[:, 1] / lane_width)
+    ahead = (lanes == lanes[i]) & (states[:, 0] > states[i, 0])
+    return bool(ahead.any())
 
 
 def own_view(states: np.ndarray, j: int, scenario: ScenarioConfig, origin: str) -> Demonstration:
@@ -304,7 +324,9 @@ def joint_rollout(
         scenario: road, bounds and T_s (every vehicle's: they share the road frame).
         steps: H.
         seed: seeds the deviations.
-        react: False: only vehicle 0 is driven, the others keep their velocity.
+        react: False: only vehicle 0 is driven, the others keep their velocity; True: every
+            vehicle with an observed vehicle ahead in its lane is driven too (:func:`led`),
+            the others keep their velocity.
         replan: steps between a vehicle's plans (≥ 1; 1: every step).
 
     Returns:
@@ -313,7 +335,7 @@ def joint_rollout(
     start = np.asarray(start, dtype=float)
     v_count = start.shape[0]
     s_count = len(styles[0])
-    driven = list(range(v_count)) if react else [0]
+    driven = [0, *(i for i in range(1, v_count) if react and led(start, i, scenario.lane_width))]
     sc = scenario
     dt = sc.dt
     planner = planner_for(sc, styles[0][0].horizon, PLANNER_SLOTS)
@@ -431,7 +453,9 @@ class JointStyle:
         styles = self._identified(states, sc)
         y_refs = [lane_intent(states[:, i, 1], sc.dt, sc.lane_width) for i in range(len(styles))]
         xs, failures = joint_rollout(states[-1], styles, y_refs, sc, steps, self.seed, self.react)
-        reactive = tuple(self.react or i == 0 for i in range(len(styles)))
+        reactive = tuple(
+            i == 0 or (self.react and led(states[-1], i, sc.lane_width)) for i in range(len(styles))
+        )
         return JointPrediction(xs[..., :2], reactive, failures, time.perf_counter() - t0)
 
     def _identified(self, states: np.ndarray, sc: ScenarioConfig) -> list[list[StochasticStyle]]:
