@@ -42,6 +42,7 @@ COMMANDS: dict[str, str] = {
     "bench-tracker": "benchmark online identification: latency of one StyleTracker update",
     "bench-solver-paths": "faster solver paths against the product: their time, how far S(p) moves",
     "bench-env": "benchmark the Gymnasium envs' steps per second (plain, traffic, style rewards)",
+    "bench-scene-prediction": "benchmark predicting a recorded minute: every vehicle, every window",
     "bench-stochastic": "benchmark simulating stochastic drivers from the prior: episodes/s/core",
     "build-posterior": "the amortized posterior over a stochastic driver's parameters, calibrated",
     "profile-inner": "profile the inner solvers: where a solve's time goes",
