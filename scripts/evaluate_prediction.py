@@ -73,6 +73,7 @@ from drivestyle.common.io import (
 )
 from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.identification.library import load_driver_library
+from drivestyle.prediction.joint import JointStyle
 from drivestyle.prediction.joint_physics import JointPhysicsParams
 from drivestyle.prediction.joint_physics_calibration import (
     JOINT_PHYSICS_ALL_FILE,
@@ -80,6 +81,7 @@ from drivestyle.prediction.joint_physics_calibration import (
     load_joint_params,
     save_joint_params,
 )
+from drivestyle.prediction.kinematic import ConstantVelocity
 from drivestyle.prediction.physics import PhysicsParams
 from drivestyle.prediction.physics_calibration import (
     PHYSICS_ALL_FILE,
@@ -87,6 +89,7 @@ from drivestyle.prediction.physics_calibration import (
     load_params,
     save_params,
 )
+from drivestyle.prediction.protocol import Observation
 from drivestyle.recorded.benchmark import (
     DEFAULT_DATA_DIR,
     SPLIT_ALL_FILE,
@@ -100,6 +103,7 @@ from drivestyle.recorded.benchmark import (
     read_split,
     write_split,
 )
+from drivestyle.recorded.observed import observer_view
 from drivestyle.recorded.real_data import DATASETS, check_data_dir
 from drivestyle.studies.prediction import (
     T_OBS,
@@ -115,6 +119,7 @@ from drivestyle.studies.prediction import (
 )
 from drivestyle.studies.prediction.figures import (
     plot_fde_by_kind,
+    plot_joint_scene,
     plot_posterior_over_time,
     plot_prediction,
     plot_prediction_errors,
@@ -490,9 +495,42 @@ def main(argv: list[str] | None = None) -> dict:
                 f"{example.vehicle_id} (p = {example.true_risk:.2f}): prediction after "
                 f"{example.t_obs:g} s",
             )
+        if args.posterior is not None:
+            _joint_scene_figure(study, args.posterior, tmp / "joint_scene.png")
     print(markdown)
     print(f"wall time {wall:.0f} s; wrote {args.out}")
     return payload
+
+
+def _joint_scene_figure(study: Any, posterior: Path, path: Path) -> Path | None:
+    """``joint_scene.png``: one recorded scene's joint prediction with its regions.
+
+    The scene: at t_obs = 2 s (else the first), among the stop-and-go windows with more than
+    one vehicle (else any recorded record), the one whose FDE gain of ``style_joint`` over
+    CV is the median (not the best case); its scene predicted again, as the benchmark did.
+    """
+    recs = [r for r in study.records if r.set != "simulated" and "style_joint" in r.fde_m]
+    if not recs:
+        return None
+    times = sorted({r.t_obs for r in recs})
+    t_obs = 2.0 if 2.0 in times else times[0]
+    at = [r for r in recs if r.t_obs == t_obs]
+    busy = [r for r in at if r.stop_and_go and study.demos[r.vehicle_id].vehicles.shape[1] > 1]
+    at = sorted(busy or at, key=lambda r: r.fde_m["cv"] - r.fde_m["style_joint"])
+    rec = at[(len(at) - 1) // 2]
+    demo = study.demos[rec.vehicle_id]
+    view, sc = observer_view(demo, t_obs)
+    sc = sc or view.scenario
+    k = round(t_obs / sc.dt)
+    seen = Observation(view.ev[: k + 1], view.vehicles[: k + 1], sc)
+    scene = JointStyle(open_posterior(posterior)).predict_scene(seen, view.n - 1 - k)
+    cv = ConstantVelocity().predict(seen, view.n - 1 - k).xy[-1]
+    title = (
+        f"{rec.vehicle_id} ({rec.kind.replace('_', ' ')}"
+        f"{', stop-and-go' if rec.stop_and_go else ''}): style_joint after {t_obs:g} s, "
+        f"FDE {rec.fde_m['style_joint']:.1f} m (CV {rec.fde_m['cv']:.1f} m)"
+    )
+    return plot_joint_scene(scene, view, k, path, title, cv_final=cv)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,8 @@ method's prediction to scale (``example_prediction.png`` of ``evaluate-predictio
 ``prediction.png`` of ``predict-trajectory``); :func:`plot_prediction_errors` the mean FDE of
 every method against t_obs (``fde_by_method.png``); :func:`plot_fde_by_kind` the recorded
 episodes' FDE median per kind and method with its 95 % interval (``fde_by_kind.png``);
-:func:`plot_posterior_over_time` the online posterior of a few vehicles
+:func:`plot_joint_scene` one scene's joint prediction with its regions
+(``joint_scene.png``); :func:`plot_posterior_over_time` the online posterior of a few vehicles
 (``posterior_over_time.png``). Colours, lanes and saving
 are :mod:`drivestyle.studies.plotting`'s.
 """
@@ -18,10 +19,11 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.patches import Polygon
+from matplotlib.patches import Circle, Polygon
 
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.envs.safety import vehicle_corners
+from drivestyle.prediction.joint import JointPrediction
 from drivestyle.prediction.methods import METHODS, Prediction
 from drivestyle.recorded.kinds import ALL_KINDS, STOP_AND_GO
 from drivestyle.studies.formatting import seconds
@@ -39,6 +41,7 @@ from drivestyle.studies.prediction.tracking import TrackingRecord
 __all__ = [
     "METHOD_STYLES",
     "plot_fde_by_kind",
+    "plot_joint_scene",
     "plot_posterior_over_time",
     "plot_prediction",
     "plot_prediction_errors",
@@ -111,6 +114,70 @@ def plot_prediction(
     ax.set_xlabel("x [m] (to scale)")
     ax.set_ylabel("y [m]")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.35), fontsize=8, ncol=4, frameon=False)
+    return save_figure(fig, path, title or None)
+
+
+def plot_joint_scene(
+    scene: JointPrediction,
+    view: Demonstration,
+    k: int,
+    path: str | Path,
+    title: str = "",
+    cv_final: np.ndarray | None = None,
+) -> Path:
+    """One scene's joint prediction: every vehicle's point path, its draws and 90 % region.
+
+    To scale: lanes, each vehicle's observed path (thick), its true future (thin grey), the
+    point prediction (each vehicle's colour; dashed where it kept its velocity, not being
+    driven), the draws (faint) and the disc holding 90 % of the draws' final positions; the
+    vehicles at t_obs as rectangles, the predicted one red.
+
+    Args:
+        scene: :meth:`~drivestyle.prediction.joint.JointStyle.predict_scene`'s result.
+        view: the demonstration the scene was observed in (its vehicles in the scene's order:
+            the EV, then its ``vehicles``; its scenario draws the road).
+        k: the last observed sample.
+        path: output PNG.
+        title: figure title.
+        cv_final: the predicted vehicle's final position at constant velocity, drawn as a
+            cross (None: not drawn).
+    """
+    sc = view.scenario
+    truth = np.concatenate([view.ev[:, None], view.vehicles], axis=1)  # (n, V_all, 4)
+    n_v = scene.paths.shape[2]
+    shown = truth[:, :n_v]
+    colours = [EV_RED, TV_BLUE, SCALED_ORANGE, "#16a34a", "#7c3aed", "#0891b2"]
+    pts = np.concatenate([shown[:, :, :2].reshape(-1, 2), scene.point.reshape(-1, 2)])
+    x_lo, x_hi = float(pts[:, 0].min()) - 8.0, float(pts[:, 0].max()) + 8.0
+    y_lo, y_hi = -0.5, sc.road_width + 0.5
+    width = 12.0
+    road_h = max(width * 0.9 * (y_hi - y_lo) / (x_hi - x_lo), 1.4)
+    fig, ax = plt.subplots(figsize=(width, road_h + 2.0))
+    draw_lanes(ax, sc)
+    radius = scene.region_radius()
+    for i in range(n_v):
+        c = colours[i % len(colours)]
+        name = "predicted vehicle" if i == 0 else f"vehicle {i}"
+        ax.plot(*shown[: k + 1, i, :2].T, "-", color=c, lw=2.6, label=f"{name}: observed")
+        ax.plot(*shown[k:, i, :2].T, "-", color="0.45", lw=1.0,
+                label="truth" if i == 0 else None)  # fmt: skip
+        for d in scene.paths[1:, :, i]:
+            ax.plot(*d.T, "-", color=c, lw=0.5, alpha=0.25)
+        ls, note = ("-", "") if scene.reactive[i] else ("--", " (CV)")
+        ax.plot(*scene.point[:, i].T, ls, color=c, lw=1.6,
+                label=f"{name}: point prediction{note}")  # fmt: skip
+        if scene.reactive[i]:
+            ax.add_patch(Circle(scene.point[-1, i], float(radius[i]), fc=c, ec=c, alpha=0.12))
+        corners = vehicle_corners(shown[k, i], sc.vehicle_length, sc.vehicle_width)
+        ax.add_patch(Polygon(corners, closed=True, fc=c, ec="k", lw=0.5, alpha=0.8))
+    if cv_final is not None:
+        ax.plot(*cv_final, "x", color="k", ms=8, label="constant velocity (final)")
+    ax.set_xlim(x_lo, x_hi)
+    ax.set_ylim(y_lo, y_hi)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m] (to scale)")
+    ax.set_ylabel("y [m]")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), fontsize=7, ncol=3, frameon=False)
     return save_figure(fig, path, title or None)
 
 
