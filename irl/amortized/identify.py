@@ -257,8 +257,13 @@ def open_posterior(path: str | Path, option: str = "--posterior") -> NeuralPoste
         if not Path(path).is_file():
             raise FileNotFoundError(f"{path}: no such estimator file")
         try:
+            # on one torch thread: a process that loaded the estimator with its thread pool
+            # started and then forks workers (parallel_map) leaves them hanging at their
+            # first torch operation (GNU OpenMP's pool does not survive a fork)
+            with one_thread():
+                posterior = load_posterior(path)
             # an estimator of other features or parameters would read the episode wrongly
-            return check_episode_estimator(load_posterior(path), path)
+            return check_episode_estimator(posterior, path)
         except ImportError as exc:
             text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             if "sbi extra" not in text:
