@@ -456,3 +456,36 @@ def test_the_ngsim_sample_as_ones_own_csv_gives_the_shipped_benchmarks_numbers(f
         assert s["n_units"] == mine["n_units"] == 3
         for metric, stat in s["stats"].items():
             assert stat == pytest.approx(mine["stats"][metric]), (s["method"], metric)
+
+
+@pytest.mark.slow  # two episodes' amortized styles in two fresh worker processes (≈ 30 s)
+def test_the_amortized_styles_through_the_command_in_workers(
+    files, paper_demo, tmp_path, tiny_posterior
+):
+    """``--posterior`` with ``--workers 2``: the checked estimator must not hang the forked
+    workers (it did: the parent's torch thread pool does not survive a fork)."""
+    import subprocess
+    import sys
+
+    from drivestyle.envs.demonstration import load_demonstration
+    from drivestyle.irl.amortized.identify import open_posterior
+    from drivestyle.prediction.methods import AMORTIZED_METHODS, predict_demo
+
+    _, posterior_file = tiny_posterior
+    folder = _episodes_folder(tmp_path / "eps", paper_demo)
+    out = tmp_path / "bench"
+    run = subprocess.run(
+        [sys.executable, "-m", "drivestyle", "evaluate-prediction", "--library", str(files),
+         "--episodes", str(folder), "--split", "all", "--observe", "2", "--workers", "2",
+         "--posterior", str(posterior_file), "--out", str(out)],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    js = json.loads((out / "prediction_eval.json").read_text())
+    posterior = open_posterior(posterior_file)
+    for rec in js["records"]:
+        demo = load_demonstration(folder / f"{rec['vehicle_id']}.npz")
+        pred = predict_demo(demo, None, 2.0, methods=AMORTIZED_METHODS, amortized=posterior)
+        for m in AMORTIZED_METHODS:
+            assert rec["fde_m"][m] == pytest.approx(pred.methods[m].fde_m, abs=1e-6), m
+    assert (out / "joint_scene.png").stat().st_size > 0
