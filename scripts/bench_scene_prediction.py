@@ -2,7 +2,7 @@ r"""Benchmark predicting a whole recorded minute: every vehicle, every window (g
 
 Extracts every vehicle's episodes (``extract-episodes --all-vehicles``: lane changes and the
 windows without one) of one recording of the shipped NGSIM sample (``--recording``, default
-the I-80 minute ``i80_1600_first60s``: 60 s, 160 vehicles) and predicts each at every
+the I-80 minute ``i80_1600_first60s``: 60 s, 77 vehicles) and predicts each at every
 ``--observe`` time with ``--methods`` (default ``style_joint``: every observed vehicle
 identified from its own past by the amortized posterior ``--posterior`` and rolled out
 together; ``cv`` and ``joint_physics`` are cheap beside it), in ``--workers`` processes.

@@ -20,6 +20,7 @@ from drivestyle.common.output_paths import OutputPathError
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p for p in (ROOT / "scripts").glob("*.py") if p.name != "__init__.py")
 NO_SEED = {
+    "bench_scene_prediction",  # its predictions are the benchmark's (their seed fixed)
     "capacity_study",
     "compare_av_human",
     "deviating_tv",
@@ -195,6 +196,7 @@ WRITES = {
     "bench_population": ("--out", "b.json", ["--library", MISSING]),
     "bench_smpc": ("--out", "b.json", []),
     "bench_solver_paths": ("--out", "b.json", []),
+    "bench_scene_prediction": ("--out", "b.json", ["--posterior", MISSING]),
     "bench_stochastic": ("--out", "b.json", []),
     "bench_tracker": ("--out", "b.json", ["--library", MISSING]),
     "build_posterior": ("--out", "post", []),

@@ -155,6 +155,21 @@ def test_bench_stochastic_simulates_every_episode_it_times(tmp_path):
     assert 0 < bench["episode_s_median"] <= bench["episode_s_p95"]
 
 
+@pytest.mark.slow  # the I-80 minute's extraction (≈ 10 s) and its windows at constant velocity
+@needs_data
+def test_bench_scene_prediction_predicts_every_window_of_the_minute(tmp_path, tiny_posterior):
+    _, posterior = tiny_posterior
+    _drivestyle(tmp_path, "bench-scene-prediction", "--posterior", posterior, "--methods",
+                "cv", "--observe", "2", "--workers", "1", "--data-dir", DATA,
+                "--out", "scene.json")  # fmt: skip
+    bench = _json(tmp_path / "scene.json")
+    assert bench["recording"] == "i80_1600_first60s" and bench["methods"] == ["cv"]
+    assert bench["vehicles"] > 50 and bench["windows"] >= bench["vehicles"]  # 77 tracks
+    assert bench["predictions"] == bench["windows"]  # every window at t_obs = 2 s
+    assert bench["met"] == (bench["wall_s"] + bench["extract_s"] <= bench["goal_s"] == 300)
+    assert 0 < bench["prediction_s"]["median"] <= bench["prediction_s"]["p95"]
+
+
 @pytest.mark.slow  # ≈ 6 s: torch's import, 12 episodes, training
 def test_build_posterior_writes_a_verified_estimator_and_its_calibration(tmp_path):
     pytest.importorskip("zuko")
@@ -643,6 +658,7 @@ COVERAGE = {
     "bench-solver-paths": "test_bench_solver_paths_the_interpreted_fatrop_path_equals_the_product",
     "bench-env": "test_bench_env_counts_every_step_it_times",
     "bench-stochastic": "test_bench_stochastic_simulates_every_episode_it_times",
+    "bench-scene-prediction": "test_bench_scene_prediction_predicts_every_window_of_the_minute",
     "build-posterior": "test_build_posterior_writes_a_verified_estimator_and_its_calibration",
     "profile-inner": "test_profile_inner_accounts_for_every_second",
 }
