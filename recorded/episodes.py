@@ -298,19 +298,8 @@ def _episode(
         elif track.t[g] >= t_c and track.t[g] < stop:
             stop = float(track.t[g])
             cut_at.append(int(g))
-    move = (1.0 if b > a else -1.0) * lateral_move(track.t, track.y, start, stop)
-    common: dict[str, Any] = {
-        "episode_id": eid,
-        "source": track.source,
-        "carriageway": road.name,
-        "vehicle_id": track.vehicle_id,
-        "from_lane": a,
-        "to_lane": b,
-        "mirrored": b < a,
-        "t_cross": t_c,
-        "lane_width": w,
-        "lateral_move": move,
-    }
+    common = _episode_fields(track, road, eid, a, b, t_c, start, stop)
+    move = common["lateral_move"]
     # the readers' checks (recorded.track_checks): the vehicle's motion in the window is not a
     # road vehicle's; the demonstration is still built, for the plausibility's own say
     flagged = tuple(
@@ -355,6 +344,29 @@ def _episode(
         )  # fmt: skip
     meta = {"kind": "lane_change", "t_cross_rel_s": t_c}
     return _built_episode(common, track, road, start, stop, line, config, flagged, meta)
+
+
+def _episode_fields(
+    track: Track, road: Carriageway, eid: str, a: int, b: int, t: float, start: float,
+    stop: float,
+) -> dict[str, Any]:  # fmt: skip
+    """An :class:`Episode`'s fields of its window [start, stop] in the frame of lanes a → b.
+
+    The frame's lane width is the mean of the two lanes'; the lateral move is towards b.
+    """
+    widths = road.lane_widths
+    return {
+        "episode_id": eid,
+        "source": track.source,
+        "carriageway": road.name,
+        "vehicle_id": track.vehicle_id,
+        "from_lane": a,
+        "to_lane": b,
+        "mirrored": b < a,
+        "t_cross": t,
+        "lane_width": float((widths[a] + widths[b]) / 2),
+        "lateral_move": (1.0 if b > a else -1.0) * lateral_move(track.t, track.y, start, stop),
+    }
 
 
 def _built_episode(

@@ -33,14 +33,18 @@ vehicle of a recording, not only the few that change lane. The rules:
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
-from drivestyle.recorded.episodes import Episode, _built_episode, interacting_vehicles
+from drivestyle.recorded.episodes import (
+    Episode,
+    _built_episode,
+    _episode_fields,
+    interacting_vehicles,
+)
 from drivestyle.recorded.extraction_config import ExtractionConfig
 from drivestyle.recorded.kinds import EPISODE_KINDS, WINDOW_ID_SUFFIX
-from drivestyle.recorded.lane_changes import _lanes, lateral_move
+from drivestyle.recorded.lane_changes import _lanes
 from drivestyle.recorded.resampling import _states_on
 from drivestyle.recorded.tracks import Carriageway, Track
 
@@ -152,22 +156,10 @@ def vehicle_windows(
         if n_lanes < 2 or not 0 <= a < n_lanes:
             continue
         b = a + 1 if a + 1 < n_lanes else a - 1  # the lane the frame puts at +y
-        widths = road.lane_widths
-        w = float((widths[a] + widths[b]) / 2)
-        line = road.markings[max(a, b)]
         mid = start + config.before_s
-        common: dict[str, Any] = {
-            "episode_id": f"{road.name}_{track.vehicle_id}_{round(mid * 1000)}{WINDOW_ID_SUFFIX}",
-            "source": track.source,
-            "carriageway": road.name,
-            "vehicle_id": track.vehicle_id,
-            "from_lane": a,
-            "to_lane": b,
-            "mirrored": b < a,
-            "t_cross": mid,
-            "lane_width": w,
-            "lateral_move": (1.0 if b > a else -1.0) * lateral_move(track.t, track.y, start, stop),
-        }
+        eid = f"{road.name}_{track.vehicle_id}_{round(mid * 1000)}{WINDOW_ID_SUFFIX}"
+        common = _episode_fields(track, road, eid, a, b, mid, start, stop)
+        line = road.markings[max(a, b)]
         grid = np.round(start + np.arange(round(span / config.dt) + 1) * config.dt, 9)
         ev = _states_on(track, grid)[0]
         leaders = [
