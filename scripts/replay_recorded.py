@@ -155,8 +155,8 @@ def main(argv: list[str] | None = None) -> dict:
     if not style and args.attend is not None:
         raise ValueError("--attend chooses whom the style drivers plan around; add --others style")
     if style and (args.idm is not None or args.physics is not None):
-        given = "--idm" if args.idm is not None else "--physics"
-        raise ValueError(f"{given} sets the IDM of --others idm, got --others style")
+        option = "--idm" if args.idm is not None else "--physics"
+        raise ValueError(f"{option} sets the IDM of --others idm, got --others style")
     idm_choice = args.idm or "calibrated"
     if args.physics is not None and idm_choice != "calibrated":
         raise ValueError(f"--physics sets --idm calibrated's parameters, got --idm {args.idm}")
