@@ -6,14 +6,18 @@ recorded :class:`~drivestyle.envs.demonstration.Demonstration`, the env's vehicl
 (:mod:`drivestyle.envs.scene_log`: 0 the EV, j ≥ 1 the j-th of ``demo.vehicles``):
 
 - **Identification from the past only.** Every vehicle in the scene at the start is
-  identified from samples 0 … start of the scene — nothing later is read — by the amortized
-  posterior in one pass (:func:`~drivestyle.prediction.joint.identify_vehicles`: each
-  vehicle's own view, the posterior's lane shift inside it), as the joint prediction
-  identifies a scene's vehicles at t_obs; its driver is the posterior median without
-  deviation (deterministic). Its lateral target is fixed then: the next lane's centre if it
-  was moving laterally, else its lateral position (:func:`~drivestyle.prediction.joint.
-  lane_intent`). A vehicle that enters after the start has no past to identify: it has no
-  driver, and the env moves it along its log (none does in the shipped splits).
+  identified from samples 0 … start of the scene — nothing later is read — as the joint
+  prediction's point prediction identifies a scene's vehicles at t_obs (DESIGN §23): the
+  amortized posterior in one pass (:func:`~drivestyle.prediction.joint.identify_vehicles`:
+  each vehicle's own view, the posterior's lane shift inside it; its median and
+  :data:`~drivestyle.prediction.joint.JOINT_SAMPLES` draws), each candidate's region
+  admitting the gap the vehicle kept ahead (:func:`~drivestyle.prediction.joint.admitted`),
+  and of those the one whose plans best reproduce its last observed accelerations
+  (:func:`~drivestyle.prediction.joint.best_explaining`), without deviation: deterministic
+  given the seed. Its lateral target is fixed then: the next lane's centre if it was moving
+  laterally, else its lateral position (:func:`~drivestyle.prediction.joint.lane_intent`).
+  A vehicle that enters after the start has no past to identify: it has no driver, and the
+  env moves it along its log (none does in the shipped splits).
 - **Re-planning at every call.** A :class:`StyleDriver` plans with its style's planner
   (:meth:`~drivestyle.irl.driver.style_planner.StylePlanner.plan`, the stochastic driver's
   planner of :data:`~drivestyle.prediction.joint.PLANNER_SLOTS` vehicles, the nearest) against
@@ -23,15 +27,15 @@ recorded :class:`~drivestyle.envs.demonstration.Demonstration`, the env's vehicl
   brakes at a_min/2 (the closed loop's rule,
   :func:`~drivestyle.irl.driver.driver_style.closed_loop`); braking never reverses the car
   (a ≥ −v/T_s). A call that does not follow the previous one by T_s (a reset) starts cold.
-- **Whom it plans around** (``attend``, :data:`ATTEND`): ``"all"`` (default), every other
-  vehicle in the scene, as the joint prediction's rollout does; ``"lanes"``, only the
-  vehicles ahead of it in its lane and, when it heads for another lane, every vehicle in
-  that lane — the ones a lane keeper and a lane changer answer to (as IDM and MOBIL), the
-  followers and the neighbours in other lanes left to react to it. The style's planner
-  predicts every vehicle it constrains with the paper's TV uncertainty (σ_vx = 6 m/s,
-  σ_vy = 3.75 m/s, DESIGN §3): a neighbour beside or a follower behind soon covers the
-  driver's own lane, and under ``"all"`` a cautious style escapes it by accelerating
-  (DESIGN §24 has the numbers).
+- **Whom it plans around** (``attend``, :data:`ATTEND`): ``"ahead"`` (default), as the joint
+  prediction's rollout, the vehicles ahead of it in any lane and, when it heads for another
+  lane, that lane's vehicles behind too (:func:`~drivestyle.prediction.joint.constraining`);
+  ``"lanes"``, only those ahead in its own lane and the lane it heads for (the vehicles a
+  lane keeper and a lane changer answer to, as IDM and MOBIL); ``"all"``, every other
+  vehicle in the scene. The style's planner predicts each vehicle it constrains with the
+  paper's TV uncertainty (σ_vx = 6 m/s, σ_vy = 3.75 m/s, DESIGN §3): a neighbour beside or
+  a follower behind soon covers the driver's own lane, and a cautious style planning around
+  it escapes at full throttle, or finds no plan and brakes (DESIGN §24 has the numbers).
 
 **The frame.** The env's states are the demonstration's road frame, and so are the drivers'
 inputs and targets. Three things differ from the env's scenario inside the plans only:
@@ -68,7 +72,15 @@ from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.driver.stochastic import StochasticStyle
 from drivestyle.irl.driver.style_planner import StylePlanner, planner_for
-from drivestyle.prediction.joint import PLANNER_SLOTS, identify_vehicles, lane_intent
+from drivestyle.prediction.joint import (
+    JOINT_SAMPLES,
+    PLANNER_SLOTS,
+    admitted,
+    best_explaining,
+    constraining,
+    identify_vehicles,
+    lane_intent,
+)
 from drivestyle.recorded.real_data import RECORDED_PHI_MAX
 
 if TYPE_CHECKING:
@@ -79,6 +91,7 @@ __all__ = [
     "MIN_PAST",
     "SceneStyles",
     "StyleDriver",
+    "attended",
     "planning_scenario",
     "scene_styles",
     "style_drivers",
@@ -86,27 +99,37 @@ __all__ = [
 
 MIN_PAST = 3
 """Samples of the past identification needs (the start must be sample 2 or later)."""
-ATTEND = ("all", "lanes")
-"""The vehicles a style driver plans around (module docstring): every other vehicle in the
-scene, or those of its lanes only."""
+ATTEND = ("ahead", "lanes", "all")
+"""The vehicles a style driver plans around (module docstring): the joint prediction's
+(ahead, and the target lane's), those of its lanes only, or every other vehicle."""
 
 
-def _in_its_lanes(xi0: np.ndarray, others: np.ndarray, y_ref: float, w: float) -> np.ndarray:
-    """Which vehicles ``attend="lanes"`` keeps: ahead in its lane, or in the lane it heads for.
+def attended(
+    states: np.ndarray, i: int, y_ref: float, lane_width: float, attend: str
+) -> np.ndarray:
+    """The vehicles vehicle i's plan keeps clear of (``attend``, module docstring).
 
     Args:
-        xi0: the driver's state [x, y, φ, v].
-        others: the other vehicles' states, shape (m, 4).
-        y_ref: where it heads laterally [m].
-        w: the lane width [m] (lane i covers [i·w, (i + 1)·w)).
+        states: every vehicle's current state [x, y, φ, v], shape (V, 4), the vehicles in
+            the scene only.
+        i: the planning vehicle.
+        y_ref: where it heads laterally [m] (lane i covers [i·w, (i + 1)·w)).
+        lane_width: w [m].
+        attend: one of :data:`ATTEND`.
 
     Returns:
-        Shape (m,) bool.
+        The indices j ≠ i of those vehicles.
     """
-    own, target = math.floor(xi0[1] / w), math.floor(y_ref / w)
-    lanes = np.floor(others[:, 1] / w)
-    ahead = (lanes == own) & (others[:, 0] > xi0[0])
-    return ahead | ((target != own) & (lanes == target))
+    if attend == "ahead":
+        return constraining(states, i, y_ref, lane_width)
+    keep = np.ones(len(states), bool)
+    if attend == "lanes":
+        lanes = np.floor(states[:, 1] / lane_width)
+        own, target = lanes[i], math.floor(y_ref / lane_width)
+        keep = (lanes == own) & (states[:, 0] > states[i, 0])
+        keep |= (target != own) & (lanes == target)
+    keep[i] = False
+    return np.flatnonzero(keep)
 
 
 def planning_scenario(scenario: ScenarioConfig) -> ScenarioConfig:
@@ -128,7 +151,7 @@ class StyleDriver:
         y_ref: float,
         scenario: ScenarioConfig,
         planner: StylePlanner | None = None,
-        attend: str = "all",
+        attend: str = "ahead",
     ) -> None:
         """A driver of ``vehicle``.
 
@@ -210,10 +233,9 @@ class StyleDriver:
                 w[self.planner.layout.ix[:, 1]] += shift - self._shift
                 self._previous = replace(self._previous, w=w)
             self._shift = shift
-        others = np.delete(states, j, axis=0)
-        others = others[np.all(np.isfinite(others), axis=1)]
-        if self.attend == "lanes":
-            others = others[_in_its_lanes(xi0, others, self.y_ref, sc.lane_width)]
+        scene = states[np.all(np.isfinite(states), axis=1) | (np.arange(len(states)) == j)]
+        me = int(np.sum(np.all(np.isfinite(states[:j]), axis=1)))  # j's row in the scene
+        others = scene[attended(scene, me, self.y_ref, sc.lane_width, self.attend)]
         xi0[1] += shift
         others[:, 1] += shift
         res = self.planner.plan(
@@ -240,7 +262,7 @@ def style_drivers(
     demo: Demonstration,
     start: int,
     seed: int = 0,
-    attend: str = "all",
+    attend: str = "ahead",
 ) -> dict[int, StyleDriver]:
     """Each vehicle of a recorded scene identified from samples 0 … ``start``, as a driver.
 
@@ -249,7 +271,7 @@ def style_drivers(
             :data:`~drivestyle.irl.amortized.simulations.PARAMETERS`).
         demo: the recorded scene (a :class:`Demonstration` with a scenario).
         start: the replay's first sample: the last one read (≥ 2).
-        seed: seeds the posterior draws whose medians make each style.
+        seed: seeds the posterior draws (the median's and the candidates').
         attend: the vehicles each driver plans around (:data:`ATTEND`).
 
     Returns:
@@ -273,13 +295,14 @@ def style_drivers(
     vehicles = np.flatnonzero(log.present[start]).tolist()
     past = log.states[: start + 1][:, vehicles]  # samples 0 … start: nothing later
     sc = log.scenario
-    styles = identify_vehicles(posterior, past, sc, 1, seed, demo.origin)
-    return {
-        j: StyleDriver(
-            j, per[0], lane_intent(past[:, i, 1], sc.dt, sc.lane_width), sc, attend=attend
-        )
-        for i, (j, per) in enumerate(zip(vehicles, styles, strict=True))
-    }
+    w = sc.lane_width
+    drivers = {}
+    found = identify_vehicles(posterior, past, sc, JOINT_SAMPLES, seed, demo.origin)
+    for i, (j, candidates) in enumerate(zip(vehicles, found, strict=True)):
+        admitting = [admitted(style, past, i, w) for style in candidates]
+        style = best_explaining(past, i, admitting, sc)
+        drivers[j] = StyleDriver(j, style, lane_intent(past[:, i, 1], sc.dt, w), sc, attend=attend)
+    return drivers
 
 
 @dataclass(frozen=True)

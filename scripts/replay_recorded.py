@@ -11,8 +11,8 @@ calibrated on the train split (drivestyle/data/benchmark_physics.json, or ``--ph
 ``--idm highway-env`` the traffic env's. ``--others style --posterior FILE`` replays the same
 scenes with every vehicle, the EV included, driving its own style identified from the
 samples up to the start by the amortized posterior (build-posterior's ``OUT/posterior.npz``),
-re-planning at every step against the others' current states (``--attend lanes``: only those
-ahead in its lane and those of the lane it heads for). Reports per episode the collisions of
+re-planning at every step against the current states of the vehicles ahead and, changing
+lane, the target lane's (``--attend``: others). Reports per episode the collisions of
 the replay and of the log itself (pairs and times; new: a pair the log never has) and each vehicle's
 replayed speed range against its recorded one (within: inside it ± ``--tolerance``).
 Writes ``OUT/replay.json`` (every episode, the summary, the command) and ``OUT/replay.md``.
@@ -104,8 +104,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--attend",
         choices=ATTEND,
         default=None,
-        help="whom each style driver of --others style plans around: every other vehicle "
-        "(default: all), or the vehicles ahead in its lane and those of the lane it heads for",
+        help="whom each style driver of --others style plans around: the vehicles ahead and, "
+        "changing lane, the target lane's (default: ahead, the joint prediction's rule), those "
+        "ahead in its lane and of the lane it heads for (lanes), or every other vehicle (all)",
     )
     p.add_argument(
         "--idm",
@@ -185,7 +186,7 @@ def main(argv: list[str] | None = None) -> dict:
     with tqdm(total=len(episodes), desc="replay", unit="episode") as bar:
         study = replay_recorded(
             episodes, source, idm_choice, physics, args.workers, args.tolerance, bar.update,
-            posterior=args.posterior, attend=args.attend or "all",
+            posterior=args.posterior, attend=args.attend or "ahead",
         )  # fmt: skip
     markdown = replay_markdown(study, command_line(argv_used))
     payload = study.to_json()

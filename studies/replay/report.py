@@ -12,6 +12,13 @@ if TYPE_CHECKING:
 
 __all__ = ["replay_markdown"]
 
+ATTENDED = {
+    "ahead": "the vehicles ahead and, changing lane, the target lane's",
+    "lanes": "the vehicles ahead in its lane and those of the lane it heads for",
+    "all": "every other vehicle",
+}
+"""Whom the style drivers plan around, said (``attend``)."""
+
 
 def _pairs(found: tuple[Collision, ...]) -> str:
     """``0–1 @ 1.2 s (3)`` per pair: vehicles, first time since the start, samples."""
@@ -40,7 +47,7 @@ def replay_markdown(study: ReplayStudy, command: str) -> str:
             "Every vehicle, the EV included, drives its own style identified from the samples "
             f"up to the start by the amortized posterior {study.posterior} (its median, "
             "re-planning at every step against the current states of "
-            f"{'the others' if study.attend == 'all' else 'the vehicles of its lanes'}; "
+            f"{ATTENDED.get(study.attend or '', 'the others')}; "
             f"DESIGN §24): {s['plans']} plans, {s['failed_plans']} failed."
         )
     else:

@@ -24,7 +24,8 @@ Per episode the study reports:
 scenes with every vehicle, the EV included, driving its own style identified from the
 samples up to the start (:func:`~drivestyle.prediction.scene_drivers.style_drivers`: the
 amortized posterior's median, re-planning at every step against the others' current
-states — every other vehicle, or with ``attend="lanes"`` those of its lanes only —; the EV
+states — those ahead and, changing lane, the target lane's, as the joint prediction's
+rollout; ``attend`` chooses others —; the EV
 through :func:`~drivestyle.envs.recorded_scene.drive_style`); each episode also counts the
 plans and the failed ones (the previous plan's next input or braking).
 
@@ -250,7 +251,7 @@ def replay_episode(
     v0_factor: float,
     tolerance: float = SPEED_TOLERANCE_MPS,
     posterior: str | None = None,
-    attend: str = "all",
+    attend: str = "ahead",
 ) -> EpisodeReplay:
     """Replay one episode with every vehicle reactive and compare it with its log.
 
@@ -424,7 +425,7 @@ def replay_recorded(
     tolerance: float = SPEED_TOLERANCE_MPS,
     progress: Callable[[], None] | None = None,
     posterior: str | Path | None = None,
-    attend: str = "all",
+    attend: str = "ahead",
 ) -> ReplayStudy:
     """Replay every episode with every vehicle reactive (module docstring).
 

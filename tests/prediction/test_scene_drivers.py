@@ -16,6 +16,7 @@ from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.irl.driver.stochastic import StochasticStyle
 from drivestyle.prediction.scene_drivers import (
     StyleDriver,
+    attended,
     planning_scenario,
     scene_styles,
     style_drivers,
@@ -115,20 +116,28 @@ def test_a_driver_answers_for_its_own_vehicle_only():
         driver(0, 0.0, states)
 
 
-def test_the_lanes_attention_leaves_out_followers_and_other_lanes():
+def test_whom_a_driver_plans_around():
     sc = ScenarioConfig()
     w = sc.lane_width
     style = StochasticStyle(risk=0.9, v_ref=15.0, time_gap=1.0, min_gap=5.0)
     me = [100.0, 0.5 * w, 0.0, 15.0]
-    # a faster follower 25 m behind, a neighbour 30 m behind in the next lane: planning around
-    # every vehicle it escapes them at full throttle (the TV's uncertainty grows into its
-    # lane), planning around its lanes' it drives as if alone
-    states = np.array([me, [75.0, 0.5 * w, 0.0, 18.0], [70.0, 1.5 * w, 0.0, 15.0]])
-    alone = StyleDriver(0, style, 0.5 * w, sc)(0, 0.0, states[:1])
-    lanes = StyleDriver(0, style, 0.5 * w, sc, attend="lanes")(0, 0.0, states)
-    every = StyleDriver(0, style, 0.5 * w, sc)(0, 0.0, states)
-    np.testing.assert_allclose(lanes, alone, atol=1e-9)
-    assert every[0] > alone[0] + 3.0
+    # a faster follower 25 m behind, a neighbour 30 m behind in the next lane, one 12 m ahead
+    # in the next lane: the TV uncertainty of each grows into its lane
+    states = np.array([me, [75.0, 0.5 * w, 0.0, 18.0], [70.0, 1.5 * w, 0.0, 15.0],
+                       [112.0, 1.5 * w, 0.0, 15.0]])  # fmt: skip
+
+    def first(attend, rows):
+        return StyleDriver(0, style, 0.5 * w, sc, attend=attend)(0, 0.0, states[rows])
+
+    alone = first("all", [0])
+    behind = [0, 1, 2]
+    np.testing.assert_allclose(first("ahead", behind), alone, atol=1e-9)  # the joint rule
+    np.testing.assert_allclose(first("lanes", behind), alone, atol=1e-9)
+    assert first("all", behind)[0] > alone[0] + 3.0  # it escapes them at full throttle
+    every = [0, 1, 2, 3]
+    assert first("ahead", every)[0] < alone[0] - 1.0  # it brakes for the next lane's car
+    np.testing.assert_allclose(first("lanes", every), alone, atol=1e-9)  # not its lane
+    np.testing.assert_array_equal(attended(states, 0, 1.5 * w, w, "lanes"), [2, 3])  # changing
 
 
 def test_the_env_with_style_drivers_passes_both_checkers(recorded_scene, tiny_posterior):
