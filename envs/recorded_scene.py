@@ -24,8 +24,9 @@ default start are :mod:`drivestyle.envs.scene_log`'s.
   mapping; None or missing: that vehicle follows its log) or their identified styles
   (``posterior=FILE``: an amortized posterior, drivestyle build-posterior's
   ``OUT/posterior.npz``, or the object; every vehicle in the scene at the start identified
-  from the samples up to it, each re-planning with its style against the others' current
-  states at every step: :mod:`drivestyle.prediction.scene_drivers`, found through the
+  from the samples up to it, each re-planning with its style at every step against the
+  current states of the vehicles ahead of it: :mod:`drivestyle.prediction.scene_drivers`,
+  found through the
   ``drivestyle.scene_drivers`` entry points; built again for each start, a vehicle entering
   after it follows its log). The agent's driver is not used for the agent, but its policy
   :func:`drive_style` drives it.

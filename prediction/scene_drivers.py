@@ -163,7 +163,8 @@ class StyleDriver:
             scenario: the env's scenario (lanes, geometry, bounds, T_s).
             planner: its planner (default: :func:`planner_for` the style's horizon and
                 :data:`~drivestyle.prediction.joint.PLANNER_SLOTS` vehicles).
-            attend: the vehicles it plans around (:data:`ATTEND`).
+            attend: the vehicles it plans around (:data:`ATTEND`; default the joint
+                prediction's).
 
         Raises:
             ValueError: an unknown ``attend``.

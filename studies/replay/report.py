@@ -45,8 +45,8 @@ def replay_markdown(study: ReplayStudy, command: str) -> str:
     if study.others == "style":
         drivers = (
             "Every vehicle, the EV included, drives its own style identified from the samples "
-            f"up to the start by the amortized posterior {study.posterior} (its median, "
-            "re-planning at every step against the current states of "
+            f"up to the start by the amortized posterior {study.posterior} (the joint "
+            "prediction's point driver, re-planning at every step against the current states of "
             f"{ATTENDED.get(study.attend or '', 'the others')}; "
             f"DESIGN §24): {s['plans']} plans, {s['failed_plans']} failed."
         )

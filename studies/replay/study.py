@@ -23,11 +23,11 @@ Per episode the study reports:
 ``others="style"`` (``replay-recorded --others style --posterior FILE``) replays the same
 scenes with every vehicle, the EV included, driving its own style identified from the
 samples up to the start (:func:`~drivestyle.prediction.scene_drivers.style_drivers`: the
-amortized posterior's median, re-planning at every step against the others' current
-states — those ahead and, changing lane, the target lane's, as the joint prediction's
-rollout; ``attend`` chooses others —; the EV
-through :func:`~drivestyle.envs.recorded_scene.drive_style`); each episode also counts the
-plans and the failed ones (the previous plan's next input or braking).
+joint prediction's point driver, re-planning at every step against the current states of
+the vehicles ahead and, changing lane, the target lane's, as the joint prediction's
+rollout; ``attend`` chooses others; the EV through
+:func:`~drivestyle.envs.recorded_scene.drive_style`); each episode also counts the plans and
+the failed ones (the previous plan's next input or braking).
 
 The IDM's parameters (:func:`idm_parameters`): ``calibrated`` (default) are the physics
 baseline's, calibrated on the benchmark's train split (the shipped
