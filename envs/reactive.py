@@ -26,6 +26,12 @@ scenario's bounds, as the agent's is.
   As a :data:`Driver` (the agent's policy, which the bicycle moves) it steers towards its
   log's next lateral position and heading instead (:func:`steer_towards`), within δ_max.
 
+A :class:`DriverFactory` builds a scene's drivers from its start: ``Recorded-v0``'s
+``posterior=`` finds the identified styles' one through the ``drivestyle.scene_drivers``
+entry points (:func:`load_driver_factory`; ``style``:
+:func:`drivestyle.prediction.scene_drivers.scene_styles`), so that ``envs`` imports nothing
+above it, as ``CutIn-v0`` finds its lane changer.
+
 The IDM's parameters are the caller's (:class:`~drivestyle.envs.traffic.IDMParams`;
 highway-env's by default); a higher layer supplies calibrated ones
 (``drivestyle replay-recorded``: the physics baseline's, calibrated on the benchmark's train
@@ -34,9 +40,10 @@ split).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from importlib.metadata import entry_points
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -46,10 +53,52 @@ from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.scene_log import SceneLog
 from drivestyle.envs.traffic import IDM, IDMParams, idm_acceleration
 
-__all__ = ["Driver", "LogLateralIDM", "steer_towards"]
+if TYPE_CHECKING:
+    from drivestyle.envs.demonstration import Demonstration
+
+__all__ = [
+    "SCENE_DRIVER_PLUGINS",
+    "Driver",
+    "DriverFactory",
+    "LogLateralIDM",
+    "load_driver_factory",
+    "steer_towards",
+]
 
 Driver = Callable[[int, float, np.ndarray], Any]
 """(vehicle index j, time t [s], every vehicle's state at t (N, 4), NaN where absent) → [a, δ]."""
+
+SCENE_DRIVER_PLUGINS = "drivestyle.scene_drivers"
+"""Entry-point group of driver factories (module docstring); ``style``: the identified styles."""
+
+
+class DriverFactory(Protocol):
+    """A scene's drivers for a replay from a start sample (fresh ones: a driver has state)."""
+
+    def __call__(self, demo: Demonstration, start: int) -> Mapping[int, Driver]:
+        """{vehicle: driver} of ``demo`` replayed from sample ``start``."""
+
+
+def load_driver_factory(name: str, source: Any) -> DriverFactory:
+    """The driver factory of the ``drivestyle.scene_drivers`` plug-in ``name`` for ``source``.
+
+    Args:
+        name: the entry point's name (``style``: the identified styles).
+        source: what the plug-in builds its drivers from (``style``: an amortized posterior
+            or its file).
+
+    Raises:
+        RuntimeError: no such plug-in is installed (install the project with pip).
+    """
+    found = entry_points(group=SCENE_DRIVER_PLUGINS, name=name)
+    if not found:
+        raise RuntimeError(
+            f"Recorded-v0 needs the scene-driver plug-in {name!r} of the entry-point group "
+            f"{SCENE_DRIVER_PLUGINS!r}; install the project (pip install -e .) or pass drivers="
+        )
+    factory: DriverFactory = next(iter(found)).load()(source)
+    return factory
+
 
 _STEER_ITERATIONS = 8
 _STEER_STEP = 1e-7

@@ -19,12 +19,24 @@ default start are :mod:`drivestyle.envs.scene_log`'s.
   vehicle's last recorded sample the extraction's constant velocity); ``"idm"`` react: each
   drives :class:`~drivestyle.envs.reactive.LogLateralIDM` (IDM behind its leader, its log's
   lateral path; ``idm=`` its parameters, highway-env's by default, ``v0_factor=`` ρ of its
-  desired speed); ``"style"`` react with the drivers given (``drivers=``: one
+  desired speed); ``"style"`` react with their drivers: either given (``drivers=``: one
   :data:`~drivestyle.envs.reactive.Driver` per vehicle, a sequence indexed by vehicle or a
-  mapping; None or missing: that vehicle follows its log; the agent's entry is ignored).
+  mapping; None or missing: that vehicle follows its log) or their identified styles
+  (``posterior=FILE``: an amortized posterior, drivestyle build-posterior's
+  ``OUT/posterior.npz``, or the object; every vehicle in the scene at the start identified
+  from the samples up to it, each re-planning with its style at every step against the
+  current states of the vehicles ahead of it: :mod:`drivestyle.prediction.scene_drivers`,
+  found through the
+  ``drivestyle.scene_drivers`` entry points; built again for each start, a vehicle entering
+  after it follows its log). The agent's driver is not used for the agent, but its policy
+  :func:`drive_style` drives it.
   A reactive vehicle's input comes from the states at t_k (the agent's included) and moves it
   one RK4 step of the bicycle, clipped to the bounds; a vehicle entering the scene after the
   start enters at its recorded state.
+
+  ``gym.make("drivestyle/Recorded-v0", episode=FILE, others="style", posterior=POSTERIOR)``
+  replays a scene with every other vehicle driving its identified style; with
+  ``run_episode(env, drive_style)`` the agent drives its own.
 
 Observation (``Box(4 + 5K)``, float64, road frame, SI units, K = 6): the agent's
 [x, y, φ, v] then K slots [present, x, y, φ, v] of the vehicles in the scene nearest to it
@@ -57,14 +69,21 @@ from gymnasium import spaces
 from drivestyle.envs.demonstration import Demonstration, DemonstrationError, load_demonstration
 from drivestyle.envs.dynamics import recover_inputs
 from drivestyle.envs.lane_change import LaneChangeEnv
-from drivestyle.envs.reactive import Driver, LogLateralIDM
+from drivestyle.envs.reactive import Driver, DriverFactory, LogLateralIDM, load_driver_factory
 from drivestyle.envs.scene_log import SceneLog, desired_speeds, scene_log
 from drivestyle.envs.traffic import IDM, OBS_SLOTS, IDMParams
 
 if TYPE_CHECKING:
     from drivestyle.envs.rendering import HighwayRenderer
 
-__all__ = ["OTHERS", "RecordedSceneEnv", "drive_idm", "load_episode", "replay_log"]
+__all__ = [
+    "OTHERS",
+    "RecordedSceneEnv",
+    "drive_idm",
+    "drive_style",
+    "load_episode",
+    "replay_log",
+]
 
 OTHERS = ("log", "idm", "style")
 """How the vehicles other than the agent move (module docstring)."""
@@ -117,38 +136,48 @@ def _checked_agent(agent: Any, log: SceneLog) -> int:
     return int(agent)
 
 
-def _checked_drivers(drivers: Any, others: str, n: int) -> dict[int, Driver]:
-    """``drivers=`` as {vehicle: driver}, or a one-line error naming the argument."""
-    if others != "style":
-        if drivers is not None:
+def _checked_sources(drivers: Any, posterior: Any, others: str) -> None:
+    """One-line errors unless ``others="style"`` has exactly one of drivers= and posterior=."""
+    for name, value in (("drivers", drivers), ("posterior", posterior)):
+        if others != "style" and value is not None:
             raise ValueError(
-                f"drivers= drives the vehicles of others='style', got others={others!r}"
+                f"{name}= drives the vehicles of others='style', got others={others!r}"
             )
-        return {}
-    if drivers is None:
+    if others != "style":
+        return
+    if drivers is None and posterior is None:
         raise ValueError(
-            "others='style' needs drivers=: one driver (j, t, states) → [a, δ] per vehicle"
+            "others='style' needs drivers= (one driver (j, t, states) → [a, δ] per vehicle) "
+            "or posterior= (an amortized posterior or its file: every vehicle's identified style)"
         )
+    if drivers is not None and posterior is not None:
+        raise ValueError(
+            "drivers= and posterior= contradict: posterior= builds the drivers; give one"
+        )
+
+
+def _checked_drivers(drivers: Any, n: int, where: str = "drivers=") -> dict[int, Driver]:
+    """``drivers=`` as {vehicle: driver}, or a one-line error naming the argument."""
     if isinstance(drivers, Mapping):
         items = list(drivers.items())
     elif isinstance(drivers, Sequence) and not isinstance(drivers, (str, bytes)):
         if len(drivers) != n:
             raise ValueError(
-                f"drivers= must hold one entry per vehicle ({n}: the EV and demo.vehicles), "
+                f"{where} must hold one entry per vehicle ({n}: the EV and demo.vehicles), "
                 f"got {len(drivers)}"
             )
         items = list(enumerate(drivers))
     else:
-        raise ValueError(f"drivers= must be a sequence or a mapping of drivers, got {drivers!r}")
+        raise ValueError(f"{where} must be a sequence or a mapping of drivers, got {drivers!r}")
     out = {}
     for j, driver in items:
         if not isinstance(j, (int, np.integer)) or not 0 <= int(j) < n:
-            raise ValueError(f"drivers= names vehicle {j!r}; the vehicles are 0 … {n - 1}")
+            raise ValueError(f"{where} names vehicle {j!r}; the vehicles are 0 … {n - 1}")
         if driver is None:
             continue
         if not callable(driver):
             raise ValueError(
-                f"drivers[{j}] must be callable (j, t, states) → [a, δ], got {driver!r}"
+                f"{where}[{j}] must be callable (j, t, states) → [a, δ], got {driver!r}"
             )
         out[int(j)] = driver
     return out
@@ -163,6 +192,8 @@ class RecordedSceneEnv(LaneChangeEnv):
         others: ``"log"``, ``"idm"`` or ``"style"`` (module docstring).
         start: the first sample (default: the end of the observed part, else 0).
         drivers: the drivers of ``others="style"``.
+        posterior: or, for ``others="style"``, the amortized posterior (or its file) whose
+            identified styles drive the vehicles (module docstring).
         idm: the IDM's parameters of ``others="idm"`` (highway-env's by default).
         v0_factor: ρ of ``others="idm"``'s desired speeds.
         render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
@@ -188,6 +219,7 @@ class RecordedSceneEnv(LaneChangeEnv):
         others: str = "log",
         start: int | None = None,
         drivers: Sequence[Driver | None] | Mapping[int, Driver] | None = None,
+        posterior: Any = None,
         idm: IDMParams = IDM,
         v0_factor: float = 1.0,
         render_mode: str | None = None,
@@ -198,7 +230,8 @@ class RecordedSceneEnv(LaneChangeEnv):
                 "episode= is required: a recorded Demonstration or the path of its .npz "
                 "(drivestyle extract-episodes)"
             )
-        log = _checked_log(load_episode(episode), episode)
+        demo = load_episode(episode)
+        log = _checked_log(demo, episode)
         if others not in OTHERS:
             raise ValueError(
                 f"others must be one of {', '.join(map(repr, OTHERS))}, got {others!r}"
@@ -208,9 +241,19 @@ class RecordedSceneEnv(LaneChangeEnv):
         if not (isinstance(v0_factor, (int, float)) and math.isfinite(v0_factor) and v0_factor > 0):
             raise ValueError(f"v0_factor must be a finite number > 0, got {v0_factor!r}")
         self.log = log
+        self.demo = demo
+        """The recorded episode (what a driver factory identifies its drivers from)."""
         self.agent = _checked_agent(agent, log)
         self.others = others
-        self.drivers = _checked_drivers(drivers, others, log.n_vehicles)
+        _checked_sources(drivers, posterior, others)
+        self.drivers = {} if drivers is None else _checked_drivers(drivers, log.n_vehicles)
+        """{vehicle: driver} of ``others="style"`` (the agent's included, for
+        :func:`drive_style`)."""
+        self._factory: DriverFactory | None = None
+        self._built: dict[int, dict[int, Driver]] = {}
+        """The factory's drivers per start (built once; a driver starts cold on a reset)."""
+        if posterior is not None:
+            self._factory = load_driver_factory("style", posterior)
         self.idm = idm
         self.v0_factor = float(v0_factor)
         self.start = log.default_start if start is None else log.check_start(start)
@@ -236,6 +279,12 @@ class RecordedSceneEnv(LaneChangeEnv):
                 f"{when}: choose another agent or a later start"
             )
         self.start = start
+        if self._factory is not None:
+            if start not in self._built:
+                built = self._factory(self.demo, start)
+                where = "the drivers of posterior="
+                self._built[start] = _checked_drivers(built, log.n_vehicles, where)
+            self.drivers = self._built[start]
         self.v0 = desired_speeds(log, start, self.v0_factor)
         self.idm_driver = LogLateralIDM(log, self.v0, self.idm)
         """The driver of ``others="idm"`` (also a policy for the agent: :func:`drive_idm`)."""
@@ -428,6 +477,25 @@ def replay_log(env: Any, observation: np.ndarray) -> np.ndarray:
     """
     base = env.unwrapped
     return np.array(base.recorded_inputs()[base.sample])
+
+
+def drive_style(env: Any, observation: np.ndarray) -> np.ndarray:
+    """A policy: the agent drives as its own entry of ``others="style"``'s drivers does.
+
+    With ``posterior=``: the agent's identified style (every vehicle's driver is built,
+    the agent's included).
+
+    Raises:
+        ValueError: the agent has no driver.
+    """
+    base = env.unwrapped
+    driver = base.drivers.get(base.agent)
+    if driver is None:
+        raise ValueError(
+            f"drive_style: the agent (vehicle {base.agent}) has no driver; replay with "
+            "others='style' and posterior=, or drivers= holding one for it"
+        )
+    return np.asarray(driver(base.agent, base.time, base.states), float)
 
 
 def drive_idm(env: Any, observation: np.ndarray) -> np.ndarray:

@@ -13,10 +13,12 @@ from drivestyle.envs.rollout import Policy, run_episode
 
 __all__ = ["SCENE_POLICIES", "record_policy", "record_scene", "record_states", "write_video"]
 
-SCENE_POLICIES = ("replay", "idm")
+SCENE_POLICIES = ("replay", "idm", "style")
 """How the agent of a recorded scene drives in :func:`record_scene`: its recorded inputs
-(:func:`~drivestyle.envs.recorded_scene.replay_log`) or the reactive vehicles' IDM
-(:func:`~drivestyle.envs.recorded_scene.drive_idm`)."""
+(:func:`~drivestyle.envs.recorded_scene.replay_log`), the reactive vehicles' IDM
+(:func:`~drivestyle.envs.recorded_scene.drive_idm`) or its own driver of ``others="style"``
+(:func:`~drivestyle.envs.recorded_scene.drive_style`: with ``posterior=``, its identified
+style)."""
 
 
 def write_video(frames: list[np.ndarray], path: str | Path, fps: int = 5) -> Path:
@@ -108,8 +110,9 @@ def record_scene(
         episode: a recorded demonstration or its ``.npz``.
         policy: one of :data:`SCENE_POLICIES`: how the agent drives.
         agent: the agent's vehicle (0 the EV).
-        others: ``"log"`` or ``"idm"`` (:class:`RecordedSceneEnv`).
-        **kwargs: further arguments of :class:`RecordedSceneEnv` (``start``, ``idm``, …).
+        others: ``"log"``, ``"idm"`` or ``"style"`` (:class:`RecordedSceneEnv`).
+        **kwargs: further arguments of :class:`RecordedSceneEnv` (``start``, ``idm``,
+            ``posterior``, …).
 
     Returns:
         One frame per sample, the start's first.
@@ -117,9 +120,14 @@ def record_scene(
     Raises:
         ValueError: an unknown policy; the env's errors for the other arguments.
     """
-    from drivestyle.envs.recorded_scene import RecordedSceneEnv, drive_idm, replay_log
+    from drivestyle.envs.recorded_scene import (
+        RecordedSceneEnv,
+        drive_idm,
+        drive_style,
+        replay_log,
+    )
 
-    policies: dict[str, Policy] = {"replay": replay_log, "idm": drive_idm}
+    policies: dict[str, Policy] = {"replay": replay_log, "idm": drive_idm, "style": drive_style}
     if policy not in policies:
         raise ValueError(f"policy must be one of {SCENE_POLICIES}, got {policy!r}")
     env = RecordedSceneEnv(episode, agent, others, render_mode="rgb_array", **kwargs)

@@ -7,14 +7,18 @@ atan2(ṙ^y, ṙ^x), speed |ṙ|).
 
 ``--episode FILE.npz`` renders a recorded scene (``drivestyle/Recorded-v0``, DESIGN §24) from
 the end of its observed part: the agent (``--agent``, 0 the EV; red) drives ``--policy
-replay`` (its recorded inputs) or ``--policy idm`` (the reactive vehicles' IDM along its
-log's lateral path), the others follow their log or react (``--others log|idm``); the
-nearest vehicle is blue, the rest grey.
+replay`` (its recorded inputs), ``--policy idm`` (the reactive vehicles' IDM along its
+log's lateral path) or ``--policy style`` (its own style identified from the samples up to
+the start; with ``--others style``), the others follow their log or react (``--others
+log|idm``, or ``--others style --posterior FILE``: each its own style, identified by the
+amortized posterior of build-posterior); the nearest vehicle is blue, the rest grey.
 
 Example:
     python scripts/render_rollout.py --policy expert --video runs/videos/expert.mp4
     drivestyle render-rollout --episode runs/episodes/SOME.npz --policy idm --others idm \
         --video runs/videos/scene.gif
+    drivestyle render-rollout --episode runs/episodes/SOME.npz --policy style --others style \
+        --posterior runs/posterior/posterior.npz --video runs/videos/styles.gif
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ from drivestyle.envs import load_demonstration
 from drivestyle.envs.scenario import ScenarioConfig
 from drivestyle.envs.traffic import DEFAULT_TRAFFIC, TrafficRanges, TrafficScene
 from drivestyle.envs.video import SCENE_POLICIES, record_scene, write_video
+from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.irl.paper.style import load_style
 from drivestyle.studies.compare import policy_frames
 
@@ -50,7 +55,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         required=True,
         choices=("expert", "spline", "sb3", *SCENE_POLICIES),
         help="SMPC expert, spline reproduction of --style, or SB3 policy of --model; with "
-        "--episode: replay (the agent's recorded inputs) or idm",
+        "--episode: replay (the agent's recorded inputs), idm, or style (its identified "
+        "style; with --others style)",
     )
     p.add_argument(
         "--episode", type=Path, help="a recorded episode's .npz (extract-episodes): its scene"
@@ -64,9 +70,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--others",
-        choices=("log", "idm"),
+        choices=("log", "idm", "style"),
         default="log",
-        help="with --episode: the other vehicles follow their log or react (IDM)",
+        help="with --episode: the other vehicles follow their log or react (IDM, or each its "
+        "style identified by --posterior)",
+    )
+    p.add_argument(
+        "--posterior",
+        type=Path,
+        help="with --others style: the amortized posterior (build-posterior's "
+        "OUT/posterior.npz) that identifies every vehicle's style",
     )
     p.add_argument("--style", type=Path, help="style.json (spline)")
     p.add_argument("--model", type=Path, help="train_baseline.py output folder (sb3)")
@@ -91,7 +104,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> dict:
     """Render; returns a small summary (also written next to the video as JSON)."""
     args = parse_args(argv)
-    inputs = [args.style, args.model, args.demo, args.episode]
+    inputs = [args.style, args.model, args.demo, args.episode, args.posterior]
     check_output_file(args.video, "--video", inputs=inputs)
     if args.video.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"--video must end in .mp4 or .gif, got {args.video.name}")
@@ -101,6 +114,8 @@ def main(argv: list[str] | None = None) -> dict:
         frames = _scene_frames(args)
     elif args.agent != 0 or args.others != "log":
         raise ValueError("--agent and --others choose the vehicles of an --episode's scene")
+    elif args.posterior is not None:
+        raise ValueError("--posterior identifies the styles of an --episode's scene")
     else:
         frames = _policy_frames(args)
     summary = {
@@ -112,6 +127,8 @@ def main(argv: list[str] | None = None) -> dict:
     }
     if args.episode is not None:
         summary |= {"episode": str(args.episode), "agent": args.agent, "others": args.others}
+        if args.posterior is not None:
+            summary["posterior"] = str(args.posterior)
     # two files beside each other in a folder that may hold other videos: each is written
     # atomically in place (a folder swap would replace or mix the folder's other files)
     with atomic_output_file(args.video, "--video") as tmp:
@@ -134,7 +151,16 @@ def _scene_frames(args: argparse.Namespace) -> list[np.ndarray]:
              ("--scenario", args.scenario)) if v is not None]  # fmt: skip
     if given:
         raise ValueError(f"--episode renders its own scene; drop {', '.join(given)}")
-    return record_scene(args.episode, args.policy, args.agent, args.others)
+    if (args.others == "style") != (args.posterior is not None):
+        raise ValueError("--others style and --posterior go together: the posterior identifies "
+                         "the styles the vehicles drive")  # fmt: skip
+    if args.policy == "style" and args.others != "style":
+        raise ValueError("--policy style drives the agent by its identified style: add "
+                         "--others style --posterior FILE")  # fmt: skip
+    if args.posterior is None:
+        return record_scene(args.episode, args.policy, args.agent, args.others)
+    posterior = open_posterior(args.posterior)  # read and checked before the scene
+    return record_scene(args.episode, args.policy, args.agent, args.others, posterior=posterior)
 
 
 def _policy_frames(args: argparse.Namespace) -> list[np.ndarray]:

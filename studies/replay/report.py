@@ -12,6 +12,13 @@ if TYPE_CHECKING:
 
 __all__ = ["replay_markdown"]
 
+ATTENDED = {
+    "ahead": "the vehicles ahead and, changing lane, the target lane's",
+    "lanes": "the vehicles ahead in its lane and those of the lane it heads for",
+    "all": "every other vehicle",
+}
+"""Whom the style drivers plan around, said (``attend``)."""
+
 
 def _pairs(found: tuple[Collision, ...]) -> str:
     """``0–1 @ 1.2 s (3)`` per pair: vehicles, first time since the start, samples."""
@@ -35,16 +42,28 @@ def replay_markdown(study: ReplayStudy, command: str) -> str:
     """The summary and one row per episode (``replay.md``)."""
     s = study.summary()
     idm = study.idm
+    if study.others == "style":
+        drivers = (
+            "Every vehicle, the EV included, drives its own style identified from the samples "
+            f"up to the start by the amortized posterior {study.posterior} (the joint "
+            "prediction's point driver, re-planning at every step against the current states of "
+            f"{ATTENDED.get(study.attend or '', 'the others')}; "
+            f"DESIGN §24): {s['plans']} plans, {s['failed_plans']} failed."
+        )
+    else:
+        drivers = (
+            "Every surrounding vehicle drives the IDM along its log's lateral path, the EV the "
+            f"same IDM through the bicycle (DESIGN §24); IDM {study.idm_choice}: a_max = "
+            f"{fmt(idm.a_max, 2)} m/s², b = {fmt(idm.b, 2)} m/s², s0 = {fmt(idm.s0, 2)} m, "
+            f"T = {fmt(idm.time_gap, 2)} s, v0 = {fmt(study.v0_factor, 3)} × v90 of the speeds "
+            "up to the start."
+        )
     lines = [
         "# Recorded scenes replayed with every vehicle reactive",
         "",
         f"Command: `{command}`",
         "",
-        f"Episodes: {study.source}. Every surrounding vehicle drives the IDM along its log's "
-        "lateral path, the EV the same IDM through the bicycle (DESIGN §24); IDM "
-        f"{study.idm_choice}: a_max = {fmt(idm.a_max, 2)} m/s², b = {fmt(idm.b, 2)} m/s², "
-        f"s0 = {fmt(idm.s0, 2)} m, T = {fmt(idm.time_gap, 2)} s, v0 = {fmt(study.v0_factor, 3)}"
-        " × v90 of the speeds up to the start. Collision: the scenario's rectangles overlap "
+        f"Episodes: {study.source}. {drivers} Collision: the scenario's rectangles overlap "
         "(the env's rule), in the log from the start to its end; speeds within the recorded range "
         f"± {fmt(study.tolerance, 2)} m/s.",
         "",

@@ -20,6 +20,15 @@ Per episode the study reports:
   its recorded samples from the start to the log's end); within when the replayed range
   stays inside the recorded one widened by :data:`SPEED_TOLERANCE_MPS` on both sides.
 
+``others="style"`` (``replay-recorded --others style --posterior FILE``) replays the same
+scenes with every vehicle, the EV included, driving its own style identified from the
+samples up to the start (:func:`~drivestyle.prediction.scene_drivers.style_drivers`: the
+joint prediction's point driver, re-planning at every step against the current states of
+the vehicles ahead and, changing lane, the target lane's, as the joint prediction's
+rollout; ``attend`` chooses others; the EV through
+:func:`~drivestyle.envs.recorded_scene.drive_style`); each episode also counts the plans and
+the failed ones (the previous plan's next input or braking).
+
 The IDM's parameters (:func:`idm_parameters`): ``calibrated`` (default) are the physics
 baseline's, calibrated on the benchmark's train split (the shipped
 ``drivestyle/data/benchmark_physics.json``): recorded drivers' car following, short time gaps
@@ -30,21 +39,25 @@ platoon far inside its desired gap from the first step, so that it brakes to a s
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
-from drivestyle.envs.recorded_scene import RecordedSceneEnv, drive_idm
+from drivestyle.envs.recorded_scene import RecordedSceneEnv, drive_idm, drive_style
 from drivestyle.envs.rollout import run_episode
 from drivestyle.envs.safety import vehicles_overlap
+from drivestyle.envs.scene_log import scene_log
 from drivestyle.envs.traffic import IDM, IDMParams
+from drivestyle.irl.amortized.identify import open_posterior
 from drivestyle.prediction.physics import PhysicsParams
+from drivestyle.prediction.scene_drivers import ATTEND, StyleDriver, style_drivers
 from drivestyle.recorded.benchmark import (
     SplitRow,
     check_sample_split,
@@ -55,8 +68,12 @@ from drivestyle.recorded.benchmark import (
 from drivestyle.recorded.episode_files import read_episodes
 from drivestyle.recorded.real_data import DATASETS
 
+if TYPE_CHECKING:
+    from drivestyle.irl.amortized.estimator import NeuralPosterior
+
 __all__ = [
     "IDM_CHOICES",
+    "OTHERS_CHOICES",
     "SPEED_TOLERANCE_MPS",
     "Collision",
     "EpisodeReplay",
@@ -75,6 +92,8 @@ SPEED_TOLERANCE_MPS = 0.5
 (the speed noise of a recorded track after the extraction's splines is a few tenths)."""
 IDM_CHOICES = ("calibrated", "highway-env")
 """The IDM parameters a replay can use (:func:`idm_parameters`)."""
+OTHERS_CHOICES = ("idm", "style")
+"""How the replayed vehicles drive (module docstring)."""
 
 
 def idm_parameters(choice: str, physics: PhysicsParams) -> tuple[IDMParams, float]:
@@ -198,6 +217,10 @@ class EpisodeReplay:
     """The EV's largest lateral distance from its log [m] (its IDM steers along it within
     the steering bound)."""
     seconds: float
+    plans: int | None = None
+    """The style drivers' plans (None: IDM vehicles)."""
+    failed_plans: int | None = None
+    """Those that failed (the previous plan's next input or braking applied)."""
 
     @property
     def new_collisions(self) -> tuple[Collision, ...]:
@@ -214,6 +237,12 @@ class EpisodeReplay:
         }
 
 
+@functools.lru_cache(maxsize=2)
+def _posterior(path: str) -> NeuralPosterior:
+    """The amortized posterior of ``path``, loaded once per worker process."""
+    return open_posterior(path)
+
+
 def replay_episode(
     dataset: str,
     episode_id: str,
@@ -221,6 +250,8 @@ def replay_episode(
     idm: IDMParams,
     v0_factor: float,
     tolerance: float = SPEED_TOLERANCE_MPS,
+    posterior: str | None = None,
+    attend: str = "ahead",
 ) -> EpisodeReplay:
     """Replay one episode with every vehicle reactive and compare it with its log.
 
@@ -228,13 +259,24 @@ def replay_episode(
         dataset: its set (``ngsim``, ``cats`` or ``episodes``).
         episode_id: its id.
         demo: the recorded episode.
-        idm: the IDM's parameters.
-        v0_factor: ρ of the desired speeds.
+        idm: the IDM's parameters (IDM vehicles).
+        v0_factor: ρ of the desired speeds (IDM vehicles).
         tolerance: :data:`SPEED_TOLERANCE_MPS`.
+        posterior: the amortized posterior's file: every vehicle drives its identified
+            style instead of the IDM (module docstring).
+        attend: the vehicles each style driver plans around
+            (:data:`~drivestyle.prediction.scene_drivers.ATTEND`).
     """
     t0 = time.perf_counter()
-    env = RecordedSceneEnv(demo, agent=0, others="idm", idm=idm, v0_factor=v0_factor)
-    episode = run_episode(env, drive_idm)
+    drivers: dict[int, StyleDriver] = {}
+    if posterior is None:
+        env = RecordedSceneEnv(demo, agent=0, others="idm", idm=idm, v0_factor=v0_factor)
+        episode = run_episode(env, drive_idm)
+    else:
+        start = scene_log(demo).default_start
+        drivers = style_drivers(_posterior(posterior), demo, start, attend=attend)
+        env = RecordedSceneEnv(demo, agent=0, others="style", start=start, drivers=drivers)
+        episode = run_episode(env, drive_style)
     env.close()
     log, start = env.log, env.start
     replay = np.stack([episode.reset_info["states"], *(i["states"] for i in episode.infos)])
@@ -269,6 +311,8 @@ def replay_episode(
         speeds=tuple(speeds),
         ev_lateral_m=float(np.abs(replay[:, 0, 1] - recorded[: len(replay), 0, 1]).max()),
         seconds=time.perf_counter() - t0,
+        plans=sum(d.plans for d in drivers.values()) if posterior is not None else None,
+        failed_plans=sum(d.failures for d in drivers.values()) if posterior is not None else None,
     )
 
 
@@ -284,6 +328,12 @@ class ReplayStudy:
     v0_factor: float
     tolerance: float
     seconds: float
+    others: str = "idm"
+    """``idm`` or ``style`` (:data:`OTHERS_CHOICES`)."""
+    posterior: str | None = None
+    """The amortized posterior's file of ``style``."""
+    attend: str | None = None
+    """The vehicles each style driver plans around (``style``)."""
 
     def summary(self) -> dict[str, Any]:
         """Counts over every episode: collisions (log, replay, new) and speeds within range."""
@@ -302,12 +352,19 @@ class ReplayStudy:
             "speeds_within_share": within / len(speeds) if speeds else None,
             "speed_excess_max_mps": max((s.excess or 0.0 for s in speeds), default=None),
             "ev_lateral_max_m": max((r.ev_lateral_m for r in self.replays), default=None),
+            "plans": None if self.others != "style" else sum(r.plans or 0 for r in self.replays),
+            "failed_plans": None
+            if self.others != "style"
+            else sum(r.failed_plans or 0 for r in self.replays),
         }
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (``replay.json``)."""
         return {
             "source": self.source,
+            "others": self.others,
+            "posterior": self.posterior,
+            "attend": self.attend,
             "idm_choice": self.idm_choice,
             "idm": asdict(self.idm),
             "v0_factor": self.v0_factor,
@@ -367,6 +424,8 @@ def replay_recorded(
     workers: int = 1,
     tolerance: float = SPEED_TOLERANCE_MPS,
     progress: Callable[[], None] | None = None,
+    posterior: str | Path | None = None,
+    attend: str = "ahead",
 ) -> ReplayStudy:
     """Replay every episode with every vehicle reactive (module docstring).
 
@@ -378,20 +437,29 @@ def replay_recorded(
         workers: worker processes.
         tolerance: :data:`SPEED_TOLERANCE_MPS`.
         progress: called as each episode finishes.
+        posterior: the amortized posterior's file: every vehicle drives its identified
+            style (``others="style"``); None: the IDM.
+        attend: the vehicles each style driver plans around
+            (:data:`~drivestyle.prediction.scene_drivers.ATTEND`).
 
     Raises:
-        ValueError: no episode, an unknown ``idm_choice``.
+        ValueError: no episode, an unknown ``idm_choice`` or ``attend``.
     """
     if not episodes:
         raise ValueError(f"{source}: no episode to replay")
     idm, v0_factor = idm_parameters(idm_choice, physics)
+    if attend not in ATTEND:
+        raise ValueError(f"attend must be one of {ATTEND}, got {attend!r}")
+    post = None if posterior is None else str(Path(posterior).resolve())
     t0 = time.perf_counter()
     replays = parallel_map(
         replay_episode,
-        [(ds, eid, demo, idm, v0_factor, tolerance) for ds, eid, demo in episodes],
+        [(ds, eid, demo, idm, v0_factor, tolerance, post, attend) for ds, eid, demo in episodes],
         workers,
         on_result=None if progress is None else lambda *_: progress(),
     )
     return ReplayStudy(
-        tuple(replays), source, idm_choice, idm, v0_factor, tolerance, time.perf_counter() - t0
-    )
+        tuple(replays), source, idm_choice, idm, v0_factor, tolerance, time.perf_counter() - t0,
+        others="idm" if post is None else "style", posterior=post,
+        attend=None if post is None else attend,
+    )  # fmt: skip

@@ -73,9 +73,54 @@ def test_three_episodes_replayed_as_the_study_replays_them(recorded_scene, tmp_p
     assert "| 3 | 10 | 1 | 1 | 1 | 0 (0) |" in report and "0–2 @ 0.0 s (26)" in report
 
 
+def test_every_vehicle_driving_its_identified_style(recorded_scene, tiny_posterior, tmp_path):
+    _, posterior = tiny_posterior
+    demos = {
+        "scene": recorded_scene,
+        "phantom": dataclasses.replace(
+            recorded_scene, meta={**recorded_scene.meta, "no_interaction": True}
+        ),
+    }
+    folder = _folder(tmp_path, demos)
+    done = _command(tmp_path, "--episodes", folder, "--others", "style", "--posterior", posterior,
+                    "--attend", "lanes", "--out", "replay")  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads((tmp_path / "replay" / "replay.json").read_text())
+    assert (result["others"], result["attend"]) == ("style", "lanes")
+    assert result["posterior"] == str(posterior.resolve())
+    for record, demo in zip(result["episodes"], demos.values(), strict=True):
+        expected = replay_episode("episodes", record["episode_id"], demo, IDM, 1.0,
+                                  posterior=str(posterior), attend="lanes")  # fmt: skip
+        assert (record["steps"], record["ended"]) == (expected.steps, expected.ended)
+        got = [(s["replayed_min"], s["replayed_max"]) for s in record["speeds"]]
+        want = [(s.replayed_min, s.replayed_max) for s in expected.speeds]
+        np.testing.assert_allclose(got, want, rtol=1e-9)
+        # every vehicle in the scene at the start plans at every step (the late one follows
+        # its log; the phantom TV is none)
+        drivers = 3 if record["episode_id"] == "scene" else 2
+        assert record["plans"] == expected.plans == drivers * record["steps"]
+    summary = result["summary"]
+    assert summary["plans"] == sum(e["plans"] for e in result["episodes"]) == 25 * (3 + 2)
+    assert summary["failed_plans"] == sum(e["failed_plans"] for e in result["episodes"])
+    report = (tmp_path / "replay" / "replay.md").read_text()
+    assert "Every vehicle, the EV included, drives its own style" in report
+    assert f"{summary['plans']} plans, {summary['failed_plans']} failed" in report
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
+        (["--others", "style"], "--others style drives every vehicle by its identified style"),
+        (["--posterior", "p.npz"], "--posterior identifies the styles of --others style"),
+        (["--attend", "lanes"], "--attend chooses whom the style drivers plan around"),
+        (
+            ["--others", "style", "--posterior", "p.npz", "--idm", "highway-env"],
+            "--idm sets the IDM of --others idm",
+        ),
+        (
+            ["--others", "style", "--posterior", "missing.npz"],
+            "--posterior missing.npz: no such estimator file",
+        ),
         (["--episodes", "missing"], "--episodes missing: no such folder"),
         (["--episodes", "x", "--split", "test"], "--episodes and --split contradict"),
         (["--idm", "highway-env", "--physics", "p.json"], "--physics sets --idm calibrated's"),
