@@ -73,6 +73,7 @@ __all__ = [
     "lane_intent",
     "led",
     "own_view",
+    "scene_candidates",
     "scene_states",
 ]
 
@@ -497,6 +498,39 @@ def best_explaining(
     return replace(best, sigma_a=0.0, sigma_delta=0.0)
 
 
+def scene_candidates(
+    posterior: NeuralPosterior,
+    states: np.ndarray,
+    scenario: ScenarioConfig,
+    samples: int,
+    seed: int,
+    origin: str = "recorded",
+) -> list[list[StochasticStyle]]:
+    """Every vehicle's drivers as a rollout drives them, from its own past (one pass).
+
+    :func:`identify_vehicles`, each candidate's region :func:`admitted` to the gap the
+    vehicle kept, and the point-prediction driver first: the candidate that
+    :func:`best_explaining` its last observed inputs (without deviation).
+
+    Args:
+        posterior: the amortized posterior.
+        states: every vehicle's observed states, shape (k + 1, V, 4).
+        scenario: the scene's scenario.
+        samples: S, posterior draws per vehicle.
+        seed: seeds the draws.
+        origin: the scene's origin.
+
+    Returns:
+        Per vehicle S + 1 drivers: the point prediction's, then the S draws.
+    """
+    w = scenario.lane_width
+    found = identify_vehicles(posterior, states, scenario, samples, seed, origin)
+    admitting = [[admitted(style, states, i, w) for style in per] for i, per in enumerate(found)]
+    return [
+        [best_explaining(states, i, per, scenario), *per[1:]] for i, per in enumerate(admitting)
+    ]
+
+
 def _brake(scenario: ScenarioConfig) -> np.ndarray:
     """[a_min/2, 0]: a failed plan with nothing left of the last one (the expert's rule)."""
     return np.array([scenario.a_min / 2, 0.0])
@@ -576,16 +610,9 @@ class JointStyle:
         key = (states.tobytes(), sc, self.samples, self.seed, self.origin, id(self.posterior))
         if key not in _IDENTIFIED:
             _IDENTIFIED.clear()  # one observation at a time: the methods of one prediction
-            styles = identify_vehicles(
+            _IDENTIFIED[key] = scene_candidates(
                 self.posterior, states, sc, self.samples, self.seed, self.origin
             )
-            styles = [
-                [admitted(style, states, i, sc.lane_width) for style in per]
-                for i, per in enumerate(styles)
-            ]
-            _IDENTIFIED[key] = [
-                [best_explaining(states, i, per, sc), *per[1:]] for i, per in enumerate(styles)
-            ]
         return _IDENTIFIED[key]
 
     def predict(self, seen: Observation, steps: int) -> PredictedPath:

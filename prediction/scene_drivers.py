@@ -75,11 +75,9 @@ from drivestyle.irl.driver.style_planner import StylePlanner, planner_for
 from drivestyle.prediction.joint import (
     JOINT_SAMPLES,
     PLANNER_SLOTS,
-    admitted,
-    best_explaining,
     constraining,
-    identify_vehicles,
     lane_intent,
+    scene_candidates,
 )
 from drivestyle.recorded.real_data import RECORDED_PHI_MAX
 
@@ -298,10 +296,9 @@ def style_drivers(
     sc = log.scenario
     w = sc.lane_width
     drivers = {}
-    found = identify_vehicles(posterior, past, sc, JOINT_SAMPLES, seed, demo.origin)
+    found = scene_candidates(posterior, past, sc, JOINT_SAMPLES, seed, demo.origin)
     for i, (j, candidates) in enumerate(zip(vehicles, found, strict=True)):
-        admitting = [admitted(style, past, i, w) for style in candidates]
-        style = best_explaining(past, i, admitting, sc)
+        style = candidates[0]  # the point prediction's driver
         drivers[j] = StyleDriver(j, style, lane_intent(past[:, i, 1], sc.dt, w), sc, attend=attend)
     return drivers
 
