@@ -152,7 +152,7 @@ def plot_joint_scene(
     y_lo, y_hi = -0.5, sc.road_width + 0.5
     width = 12.0
     road_h = max(width * 0.9 * (y_hi - y_lo) / (x_hi - x_lo), 1.4)
-    fig, ax = plt.subplots(figsize=(width, road_h + 2.0))
+    fig, ax = plt.subplots(figsize=(width, road_h + 2.8))
     draw_lanes(ax, sc)
     radius = scene.region_radius()
     for i in range(n_v):
@@ -177,7 +177,8 @@ def plot_joint_scene(
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [m] (to scale)")
     ax.set_ylabel("y [m]")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), fontsize=7, ncol=3, frameon=False)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.22), fontsize=7, ncol=3, frameon=False)
+    fig.subplots_adjust(bottom=0.42)
     return save_figure(fig, path, title or None)
 
 
