@@ -68,6 +68,7 @@ __all__ = [
     "admitted",
     "best_explaining",
     "constraining",
+    "driven_mask",
     "identify_vehicles",
     "joint_rollout",
     "lane_intent",
@@ -173,6 +174,22 @@ def led(states: np.ndarray, i: int, lane_width: float) -> bool:
     lanes = np.floor(states[:, 1] / lane_width)
     ahead = (lanes == lanes[i]) & (states[:, 0] > states[i, 0])
     return bool(ahead.any())
+
+
+def driven_mask(states: np.ndarray, react: bool, lane_width: float) -> np.ndarray:
+    """Which vehicles a rollout drives by their style (the others keep their velocity).
+
+    Vehicle 0, and with ``react`` every vehicle with an observed leader (:func:`led`).
+
+    Args:
+        states: every vehicle's current state, shape (V, 4).
+        react: the others react (``style_joint``) or not (``style_alone``).
+        lane_width: w [m].
+
+    Returns:
+        Shape (V,) bool.
+    """
+    return np.array([i == 0 or (react and led(states, i, lane_width)) for i in range(len(states))])
 
 
 def own_view(states: np.ndarray, j: int, scenario: ScenarioConfig, origin: str) -> Demonstration:
@@ -350,7 +367,7 @@ def joint_rollout(
     start = np.asarray(start, dtype=float)
     v_count = start.shape[0]
     s_count = len(styles[0])
-    driven = [0, *(i for i in range(1, v_count) if react and led(start, i, scenario.lane_width))]
+    driven = np.flatnonzero(driven_mask(start, react, scenario.lane_width)).tolist()
     sc = scenario
     dt = sc.dt
     planner = planner_for(sc, styles[0][0].horizon, PLANNER_SLOTS)
@@ -596,9 +613,7 @@ class JointStyle:
         styles = self._identified(states, sc)
         y_refs = [lane_intent(states[:, i, 1], sc.dt, sc.lane_width) for i in range(len(styles))]
         xs, failures = joint_rollout(states[-1], styles, y_refs, sc, steps, self.seed, self.react)
-        reactive = tuple(
-            i == 0 or (self.react and led(states[-1], i, sc.lane_width)) for i in range(len(styles))
-        )
+        reactive = tuple(driven_mask(states[-1], self.react, sc.lane_width).tolist())
         return JointPrediction(xs[..., :2], reactive, failures, time.perf_counter() - t0)
 
     def _identified(self, states: np.ndarray, sc: ScenarioConfig) -> list[list[StochasticStyle]]:

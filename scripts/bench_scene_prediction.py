@@ -35,6 +35,7 @@ from drivestyle.common.parallel import parallel_map
 from drivestyle.envs.demonstration import Demonstration
 from drivestyle.irl.amortized.estimator import NeuralPosterior
 from drivestyle.irl.amortized.identify import open_posterior
+from drivestyle.prediction.joint_physics import JointPhysicsParams
 from drivestyle.prediction.joint_physics_calibration import JOINT_PHYSICS_FILE, load_joint_params
 from drivestyle.prediction.methods import AMORTIZED_METHODS, METHODS, predict_demo
 from drivestyle.prediction.protocol import ForecastError
@@ -77,13 +78,19 @@ def _posterior(path: str) -> NeuralPosterior:
     return open_posterior(path)
 
 
+@functools.lru_cache(maxsize=1)
+def _joint_params() -> JointPhysicsParams:
+    """The shipped joint physics calibration, read once per worker."""
+    return load_joint_params(JOINT_PHYSICS_FILE)
+
+
 def _task(
     demo: Demonstration, t_obs: tuple[float, ...], methods: tuple[str, ...], posterior: str
 ) -> tuple[float, int, list[str]]:
     """Worker: one window at every t_obs; (seconds, predictions made, why some were not)."""
     t0 = time.perf_counter()
     amortized = _posterior(posterior) if set(methods) & set(AMORTIZED_METHODS) else None
-    params = load_joint_params(JOINT_PHYSICS_FILE) if "joint_physics" in methods else None
+    params = _joint_params() if "joint_physics" in methods else None
     made, skipped = 0, []
     for t in t_obs:
         try:
